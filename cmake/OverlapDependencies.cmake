@@ -1,0 +1,12 @@
+# The project's dependencies, all from Debian's packages (scripts/setup.sh).
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet)
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(TBB REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(PNG REQUIRED)
+find_package(Threads REQUIRED)
+find_package(GTest REQUIRED)
+find_package(benchmark REQUIRED)
+pkg_check_modules(OSMESA REQUIRED IMPORTED_TARGET osmesa)

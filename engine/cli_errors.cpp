@@ -1,0 +1,40 @@
+#include "engine/cli_errors.h"
+
+#include <fstream>
+#include <system_error>
+
+namespace overlap::engine {
+
+void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) {
+    throw UsageError(std::string(option) + " " + dir.string() +
+                     ": cannot create: " + error.message());
+  }
+  const std::filesystem::path probe = dir / ".overlap-write-probe";
+  {
+    std::ofstream out(probe);
+    if (!out || !(out << "probe") || !out.flush()) {
+      throw UsageError(std::string(option) + " " + dir.string() + ": not writable");
+    }
+  }
+  std::filesystem::remove(probe, error);
+}
+
+void writeFileAtomically(const std::filesystem::path& path, std::string_view contents) {
+  std::filesystem::path temporary = path;
+  temporary += ".partial";
+  {
+    std::ofstream out(temporary, std::ios::binary);
+    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+    if (!out.flush()) {
+      std::error_code ignored;
+      std::filesystem::remove(temporary, ignored);
+      throw std::runtime_error(path.string() + ": write failed");
+    }
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+}  // namespace overlap::engine

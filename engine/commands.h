@@ -1,0 +1,14 @@
+// The `overlap` subcommands.  Each add*Command registers one subcommand on the
+// app with its options and the callback that runs it; main() only parses and
+// maps errors to exit codes (engine/cli_errors.h).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace overlap::engine {
+
+void addRunCommand(CLI::App& app);
+void addRecordCommand(CLI::App& app);
+void addPairsCommand(CLI::App& app);
+
+}  // namespace overlap::engine

@@ -1,0 +1,107 @@
+#include "engine/scene_options.h"
+
+#include "engine/cli_errors.h"
+
+namespace overlap::engine {
+namespace {
+
+void addSizeRange(CLI::App& command, const std::string& name, std::vector<double>& range,
+                  const physics::SizeRange& paper, const std::string& what) {
+  command
+      .add_option(name, range,
+                  "scene 4: " + what + " edge factor range LO HI (default " +
+                      CLI::detail::to_string(paper.lo) + " " + CLI::detail::to_string(paper.hi) +
+                      ")")
+      ->expected(2)
+      ->check(CLI::PositiveNumber);
+}
+
+physics::SizeRange rangeOr(const std::vector<double>& given, const physics::SizeRange& paper) {
+  return given.empty() ? paper : physics::SizeRange{given[0], given[1]};
+}
+
+}  // namespace
+
+void SceneOptions::addTo(CLI::App& command) {
+  command
+      .add_option("--scene", config_.scene, "1 fall, 2 kicks, 3 rotating gravity, 4 mixed sizes")
+      ->check(CLI::Range(1, 4))
+      ->capture_default_str();
+  command.add_option("--objects,-n", config_.objects, "dynamic boxes")
+      ->check(CLI::Range(1, 10'000'000))
+      ->capture_default_str();
+  command.add_option("--seed", config_.seed, "seed of the start state (and scene 2's kicks)")
+      ->capture_default_str();
+  command.add_option("--fill", config_.fill_fraction, "share of the interior the boxes fill")
+      ->check(CLI::Range(1e-6, 0.3))
+      ->capture_default_str();
+  command.add_option("--wall-min", config_.wall_min_thickness, "minimum wall thickness (m)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command
+      .add_option("--wall-fraction", config_.wall_fraction,
+                  "wall thickness as a share of the interior edge")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command
+      .add_option("--initial-speed", config_.initial_speed,
+                  "start velocity components uniform in [-v, v] m/s")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command.add_option("--frame-time", config_.frame_time, "seconds of animation per frame")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  command.add_option("--gravity", config_.g, "g in m/s^2")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command
+      .add_option("--gravity-scale", gravity_scale_,
+                  "gravity in g (default 1 for scenes 1-2, 50 for scenes 3-4)")
+      ->check(CLI::NonNegativeNumber);
+  command.add_option("--kicks", config_.kicks_per_frame, "scene 2: objects kicked per frame")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command
+      .add_option("--rotation", config_.rotation_per_frame,
+                  "scenes 3-4: gravity rotation per frame (rad)")
+      ->capture_default_str();
+  addSizeRange(command, "--small-sizes", small_, config_.small, "small");
+  addSizeRange(command, "--average-sizes", average_, config_.average, "average");
+  addSizeRange(command, "--large-sizes", large_, config_.large, "large");
+}
+
+physics::SceneConfig SceneOptions::resolve() const {
+  physics::SceneConfig config = config_;
+  config.gravity_scale =
+      gravity_scale_.value_or(physics::SceneConfig::forScene(config.scene).gravity_scale);
+  config.small = rangeOr(small_, config_.small);
+  config.average = rangeOr(average_, config_.average);
+  config.large = rangeOr(large_, config_.large);
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& error) {
+    throw UsageError(std::string("--") + error.what());
+  }
+  return config;
+}
+
+nlohmann::json toJson(const physics::SceneConfig& config) {
+  auto range = [](const physics::SizeRange& r) { return nlohmann::json::array({r.lo, r.hi}); };
+  return {{"scene", config.scene},
+          {"objects", config.objects},
+          {"seed", config.seed},
+          {"fill", config.fill_fraction},
+          {"wall_min", config.wall_min_thickness},
+          {"wall_fraction", config.wall_fraction},
+          {"initial_speed", config.initial_speed},
+          {"frame_time", config.frame_time},
+          {"gravity", config.g},
+          {"gravity_scale", config.gravity_scale},
+          {"kicks", config.kicks_per_frame},
+          {"rotation", config.rotation_per_frame},
+          {"small_sizes", range(config.small)},
+          {"average_sizes", range(config.average)},
+          {"large_sizes", range(config.large)}};
+}
+
+}  // namespace overlap::engine

@@ -1,0 +1,119 @@
+// `overlap record` and `overlap pairs`: recorded AABB streams in and out.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/cli_errors.h"
+#include "engine/commands.h"
+#include "engine/progress.h"
+#include "engine/scene_options.h"
+#include "physics/aabb_stream.h"
+#include "physics/broadphase_factory.h"
+#include "physics/broadphase_replay.h"
+#include "physics/world.h"
+
+namespace overlap::engine {
+namespace {
+
+struct RecordOptions {
+  SceneOptions scene;
+  int frames = 2048;
+  int substeps = 0;
+  std::filesystem::path out;
+};
+
+void checkWritableFile(const std::filesystem::path& file) {
+  const std::filesystem::path parent =
+      file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+  prepareOutputDirectory(parent, "--out");
+}
+
+void record(const RecordOptions& options) {
+  const physics::SceneConfig config = options.scene.resolve();
+  checkWritableFile(options.out);
+  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", options.substeps});
+
+  physics::AabbStream stream;
+  stream.scene_name =
+      "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed);
+  stream.object_type = "box";
+  stream.objects = config.objects;
+  stream.stored_frames = options.frames + 1;
+  const auto outer = static_cast<float>(world.layout().outerHalfExtent());
+  stream.world = physics::Aabb{{-outer, -outer, -outer}, {outer, outer, outer}};
+  stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
+  auto keepBoxes = [&] {
+    const std::vector<physics::Aabb> all = world.aabbs();  // boxes, then walls
+    stream.boxes.insert(stream.boxes.end(), all.begin(), all.begin() + config.objects);
+  };
+
+  Progress progress("overlap record", options.frames);
+  keepBoxes();
+  for (int frame = 0; frame < options.frames; ++frame) {
+    world.stepFrame();
+    keepBoxes();
+    progress.update(frame + 1);
+  }
+  progress.finish();
+  physics::writeAabbStream(options.out, stream);
+}
+
+struct PairsOptions {
+  std::string algorithm = "bf";
+  std::filesystem::path input;
+};
+
+void printPairs(const PairsOptions& options) {
+  physics::AabbStream stream;
+  try {
+    stream = physics::readAabbStream(options.input);
+  } catch (const physics::AabbStreamError& error) {
+    throw UsageError(error.what());
+  }
+  physics::BroadphaseReplay replay(options.algorithm, stream.world, stream.objects);
+  if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
+
+  std::string csv = "frame,a,b\n";
+  for (int frame = 0; frame < stream.stored_frames; ++frame) {
+    replay.update(stream.frame(frame));
+    replay.findPairs();
+    for (const auto& [a, b] : replay.pairs()) {
+      csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
+    }
+  }
+  std::fwrite(csv.data(), 1, csv.size(), stdout);
+}
+
+std::vector<std::string> algorithmNames() {
+  return {physics::broadphaseNames().begin(), physics::broadphaseNames().end()};
+}
+
+}  // namespace
+
+void addRecordCommand(CLI::App& app) {
+  auto options = std::make_shared<RecordOptions>();
+  CLI::App* command =
+      app.add_subcommand("record", "run a scene and write its AABBs as a Broadmark .aabbs file");
+  options->scene.addTo(*command);
+  command->add_option("--frames", options->frames, "frames to record (F; F + 1 are stored)")
+      ->check(CLI::Range(1, 1'000'000))
+      ->capture_default_str();
+  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
+      ->check(CLI::Range(1, 1000));
+  command->add_option("--out", options->out, "the .aabbs file to write")->required();
+  command->callback([options] { record(*options); });
+}
+
+void addPairsCommand(CLI::App& app) {
+  auto options = std::make_shared<PairsOptions>();
+  CLI::App* command = app.add_subcommand(
+      "pairs", "print each frame's pairs of a .aabbs file as CSV (frame,a,b) on stdout");
+  command->add_option("--algo", options->algorithm, "broadphase")
+      ->check(CLI::IsMember(algorithmNames()))
+      ->capture_default_str();
+  command->add_option("--input", options->input, "a Broadmark .aabbs file")->required();
+  command->callback([options] { printPairs(*options); });
+}
+
+}  // namespace overlap::engine

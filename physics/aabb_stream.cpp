@@ -1,0 +1,135 @@
+#include "physics/aabb_stream.h"
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+namespace overlap::physics {
+namespace {
+
+static_assert(std::endian::native == std::endian::little,
+              "the .aabbs layout is little-endian; add byte swapping for this machine");
+
+constexpr std::size_t kNameBytes = 128;
+constexpr std::size_t kAabbBytes = 8 * sizeof(float);
+constexpr std::size_t kHeaderBytes = 2 * kNameBytes + 4 * sizeof(std::int32_t) + kAabbBytes;
+
+[[noreturn]] void fail(const std::filesystem::path& path, const std::string& problem) {
+  throw AabbStreamError(path.string() + ": " + problem);
+}
+
+std::string readName(const char* field, const std::filesystem::path& path, const char* what) {
+  const std::size_t length = strnlen(field, kNameBytes);
+  for (std::size_t i = 0; i < kNameBytes; ++i) {
+    const auto c = static_cast<unsigned char>(field[i]);
+    if (i < length && (c < 0x20 || c > 0x7e)) fail(path, std::string(what) + " is not printable");
+    if (i >= length && c != 0) fail(path, std::string(what) + " is not NUL-padded");
+  }
+  return std::string(field, length);
+}
+
+Aabb decodeAabb(const char* bytes) {
+  float corners[8];
+  std::memcpy(corners, bytes, sizeof(corners));
+  return Aabb{{corners[0], corners[1], corners[2]}, {corners[4], corners[5], corners[6]}};
+}
+
+void encodeAabb(const Aabb& box, char* bytes) {
+  const float corners[8] = {box.min[0], box.min[1], box.min[2], 0.0f,
+                            box.max[0], box.max[1], box.max[2], 0.0f};
+  std::memcpy(bytes, corners, sizeof(corners));
+}
+
+// Empty when the box is well-formed, else what is wrong with it.
+std::string aabbProblem(const Aabb& box) {
+  static constexpr char kAxes[] = "xyz";
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!std::isfinite(box.min[axis]) || !std::isfinite(box.max[axis])) {
+      return std::string("non-finite ") + kAxes[axis];
+    }
+    if (box.min[axis] > box.max[axis]) return std::string("min > max on ") + kAxes[axis];
+  }
+  return {};
+}
+
+}  // namespace
+
+AabbStream readAabbStream(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open");
+  const std::vector<char> bytes{std::istreambuf_iterator<char>(in), {}};
+  if (bytes.size() < kHeaderBytes) {
+    fail(path, "truncated header: " + std::to_string(bytes.size()) + " bytes, need " +
+                   std::to_string(kHeaderBytes));
+  }
+  AabbStream stream;
+  stream.scene_name = readName(bytes.data(), path, "scene name");
+  stream.object_type = readName(bytes.data() + kNameBytes, path, "object type");
+  std::int32_t counts[4];
+  std::memcpy(counts, bytes.data() + 2 * kNameBytes, sizeof(counts));
+  if (counts[0] <= 0) fail(path, "object count " + std::to_string(counts[0]) + " is not positive");
+  if (counts[1] <= 0) fail(path, "frame count " + std::to_string(counts[1]) + " is not positive");
+  if (counts[2] != 0 || counts[3] != 0) fail(path, "reserved header fields are not 0");
+  stream.objects = counts[0];
+  stream.stored_frames = counts[1] + 1;
+  stream.world = decodeAabb(bytes.data() + 2 * kNameBytes + sizeof(counts));
+  if (const std::string problem = aabbProblem(stream.world); !problem.empty()) {
+    fail(path, "world AABB: " + problem);
+  }
+
+  const auto boxes = static_cast<std::uint64_t>(stream.objects) * stream.stored_frames;
+  const std::uint64_t expected = kHeaderBytes + boxes * kAabbBytes;
+  if (bytes.size() != expected) {
+    const std::uint64_t complete_frames =
+        (bytes.size() - kHeaderBytes) / (kAabbBytes * static_cast<std::uint64_t>(stream.objects));
+    fail(path, "size " + std::to_string(bytes.size()) + " bytes does not match " +
+                   std::to_string(stream.objects) + " objects x " +
+                   std::to_string(stream.stored_frames) + " frames (" + std::to_string(expected) +
+                   " bytes); first incomplete frame " + std::to_string(complete_frames));
+  }
+  stream.boxes.resize(boxes);
+  for (std::uint64_t i = 0; i < boxes; ++i) {
+    stream.boxes[i] = decodeAabb(bytes.data() + kHeaderBytes + i * kAabbBytes);
+    if (const std::string problem = aabbProblem(stream.boxes[i]); !problem.empty()) {
+      fail(path, "frame " + std::to_string(i / stream.objects) + ", object " +
+                     std::to_string(i % stream.objects) + ": " + problem);
+    }
+  }
+  return stream;
+}
+
+void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream) {
+  if (stream.objects <= 0 || stream.stored_frames < 2 ||
+      stream.boxes.size() != static_cast<std::size_t>(stream.objects) * stream.stored_frames) {
+    throw AabbStreamError(path.string() + ": inconsistent stream to write");
+  }
+  std::vector<char> bytes(kHeaderBytes + stream.boxes.size() * kAabbBytes, 0);
+  std::memcpy(bytes.data(), stream.scene_name.data(),
+              std::min(stream.scene_name.size(), kNameBytes - 1));
+  std::memcpy(bytes.data() + kNameBytes, stream.object_type.data(),
+              std::min(stream.object_type.size(), kNameBytes - 1));
+  const std::int32_t counts[4] = {stream.objects, stream.stored_frames - 1, 0, 0};
+  std::memcpy(bytes.data() + 2 * kNameBytes, counts, sizeof(counts));
+  encodeAabb(stream.world, bytes.data() + 2 * kNameBytes + sizeof(counts));
+  for (std::size_t i = 0; i < stream.boxes.size(); ++i) {
+    encodeAabb(stream.boxes[i], bytes.data() + kHeaderBytes + i * kAabbBytes);
+  }
+
+  std::filesystem::path temporary = path;
+  temporary += ".partial";
+  {
+    std::ofstream out(temporary, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!out.flush()) {
+      std::error_code ignored;
+      std::filesystem::remove(temporary, ignored);
+      throw AabbStreamError(path.string() + ": write failed");
+    }
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+}  // namespace overlap::physics

@@ -1,0 +1,51 @@
+#include "physics/broadphase_factory.h"
+
+#include <BulletCollision/BroadphaseCollision/btAxisSweep3.h>
+#include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
+#include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
+
+#include <array>
+#include <stdexcept>
+
+namespace overlap::physics {
+namespace {
+
+constexpr std::array<std::string_view, 7> kNames = {"bf",    "sap",   "sap32",      "bvh",
+                                                    "cpubf", "gpubf", "gpubf-paper"};
+// btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
+constexpr int kMaxSap16Objects = 32766;
+
+}  // namespace
+
+std::span<const std::string_view> broadphaseNames() {
+  return kNames;
+}
+
+BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
+                                const btVector3& world_max, int max_objects) {
+  BroadphaseChoice choice;
+  choice.name = std::string(name);
+  if (name == "bf") {
+    choice.broadphase = std::make_unique<btSimpleBroadphase>(max_objects);
+  } else if (name == "sap") {
+    if (max_objects >= kMaxSap16Objects) {
+      throw std::invalid_argument("algo sap: holds at most " +
+                                  std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
+                                  std::to_string(max_objects) + "; use sap32");
+    }
+    // No ray-test DBVT: CCD's ray tests are rare here and it would double the update cost.
+    choice.broadphase = std::make_unique<btAxisSweep3>(
+        world_min, world_max, static_cast<unsigned short>(max_objects + 1), nullptr, true);
+  } else if (name == "sap32") {
+    choice.broadphase = std::make_unique<bt32BitAxisSweep3>(
+        world_min, world_max, static_cast<unsigned int>(max_objects + 1), nullptr, true);
+  } else if (name == "bvh") {
+    choice.broadphase = std::make_unique<btDbvtBroadphase>();
+  } else {
+    // OVERLAP_PAIR_FINDERS: cpubf, gpubf and gpubf-paper are added here.
+    throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
+  }
+  return choice;
+}
+
+}  // namespace overlap::physics

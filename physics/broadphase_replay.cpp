@@ -1,0 +1,84 @@
+#include "physics/broadphase_replay.h"
+
+#include <btBulletCollisionCommon.h>
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "physics/broadphase_factory.h"
+
+namespace overlap::physics {
+
+struct BroadphaseReplay::Bullet {
+  btDefaultCollisionConfiguration collision_config;
+  btCollisionDispatcher dispatcher{&collision_config};
+  std::unique_ptr<btBroadphaseInterface> broadphase;
+  std::vector<btBroadphaseProxy*> proxies;
+  std::vector<int> indices;  // proxies' user pointers point here
+
+  ~Bullet() {
+    for (btBroadphaseProxy* proxy : proxies) broadphase->destroyProxy(proxy, &dispatcher);
+  }
+};
+
+namespace {
+
+btVector3 corner(const float (&xyz)[3]) {
+  return {xyz[0], xyz[1], xyz[2]};
+}
+
+}  // namespace
+
+BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects)
+    : bullet_(std::make_unique<Bullet>()) {
+  if (objects <= 0) throw std::invalid_argument("objects: must be positive");
+  // A margin keeps boxes on the world's boundary off SAP's clamped edge.
+  const btVector3 lo = corner(world.min), hi = corner(world.max);
+  const btVector3 margin = (hi - lo) * 0.125f + btVector3(1, 1, 1);
+  BroadphaseChoice choice = makeBroadphase(algorithm, lo - margin, hi + margin, objects);
+  algorithm_ = choice.name;
+  notice_ = choice.notice;
+  Bullet& b = *bullet_;
+  b.broadphase = std::move(choice.broadphase);
+  b.indices.resize(static_cast<std::size_t>(objects));
+  b.proxies.resize(static_cast<std::size_t>(objects));
+  for (int i = 0; i < objects; ++i) {
+    b.indices[static_cast<std::size_t>(i)] = i;
+    b.proxies[static_cast<std::size_t>(i)] = b.broadphase->createProxy(
+        lo, lo, BOX_SHAPE_PROXYTYPE, &b.indices[static_cast<std::size_t>(i)],
+        btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher);
+  }
+}
+
+BroadphaseReplay::~BroadphaseReplay() = default;
+
+void BroadphaseReplay::update(std::span<const Aabb> boxes) {
+  Bullet& b = *bullet_;
+  if (boxes.size() != b.proxies.size()) {
+    throw std::invalid_argument("replay: frame has " + std::to_string(boxes.size()) +
+                                " boxes, expected " + std::to_string(b.proxies.size()));
+  }
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
+  }
+}
+
+void BroadphaseReplay::findPairs() {
+  bullet_->broadphase->calculateOverlappingPairs(&bullet_->dispatcher);
+}
+
+std::vector<std::pair<int, int>> BroadphaseReplay::pairs() const {
+  const btBroadphasePairArray& array =
+      bullet_->broadphase->getOverlappingPairCache()->getOverlappingPairArray();
+  std::vector<std::pair<int, int>> result;
+  result.reserve(static_cast<std::size_t>(array.size()));
+  for (int i = 0; i < array.size(); ++i) {
+    const int a = *static_cast<const int*>(array[i].m_pProxy0->m_clientObject);
+    const int b = *static_cast<const int*>(array[i].m_pProxy1->m_clientObject);
+    result.emplace_back(std::min(a, b), std::max(a, b));
+  }
+  std::sort(result.begin(), result.end());
+  return result;
+}
+
+}  // namespace overlap::physics

@@ -1,0 +1,47 @@
+// A broadphase on its own, fed recorded AABBs instead of a simulation.
+//
+// BroadphaseReplay creates one proxy per object (all in the default filter
+// group, so every pair counts), and each step() writes a frame's AABBs into
+// the broadphase, lets it update its pair cache and reads the cache back.
+// It is how `overlap pairs` and the broadphase benchmark drive Bullet's
+// broadphases and ours through the same btBroadphaseInterface, with the same
+// pair cache the simulation uses.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "physics/world.h"
+
+namespace overlap::physics {
+
+class BroadphaseReplay {
+ public:
+  // `world` bounds every box of the stream (SAP quantizes inside it).
+  BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects);
+  ~BroadphaseReplay();
+  BroadphaseReplay(const BroadphaseReplay&) = delete;
+  BroadphaseReplay& operator=(const BroadphaseReplay&) = delete;
+
+  const std::string& algorithm() const { return algorithm_; }
+  const std::string& notice() const { return notice_; }
+
+  // Writes the frame's AABBs (one per object) into the broadphase.
+  void update(std::span<const Aabb> boxes);
+  // Finds the pairs and updates the persistent pair cache.
+  void findPairs();
+  // The cache's pairs as object indices (a < b), sorted.
+  std::vector<std::pair<int, int>> pairs() const;
+
+ private:
+  struct Bullet;
+  std::string algorithm_;
+  std::string notice_;
+  std::unique_ptr<Bullet> bullet_;
+};
+
+}  // namespace overlap::physics

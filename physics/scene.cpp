@@ -1,0 +1,210 @@
+#include "physics/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "physics/random.h"
+
+namespace overlap::physics {
+namespace {
+
+constexpr double kSqrt3 = 1.7320508075688772;
+// Rejection sampling gives up after this many tries for one box: at the
+// paper's 10% fill a box needs a handful, so hitting it means the config asks
+// for an impossible packing.
+constexpr int kMaxPlacementTries = 100000;
+
+void require(bool ok, const char* field, const std::string& problem) {
+  if (!ok) throw std::invalid_argument(std::string(field) + ": " + problem);
+}
+
+std::vector<std::pair<double, SizeClass>> drawSizes(const SceneConfig& config,
+                                                    SeededRandom& random) {
+  const auto n = static_cast<std::size_t>(config.objects);
+  std::vector<std::pair<double, SizeClass>> sizes(n, {1.0, SizeClass::kUnit});
+  if (!config.mixedSizes()) return sizes;
+
+  // Three equal classes, dealt to objects in a shuffled order (Fisher-Yates).
+  std::vector<SizeClass> classes(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    classes[i] = static_cast<SizeClass>(1 + i % 3);
+  }
+  for (std::size_t i = n; i > 1; --i) {
+    std::swap(classes[i - 1], classes[random.below(i)]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const SizeRange& range = classes[i] == SizeClass::kSmall     ? config.small
+                             : classes[i] == SizeClass::kAverage ? config.average
+                                                                 : config.large;
+    sizes[i] = {random.uniform(range.lo, range.hi), classes[i]};
+  }
+  return sizes;
+}
+
+// Uniform grid over placed bounding spheres; a cell is as wide as the largest
+// sphere's diameter, so a new sphere only needs to check the 27 cells around it.
+class SphereGrid {
+ public:
+  SphereGrid(double half_extent, double cell) : half_extent_(half_extent), cell_(cell) {}
+
+  bool overlapsAny(const Eigen::Vector3d& centre, double radius) const {
+    const Eigen::Vector3i c = cellOf(centre);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = cells_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+          if (it == cells_.end()) continue;
+          for (const auto& [other, other_radius] : it->second) {
+            const double reach = radius + other_radius;
+            if ((other - centre).squaredNorm() < reach * reach) return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+  void insert(const Eigen::Vector3d& centre, double radius) {
+    cells_[key(cellOf(centre))].emplace_back(centre, radius);
+  }
+
+ private:
+  Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
+    return ((p.array() + half_extent_) / cell_).floor().cast<int>();
+  }
+  static std::int64_t key(const Eigen::Vector3i& c) {
+    return (static_cast<std::int64_t>(c.x() + 1) << 42) ^
+           (static_cast<std::int64_t>(c.y() + 1) << 21) ^ static_cast<std::int64_t>(c.z() + 1);
+  }
+
+  double half_extent_;
+  double cell_;
+  std::unordered_map<std::int64_t, std::vector<std::pair<Eigen::Vector3d, double>>> cells_;
+};
+
+// Uniformly distributed rotation (Shoemake's method).
+Eigen::Quaterniond randomOrientation(SeededRandom& random) {
+  const double u1 = random.unit();
+  const double u2 = random.uniform(0.0, 2.0 * std::numbers::pi);
+  const double u3 = random.uniform(0.0, 2.0 * std::numbers::pi);
+  const double a = std::sqrt(1.0 - u1);
+  const double b = std::sqrt(u1);
+  return Eigen::Quaterniond(a * std::cos(u2), a * std::sin(u2), b * std::cos(u3), b * std::sin(u3));
+}
+
+}  // namespace
+
+SceneConfig SceneConfig::forScene(int scene) {
+  SceneConfig config;
+  config.scene = scene;
+  config.gravity_scale = scene >= 3 ? 50.0 : 1.0;
+  return config;
+}
+
+void SceneConfig::validate() const {
+  require(scene >= 1 && scene <= 4, "scene", "must be 1, 2, 3 or 4");
+  require(objects >= 1, "objects", "must be at least 1");
+  require(fill_fraction > 0 && fill_fraction <= 0.3, "fill",
+          "must be in (0, 0.3]: denser packings cannot be placed by rejection sampling");
+  require(wall_min_thickness > 0 && std::isfinite(wall_min_thickness), "wall-min",
+          "must be positive");
+  require(wall_fraction >= 0 && std::isfinite(wall_fraction), "wall-fraction",
+          "must be non-negative");
+  require(initial_speed >= 0 && std::isfinite(initial_speed), "initial-speed",
+          "must be non-negative");
+  require(frame_time > 0 && frame_time <= 1, "frame-time", "must be in (0, 1] s");
+  require(std::isfinite(g) && std::isfinite(gravity_scale), "gravity", "must be finite");
+  require(kicks_per_frame >= 0, "kicks", "must be non-negative");
+  require(std::isfinite(rotation_per_frame), "rotation", "must be finite");
+  for (const auto& [range, name] :
+       {std::pair{small, "small-sizes"}, std::pair{average, "average-sizes"},
+        std::pair{large, "large-sizes"}}) {
+    require(range.lo > 0 && range.lo <= range.hi && std::isfinite(range.hi), name,
+            "needs 0 < lo <= hi");
+  }
+}
+
+SceneLayout generateScene(const SceneConfig& config) {
+  config.validate();
+  SeededRandom random(config.seed);
+  const auto sizes = drawSizes(config, random);
+
+  const double volume =
+      std::accumulate(sizes.begin(), sizes.end(), 0.0,
+                      [](double sum, const auto& s) { return sum + s.first * s.first * s.first; });
+  SceneLayout layout;
+  const double interior_edge = std::cbrt(volume / config.fill_fraction);
+  layout.half_extent = interior_edge / 2;
+  layout.wall_thickness = std::max(config.wall_min_thickness, interior_edge * config.wall_fraction);
+  layout.boxes.resize(sizes.size());
+
+  // Largest first: they are the hardest to fit once the space fills up.
+  std::vector<std::size_t> order(sizes.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return sizes[a].first > sizes[b].first; });
+  const double largest_radius = sizes[order.front()].first * kSqrt3 / 2;
+  SphereGrid grid(layout.half_extent, 2 * largest_radius);
+
+  for (const std::size_t i : order) {
+    const double radius = sizes[i].first * kSqrt3 / 2;
+    const double reach = layout.half_extent - radius;  // sphere stays off the walls
+    if (reach <= 0) {
+      throw std::runtime_error("scene: a box of edge " + std::to_string(sizes[i].first) +
+                               " m does not fit in the container; raise --objects");
+    }
+    int tries = 0;
+    Eigen::Vector3d centre;
+    do {
+      if (++tries > kMaxPlacementTries) {
+        throw std::runtime_error("scene: could not place box " + std::to_string(i) + " in " +
+                                 std::to_string(kMaxPlacementTries) +
+                                 " tries without overlap; lower --fill or raise --objects");
+      }
+      centre = {random.uniform(-reach, reach), random.uniform(-reach, reach),
+                random.uniform(-reach, reach)};
+    } while (grid.overlapsAny(centre, radius));
+    grid.insert(centre, radius);
+    layout.boxes[i].position = centre;
+  }
+
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    BoxStart& box = layout.boxes[i];
+    box.edge = sizes[i].first;
+    box.size_class = sizes[i].second;
+    box.orientation = randomOrientation(random);
+    const double v = config.initial_speed;
+    box.velocity = {random.uniform(-v, v), random.uniform(-v, v), random.uniform(-v, v)};
+  }
+  return layout;
+}
+
+std::string sizeClassName(SizeClass size_class) {
+  switch (size_class) {
+    case SizeClass::kUnit:
+      return "unit";
+    case SizeClass::kSmall:
+      return "small";
+    case SizeClass::kAverage:
+      return "average";
+    case SizeClass::kLarge:
+      return "large";
+  }
+  return "unknown";
+}
+
+GravityRotation::GravityRotation(double magnitude, double angle_per_frame)
+    : angle_(angle_per_frame), gravity_(0.0, -magnitude, 0.0) {}
+
+void GravityRotation::advanceFrame() {
+  e1_ = Eigen::AngleAxisd(angle_, Eigen::Vector3d::UnitY()) * e1_;
+  e1_ = Eigen::AngleAxisd(angle_, Eigen::Vector3d::UnitZ()) * e1_;
+  e1_.normalize();
+  gravity_ = Eigen::AngleAxisd(angle_, e1_) * gravity_;
+}
+
+}  // namespace overlap::physics

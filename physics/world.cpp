@@ -1,0 +1,347 @@
+#include "physics/world.h"
+
+#include <btBulletDynamicsCommon.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "physics/broadphase_factory.h"
+#include "physics/random.h"
+
+namespace overlap::physics {
+namespace {
+
+constexpr double kStrongGravity = 20.0;  // m/s^2: above it a scene is a "50 g" scene
+constexpr int kWallCount = 6;
+// Bullet's default collision margin (0.04 m) would round a 0.1 m box's corners
+// away almost entirely; a tenth of the edge keeps small boxes box-shaped.
+constexpr double kMaxMargin = 0.04;
+constexpr double kMarginPerEdge = 0.1;
+// A manifold point counts as contact within this distance (m).
+constexpr btScalar kContactDistance = 0.01f;
+
+class Stopwatch {
+ public:
+  double ms() const {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
+        .count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+// btDiscreteDynamicsWorld with each stage of a substep timed from inside.
+class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
+ public:
+  using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
+
+  FrameTimings timings;
+
+  void updateAabbs() override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::updateAabbs();
+    timings.update_ms += watch.ms();
+  }
+  void computeOverlappingPairs() override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::computeOverlappingPairs();
+    timings.broadphase_ms += watch.ms();
+  }
+  // update + broadphase + narrowphase; the narrowphase is what remains.
+  void performDiscreteCollisionDetection() override {
+    const double before = timings.update_ms + timings.broadphase_ms;
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
+    timings.narrowphase_ms += watch.ms() - (timings.update_ms + timings.broadphase_ms - before);
+  }
+  void createPredictiveContacts(btScalar dt) override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::createPredictiveContacts(dt);
+    timings.narrowphase_ms += watch.ms();
+  }
+  void calculateSimulationIslands() override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::calculateSimulationIslands();
+    timings.solver_ms += watch.ms();
+  }
+  void solveConstraints(btContactSolverInfo& info) override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::solveConstraints(info);
+    timings.solver_ms += watch.ms();
+  }
+  void predictUnconstraintMotion(btScalar dt) override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
+    timings.integrate_ms += watch.ms();
+  }
+  void integrateTransforms(btScalar dt) override {
+    const Stopwatch watch;
+    btDiscreteDynamicsWorld::integrateTransforms(dt);
+    timings.integrate_ms += watch.ms();
+  }
+};
+
+btVector3 toBullet(const Eigen::Vector3d& v) {
+  return {static_cast<btScalar>(v.x()), static_cast<btScalar>(v.y()), static_cast<btScalar>(v.z())};
+}
+
+void hashBytes(std::uint64_t& hash, const void* data, std::size_t size) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    hash = (hash ^ bytes[i]) * 0x100000001b3ULL;
+  }
+}
+
+}  // namespace
+
+int defaultSubsteps(const SceneConfig& config) {
+  return config.g * config.gravity_scale > kStrongGravity ? 8 : 2;
+}
+
+struct PhysicsWorld::Bullet {
+  btDefaultCollisionConfiguration collision_config;
+  btCollisionDispatcher dispatcher{&collision_config};
+  std::unique_ptr<btBroadphaseInterface> broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  std::unique_ptr<TimedDynamicsWorld> world;
+  std::vector<std::unique_ptr<btBoxShape>> shapes;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
+  std::vector<double> edges;                         // per box
+  SeededRandom kick_random{0};
+  GravityRotation gravity{0, 0};
+
+  ~Bullet() {
+    for (auto& body : bodies) world->removeRigidBody(body.get());
+  }
+};
+
+PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& options)
+    : config_(config),
+      layout_(generateScene(config)),
+      substeps_(options.substeps > 0 ? options.substeps : defaultSubsteps(config)),
+      bullet_(std::make_unique<Bullet>()) {
+  if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
+  Bullet& b = *bullet_;
+  const auto n = static_cast<int>(layout_.boxes.size());
+  // SAP quantizes inside these bounds: the container plus a quarter of margin.
+  const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
+  BroadphaseChoice choice = makeBroadphase(options.algorithm, -bound, bound, n + kWallCount);
+  b.broadphase = std::move(choice.broadphase);
+  algorithm_ = choice.name;
+  algorithm_notice_ = choice.notice;
+
+  b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
+                                                 &b.collision_config);
+  b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
+  b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
+  b.world->setGravity(toBullet(b.gravity.gravity()));
+  // A separate stream for the kicks, so scene 2's start equals the others'.
+  b.kick_random = SeededRandom(config.seed ^ 0x9e3779b97f4a7c15ULL);
+
+  b.bodies.reserve(static_cast<std::size_t>(n + kWallCount));
+  for (int i = 0; i < n; ++i) {
+    const BoxStart& start = layout_.boxes[static_cast<std::size_t>(i)];
+    const auto half = static_cast<btScalar>(start.edge / 2);
+    auto shape = std::make_unique<btBoxShape>(btVector3(half, half, half));
+    shape->setMargin(static_cast<btScalar>(std::min(kMaxMargin, kMarginPerEdge * start.edge)));
+    const auto mass = static_cast<btScalar>(start.edge * start.edge * start.edge);
+    btVector3 inertia;
+    shape->calculateLocalInertia(mass, inertia);
+    auto body = std::make_unique<btRigidBody>(mass, nullptr, shape.get(), inertia);
+    const Eigen::Quaterniond& q = start.orientation;
+    body->setWorldTransform(
+        btTransform(btQuaternion(static_cast<btScalar>(q.x()), static_cast<btScalar>(q.y()),
+                                 static_cast<btScalar>(q.z()), static_cast<btScalar>(q.w())),
+                    toBullet(start.position)));
+    body->setLinearVelocity(toBullet(start.velocity));
+    body->setUserIndex(i);
+    if (config.rotatingGravity()) {
+      // Gravity turns every frame, and a sleeping body would not notice.
+      body->setActivationState(DISABLE_DEACTIVATION);
+    }
+    if (options.ccd) {
+      body->setCcdMotionThreshold(static_cast<btScalar>(start.edge / 2));
+      body->setCcdSweptSphereRadius(static_cast<btScalar>(start.edge * 0.4));
+    }
+    b.world->addRigidBody(body.get());
+    b.edges.push_back(start.edge);
+    b.shapes.push_back(std::move(shape));
+    b.bodies.push_back(std::move(body));
+  }
+
+  // Six walls just outside the interior, overlapping at the edges.
+  const double h = layout_.half_extent;
+  const double t = layout_.wall_thickness;
+  for (int w = 0; w < kWallCount; ++w) {
+    const int axis = w / 2;
+    const double side = (w % 2 == 0) ? -1.0 : 1.0;
+    Eigen::Vector3d half = Eigen::Vector3d::Constant(h + t);
+    half[axis] = t / 2;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    centre[axis] = side * (h + t / 2);
+    auto shape = std::make_unique<btBoxShape>(toBullet(half));
+    auto body = std::make_unique<btRigidBody>(0.0f, nullptr, shape.get());
+    body->setWorldTransform(btTransform(btQuaternion::getIdentity(), toBullet(centre)));
+    body->setUserIndex(n + w);
+    b.world->addRigidBody(body.get());
+    b.shapes.push_back(std::move(shape));
+    b.bodies.push_back(std::move(body));
+  }
+}
+
+PhysicsWorld::~PhysicsWorld() = default;
+
+void PhysicsWorld::applySceneForces() {
+  Bullet& b = *bullet_;
+  const auto n = layout_.boxes.size();
+  if (config_.kicks() && n > 0) {
+    const auto kicks = std::min<std::size_t>(static_cast<std::size_t>(config_.kicks_per_frame), n);
+    std::vector<bool> kicked(n, false);
+    const double v = config_.initial_speed;
+    for (std::size_t k = 0; k < kicks;) {
+      const auto i = static_cast<std::size_t>(b.kick_random.below(n));
+      if (kicked[i]) continue;  // distinct objects
+      kicked[i] = true;
+      ++k;
+      const Eigen::Vector3d velocity(b.kick_random.uniform(-v, v), b.kick_random.uniform(-v, v),
+                                     b.kick_random.uniform(-v, v));
+      b.bodies[i]->activate(true);
+      b.bodies[i]->setLinearVelocity(toBullet(velocity));
+    }
+  }
+  if (config_.rotatingGravity() && frame_ > 0) {
+    b.gravity.advanceFrame();
+    b.world->setGravity(toBullet(b.gravity.gravity()));
+  }
+}
+
+FrameReport PhysicsWorld::stepFrame() {
+  Bullet& b = *bullet_;
+  const Stopwatch frame_watch;
+  b.world->timings = {};
+  applySceneForces();
+  const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
+  for (int k = 0; k < substeps_; ++k) {
+    // maxSubSteps = 0: exactly one step of dt, no accumulator rounding.
+    b.world->stepSimulation(dt, 0);
+  }
+  FrameReport report;
+  report.frame = frame_++;
+  report.timings = b.world->timings;
+  report.timings.total_ms = frame_watch.ms();
+  report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
+  measureContainment(report);
+  return report;
+}
+
+void PhysicsWorld::measureContainment(FrameReport& report) const {
+  const Bullet& b = *bullet_;
+  const double h = layout_.half_extent;
+  const double outer = layout_.outerHalfExtent();
+  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
+    const btRigidBody& body = *b.bodies[i];
+    const btVector3& c = body.getWorldTransform().getOrigin();
+    const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
+    // A NaN centre counts as escaped: it is nowhere inside.
+    if (!(reach <= outer)) ++report.escaped;
+    if (!(reach <= h)) ++report.sunk;
+    if (body.getActivationState() == DISABLE_SIMULATION) ++report.removed_from_simulation;
+  }
+  const auto n = static_cast<int>(layout_.boxes.size());
+  auto edgeOf = [&](const btCollisionObject* object) {
+    const int index = object->getUserIndex();
+    return index < n ? b.edges[static_cast<std::size_t>(index)] : INFINITY;
+  };
+  const btDispatcher& dispatcher = b.dispatcher;
+  for (int m = 0; m < dispatcher.getNumManifolds(); ++m) {
+    const btPersistentManifold* manifold =
+        const_cast<btDispatcher&>(dispatcher).getManifoldByIndexInternal(m);
+    const double edge = std::min(edgeOf(manifold->getBody0()), edgeOf(manifold->getBody1()));
+    for (int p = 0; p < manifold->getNumContacts(); ++p) {
+      const double depth = -manifold->getContactPoint(p).getDistance();
+      report.max_penetration = std::max(report.max_penetration, depth / edge);
+    }
+  }
+}
+
+std::uint64_t PhysicsWorld::stateHash() const {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
+    const btRigidBody& body = *bullet_->bodies[i];
+    const btTransform& t = body.getWorldTransform();
+    hashBytes(hash, &t.getOrigin(), sizeof(btScalar) * 3);
+    for (int r = 0; r < 3; ++r) hashBytes(hash, &t.getBasis()[r], sizeof(btScalar) * 3);
+    hashBytes(hash, &body.getLinearVelocity(), sizeof(btScalar) * 3);
+    hashBytes(hash, &body.getAngularVelocity(), sizeof(btScalar) * 3);
+  }
+  return hash;
+}
+
+std::vector<BoxPose> PhysicsWorld::boxPoses() const {
+  const Bullet& b = *bullet_;
+  const auto n = layout_.boxes.size();
+  std::vector<bool> touching(n, false);
+  for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
+    const btPersistentManifold* manifold =
+        const_cast<btCollisionDispatcher&>(b.dispatcher).getManifoldByIndexInternal(m);
+    bool contact = false;
+    for (int p = 0; p < manifold->getNumContacts(); ++p) {
+      contact = contact || manifold->getContactPoint(p).getDistance() < kContactDistance;
+    }
+    if (!contact) continue;
+    for (const btCollisionObject* object : {manifold->getBody0(), manifold->getBody1()}) {
+      const auto index = static_cast<std::size_t>(object->getUserIndex());
+      if (index < n) touching[index] = true;
+    }
+  }
+  std::vector<BoxPose> poses(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const btTransform& t = b.bodies[i]->getWorldTransform();
+    const btQuaternion q = t.getRotation();
+    poses[i] = BoxPose{{t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z()},
+                       {q.x(), q.y(), q.z(), q.w()},
+                       static_cast<float>(layout_.boxes[i].edge),
+                       layout_.boxes[i].size_class,
+                       touching[i]};
+  }
+  return poses;
+}
+
+std::vector<Aabb> PhysicsWorld::aabbs() const {
+  std::vector<Aabb> result;
+  result.reserve(bullet_->bodies.size());
+  for (const auto& body : bullet_->bodies) {
+    btVector3 lo, hi;
+    bullet_->broadphase->getAabb(body->getBroadphaseHandle(), lo, hi);
+    result.push_back(Aabb{{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}});
+  }
+  return result;
+}
+
+std::vector<std::pair<int, int>> PhysicsWorld::cachedPairs() const {
+  btOverlappingPairCache& cache = *bullet_->broadphase->getOverlappingPairCache();
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(static_cast<std::size_t>(cache.getNumOverlappingPairs()));
+  const btBroadphasePairArray& array = cache.getOverlappingPairArray();
+  for (int i = 0; i < array.size(); ++i) {
+    const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
+    const auto* c = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
+    pairs.emplace_back(std::min(a->getUserIndex(), c->getUserIndex()),
+                       std::max(a->getUserIndex(), c->getUserIndex()));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {
+  return *bullet_->world;
+}
+btBroadphaseInterface& PhysicsWorld::broadphase() {
+  return *bullet_->broadphase;
+}
+
+}  // namespace overlap::physics

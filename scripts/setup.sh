@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs the Debian packages Overlap needs (idempotent: apt-get update runs
+# once, and only when something is missing), then configures and builds the
+# project with CMake in Release.  Usage: scripts/setup.sh [BUILD_DIR] [PRESET]
+set -euo pipefail
+
+readonly PACKAGES=(
+  build-essential cmake pkg-config git
+  libbullet-dev libeigen3-dev libosmesa6-dev libtbb-dev
+  googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  nlohmann-json3-dev libpng-dev python3-matplotlib
+)
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$pkg")
+  fi
+done
+
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  SUDO=""
+  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+cd "$(dirname "$0")/.."
+build_dir="${1:-build}"
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+cmake --build "$build_dir" -j "$(nproc)"

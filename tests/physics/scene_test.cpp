@@ -1,0 +1,134 @@
+// The start state: counts, size classes, no overlaps, everything inside.
+#include "physics/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace overlap::physics {
+namespace {
+
+// Half the AABB extent of a cube of edge `edge` rotated by `q`.
+Eigen::Vector3d rotatedHalfExtent(const Eigen::Quaterniond& q, double edge) {
+  return q.toRotationMatrix().cwiseAbs() * Eigen::Vector3d::Constant(edge / 2);
+}
+
+TEST(Scene, CountsAndUnitSizesInScenes1To3) {
+  for (int scene = 1; scene <= 3; ++scene) {
+    SceneConfig config = SceneConfig::forScene(scene);
+    config.objects = 500;
+    const SceneLayout layout = generateScene(config);
+    ASSERT_EQ(layout.boxes.size(), 500u);
+    for (const BoxStart& box : layout.boxes) {
+      EXPECT_EQ(box.edge, 1.0);
+      EXPECT_EQ(box.size_class, SizeClass::kUnit);
+    }
+    // 500 unit boxes fill 10%: L = cbrt(5000).
+    EXPECT_NEAR(2 * layout.half_extent, std::cbrt(5000.0), 1e-9);
+    EXPECT_DOUBLE_EQ(layout.wall_thickness, std::max(2.0, std::cbrt(5000.0) / 8));
+  }
+}
+
+TEST(Scene, Scene4HasThreeEqualSizeClassesInTheirRanges) {
+  SceneConfig config = SceneConfig::forScene(4);
+  config.objects = 999;
+  const SceneLayout layout = generateScene(config);
+  int counts[4] = {};
+  for (const BoxStart& box : layout.boxes) {
+    ++counts[static_cast<int>(box.size_class)];
+    const SizeRange range = box.size_class == SizeClass::kSmall     ? config.small
+                            : box.size_class == SizeClass::kAverage ? config.average
+                                                                    : config.large;
+    EXPECT_GE(box.edge, range.lo);
+    EXPECT_LE(box.edge, range.hi);
+  }
+  EXPECT_EQ(counts[0], 0);
+  EXPECT_EQ(counts[1], 333);
+  EXPECT_EQ(counts[2], 333);
+  EXPECT_EQ(counts[3], 333);
+  // Shuffled: the classes are not dealt in index order.
+  EXPECT_FALSE(layout.boxes[0].size_class == SizeClass::kSmall &&
+               layout.boxes[1].size_class == SizeClass::kAverage &&
+               layout.boxes[2].size_class == SizeClass::kLarge &&
+               layout.boxes[3].size_class == SizeClass::kSmall);
+}
+
+TEST(Scene, NothingOverlapsAndEverythingIsInsideAtTheStart) {
+  for (int scene : {1, 4}) {
+    SceneConfig config = SceneConfig::forScene(scene);
+    config.objects = 1500;
+    const SceneLayout layout = generateScene(config);
+    const double h = layout.half_extent;
+    for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
+      const BoxStart& a = layout.boxes[i];
+      const Eigen::Vector3d reach =
+          a.position.cwiseAbs() + rotatedHalfExtent(a.orientation, a.edge);
+      EXPECT_LT(reach.maxCoeff(), h) << "box " << i << " touches a wall";
+      EXPECT_NEAR(a.orientation.norm(), 1.0, 1e-12);
+      EXPECT_LE(a.velocity.cwiseAbs().maxCoeff(), config.initial_speed);
+      for (std::size_t j = i + 1; j < layout.boxes.size(); ++j) {
+        const BoxStart& b = layout.boxes[j];
+        const double spheres = (a.edge + b.edge) * std::sqrt(3.0) / 2;
+        ASSERT_GE((a.position - b.position).norm(), spheres) << "boxes " << i << ", " << j;
+      }
+    }
+  }
+}
+
+TEST(Scene, SameSeedSameStartDifferentSeedDifferentStart) {
+  SceneConfig config = SceneConfig::forScene(4);
+  config.objects = 300;
+  const SceneLayout a = generateScene(config);
+  const SceneLayout b = generateScene(config);
+  config.seed = 43;
+  const SceneLayout c = generateScene(config);
+  bool all_same = true;
+  bool any_differs = false;
+  for (std::size_t i = 0; i < a.boxes.size(); ++i) {
+    all_same = all_same && a.boxes[i].position == b.boxes[i].position &&
+               a.boxes[i].edge == b.boxes[i].edge && a.boxes[i].velocity == b.boxes[i].velocity &&
+               a.boxes[i].orientation.coeffs() == b.boxes[i].orientation.coeffs();
+    any_differs = any_differs || a.boxes[i].position != c.boxes[i].position;
+  }
+  EXPECT_TRUE(all_same);
+  EXPECT_TRUE(any_differs);
+}
+
+TEST(Scene, BadConfigsNameTheField) {
+  SceneConfig config;
+  config.objects = 0;
+  EXPECT_THROW(
+      {
+        try {
+          generateScene(config);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_STREQ(e.what(), "objects: must be at least 1");
+          throw;
+        }
+      },
+      std::invalid_argument);
+  config = SceneConfig{};
+  config.scene = 5;
+  EXPECT_THROW(generateScene(config), std::invalid_argument);
+  config = SceneConfig{};
+  config.small = {0.5, 0.2};
+  EXPECT_THROW(generateScene(config), std::invalid_argument);
+}
+
+TEST(GravityRotation, KeepsMagnitudeStartsDownAndTurns) {
+  GravityRotation rotation(50 * 9.798, 1.0 / 120);
+  EXPECT_EQ(rotation.gravity(), Eigen::Vector3d(0, -50 * 9.798, 0));
+  Eigen::Vector3d previous = rotation.gravity();
+  for (int frame = 0; frame < 2048; ++frame) {
+    rotation.advanceFrame();
+    EXPECT_NEAR(rotation.gravity().norm(), 50 * 9.798, 1e-6);
+    const double angle = std::acos(
+        std::clamp(previous.normalized().dot(rotation.gravity().normalized()), -1.0, 1.0));
+    EXPECT_LE(angle, 1.0 / 120 + 1e-9);
+    previous = rotation.gravity();
+  }
+  EXPECT_GT((rotation.gravity() - Eigen::Vector3d(0, -50 * 9.798, 0)).norm(), 1.0);
+}
+
+}  // namespace
+}  // namespace overlap::physics

@@ -1,0 +1,120 @@
+// The Bullet adapter: determinism, exact pairs, containment.
+#include "physics/world.h"
+
+#include <btBulletDynamicsCommon.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace overlap::physics {
+namespace {
+
+SceneConfig smallScene(int scene, int objects, std::uint64_t seed = 42) {
+  SceneConfig config = SceneConfig::forScene(scene);
+  config.objects = objects;
+  config.seed = seed;
+  return config;
+}
+
+std::uint64_t hashAfter(const SceneConfig& config, const std::string& algorithm, int frames) {
+  PhysicsWorld world(config, WorldOptions{algorithm});
+  for (int frame = 0; frame < frames; ++frame) world.stepFrame();
+  return world.stateHash();
+}
+
+// Every pair of AABBs that overlaps (touching included), but static-static.
+std::vector<std::pair<int, int>> oraclePairs(const std::vector<Aabb>& boxes, int dynamic_count) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int a = 0; a < static_cast<int>(boxes.size()); ++a) {
+    for (int b = a + 1; b < static_cast<int>(boxes.size()); ++b) {
+      if (a >= dynamic_count && b >= dynamic_count) continue;
+      bool overlap = true;
+      for (int axis = 0; axis < 3; ++axis) {
+        overlap = overlap && boxes[a].min[axis] <= boxes[b].max[axis] &&
+                  boxes[b].min[axis] <= boxes[a].max[axis];
+      }
+      if (overlap) pairs.emplace_back(a, b);
+    }
+  }
+  return pairs;
+}
+
+TEST(PhysicsWorld, BuildsBoxesAndSixWalls) {
+  PhysicsWorld world(smallScene(4, 120), WorldOptions{"bvh"});
+  EXPECT_EQ(world.bulletWorld().getNumCollisionObjects(), 126);
+  EXPECT_EQ(world.aabbs().size(), 126u);
+  EXPECT_EQ(world.substeps(), defaultSubsteps(world.config()));
+  const FrameReport report = world.stepFrame();
+  EXPECT_EQ(report.frame, 0);
+  EXPECT_EQ(report.escaped, 0);
+  EXPECT_GT(report.timings.total_ms, 0.0);
+  EXPECT_GE(report.timings.total_ms, report.timings.broadphase_ms + report.timings.solver_ms);
+}
+
+TEST(PhysicsWorld, SameSeedSameStateDifferentSeedDifferentState) {
+  for (int scene : {2, 4}) {
+    const std::uint64_t first = hashAfter(smallScene(scene, 80), "bvh", 100);
+    EXPECT_EQ(first, hashAfter(smallScene(scene, 80), "bvh", 100)) << "scene " << scene;
+    EXPECT_NE(first, hashAfter(smallScene(scene, 80, 7), "bvh", 100)) << "scene " << scene;
+  }
+}
+
+TEST(PhysicsWorld, SimpleBroadphaseCacheEqualsBruteForceOracle) {
+  PhysicsWorld world(smallScene(4, 300), WorldOptions{"bf"});
+  std::size_t checked_pairs = 0;
+  for (int frame = 0; frame < 60; ++frame) {
+    world.stepFrame();
+    if (frame % 10 != 9) continue;
+    const auto expected = oraclePairs(world.aabbs(), 300);
+    EXPECT_EQ(world.cachedPairs(), expected) << "frame " << frame;
+    checked_pairs += expected.size();
+  }
+  EXPECT_GT(checked_pairs, 100u) << "the scene should be in contact by now";
+}
+
+TEST(PhysicsWorld, BulletsConservativeBroadphasesMissNoPair) {
+  // SAP quantizes and DBVT fattens, so their caches may hold extra pairs, but
+  // every exact pair of the AABBs they were given must be there.
+  for (const char* algorithm : {"sap", "sap32", "bvh"}) {
+    PhysicsWorld world(smallScene(4, 200), WorldOptions{algorithm});
+    for (int frame = 0; frame < 40; ++frame) {
+      world.stepFrame();
+      const auto cached = world.cachedPairs();
+      const auto exact = oraclePairs(world.aabbs(), 200);
+      ASSERT_FALSE(exact.empty());
+      EXPECT_TRUE(std::includes(cached.begin(), cached.end(), exact.begin(), exact.end()))
+          << algorithm << " frame " << frame;
+    }
+  }
+}
+
+TEST(PhysicsWorld, NoBoxPassesThroughAWallAt50g) {
+  for (int scene : {3, 4}) {
+    PhysicsWorld world(smallScene(scene, 300), WorldOptions{"bvh"});
+    int most_escaped = 0;
+    for (int frame = 0; frame < 300; ++frame) {
+      const FrameReport report = world.stepFrame();
+      most_escaped = std::max(most_escaped, report.escaped);
+      ASSERT_EQ(report.removed_from_simulation, 0) << "scene " << scene << " frame " << frame;
+    }
+    EXPECT_EQ(most_escaped, 0) << "scene " << scene;
+  }
+}
+
+TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
+  // The negative control for the test above: without substeps they tunnel.
+  PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1});
+  int most_escaped = 0;
+  for (int frame = 0; frame < 300; ++frame) {
+    most_escaped = std::max(most_escaped, world.stepFrame().escaped);
+  }
+  EXPECT_GT(most_escaped, 0);
+}
+
+TEST(PhysicsWorld, UnknownBroadphaseAndTooManyForSapAreRejected) {
+  EXPECT_THROW(PhysicsWorld(smallScene(1, 100), WorldOptions{"octree"}), std::invalid_argument);
+  EXPECT_THROW(PhysicsWorld(smallScene(1, 32761), WorldOptions{"sap"}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace overlap::physics
