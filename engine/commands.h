@@ -10,5 +10,6 @@ namespace overlap::engine {
 void addRunCommand(CLI::App& app);
 void addRecordCommand(CLI::App& app);
 void addPairsCommand(CLI::App& app);
+void addCaptureCommand(CLI::App& app);
 
 }  // namespace overlap::engine

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   overlap::engine::addRunCommand(app);
   overlap::engine::addRecordCommand(app);
   overlap::engine::addPairsCommand(app);
+  overlap::engine::addCaptureCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& help) {

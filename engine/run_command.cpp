@@ -10,12 +10,13 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/frame_capture.h"
 #include "engine/machine_info.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
-#include "physics/broadphase_factory.h"
 #include "physics/world.h"
+#include "render/capture_options.h"
 
 namespace overlap::engine {
 namespace {
@@ -27,6 +28,8 @@ struct RunOptions {
   int substeps = 0;
   bool ccd = false;
   std::filesystem::path out = "out";
+  int capture_every = 0;  // 0: no pictures
+  std::string capture_size = "800x600";
 };
 
 // The timing columns of frames.csv, with how to read each from a report.
@@ -43,17 +46,19 @@ constexpr TimingColumn kTimingColumns[] = {
     {"total_ms", &physics::FrameTimings::total_ms},
 };
 
-std::string framesCsv(const std::vector<physics::FrameReport>& reports) {
+std::string framesCsv(const std::vector<physics::FrameReport>& reports,
+                      const std::vector<double>& render_ms) {
   std::ostringstream csv;
   csv << "frame";
   for (const auto& column : kTimingColumns) csv << ',' << column.name;
-  csv << ",pairs,escaped,sunk,max_penetration,removed\n";
+  csv << ",render_ms,pairs,escaped,sunk,max_penetration,removed\n";
   csv << std::setprecision(6);
-  for (const auto& report : reports) {
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    const physics::FrameReport& report = reports[i];
     csv << report.frame;
     for (const auto& column : kTimingColumns) csv << ',' << report.timings.*column.field;
-    csv << ',' << report.pairs << ',' << report.escaped << ',' << report.sunk << ','
-        << report.max_penetration << ',' << report.removed_from_simulation << '\n';
+    csv << ',' << render_ms[i] << ',' << report.pairs << ',' << report.escaped << ',' << report.sunk
+        << ',' << report.max_penetration << ',' << report.removed_from_simulation << '\n';
   }
   return csv.str();
 }
@@ -67,6 +72,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["frames"] = options.frames;
   parameters["substeps"] = world.substeps();
   parameters["ccd"] = options.ccd;
+  parameters["capture_every"] = options.capture_every;
 
   nlohmann::json timings;
   for (const auto& column : kTimingColumns) {
@@ -108,6 +114,18 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
 void run(const RunOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   prepareOutputDirectory(options.out, "--out");
+  std::unique_ptr<FrameCapture> camera;
+  if (options.capture_every > 0) {
+    render::ImageSize size{};
+    try {
+      size = render::parseImageSize(options.capture_size);
+    } catch (const std::runtime_error& error) {
+      throw UsageError(std::string("--capture-size: ") + error.what());
+    }
+    prepareOutputDirectory(options.out / "frames", "--out");
+    camera = std::make_unique<FrameCapture>(options.out / "frames", size.width, size.height,
+                                            render::ColourMode::kSizeClass);
+  }
 
   physics::WorldOptions world_options{options.algorithm, options.substeps, options.ccd};
   std::unique_ptr<physics::PhysicsWorld> world;
@@ -122,14 +140,18 @@ void run(const RunOptions& options) {
 
   Progress progress("overlap run", options.frames);
   std::vector<physics::FrameReport> reports;
+  std::vector<double> render_ms(static_cast<std::size_t>(options.frames), 0.0);
   reports.reserve(static_cast<std::size_t>(options.frames));
   for (int frame = 0; frame < options.frames; ++frame) {
     reports.push_back(world->stepFrame());
+    if (camera && frame % options.capture_every == 0) {
+      render_ms[static_cast<std::size_t>(frame)] = camera->capture(*world, frame);
+    }
     progress.update(frame + 1);
   }
   progress.finish();
 
-  writeFileAtomically(options.out / "frames.csv", framesCsv(reports));
+  writeFileAtomically(options.out / "frames.csv", framesCsv(reports, render_ms));
   writeFileAtomically(
       options.out / "summary.json",
       summarize(options, config, *world, reports, progress.seconds()).dump(2) + "\n");
@@ -141,11 +163,7 @@ void addRunCommand(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
   CLI::App* command = app.add_subcommand("run", "step a scene and write frames.csv, summary.json");
   options->scene.addTo(*command);
-  std::vector<std::string> names(physics::broadphaseNames().begin(),
-                                 physics::broadphaseNames().end());
-  command->add_option("--algo", options->algorithm, "broadphase")
-      ->check(CLI::IsMember(names))
-      ->capture_default_str();
+  addAlgorithmOption(*command, options->algorithm);
   command->add_option("--frames", options->frames, "frames of 1/30 s")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
@@ -155,6 +173,12 @@ void addRunCommand(CLI::App& app) {
       ->check(CLI::Range(1, 1000));
   command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box");
   command->add_option("--out", options->out, "output folder")->capture_default_str();
+  command
+      ->add_option("--capture-every", options->capture_every,
+                   "write every K-th frame as a PNG under OUT/frames (0: none)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--capture-size", options->capture_size, "captured image size WxH")
+      ->capture_default_str();
   command->callback([options] { run(*options); });
 }
 

@@ -1,6 +1,7 @@
 #include "engine/scene_options.h"
 
 #include "engine/cli_errors.h"
+#include "physics/broadphase_factory.h"
 
 namespace overlap::engine {
 namespace {
@@ -102,6 +103,16 @@ nlohmann::json toJson(const physics::SceneConfig& config) {
           {"small_sizes", range(config.small)},
           {"average_sizes", range(config.average)},
           {"large_sizes", range(config.large)}};
+}
+
+void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
+  const std::vector<std::string> names(physics::broadphaseNames().begin(),
+                                       physics::broadphaseNames().end());
+  command
+      .add_option("--algo", algorithm,
+                  "broadphase: bf, sap, sap32, bvh (Bullet's), cpubf, gpubf, gpubf-paper (ours)")
+      ->check(CLI::IsMember(names))
+      ->capture_default_str();
 }
 
 }  // namespace overlap::engine

@@ -27,4 +27,7 @@ class SceneOptions {
 
 nlohmann::json toJson(const physics::SceneConfig& config);
 
+// Registers --algo, checked against the broadphases' names.
+void addAlgorithmOption(CLI::App& command, std::string& algorithm);
+
 }  // namespace overlap::engine

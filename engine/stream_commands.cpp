@@ -9,7 +9,6 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "physics/aabb_stream.h"
-#include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "physics/world.h"
 
@@ -85,10 +84,6 @@ void printPairs(const PairsOptions& options) {
   std::fwrite(csv.data(), 1, csv.size(), stdout);
 }
 
-std::vector<std::string> algorithmNames() {
-  return {physics::broadphaseNames().begin(), physics::broadphaseNames().end()};
-}
-
 }  // namespace
 
 void addRecordCommand(CLI::App& app) {
@@ -109,9 +104,7 @@ void addPairsCommand(CLI::App& app) {
   auto options = std::make_shared<PairsOptions>();
   CLI::App* command = app.add_subcommand(
       "pairs", "print each frame's pairs of a .aabbs file as CSV (frame,a,b) on stdout");
-  command->add_option("--algo", options->algorithm, "broadphase")
-      ->check(CLI::IsMember(algorithmNames()))
-      ->capture_default_str();
+  addAlgorithmOption(*command, options->algorithm);
   command->add_option("--input", options->input, "a Broadmark .aabbs file")->required();
   command->callback([options] { printPairs(*options); });
 }

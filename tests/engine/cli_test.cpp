@@ -21,7 +21,11 @@ struct Result {
 
 // Runs the overlap binary with `args`, capturing stderr.
 Result runOverlap(const std::string& args) {
-  const std::filesystem::path err = std::filesystem::temp_directory_path() / "overlap_cli_err.txt";
+  // One stderr file per test: ctest runs the tests in parallel processes.
+  const std::filesystem::path err =
+      std::filesystem::temp_directory_path() /
+      ("overlap_cli_err_" +
+       std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + ".txt");
   const std::string command =
       std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err.string();
   const int status = std::system(command.c_str());
@@ -116,6 +120,57 @@ TEST_F(CliTest, SameSeedGivesTheSameStateHash) {
   const std::string first = hashOf("42");
   EXPECT_EQ(first, hashOf("42"));
   EXPECT_NE(first, hashOf("43"));
+}
+
+TEST_F(CliTest, CaptureWritesOneIdenticalPngPerKeyframe) {
+  const std::string args = "capture --scene 4 --objects 100 --keyframes 0,3 --size 160x120 --out ";
+  ASSERT_EQ(runOverlap(args + out_.string()).exit_code, 0);
+  const std::filesystem::path second = out_ / "again";
+  ASSERT_EQ(runOverlap(args + second.string()).exit_code, 0);
+  for (const char* name : {"scene4_frame0000.png", "scene4_frame0003.png"}) {
+    std::ifstream a(out_ / name, std::ios::binary), b(second / name, std::ios::binary);
+    const std::string first_bytes{std::istreambuf_iterator<char>(a), {}};
+    const std::string second_bytes{std::istreambuf_iterator<char>(b), {}};
+    ASSERT_GT(first_bytes.size(), 24u) << name;
+    EXPECT_EQ(first_bytes.substr(1, 3), "PNG") << name;
+    // IHDR: width and height, big-endian, at bytes 16 and 20.
+    auto be32 = [&](std::size_t at) {
+      return (static_cast<unsigned char>(first_bytes[at]) << 24) |
+             (static_cast<unsigned char>(first_bytes[at + 1]) << 16) |
+             (static_cast<unsigned char>(first_bytes[at + 2]) << 8) |
+             static_cast<unsigned char>(first_bytes[at + 3]);
+    };
+    EXPECT_EQ(be32(16), 160);
+    EXPECT_EQ(be32(20), 120);
+    EXPECT_EQ(first_bytes, second_bytes) << name;
+  }
+}
+
+TEST_F(CliTest, CaptureThatCannotRenderFailsWithoutWritingAnImage) {
+  for (const char* size : {"0x0", "100000x100000", "wide"}) {
+    const Result result = runOverlap(std::string("capture --objects 100 --keyframes 1 --size ") +
+                                     size + " --out " + out_.string());
+    EXPECT_NE(result.exit_code, 0) << size;
+    EXPECT_FALSE(result.stderr_text.empty()) << size;
+    EXPECT_FALSE(std::filesystem::exists(out_ / "scene4_frame0001.png")) << size;
+  }
+}
+
+TEST_F(CliTest, RunCapturesEveryKthFrameOutsideThePhysicsTimings) {
+  ASSERT_EQ(
+      runOverlap("run --objects 100 --frames 7 --capture-every 3 --capture-size 64x48 --out " +
+                 out_.string())
+          .exit_code,
+      0);
+  for (const char* name :
+       {"scene4_frame0000.png", "scene4_frame0003.png", "scene4_frame0006.png"}) {
+    EXPECT_TRUE(std::filesystem::exists(out_ / "frames" / name)) << name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out_ / "frames" / "scene4_frame0001.png"));
+  std::ifstream csv(out_ / "frames.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_NE(header.find("render_ms"), std::string::npos);
 }
 
 }  // namespace

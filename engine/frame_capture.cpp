@@ -1,0 +1,47 @@
+#include "engine/frame_capture.h"
+
+#include <chrono>
+#include <cstdio>
+#include <vector>
+
+namespace overlap::engine {
+namespace {
+
+int renderSizeClass(physics::SizeClass size_class) {
+  switch (size_class) {
+    case physics::SizeClass::kSmall:
+      return 0;
+    case physics::SizeClass::kLarge:
+      return 2;
+    case physics::SizeClass::kUnit:
+    case physics::SizeClass::kAverage:
+      return 1;
+  }
+  return 1;
+}
+
+}  // namespace
+
+FrameCapture::FrameCapture(const std::filesystem::path& folder, int width, int height,
+                           render::ColourMode mode)
+    : folder_(folder), renderer_(width, height, mode) {}
+
+double FrameCapture::capture(const physics::PhysicsWorld& world, int frame) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<render::BoxInstance> boxes;
+  for (const physics::BoxPose& pose : world.boxPoses()) {
+    boxes.push_back(
+        render::BoxInstance{Eigen::Vector3f(pose.centre[0], pose.centre[1], pose.centre[2]),
+                            Eigen::Quaternionf(pose.orientation[3], pose.orientation[0],
+                                               pose.orientation[1], pose.orientation[2]),
+                            pose.edge, renderSizeClass(pose.size_class), pose.in_contact});
+  }
+  const render::SceneView view{static_cast<float>(world.layout().half_extent), boxes};
+  char name[64];
+  std::snprintf(name, sizeof(name), "scene%d_frame%04d.png", world.config().scene, frame);
+  render::writePng(renderer_.render(view), folder_ / name);
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace overlap::engine

@@ -1,0 +1,29 @@
+// Frame capture: pictures of a running scene, written as PNG files named
+// with the scene and the frame (scene4_frame0512.png).  Rendering happens on
+// the main thread after the frame's physics and is timed on its own, never
+// inside the physics timings.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+
+#include "physics/world.h"
+#include "render/renderer.h"
+
+namespace overlap::engine {
+
+class FrameCapture {
+ public:
+  // Throws render::RenderError if no OSMesa context of that size can be made.
+  FrameCapture(const std::filesystem::path& folder, int width, int height, render::ColourMode mode);
+
+  // Renders the world as it is now and writes it as `frame`; returns the
+  // milliseconds the render and the PNG took.
+  double capture(const physics::PhysicsWorld& world, int frame);
+
+ private:
+  std::filesystem::path folder_;
+  render::OffscreenRenderer renderer_;
+};
+
+}  // namespace overlap::engine
