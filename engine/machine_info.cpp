@@ -23,7 +23,7 @@ std::string cpuModel() {
 
 std::string gpuDescription() {
   std::string why;
-  if (gpu::cudaDeviceAvailable(&why)) return "CUDA device";
+  if (gpu::cudaDeviceAvailable(&why)) return gpu::cudaDeviceName();
   return "none (" + why + ")";
 }
 

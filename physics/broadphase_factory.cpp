@@ -6,6 +6,10 @@
 
 #include <array>
 #include <stdexcept>
+#include <string>
+
+#include "gpu/background_pair_finder.h"
+#include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 namespace {
@@ -14,6 +18,13 @@ constexpr std::array<std::string_view, 7> kNames = {"bf",    "sap",   "sap32",  
                                                     "cpubf", "gpubf", "gpubf-paper"};
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
+
+// cpubf searches on a worker thread, so the frame's CPU tasks can overlap it
+// as they overlap the GPU's search.
+std::unique_ptr<gpu::PairFinder> cpuFinder() {
+  return std::make_unique<gpu::BackgroundPairFinder>(
+      gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));
+}
 
 }  // namespace
 
@@ -41,8 +52,20 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
         world_min, world_max, static_cast<unsigned int>(max_objects + 1), nullptr, true);
   } else if (name == "bvh") {
     choice.broadphase = std::make_unique<btDbvtBroadphase>();
+  } else if (name == "cpubf") {
+    choice.broadphase = std::make_unique<PairFinderBroadphase>(cpuFinder());
+  } else if (name == "gpubf" || name == "gpubf-paper") {
+    std::string why;
+    if (gpu::cudaDeviceAvailable(&why)) {
+      choice.broadphase = std::make_unique<PairFinderBroadphase>(
+          gpu::makePairFinder(name == "gpubf" ? gpu::PairFinderKind::kGpuBruteForce
+                                              : gpu::PairFinderKind::kGpuBruteForcePaper));
+    } else {
+      choice.name = "cpubf";
+      choice.notice = "algo " + std::string(name) + ": " + why + "; running cpubf instead";
+      choice.broadphase = std::make_unique<PairFinderBroadphase>(cpuFinder());
+    }
   } else {
-    // OVERLAP_PAIR_FINDERS: cpubf, gpubf and gpubf-paper are added here.
     throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
   }
   return choice;

@@ -5,10 +5,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
+#include <utility>
 
+#include "gpu/stopwatch.h"
 #include "physics/broadphase_factory.h"
+#include "physics/pair_finder_broadphase.h"
 #include "physics/random.h"
 
 namespace overlap::physics {
@@ -22,67 +27,111 @@ constexpr double kMaxMargin = 0.04;
 constexpr double kMarginPerEdge = 0.1;
 // A manifold point counts as contact within this distance (m).
 constexpr btScalar kContactDistance = 0.01f;
+// Past this distance from the origin a float has under 7 cm of resolution, no
+// container reaches it, and a box there is a broken state, not a physical one.
+constexpr double kFarAway = 1e6;
 
-class Stopwatch {
- public:
-  double ms() const {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
-        .count();
-  }
-
- private:
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
-// btDiscreteDynamicsWorld with each stage of a substep timed from inside.
+// btDiscreteDynamicsWorld with each stage of a substep timed from inside, and
+// the frame's CPU work slotted into the first substep's broadphase.
 class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
  public:
   using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
 
   FrameTimings timings;
+  const FrameWork* pending_work = nullptr;            // consumed by the next broadphase
+  PairFinderBroadphase* background_search = nullptr;  // set when the broadphase can overlap
+  std::function<void()> after_aabb_update;
+  std::optional<BackgroundSearch> first_search;  // of this frame
 
   void updateAabbs() override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::updateAabbs();
+    if (after_aabb_update) after_aabb_update();
     timings.update_ms += watch.ms();
   }
   void computeOverlappingPairs() override {
-    const Stopwatch watch;
-    btDiscreteDynamicsWorld::computeOverlappingPairs();
-    timings.broadphase_ms += watch.ms();
+    const FrameWork* work = std::exchange(pending_work, nullptr);
+    const bool overlapped = work != nullptr && work->overlapped && background_search != nullptr;
+    if (work != nullptr && !overlapped) runFrameWork(*work);  // one after the other
+    if (background_search == nullptr) {
+      const gpu::HostStopwatch watch;
+      btDiscreteDynamicsWorld::computeOverlappingPairs();
+      timings.broadphase_ms += watch.ms();
+      return;
+    }
+    // launch -> (the frame's CPU work) -> join: the search runs meanwhile.
+    BackgroundSearch search{};
+    const gpu::HostStopwatch launch;
+    search.launched = std::chrono::steady_clock::now();
+    background_search->launchPairSearch();
+    timings.broadphase_ms += launch.ms();
+    if (overlapped) runFrameWork(*work);
+    const gpu::HostStopwatch join;
+    search.joined = std::chrono::steady_clock::now();
+    background_search->finishPairSearch(m_dispatcher1);
+    timings.join_ms += join.ms();
+    timings.broadphase_ms += join.ms();
+    search.search_ms = background_search->finder().lastSearchMs();
+    if (!first_search) first_search = search;
   }
-  // update + broadphase + narrowphase; the narrowphase is what remains.
+  // update + broadphase (+ frame work) + narrowphase; the narrowphase is what remains.
   void performDiscreteCollisionDetection() override {
-    const double before = timings.update_ms + timings.broadphase_ms;
-    const Stopwatch watch;
+    const double before = timings.update_ms + timings.broadphase_ms + timings.frame_work_ms;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
-    timings.narrowphase_ms += watch.ms() - (timings.update_ms + timings.broadphase_ms - before);
+    const double after = timings.update_ms + timings.broadphase_ms + timings.frame_work_ms;
+    timings.narrowphase_ms += watch.ms() - (after - before);
   }
   void createPredictiveContacts(btScalar dt) override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::createPredictiveContacts(dt);
     timings.narrowphase_ms += watch.ms();
   }
   void calculateSimulationIslands() override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::calculateSimulationIslands();
     timings.solver_ms += watch.ms();
   }
   void solveConstraints(btContactSolverInfo& info) override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::solveConstraints(info);
     timings.solver_ms += watch.ms();
   }
   void predictUnconstraintMotion(btScalar dt) override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
     timings.integrate_ms += watch.ms();
   }
   void integrateTransforms(btScalar dt) override {
-    const Stopwatch watch;
+    const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::integrateTransforms(dt);
     timings.integrate_ms += watch.ms();
   }
+
+ private:
+  void runFrameWork(const FrameWork& work) {
+    const gpu::HostStopwatch watch;
+    work.run();
+    timings.frame_work_ms += watch.ms();
+  }
+};
+
+// Notes every pair the cache gains (Bullet calls it as the pair is created),
+// so the sound task can hear new contacts whatever the broadphase.
+class NewPairRecorder final : public btOverlappingPairCallback {
+ public:
+  std::vector<std::pair<const btCollisionObject*, const btCollisionObject*>> added;
+
+  btBroadphasePair* addOverlappingPair(btBroadphaseProxy* proxy0,
+                                       btBroadphaseProxy* proxy1) override {
+    added.emplace_back(static_cast<const btCollisionObject*>(proxy0->m_clientObject),
+                       static_cast<const btCollisionObject*>(proxy1->m_clientObject));
+    return nullptr;
+  }
+  void* removeOverlappingPair(btBroadphaseProxy*, btBroadphaseProxy*, btDispatcher*) override {
+    return nullptr;
+  }
+  void removeOverlappingPairsContainingProxy(btBroadphaseProxy*, btDispatcher*) override {}
 };
 
 btVector3 toBullet(const Eigen::Vector3d& v) {
@@ -111,6 +160,8 @@ struct PhysicsWorld::Bullet {
   std::vector<std::unique_ptr<btBoxShape>> shapes;
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
   std::vector<double> edges;                         // per box
+  std::vector<bool> removed;                         // per box: out of the simulation
+  NewPairRecorder new_pairs;
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
 
@@ -137,6 +188,9 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
                                                  &b.collision_config);
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
+  b.world->background_search = dynamic_cast<PairFinderBroadphase*>(b.broadphase.get());
+  b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
+  b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.new_pairs);
   b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
   b.world->setGravity(toBullet(b.gravity.gravity()));
   // A separate stream for the kicks, so scene 2's start equals the others'.
@@ -169,6 +223,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
     }
     b.world->addRigidBody(body.get());
     b.edges.push_back(start.edge);
+    b.removed.push_back(false);
     b.shapes.push_back(std::move(shape));
     b.bodies.push_back(std::move(body));
   }
@@ -219,10 +274,13 @@ void PhysicsWorld::applySceneForces() {
   }
 }
 
-FrameReport PhysicsWorld::stepFrame() {
+FrameReport PhysicsWorld::stepFrame(const FrameWork* work) {
   Bullet& b = *bullet_;
-  const Stopwatch frame_watch;
+  const gpu::HostStopwatch frame_watch;
   b.world->timings = {};
+  b.world->first_search.reset();
+  b.world->pending_work = work;
+  b.new_pairs.added.clear();
   applySceneForces();
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
   for (int k = 0; k < substeps_; ++k) {
@@ -232,6 +290,7 @@ FrameReport PhysicsWorld::stepFrame() {
   FrameReport report;
   report.frame = frame_++;
   report.timings = b.world->timings;
+  report.background_search = b.world->first_search;
   report.timings.total_ms = frame_watch.ms();
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
   measureContainment(report);
@@ -243,13 +302,14 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
   const double h = layout_.half_extent;
   const double outer = layout_.outerHalfExtent();
   for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
-    const btRigidBody& body = *b.bodies[i];
-    const btVector3& c = body.getWorldTransform().getOrigin();
+    if (b.removed[i]) {
+      ++report.removed_from_simulation;
+      continue;
+    }
+    const btVector3& c = b.bodies[i]->getWorldTransform().getOrigin();
     const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
-    // A NaN centre counts as escaped: it is nowhere inside.
-    if (!(reach <= outer)) ++report.escaped;
-    if (!(reach <= h)) ++report.sunk;
-    if (body.getActivationState() == DISABLE_SIMULATION) ++report.removed_from_simulation;
+    if (reach > outer) ++report.escaped;
+    if (reach > h) ++report.sunk;
   }
   const auto n = static_cast<int>(layout_.boxes.size());
   auto edgeOf = [&](const btCollisionObject* object) {
@@ -298,15 +358,17 @@ std::vector<BoxPose> PhysicsWorld::boxPoses() const {
       if (index < n) touching[index] = true;
     }
   }
-  std::vector<BoxPose> poses(n);
+  std::vector<BoxPose> poses;
+  poses.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
+    if (b.removed[i]) continue;
     const btTransform& t = b.bodies[i]->getWorldTransform();
     const btQuaternion q = t.getRotation();
-    poses[i] = BoxPose{{t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z()},
-                       {q.x(), q.y(), q.z(), q.w()},
-                       static_cast<float>(layout_.boxes[i].edge),
-                       layout_.boxes[i].size_class,
-                       touching[i]};
+    poses.push_back(BoxPose{{t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z()},
+                            {q.x(), q.y(), q.z(), q.w()},
+                            static_cast<float>(layout_.boxes[i].edge),
+                            layout_.boxes[i].size_class,
+                            touching[i]});
   }
   return poses;
 }
@@ -315,6 +377,11 @@ std::vector<Aabb> PhysicsWorld::aabbs() const {
   std::vector<Aabb> result;
   result.reserve(bullet_->bodies.size());
   for (const auto& body : bullet_->bodies) {
+    if (body->getBroadphaseHandle() == nullptr) {  // out of the simulation: overlaps nothing
+      constexpr float kInf = std::numeric_limits<float>::infinity();
+      result.push_back(Aabb{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}});
+      continue;
+    }
     btVector3 lo, hi;
     bullet_->broadphase->getAabb(body->getBroadphaseHandle(), lo, hi);
     result.push_back(Aabb{{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}});
@@ -335,6 +402,78 @@ std::vector<std::pair<int, int>> PhysicsWorld::cachedPairs() const {
   }
   std::sort(pairs.begin(), pairs.end());
   return pairs;
+}
+
+void PhysicsWorld::removeBrokenBoxes() {
+  Bullet& b = *bullet_;
+  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
+    if (b.removed[i]) continue;
+    btRigidBody& body = *b.bodies[i];
+    const btVector3& c = body.getWorldTransform().getOrigin();
+    const bool disabled = body.getActivationState() == DISABLE_SIMULATION;
+    const bool lost = !(c.length() <= kFarAway);  // NaN and infinity fail the test too
+    if (!disabled && !lost) continue;
+    // Out now, before the narrowphase meets its state: a NaN contact would
+    // spread to every box it touches through the solver.
+    b.world->removeRigidBody(&body);
+    b.removed[i] = true;
+    std::fprintf(stderr,
+                 "overlap: box %zu left the simulation at frame %d: centre (%g, %g, %g) is %s\n", i,
+                 frame_, c.x(), c.y(), c.z(),
+                 disabled ? "not finite or its AABB is too large" : "too far from the origin");
+  }
+}
+
+std::vector<NewContact> PhysicsWorld::newContacts() const {
+  const Bullet& b = *bullet_;
+  const auto n = static_cast<int>(layout_.boxes.size());
+  const double h = layout_.half_extent;
+  const auto edgeOf = [&](int index) {
+    return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
+  };
+  std::vector<NewContact> contacts;
+  contacts.reserve(b.new_pairs.added.size());
+  for (const auto& [object0, object1] : b.new_pairs.added) {
+    // A box that left the simulation after the pair was made has no state to hear.
+    if (object0->getBroadphaseHandle() == nullptr || object1->getBroadphaseHandle() == nullptr) {
+      continue;
+    }
+    const int index0 = object0->getUserIndex();
+    const int index1 = object1->getUserIndex();
+    const btVector3& c0 = object0->getWorldTransform().getOrigin();
+    const btVector3& c1 = object1->getWorldTransform().getOrigin();
+    // Boxes close along the line between their centres; a box closes on a
+    // wall along the wall's normal.
+    btVector3 line = c1 - c0;
+    if (index0 >= n || index1 >= n) {
+      const int wall = std::max(index0, index1) - n;
+      const btVector3& wall_centre = index0 >= n ? c0 : c1;
+      line = btVector3(0, 0, 0);
+      line[wall / 2] = index0 >= n ? -wall_centre[wall / 2] : wall_centre[wall / 2];
+    }
+    const btVector3 v0 = btRigidBody::upcast(object0)->getLinearVelocity();
+    const btVector3 v1 = btRigidBody::upcast(object1)->getLinearVelocity();
+    const btScalar length = line.length();
+    const btScalar closing = length > 0 ? (v0 - v1).dot(line) / length : 0;
+    const btVector3& box_centre = index0 < n ? c0 : c1;
+    contacts.push_back(NewContact{index0, index1, std::max(0.0f, closing),
+                                  static_cast<float>(std::clamp(box_centre.x() / h, -1.0, 1.0)),
+                                  std::min(edgeOf(index0), edgeOf(index1))});
+  }
+  return contacts;
+}
+
+bool PhysicsWorld::broadphaseRunsInBackground() const {
+  return bullet_->world->background_search != nullptr;
+}
+
+void PhysicsWorld::injectBoxPosition(int box, const Eigen::Vector3d& position) {
+  if (box < 0 || box >= static_cast<int>(layout_.boxes.size())) {
+    throw std::out_of_range("injectBoxPosition: no box " + std::to_string(box));
+  }
+  btRigidBody& body = *bullet_->bodies[static_cast<std::size_t>(box)];
+  body.getWorldTransform().setOrigin(toBullet(position));
+  body.activate(true);
 }
 
 btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {

@@ -11,8 +11,12 @@
 // boxes; the same config and options give bit-identical runs (stateHash()).
 #pragma once
 
+#include <Eigen/Core>
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,11 +38,21 @@ int defaultSubsteps(const SceneConfig& config);
 
 struct FrameTimings {
   double update_ms = 0;       // AABBs written into the broadphase
-  double broadphase_ms = 0;   // pair search and pair-cache update
+  double broadphase_ms = 0;   // pair search and pair-cache update, as the main thread saw it
+  double frame_work_ms = 0;   // the frame's CPU tasks, run inside the first broadphase
+  double join_ms = 0;         // after the tasks: waiting for the search, applying its changes
   double narrowphase_ms = 0;  // contact generation for the cached pairs
   double solver_ms = 0;       // constraint solver
   double integrate_ms = 0;    // motion prediction and integration
   double total_ms = 0;        // the whole frame
+};
+
+// The first substep's search by a broadphase that runs in the background
+// (the one the frame's CPU work overlaps).
+struct BackgroundSearch {
+  std::chrono::steady_clock::time_point launched;
+  std::chrono::steady_clock::time_point joined;  // when the main thread began to wait
+  double search_ms;  // the search alone: GPU events, or the CPU search's own clock
 };
 
 struct FrameReport {
@@ -48,7 +62,8 @@ struct FrameReport {
   int escaped = 0;                  // boxes whose centre is beyond a wall's outer face
   int sunk = 0;                     // boxes whose centre is outside the interior
   double max_penetration = 0;       // deepest contact overlap / that box's edge
-  int removed_from_simulation = 0;  // boxes Bullet disabled (non-finite or huge AABB)
+  int removed_from_simulation = 0;  // boxes taken out: non-finite, huge or far away
+  std::optional<BackgroundSearch> background_search;
 };
 
 struct BoxPose {
@@ -57,6 +72,25 @@ struct BoxPose {
   float edge;
   SizeClass size_class;
   bool in_contact;
+};
+
+// A pair the broadphase added to the cache during the last frame: a new
+// contact for the sound task.  Walls are numbered after the boxes.
+struct NewContact {
+  int a;
+  int b;
+  float closing_speed;  // m/s along the line between the centres (walls: their normal)
+  float pan;            // the contact's x in the container, -1 left .. 1 right
+  float edge;           // the smaller box's edge
+};
+
+// The CPU work a frame runs while its broadphase searches (engine's
+// scheduler).  With `overlapped`, a broadphase that can search in the
+// background (cpubf, gpubf, gpubf-paper) is launched first, `run` runs, and
+// the search is joined; otherwise `run` runs first and the broadphase after.
+struct FrameWork {
+  std::function<void()> run;
+  bool overlapped = true;
 };
 
 struct Aabb {
@@ -71,8 +105,9 @@ class PhysicsWorld {
   PhysicsWorld(const PhysicsWorld&) = delete;
   PhysicsWorld& operator=(const PhysicsWorld&) = delete;
 
-  // Runs one frame: scene forces (kicks, gravity), then K substeps.
-  FrameReport stepFrame();
+  // Runs one frame: scene forces (kicks, gravity), then K substeps; `work`
+  // runs during the first substep's broadphase.
+  FrameReport stepFrame(const FrameWork* work = nullptr);
 
   const SceneConfig& config() const { return config_; }
   const SceneLayout& layout() const { return layout_; }
@@ -90,6 +125,15 @@ class PhysicsWorld {
   // are numbered after the boxes.
   std::vector<std::pair<int, int>> cachedPairs() const;
 
+  // Pairs the broadphase added during the last frame, in the order added.
+  std::vector<NewContact> newContacts() const;
+  // True when the broadphase can search while other work runs.
+  bool broadphaseRunsInBackground() const;
+
+  // Puts box `box` at `position` (any value, NaN included), for hard cases:
+  // a box whose AABB becomes unusable leaves the simulation with a message.
+  void injectBoxPosition(int box, const Eigen::Vector3d& position);
+
   btDiscreteDynamicsWorld& bulletWorld();
   btBroadphaseInterface& broadphase();
 
@@ -97,6 +141,7 @@ class PhysicsWorld {
   struct Bullet;
   void applySceneForces();
   void measureContainment(FrameReport& report) const;
+  void removeBrokenBoxes();
 
   SceneConfig config_;
   SceneLayout layout_;

@@ -1,0 +1,44 @@
+// The frame timeline: named spans on named lanes (main thread, broadphase
+// search, sound, AI), written in the Chrome trace event format, which
+// Perfetto (ui.perfetto.dev) and chrome://tracing open.  Times are
+// microseconds since the run started.
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace overlap::engine {
+
+struct Span {
+  std::string name;
+  std::string lane;
+  double start_us;
+  double duration_us;
+  int frame;
+};
+
+class Timeline {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  explicit Timeline(Clock::time_point origin = Clock::now()) : origin_(origin) {}
+  double microsecondsAt(Clock::time_point t) const {
+    return std::chrono::duration<double, std::micro>(t - origin_).count();
+  }
+  void add(Span span) { spans_.push_back(std::move(span)); }
+  const std::vector<Span>& spans() const { return spans_; }
+  // Writes the whole run as one JSON trace, through a temporary file.
+  void write(const std::filesystem::path& path) const;
+
+ private:
+  Clock::time_point origin_;
+  std::vector<Span> spans_;
+};
+
+// The share of [start, start + duration) that lies inside any of `busy`
+// (intervals in the same units, possibly overlapping each other).
+double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy);
+
+}  // namespace overlap::engine

@@ -1,0 +1,28 @@
+// CUDA error checking for the GPU finders (nvcc only).  Every runtime call
+// goes through CUDA_CHECK, which throws std::runtime_error naming the call,
+// the file and line, and CUDA's own description of the error.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace overlap::gpu {
+
+[[noreturn]] inline void throwCudaError(cudaError_t error, const char* call, const char* file,
+                                        int line) {
+  throw std::runtime_error(std::string(file) + ":" + std::to_string(line) + ": " + call +
+                           " failed: " + cudaGetErrorName(error) + ": " +
+                           cudaGetErrorString(error));
+}
+
+}  // namespace overlap::gpu
+
+#define CUDA_CHECK(call)                                                              \
+  do {                                                                                \
+    const cudaError_t overlap_cuda_status = (call);                                   \
+    if (overlap_cuda_status != cudaSuccess) {                                         \
+      ::overlap::gpu::throwCudaError(overlap_cuda_status, #call, __FILE__, __LINE__); \
+    }                                                                                 \
+  } while (false)

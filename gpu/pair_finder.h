@@ -1,0 +1,82 @@
+// Pair finders: the brute-force broadphase cores, free of Bullet.
+//
+// A PairFinder owns a set of object slots (index = slot) and, each frame,
+// finds every pair a < b whose AABBs overlap (inclusive: touching counts) and
+// whose collision filters accept each other:
+//   (group[a] & mask[b]) != 0 && (group[b] & mask[a]) != 0.
+// It remembers last frame's answer and reports only what changed: the pairs
+// that started overlapping and the pairs that stopped.  An unused slot has
+// group = mask = 0 and so pairs with nothing.
+//
+// The work is split so the caller can overlap it with other work: launch()
+// uploads the boxes and starts the search (it returns at once on the GPU);
+// finish() waits and returns the changes.  Both are called from one thread,
+// strictly alternating; launch() copies what it needs, so the caller may
+// change its boxes as soon as launch() returns.
+//
+// Invariants: added and removed are sorted by (a, b), hold no duplicates, and
+// are disjoint; the slot count may grow between frames (new slots start with
+// no pairs) but never shrinks.  The per-pair rules live in gpu/pair_logic.h,
+// shared by every finder.
+#pragma once
+
+#include <compare>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace overlap::gpu {
+
+// One slot's box and collision filter, as the caller hands it over.  32 bytes
+// and 16-byte aligned so the GPU reads one object with two vector loads.
+struct alignas(16) ObjectBounds {
+  float min[3];
+  float max[3];
+  std::int32_t group;
+  std::int32_t mask;
+};
+
+struct IndexPair {
+  std::uint32_t a;  // a < b
+  std::uint32_t b;
+  friend bool operator==(const IndexPair&, const IndexPair&) = default;
+  friend auto operator<=>(const IndexPair&, const IndexPair&) = default;
+};
+
+// What changed since the previous frame; valid until the next launch().
+struct PairDelta {
+  std::span<const IndexPair> added;
+  std::span<const IndexPair> removed;
+};
+
+class PairFinder {
+ public:
+  virtual ~PairFinder() = default;
+  virtual std::string_view name() const = 0;
+  // Starts this frame's search over objects[0..n).  n must not shrink.
+  virtual void launch(std::span<const ObjectBounds> objects) = 0;
+  // Waits for the search started by launch() and returns what changed.
+  virtual PairDelta finish() = 0;
+  // How long the last finished search took by its own clock: CUDA events on
+  // the GPU (upload to last copy back), the searching thread's on the CPU.
+  virtual double lastSearchMs() const = 0;
+};
+
+enum class PairFinderKind { kCpuBruteForce, kGpuBruteForce, kGpuBruteForcePaper };
+
+// True when a CUDA device can run the GPU finders; otherwise `why` (if not
+// null) says why not.
+bool cudaDeviceAvailable(std::string* why);
+
+// The device the GPU finders use, e.g. "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)";
+// empty when cudaDeviceAvailable() is false.
+std::string cudaDeviceName();
+
+// Makes a finder.  The GPU kinds need cudaDeviceAvailable() and throw
+// std::runtime_error with its reason otherwise; cpu_threads = 0 lets the CPU
+// finder use every hardware thread.
+std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads = 0);
+
+}  // namespace overlap::gpu

@@ -1,0 +1,91 @@
+// Pair logic: the per-pair rules every pair finder applies, compiled for the
+// CPU and, under nvcc, for the GPU too, so that the CPU finder that CI tests
+// runs exactly the arithmetic the kernels run.
+//
+// Pair numbering is triangular and independent of the slot count n:
+//   p(a, b) = b (b - 1) / 2 + a   for a < b,
+// so row b holds the b pairs (0, b) .. (b - 1, b) and growing n only appends
+// pairs: an index, and every bit stored under it, stays valid.  Pair p lives in
+// 32-bit word p / 32, bit p % 32.  All index math is 64-bit and exact for
+// every slot index below 2^32 (p below 2^63).
+//
+// Overlap is inclusive on all three axes (touching boxes pair, as in
+// btSimpleBroadphase); a NaN coordinate compares false and so never pairs.
+// The tests combine with '&' rather than '&&' so that they stay branch-free:
+// the CPU loop vectorizes and a GPU warp does not diverge.
+#pragma once
+
+#include <math.h>  // ::sqrt, which names the same function in host and device code
+
+#include <cstdint>
+
+#include "gpu/pair_finder.h"
+
+#if defined(__CUDACC__)
+#define OVERLAP_HD __host__ __device__
+#else
+#define OVERLAP_HD
+#endif
+
+namespace overlap::gpu::pair_logic {
+
+inline constexpr std::uint32_t kBitsPerWord = 32;
+
+// Number of pairs among slots 0..b-1, which is also p(0, b).  Halving the even
+// factor first keeps it exact for every b <= 2^32.
+OVERLAP_HD constexpr std::uint64_t pairsBelow(std::uint64_t b) {
+  return b == 0 ? 0 : (b % 2 == 0 ? (b / 2) * (b - 1) : b * ((b - 1) / 2));
+}
+
+OVERLAP_HD constexpr std::uint64_t pairIndex(std::uint32_t a, std::uint32_t b) {
+  return pairsBelow(b) + a;
+}
+
+// Inverse of pairIndex: b is the largest b with pairsBelow(b) <= p.  The double
+// square root lands within one of it even where p has more than 53 bits; the
+// integer steps make the result exact.
+OVERLAP_HD inline IndexPair pairAt(std::uint64_t p) {
+  constexpr std::uint64_t kLargestSlot = 0xFFFFFFFFull;
+  const double estimate = (1.0 + ::sqrt(1.0 + 8.0 * static_cast<double>(p))) * 0.5;
+  std::uint64_t b = estimate >= static_cast<double>(kLargestSlot)
+                        ? kLargestSlot
+                        : static_cast<std::uint64_t>(estimate);
+  while (b > 1 && pairsBelow(b) > p) --b;
+  while (b < kLargestSlot && pairsBelow(b + 1) <= p) ++b;
+  return IndexPair{static_cast<std::uint32_t>(p - pairsBelow(b)), static_cast<std::uint32_t>(b)};
+}
+
+OVERLAP_HD constexpr std::uint64_t wordCount(std::uint64_t pairs) {
+  return (pairs + kBitsPerWord - 1) / kBitsPerWord;
+}
+
+OVERLAP_HD constexpr bool intervalsOverlap(float min_a, float max_a, float min_b, float max_b) {
+  return (min_a <= max_b) & (min_b <= max_a);
+}
+
+OVERLAP_HD constexpr bool filtersAccept(std::int32_t group_a, std::int32_t mask_a,
+                                        std::int32_t group_b, std::int32_t mask_b) {
+  return ((group_a & mask_b) != 0) & ((group_b & mask_a) != 0);
+}
+
+OVERLAP_HD constexpr bool boxesOverlap(const ObjectBounds& x, const ObjectBounds& y) {
+  return intervalsOverlap(x.min[0], x.max[0], y.min[0], y.max[0]) &
+         intervalsOverlap(x.min[1], x.max[1], y.min[1], y.max[1]) &
+         intervalsOverlap(x.min[2], x.max[2], y.min[2], y.max[2]);
+}
+
+// The whole rule for one pair: overlapping boxes whose filters accept each other.
+OVERLAP_HD constexpr bool objectsPair(const ObjectBounds& x, const ObjectBounds& y) {
+  return boxesOverlap(x, y) & filtersAccept(x.group, x.mask, y.group, y.mask);
+}
+
+// Given one word of last frame's bits and the same word of this frame's.
+OVERLAP_HD constexpr std::uint32_t addedBits(std::uint32_t previous, std::uint32_t current) {
+  return (previous ^ current) & current;
+}
+
+OVERLAP_HD constexpr std::uint32_t removedBits(std::uint32_t previous, std::uint32_t current) {
+  return (previous ^ current) & ~current;
+}
+
+}  // namespace overlap::gpu::pair_logic

@@ -1,0 +1,232 @@
+#include "physics/pair_finder_broadphase.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace overlap::physics {
+namespace {
+
+bool isUsableAabb(const btVector3& aabb_min, const btVector3& aabb_max) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!std::isfinite(aabb_min[axis]) || !std::isfinite(aabb_max[axis]) ||
+        aabb_min[axis] > aabb_max[axis]) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder)
+    : finder_(std::move(finder)), pair_cache_(std::make_unique<btHashedOverlappingPairCache>()) {
+  if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
+}
+
+PairFinderBroadphase::~PairFinderBroadphase() = default;
+
+btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
+                                                     const btVector3& aabbMax, int /*shapeType*/,
+                                                     void* userPtr, int collisionFilterGroup,
+                                                     int collisionFilterMask,
+                                                     btDispatcher* /*dispatcher*/) {
+  std::uint32_t slot = 0;
+  if (!free_slots_.empty()) {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  } else {
+    if (proxies_.size() >= static_cast<std::size_t>(std::numeric_limits<int>::max())) {
+      throw std::runtime_error("PairFinderBroadphase: more proxies than m_uniqueId can number");
+    }
+    slot = static_cast<std::uint32_t>(proxies_.size());
+    proxies_.emplace_back();
+    states_.push_back(SlotState::kFree);
+    aabb_valid_.push_back(true);
+    search_entries_.emplace_back();
+  }
+  // A free slot's old proxy has no pairs and no pending results: drop it.
+  proxies_[slot] = std::make_unique<btBroadphaseProxy>(aabbMin, aabbMax, userPtr,
+                                                       collisionFilterGroup, collisionFilterMask);
+  proxies_[slot]->m_uniqueId = static_cast<int>(slot);
+  states_[slot] = SlotState::kLive;
+  aabb_valid_[slot] = true;
+  ++live_count_;
+  updateSearchEntry(slot);
+  return proxies_[slot].get();
+}
+
+std::uint32_t PairFinderBroadphase::liveSlotOf(const btBroadphaseProxy* proxy,
+                                               const char* caller) const {
+  const auto slot = static_cast<std::uint32_t>(proxy == nullptr ? -1 : proxy->m_uniqueId);
+  if (proxy == nullptr || slot >= proxies_.size() || proxies_[slot].get() != proxy ||
+      states_[slot] != SlotState::kLive) {
+    throw std::runtime_error(std::string("PairFinderBroadphase::") + caller +
+                             ": the proxy is not a live proxy of this broadphase");
+  }
+  return slot;
+}
+
+void PairFinderBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+  const std::uint32_t slot = liveSlotOf(proxy, "destroyProxy");
+  pair_cache_->removeOverlappingPairsContainingProxy(proxy, dispatcher);
+  states_[slot] = SlotState::kDestroyed;
+  search_entries_[slot] = gpu::ObjectBounds{};
+  destroyed_.push_back(slot);
+  --live_count_;
+}
+
+void PairFinderBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin,
+                                   const btVector3& aabbMax, btDispatcher* /*dispatcher*/) {
+  const std::uint32_t slot = liveSlotOf(proxy, "setAabb");
+  proxy->m_aabbMin = aabbMin;
+  proxy->m_aabbMax = aabbMax;
+  updateSearchEntry(slot);
+}
+
+void PairFinderBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
+                                   btVector3& aabbMax) const {
+  aabbMin = proxy->m_aabbMin;
+  aabbMax = proxy->m_aabbMax;
+}
+
+void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
+  const btBroadphaseProxy& proxy = *proxies_[slot];
+  gpu::ObjectBounds& entry = search_entries_[slot];
+  if (!isUsableAabb(proxy.m_aabbMin, proxy.m_aabbMax)) {
+    if (aabb_valid_[slot]) {
+      const btVector3& lo = proxy.m_aabbMin;
+      const btVector3& hi = proxy.m_aabbMax;
+      std::fprintf(stderr,
+                   "PairFinderBroadphase: object %d (client object %p) has a non-finite or "
+                   "inverted AABB min (%g, %g, %g) max (%g, %g, %g); it is left out of pair "
+                   "finding until it gets a valid AABB\n",
+                   proxy.m_uniqueId, proxy.m_clientObject, double{lo.x()}, double{lo.y()},
+                   double{lo.z()}, double{hi.x()}, double{hi.y()}, double{hi.z()});
+    }
+    aabb_valid_[slot] = false;
+    entry = gpu::ObjectBounds{};  // group = mask = 0: the search drops its pairs
+    return;
+  }
+  aabb_valid_[slot] = true;
+  for (int axis = 0; axis < 3; ++axis) {
+    entry.min[axis] = static_cast<float>(proxy.m_aabbMin[axis]);
+    entry.max[axis] = static_cast<float>(proxy.m_aabbMax[axis]);
+  }
+  entry.group = proxy.m_collisionFilterGroup;
+  entry.mask = proxy.m_collisionFilterMask;
+}
+
+void PairFinderBroadphase::forEachSearchableProxy(
+    const std::function<void(btBroadphaseProxy&)>& visit) {
+  // By index: a callback may create proxies and so grow the vectors.
+  for (std::size_t slot = 0; slot < proxies_.size(); ++slot) {
+    if (states_[slot] == SlotState::kLive && aabb_valid_[slot]) visit(*proxies_[slot]);
+  }
+}
+
+void PairFinderBroadphase::rayTest(const btVector3& rayFrom, const btVector3& /*rayTo*/,
+                                   btBroadphaseRayCallback& rayCallback, const btVector3& aabbMin,
+                                   const btVector3& aabbMax) {
+  // As btDbvtBroadphase: each box is grown by the cast shape's AABB and slab
+  // tested; m_lambda_max is read for every box, as a callback may shorten it.
+  forEachSearchableProxy([&](btBroadphaseProxy& proxy) {
+    const btVector3 bounds[2] = {proxy.m_aabbMin - aabbMax, proxy.m_aabbMax - aabbMin};
+    btScalar entry_lambda = 0;
+    if (btRayAabb2(rayFrom, rayCallback.m_rayDirectionInverse, rayCallback.m_signs, bounds,
+                   entry_lambda, btScalar(0), rayCallback.m_lambda_max)) {
+      rayCallback.process(&proxy);
+    }
+  });
+}
+
+void PairFinderBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
+                                    btBroadphaseAabbCallback& callback) {
+  forEachSearchableProxy([&](btBroadphaseProxy& proxy) {
+    if (TestAabbAgainstAabb2(aabbMin, aabbMax, proxy.m_aabbMin, proxy.m_aabbMax)) {
+      callback.process(&proxy);
+    }
+  });
+}
+
+void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
+  launchPairSearch();
+  finishPairSearch(dispatcher);
+}
+
+void PairFinderBroadphase::launchPairSearch() {
+  if (search_in_flight_) {
+    throw std::runtime_error("PairFinderBroadphase: launchPairSearch() called twice");
+  }
+  for (const std::uint32_t slot : destroyed_) states_[slot] = SlotState::kDraining;
+  draining_.insert(draining_.end(), destroyed_.begin(), destroyed_.end());
+  destroyed_.clear();
+  finder_->launch(search_entries_);
+  search_in_flight_ = true;
+}
+
+void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
+  if (!search_in_flight_) {
+    throw std::runtime_error("PairFinderBroadphase: finishPairSearch() without launchPairSearch()");
+  }
+  search_in_flight_ = false;
+  const gpu::PairDelta delta = finder_->finish();
+  // A pair with a destroyed proxy already left the cache with it, and one it
+  // gained after launch is stale: only pairs of two live proxies apply.
+  const auto bothLive = [&](const gpu::IndexPair& pair) {
+    return states_[pair.a] == SlotState::kLive && states_[pair.b] == SlotState::kLive;
+  };
+  for (const gpu::IndexPair& pair : delta.removed) {
+    if (bothLive(pair)) {
+      pair_cache_->removeOverlappingPair(proxies_[pair.a].get(), proxies_[pair.b].get(),
+                                         dispatcher);
+    }
+  }
+  for (const gpu::IndexPair& pair : delta.added) {
+    if (bothLive(pair)) {
+      pair_cache_->addOverlappingPair(proxies_[pair.a].get(), proxies_[pair.b].get());
+    }
+  }
+  for (const std::uint32_t slot : draining_) {
+    states_[slot] = SlotState::kFree;
+    free_slots_.push_back(slot);
+  }
+  draining_.clear();
+}
+
+void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
+  bool any = false;
+  for (std::size_t slot = 0; slot < proxies_.size(); ++slot) {
+    if (states_[slot] != SlotState::kLive || !aabb_valid_[slot]) continue;
+    const btBroadphaseProxy& proxy = *proxies_[slot];
+    if (any) {
+      aabbMin.setMin(proxy.m_aabbMin);
+      aabbMax.setMax(proxy.m_aabbMax);
+    } else {
+      aabbMin = proxy.m_aabbMin;
+      aabbMax = proxy.m_aabbMax;
+      any = true;
+    }
+  }
+  if (!any) {
+    aabbMin.setZero();
+    aabbMax.setZero();
+  }
+}
+
+void PairFinderBroadphase::resetPool(btDispatcher* /*dispatcher*/) {
+  if (live_count_ != 0 || !destroyed_.empty() || !draining_.empty()) return;
+  std::sort(free_slots_.begin(), free_slots_.end(), std::greater<>());
+}
+
+void PairFinderBroadphase::printStats() {
+  std::printf("PairFinderBroadphase (%.*s): %zu live proxies in %zu slots, %d cached pairs\n",
+              static_cast<int>(finder_->name().size()), finder_->name().data(), live_count_,
+              proxies_.size(), pair_cache_->getNumOverlappingPairs());
+}
+
+}  // namespace overlap::physics

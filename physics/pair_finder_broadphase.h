@@ -1,0 +1,105 @@
+// PairFinderBroadphase: a Bullet broadphase backed by a brute-force
+// gpu::PairFinder (cpubf, gpubf or gpubf-paper), usable unchanged by any
+// btCollisionWorld / btDiscreteDynamicsWorld.
+//
+// Each proxy owns a slot of the finder; its m_uniqueId is its slot index, so
+// the same sequence of calls numbers proxies the same way on every run.  A
+// frame's search is split in two public halves so that a scheduler can run
+// CPU work while the GPU searches: launchPairSearch() hands the current boxes
+// to the finder, finishPairSearch() applies what changed to the owned
+// btHashedOverlappingPairCache (removals through the dispatcher, which frees
+// the pair's algorithm; a pair that stays keeps its cache entry untouched).
+//
+// Invariants:
+// - The cache holds exactly the pairs the finder last reported (minus those
+//   its own overlap filter refused), each once.
+// - A destroyed proxy's pairs leave the cache at once; its slot is searched as
+//   unused (group = mask = 0) by the next launch and reused only after the
+//   finish that follows, so stale results for it are ignored, never applied
+//   to a new proxy.
+// - A proxy whose AABB is non-finite or inverted is out of the search (its
+//   pairs are removed, one message on stderr) until it gets a valid AABB.
+// Like the rest of Bullet, it is not thread-safe: call it from one thread.
+#pragma once
+
+#include <btBulletCollisionCommon.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "gpu/pair_finder.h"
+
+namespace overlap::physics {
+
+class PairFinderBroadphase final : public btBroadphaseInterface {
+ public:
+  explicit PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder);
+  ~PairFinderBroadphase() override;
+  PairFinderBroadphase(const PairFinderBroadphase&) = delete;
+  PairFinderBroadphase& operator=(const PairFinderBroadphase&) = delete;
+
+  btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
+                                 void* userPtr, int collisionFilterGroup, int collisionFilterMask,
+                                 btDispatcher* dispatcher) override;
+  void destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) override;
+  void setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
+               btDispatcher* dispatcher) override;
+  void getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin, btVector3& aabbMax) const override;
+  void rayTest(const btVector3& rayFrom, const btVector3& rayTo,
+               btBroadphaseRayCallback& rayCallback, const btVector3& aabbMin = btVector3(0, 0, 0),
+               const btVector3& aabbMax = btVector3(0, 0, 0)) override;
+  void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
+                btBroadphaseAabbCallback& callback) override;
+  // launchPairSearch() then finishPairSearch(dispatcher).
+  void calculateOverlappingPairs(btDispatcher* dispatcher) override;
+  btOverlappingPairCache* getOverlappingPairCache() override { return pair_cache_.get(); }
+  const btOverlappingPairCache* getOverlappingPairCache() const override {
+    return pair_cache_.get();
+  }
+  // The union of the live, valid AABBs; all zero when there are none.
+  void getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const override;
+  // With no live proxies, slots are handed out from 0 again.
+  void resetPool(btDispatcher* dispatcher) override;
+  void printStats() override;
+
+  // Starts the search over the boxes as they are now; returns at once on the GPU.
+  void launchPairSearch();
+  // Waits for the search and brings the pair cache up to date.
+  void finishPairSearch(btDispatcher* dispatcher);
+
+  const gpu::PairFinder& finder() const { return *finder_; }
+
+ private:
+  enum class SlotState : std::uint8_t {
+    kLive,
+    kDestroyed,  // waiting for a launch to search it as unused
+    kDraining,   // searched as unused by the launch in flight; free at its finish
+    kFree,
+  };
+
+  // The proxy's slot; throws unless it is a live proxy of this broadphase.
+  std::uint32_t liveSlotOf(const btBroadphaseProxy* proxy, const char* caller) const;
+  // Writes the slot's search entry from its proxy, taking it out of the search
+  // (with one message) when the AABB is unusable.
+  void updateSearchEntry(std::uint32_t slot);
+  // Live proxies with a usable AABB, the ones queries may report.
+  void forEachSearchableProxy(const std::function<void(btBroadphaseProxy&)>& visit);
+
+  std::unique_ptr<gpu::PairFinder> finder_;
+  std::unique_ptr<btHashedOverlappingPairCache> pair_cache_;
+  // Indexed by slot.  A destroyed proxy stays allocated until its slot is
+  // reused, so a stale result never names freed memory.
+  std::vector<std::unique_ptr<btBroadphaseProxy>> proxies_;
+  std::vector<SlotState> states_;
+  std::vector<bool> aabb_valid_;
+  std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
+  std::vector<std::uint32_t> destroyed_;
+  std::vector<std::uint32_t> draining_;
+  std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
+  std::size_t live_count_ = 0;
+  bool search_in_flight_ = false;
+};
+
+}  // namespace overlap::physics

@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""The first results table: `overlap run` for each algorithm, scene and n.
+
+Runs every combination one after another (never in parallel, so runs do not
+compete for cores), keeps each run's summary.json under --work, and writes
+one CSV row per run plus a Markdown table of median per-frame times with
+each algorithm's broadphase and total time as a ratio to bf's in the same
+(scene, n).  Resumable: a run whose summary.json exists is not redone.
+
+  scripts/foundation_table.py --frames 256 --out docs/results/foundation
+"""
+import argparse
+import csv
+import json
+import pathlib
+import subprocess
+import sys
+import time
+
+COLUMNS = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms", "total_ms"]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--overlap", default="build/overlap", help="the overlap binary")
+    parser.add_argument("--algos", default="bf,sap,bvh")
+    parser.add_argument("--scenes", default="1,2,3,4")
+    parser.add_argument("--objects", default="500,1250,2000,2750,3500")
+    parser.add_argument("--frames", type=int, default=256)
+    parser.add_argument("--work", default="out/foundation", help="folder for the runs")
+    parser.add_argument("--out", default="docs/results/foundation", help="prefix of .csv and .md")
+    args = parser.parse_args()
+
+    algos = args.algos.split(",")
+    runs = [(s, n, a) for s in map(int, args.scenes.split(","))
+            for n in map(int, args.objects.split(",")) for a in algos]
+    rows = []
+    started = time.monotonic()
+    for done, (scene, n, algo) in enumerate(runs):
+        folder = pathlib.Path(args.work) / f"s{scene}_n{n}_{algo}"
+        summary_path = folder / "summary.json"
+        if not summary_path.exists():
+            command = [args.overlap, "run", "--scene", str(scene), "--objects", str(n),
+                       "--algo", algo, "--frames", str(args.frames), "--out", str(folder)]
+            subprocess.run(command, check=True, stderr=subprocess.DEVNULL)
+        summary = json.loads(summary_path.read_text())
+        rows.append(summary)
+        elapsed = time.monotonic() - started
+        print(f"[{done + 1}/{len(runs)}] scene {scene} n {n} {algo}: "
+              f"{summary['timings_ms']['total_ms']['median']:.1f} ms/frame, "
+              f"{elapsed:.0f} s elapsed", file=sys.stderr)
+
+    out = pathlib.Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out.with_suffix(".csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["scene", "objects", "algo", "frames", "substeps"]
+                        + [f"{c}_median" for c in COLUMNS] + [f"{c}_mean" for c in COLUMNS]
+                        + ["pairs_median", "escaped_max", "sunk_max", "max_penetration"])
+        for r in rows:
+            p, t, e = r["parameters"], r["timings_ms"], r["errors"]
+            writer.writerow([p["scene"], p["objects"], p["algorithm"], p["frames"], p["substeps"]]
+                            + [f"{t[c]['median']:.4f}" for c in COLUMNS]
+                            + [f"{t[c]['mean']:.4f}" for c in COLUMNS]
+                            + [r["pairs"]["median"], e["escaped_max"], e["sunk_max"],
+                               f"{e['max_penetration']:.3f}"])
+
+    machine = rows[0]["machine"]
+    baseline = {(r["parameters"]["scene"], r["parameters"]["objects"]): r["timings_ms"]
+                for r in rows if r["parameters"]["algorithm"] == "bf"}
+    lines = [f"# Foundation results: {len(runs)} runs of `overlap run`, {args.frames} frames each",
+             "",
+             f"Machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
+             f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}, "
+             f"commit {machine['git_commit']}.",
+             "",
+             "Command: `scripts/foundation_table.py " + " ".join(sys.argv[1:]) + "`",
+             "",
+             "Median per-frame milliseconds over the run; `bp/bf` and `total/bf` are the "
+             "broadphase and total medians divided by bf's in the same scene and n.",
+             "",
+             "| scene | n | algo | substeps | update | broadphase | narrowphase | solver | total "
+             "| bp/bf | total/bf | pairs | escaped | sunk max | max pen. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        p, t, e = r["parameters"], r["timings_ms"], r["errors"]
+        base = baseline.get((p["scene"], p["objects"]))
+        ratio = (lambda c: f"{t[c]['median'] / base[c]['median']:.2f}") if base else (lambda c: "")
+        lines.append(
+            f"| {p['scene']} | {p['objects']} | {p['algorithm']} | {p['substeps']} "
+            f"| {t['update_ms']['median']:.2f} | {t['broadphase_ms']['median']:.2f} "
+            f"| {t['narrowphase_ms']['median']:.2f} | {t['solver_ms']['median']:.2f} "
+            f"| {t['total_ms']['median']:.1f} | {ratio('broadphase_ms')} | {ratio('total_ms')} "
+            f"| {r['pairs']['median']:.0f} | {e['escaped_max']} | {e['sunk_max']} "
+            f"| {e['max_penetration']:.2f} |")
+    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,353 @@
+// PairFinderBroadphase as Bullet uses it: the pair cache mirrors the oracle
+// while proxies move, come and go (also between launch and finish); a pair
+// that stays keeps its cache entry and narrowphase state; unusable AABBs and
+// the queries behave.  Runs for every finder; GPU ones skip without a device.
+#include "physics/pair_finder_broadphase.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tests/gpu/pair_test_support.h"
+
+namespace overlap::physics {
+namespace {
+
+using gpu::IndexPair;
+using gpu::ObjectBounds;
+using gpu::PairFinderKind;
+
+constexpr int kDefault = btBroadphaseProxy::DefaultFilter;
+constexpr int kAll = btBroadphaseProxy::AllFilter;
+constexpr int kStatic = btBroadphaseProxy::StaticFilter;
+
+// Checks, through the cache's ghost callback, that every pair the cache adds
+// is new and every pair it removes exists: additions and removals balance.
+class PairLedger : public btOverlappingPairCallback {
+ public:
+  btBroadphasePair* addOverlappingPair(btBroadphaseProxy* p0, btBroadphaseProxy* p1) override {
+    EXPECT_TRUE(pairs_.insert(key(p0, p1)).second) << "pair added twice";
+    return nullptr;
+  }
+  void* removeOverlappingPair(btBroadphaseProxy* p0, btBroadphaseProxy* p1,
+                              btDispatcher* /*dispatcher*/) override {
+    EXPECT_EQ(pairs_.erase(key(p0, p1)), 1u) << "removed a pair that was not there";
+    return nullptr;
+  }
+  void removeOverlappingPairsContainingProxy(btBroadphaseProxy* /*proxy*/,
+                                             btDispatcher* /*dispatcher*/) override {}
+  std::size_t size() const { return pairs_.size(); }
+
+ private:
+  static std::pair<int, int> key(const btBroadphaseProxy* p0, const btBroadphaseProxy* p1) {
+    return std::minmax(p0->m_uniqueId, p1->m_uniqueId);
+  }
+  std::set<std::pair<int, int>> pairs_;
+};
+
+class PairFinderBroadphaseTest : public ::testing::TestWithParam<PairFinderKind> {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (GetParam() != PairFinderKind::kCpuBruteForce && !gpu::cudaDeviceAvailable(&why)) {
+      GTEST_SKIP() << "no CUDA device: " << why;
+    }
+    broadphase_ = std::make_unique<PairFinderBroadphase>(gpu::makePairFinder(GetParam()));
+    broadphase_->getOverlappingPairCache()->setInternalGhostPairCallback(&ledger_);
+  }
+
+  btBroadphaseProxy* create(const ObjectBounds& bounds, int group = kDefault, int mask = kAll) {
+    return broadphase_->createProxy(minOf(bounds), maxOf(bounds), BOX_SHAPE_PROXYTYPE, nullptr,
+                                    group, mask, &dispatcher_);
+  }
+  static btVector3 minOf(const ObjectBounds& b) { return {b.min[0], b.min[1], b.min[2]}; }
+  static btVector3 maxOf(const ObjectBounds& b) { return {b.max[0], b.max[1], b.max[2]}; }
+
+  // The cache's pairs as sorted (smaller id, larger id), each checked unique.
+  std::vector<IndexPair> cachedPairs() {
+    btOverlappingPairCache* cache = broadphase_->getOverlappingPairCache();
+    std::vector<IndexPair> pairs;
+    for (int i = 0; i < cache->getNumOverlappingPairs(); ++i) {
+      const btBroadphasePair& pair = cache->getOverlappingPairArray()[i];
+      const auto [a, b] = std::minmax(pair.m_pProxy0->m_uniqueId, pair.m_pProxy1->m_uniqueId);
+      pairs.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b)});
+    }
+    std::sort(pairs.begin(), pairs.end());
+    EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end()) << "duplicate pair";
+    EXPECT_EQ(pairs.size(), ledger_.size()) << "additions and removals do not balance";
+    return pairs;
+  }
+
+  // The oracle over the live proxies, by m_uniqueId.
+  static std::vector<IndexPair> expectedPairs(const std::vector<btBroadphaseProxy*>& live) {
+    int slots = 0;
+    for (const btBroadphaseProxy* proxy : live) slots = std::max(slots, proxy->m_uniqueId + 1);
+    std::vector<ObjectBounds> bounds(static_cast<std::size_t>(slots), ObjectBounds{});
+    for (const btBroadphaseProxy* proxy : live) {
+      ObjectBounds& entry = bounds[static_cast<std::size_t>(proxy->m_uniqueId)];
+      for (int axis = 0; axis < 3; ++axis) {
+        entry.min[axis] = proxy->m_aabbMin[axis];
+        entry.max[axis] = proxy->m_aabbMax[axis];
+      }
+      entry.group = proxy->m_collisionFilterGroup;
+      entry.mask = proxy->m_collisionFilterMask;
+    }
+    return gpu::testing::oraclePairs(bounds);
+  }
+
+  btDefaultCollisionConfiguration configuration_;
+  btCollisionDispatcher dispatcher_{&configuration_};
+  PairLedger ledger_;
+  std::unique_ptr<PairFinderBroadphase> broadphase_;
+};
+
+TEST_P(PairFinderBroadphaseTest, CacheMatchesOracleWhileObjectsMove) {
+  std::vector<btBroadphaseProxy*> live;
+  for (const ObjectBounds& b : gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 400, 0)) {
+    live.push_back(create(b, b.group, b.mask));
+  }
+  for (int frame = 1; frame < 6; ++frame) {
+    const auto moved = gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 400, frame);
+    for (std::size_t i = 0; i < live.size(); ++i) {
+      broadphase_->setAabb(live[i], minOf(moved[i]), maxOf(moved[i]), &dispatcher_);
+    }
+    broadphase_->calculateOverlappingPairs(&dispatcher_);
+    EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
+  }
+}
+
+TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoEvenDuringASearch) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<float> position(0.0f, 12.0f);
+  const auto randomBox = [&] {
+    const float x = position(random), y = position(random), z = position(random);
+    return gpu::testing::box(x, y, z, x + 1.5f, y + 1.5f, z + 1.5f);
+  };
+  std::vector<btBroadphaseProxy*> live;
+  const auto churn = [&] {
+    for (int i = 0; i < 15; ++i) live.push_back(create(randomBox()));
+    for (int i = 0; i < 10 && !live.empty(); ++i) {
+      const std::size_t victim = random() % live.size();
+      broadphase_->destroyProxy(live[victim], &dispatcher_);
+      live.erase(live.begin() + static_cast<std::ptrdiff_t>(victim));
+    }
+    for (btBroadphaseProxy* proxy : live) {
+      const ObjectBounds b = randomBox();
+      broadphase_->setAabb(proxy, minOf(b), maxOf(b), &dispatcher_);
+    }
+  };
+  for (int frame = 0; frame < 30; ++frame) {
+    churn();
+    broadphase_->launchPairSearch();
+    churn();  // while the search runs
+    broadphase_->finishPairSearch(&dispatcher_);
+    std::set<int> ids;
+    for (const btBroadphaseProxy* proxy : live) {
+      EXPECT_TRUE(ids.insert(proxy->m_uniqueId).second) << "two live proxies share an id";
+    }
+    for (const IndexPair& pair : cachedPairs()) {
+      EXPECT_TRUE(ids.count(static_cast<int>(pair.a)) && ids.count(static_cast<int>(pair.b)))
+          << "a cached pair names a destroyed proxy";
+    }
+    broadphase_->calculateOverlappingPairs(&dispatcher_);
+    EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
+  }
+}
+
+TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextFinish) {
+  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  btBroadphaseProxy* keep = create(unit);
+  btBroadphaseProxy* gone = create(unit);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  const int gone_id = gone->m_uniqueId;
+  broadphase_->destroyProxy(gone, &dispatcher_);
+  EXPECT_EQ(broadphase_->getOverlappingPairCache()->getNumOverlappingPairs(), 0);
+  EXPECT_NE(create(unit)->m_uniqueId, gone_id);
+  broadphase_->launchPairSearch();
+  EXPECT_NE(create(unit)->m_uniqueId, gone_id);
+  broadphase_->finishPairSearch(&dispatcher_);
+  btBroadphaseProxy* reused = create(unit);
+  EXPECT_EQ(reused->m_uniqueId, gone_id);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  EXPECT_NE(broadphase_->getOverlappingPairCache()->findPair(keep, reused), nullptr);
+  EXPECT_EQ(cachedPairs().size(), 6u);  // four overlapping unit boxes
+}
+
+TEST_P(PairFinderBroadphaseTest, StayingPairKeepsItsCacheEntry) {
+  btBroadphaseProxy* a = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* b = create(gpu::testing::box(0.5f, 0, 0, 1.5f, 1, 1));
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  btBroadphasePair* pair = broadphase_->getOverlappingPairCache()->findPair(a, b);
+  ASSERT_NE(pair, nullptr);
+  int marker = 0;
+  pair->m_internalInfo1 = &marker;
+  broadphase_->setAabb(b, btVector3(0.9f, 0, 0), btVector3(1.9f, 1, 1), &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  pair = broadphase_->getOverlappingPairCache()->findPair(a, b);
+  ASSERT_NE(pair, nullptr);
+  EXPECT_EQ(pair->m_internalInfo1, &marker);
+  broadphase_->setAabb(b, btVector3(3, 0, 0), btVector3(4, 1, 1), &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  EXPECT_EQ(broadphase_->getOverlappingPairCache()->findPair(a, b), nullptr);
+}
+
+TEST_P(PairFinderBroadphaseTest, CollisionWorldKeepsNarrowphaseStateOfStayingPairs) {
+  btCollisionWorld world(&dispatcher_, broadphase_.get(), &configuration_);
+  btBoxShape shape(btVector3(0.5f, 0.5f, 0.5f));
+  btCollisionObject first;
+  btCollisionObject second;
+  first.setCollisionShape(&shape);
+  second.setCollisionShape(&shape);
+  second.getWorldTransform().setOrigin(btVector3(0.8f, 0, 0));
+  world.addCollisionObject(&first);
+  world.addCollisionObject(&second);
+  world.performDiscreteCollisionDetection();
+  btBroadphasePair* pair = broadphase_->getOverlappingPairCache()->findPair(
+      first.getBroadphaseHandle(), second.getBroadphaseHandle());
+  ASSERT_NE(pair, nullptr);
+  ASSERT_NE(pair->m_algorithm, nullptr);
+  btCollisionAlgorithm* const algorithm = pair->m_algorithm;
+  EXPECT_EQ(dispatcher_.getNumManifolds(), 1);
+
+  second.getWorldTransform().setOrigin(btVector3(0.9f, 0, 0));
+  world.performDiscreteCollisionDetection();
+  pair = broadphase_->getOverlappingPairCache()->findPair(first.getBroadphaseHandle(),
+                                                          second.getBroadphaseHandle());
+  ASSERT_NE(pair, nullptr);
+  EXPECT_EQ(pair->m_algorithm, algorithm);
+
+  second.getWorldTransform().setOrigin(btVector3(5, 0, 0));
+  world.performDiscreteCollisionDetection();
+  EXPECT_EQ(broadphase_->getOverlappingPairCache()->getNumOverlappingPairs(), 0);
+  EXPECT_EQ(dispatcher_.getNumManifolds(), 0);  // the algorithm went with its pair
+  world.removeCollisionObject(&second);
+  world.removeCollisionObject(&first);
+}
+
+TEST_P(PairFinderBroadphaseTest, StaticObjectsPairOnlyWithDynamicOnes) {
+  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  btBroadphaseProxy* floor = create(unit, kStatic, kAll ^ kStatic);
+  btBroadphaseProxy* wall = create(unit, kStatic, kAll ^ kStatic);
+  btBroadphaseProxy* body = create(unit);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  btOverlappingPairCache* cache = broadphase_->getOverlappingPairCache();
+  EXPECT_EQ(cache->findPair(floor, wall), nullptr);
+  EXPECT_NE(cache->findPair(floor, body), nullptr);
+  EXPECT_NE(cache->findPair(wall, body), nullptr);
+}
+
+TEST_P(PairFinderBroadphaseTest, UnusableAabbLeavesTheSearchWithOneMessage) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  btBroadphaseProxy* a = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* b = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  ASSERT_EQ(cachedPairs().size(), 1u);
+
+  ::testing::internal::CaptureStderr();
+  broadphase_->setAabb(b, btVector3(nan, 0, 0), btVector3(1, 1, 1), &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  broadphase_->setAabb(b, btVector3(0, 0, 0), btVector3(1, nan, 1), &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  const std::string messages = ::testing::internal::GetCapturedStderr();
+  EXPECT_TRUE(cachedPairs().empty());
+  EXPECT_NE(messages.find("object " + std::to_string(b->m_uniqueId)), std::string::npos)
+      << messages;
+  EXPECT_EQ(std::count(messages.begin(), messages.end(), '\n'), 1) << messages;
+
+  broadphase_->setAabb(b, btVector3(0, 0, 0), btVector3(1, 1, 1), &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  EXPECT_NE(broadphase_->getOverlappingPairCache()->findPair(a, b), nullptr);
+
+  ::testing::internal::CaptureStderr();
+  broadphase_->setAabb(a, btVector3(1, 0, 0), btVector3(0, 1, 1), &dispatcher_);  // inverted
+  create(gpu::testing::box(0, 0, 0, 1, 1, -std::numeric_limits<float>::infinity()));
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  const std::string more = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(std::count(more.begin(), more.end(), '\n'), 2) << more;
+  EXPECT_TRUE(cachedPairs().empty());
+}
+
+// Collects what a query reports, as m_uniqueIds.
+struct Collector : btBroadphaseRayCallback {
+  bool process(const btBroadphaseProxy* proxy) override {
+    ids.insert(proxy->m_uniqueId);
+    return true;
+  }
+  std::set<int> ids;
+};
+
+TEST_P(PairFinderBroadphaseTest, RayTestVisitsTheBoxesOnTheRay) {
+  const int on_ray = create(gpu::testing::box(2, -0.5f, -0.5f, 3, 0.5f, 0.5f))->m_uniqueId;
+  const int far_on_ray = create(gpu::testing::box(8, -0.5f, -0.5f, 9, 0.5f, 0.5f))->m_uniqueId;
+  create(gpu::testing::box(2, 3, 3, 3, 4, 4));  // beside the ray
+  const btVector3 from(0, 0, 0);
+  const btVector3 to(10, 0, 0);
+  Collector collector;
+  // As btCollisionWorld's btSingleRayCallback prepares it.
+  const btVector3 direction = (to - from).normalized();
+  collector.m_rayDirectionInverse.setValue(direction[0] == 0 ? BT_LARGE_FLOAT : 1 / direction[0],
+                                           direction[1] == 0 ? BT_LARGE_FLOAT : 1 / direction[1],
+                                           direction[2] == 0 ? BT_LARGE_FLOAT : 1 / direction[2]);
+  for (int axis = 0; axis < 3; ++axis) {
+    collector.m_signs[axis] = collector.m_rayDirectionInverse[axis] < 0.0f;
+  }
+  collector.m_lambda_max = direction.dot(to - from);
+  broadphase_->rayTest(from, to, collector);
+  EXPECT_EQ(collector.ids, (std::set<int>{on_ray, far_on_ray}));
+
+  collector.ids.clear();
+  collector.m_lambda_max = 5;  // a hit found at 5 hides what lies beyond
+  broadphase_->rayTest(from, to, collector);
+  EXPECT_EQ(collector.ids, (std::set<int>{on_ray}));
+}
+
+TEST_P(PairFinderBroadphaseTest, AabbTestAndBroadphaseAabb) {
+  btVector3 lo;
+  btVector3 hi;
+  broadphase_->getBroadphaseAabb(lo, hi);
+  EXPECT_EQ(lo, btVector3(0, 0, 0));
+  EXPECT_EQ(hi, btVector3(0, 0, 0));
+  const int touching = create(gpu::testing::box(1, 1, 1, 2, 2, 2))->m_uniqueId;
+  create(gpu::testing::box(-5, -5, -5, -4, -4, -4));
+  Collector collector;
+  broadphase_->aabbTest(btVector3(0, 0, 0), btVector3(1, 1, 1), collector);
+  EXPECT_EQ(collector.ids, (std::set<int>{touching}));
+  broadphase_->getBroadphaseAabb(lo, hi);
+  EXPECT_EQ(lo, btVector3(-5, -5, -5));
+  EXPECT_EQ(hi, btVector3(2, 2, 2));
+}
+
+TEST_P(PairFinderBroadphaseTest, ResetPoolNumbersFromZeroAgain) {
+  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  std::vector<btBroadphaseProxy*> proxies = {create(unit), create(unit), create(unit)};
+  for (btBroadphaseProxy* proxy : proxies) broadphase_->destroyProxy(proxy, &dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  broadphase_->resetPool(&dispatcher_);
+  EXPECT_EQ(create(unit)->m_uniqueId, 0);
+  EXPECT_EQ(create(unit)->m_uniqueId, 1);
+}
+
+TEST_P(PairFinderBroadphaseTest, RejectsMisuse) {
+  btBroadphaseProxy* proxy = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  broadphase_->destroyProxy(proxy, &dispatcher_);
+  EXPECT_THROW(broadphase_->destroyProxy(proxy, &dispatcher_), std::runtime_error);
+  EXPECT_THROW(broadphase_->finishPairSearch(&dispatcher_), std::runtime_error);
+  broadphase_->launchPairSearch();
+  EXPECT_THROW(broadphase_->launchPairSearch(), std::runtime_error);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
+                         ::testing::Values(PairFinderKind::kCpuBruteForce,
+                                           PairFinderKind::kGpuBruteForce,
+                                           PairFinderKind::kGpuBruteForcePaper),
+                         gpu::testing::finderTestName);
+}  // namespace
+}  // namespace overlap::physics

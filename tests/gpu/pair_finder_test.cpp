@@ -1,0 +1,173 @@
+// The three pair finders against the oracle, frame after frame, and the GPU
+// finders against cpubf.  The GPU cases skip, saying why, without a device.
+#include "gpu/pair_finder.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "gpu/cpu_pair_finder.h"
+#include "tests/gpu/pair_test_support.h"
+
+namespace overlap::gpu {
+namespace {
+
+using testing::box;
+using testing::BoxSet;
+
+class PairFinderTest : public ::testing::TestWithParam<PairFinderKind> {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (GetParam() != PairFinderKind::kCpuBruteForce && !cudaDeviceAvailable(&why)) {
+      GTEST_SKIP() << "no CUDA device: " << why;
+    }
+    finder_ = makePairFinder(GetParam());
+  }
+
+  std::unique_ptr<PairFinder> finder_;
+};
+
+TEST_P(PairFinderTest, MatchesOracleFrameAfterFrame) {
+  for (const BoxSet set : testing::kAllBoxSets) {
+    for (const std::uint32_t n : {0u, 1u, 2u, 31u, 32u, 33u, 1023u, 1024u, 1025u, 3500u}) {
+      // Every pair of 3500 identical boxes is 6 million pairs per list: the
+      // large-change path is exercised at 1025 already (ManyChangesAtOnce).
+      if (set == BoxSet::kIdentical && n > 1025) continue;
+      SCOPED_TRACE(testing::boxSetName(set) + ", n = " + std::to_string(n));
+      auto finder = makePairFinder(GetParam());
+      std::vector<IndexPair> pairs;
+      for (int frame = 0; frame < 4; ++frame) {
+        SCOPED_TRACE("frame " + std::to_string(frame));
+        testing::expectFrameMatchesOracle(*finder, testing::makeBoxes(set, n, frame), pairs);
+      }
+    }
+  }
+}
+
+TEST_P(PairFinderTest, AppliesCollisionFilters) {
+  constexpr std::int32_t kStatic = 2;
+  constexpr std::int32_t kAll = -1;
+  // Six boxes that all overlap; only the filters decide.
+  const std::vector<ObjectBounds> boxes = {
+      box(0, 0, 0, 1, 1, 1, 1, kAll),                  // 0 dynamic
+      box(0, 0, 0, 1, 1, 1, kStatic, kAll ^ kStatic),  // 1 static
+      box(0, 0, 0, 1, 1, 1, kStatic, kAll ^ kStatic),  // 2 static
+      box(0, 0, 0, 1, 1, 1, 4, kStatic),               // 3 wants statics only
+      box(0, 0, 0, 1, 1, 1, 0, 0),                     // 4 unused slot
+      box(0, 0, 0, 1, 1, 1, 1, kAll),                  // 5 dynamic
+  };
+  finder_->launch(boxes);
+  const PairDelta delta = finder_->finish();
+  const std::vector<IndexPair> expected = {{0, 1}, {0, 2}, {0, 5}, {1, 3}, {1, 5}, {2, 3}, {2, 5}};
+  EXPECT_TRUE(testing::samePairs(delta.added, expected));
+  EXPECT_TRUE(delta.removed.empty());
+}
+
+TEST_P(PairFinderTest, SlotCountGrowsMidRun) {
+  std::vector<IndexPair> pairs;
+  std::vector<ObjectBounds> boxes;
+  int frame = 0;
+  for (const std::uint32_t n : {5u, 33u, 33u, 100u, 1100u, 1101u}) {
+    SCOPED_TRACE("n = " + std::to_string(n));
+    const std::vector<ObjectBounds> grown = testing::makeBoxes(BoxSet::kRandom, n, frame++);
+    // Old slots keep moving; new slots arrive on top of old ones.
+    for (std::size_t i = 0; i < boxes.size(); ++i) boxes[i] = grown[i];
+    for (std::size_t i = boxes.size(); i < n; ++i)
+      boxes.push_back(boxes.empty() ? grown[i] : boxes[i % boxes.size()]);
+    testing::expectFrameMatchesOracle(*finder_, boxes, pairs);
+  }
+}
+
+TEST_P(PairFinderTest, ManyChangesAtOnce) {
+  // 1100 identical boxes: 604,450 pairs appear in one frame and vanish in the
+  // next, far more than a change list holds at first.
+  std::vector<ObjectBounds> boxes(1100, box(0, 0, 0, 1, 1, 1));
+  std::vector<IndexPair> pairs;
+  testing::expectFrameMatchesOracle(*finder_, boxes, pairs);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const float x = 2.0f * static_cast<float>(i);
+    boxes[i] = box(x, 0, 0, x + 1, 1, 1);
+  }
+  testing::expectFrameMatchesOracle(*finder_, boxes, pairs);
+  EXPECT_TRUE(pairs.empty());
+}
+
+TEST_P(PairFinderTest, RejectsAShrinkingSlotCount) {
+  const std::vector<ObjectBounds> boxes(10, box(0, 0, 0, 1, 1, 1));
+  finder_->launch(boxes);
+  finder_->finish();
+  EXPECT_THROW(finder_->launch(std::span(boxes).first(9)), std::runtime_error);
+}
+
+TEST_P(PairFinderTest, RejectsFinishWithoutLaunch) {
+  EXPECT_THROW(finder_->finish(), std::runtime_error);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest,
+                         ::testing::Values(PairFinderKind::kCpuBruteForce,
+                                           PairFinderKind::kGpuBruteForce,
+                                           PairFinderKind::kGpuBruteForcePaper),
+                         testing::finderTestName);
+
+// The GPU finders give exactly cpubf's deltas on a long random run.
+class GpuAgreesWithCpuTest : public PairFinderTest {};
+
+TEST_P(GpuAgreesWithCpuTest, SameDeltasAsCpubf) {
+  CpuPairFinder cpu;
+  for (int frame = 0; frame < 20; ++frame) {
+    const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 2000, frame);
+    cpu.launch(boxes);
+    finder_->launch(boxes);
+    const PairDelta expected = cpu.finish();
+    const PairDelta actual = finder_->finish();
+    ASSERT_TRUE(testing::samePairs(actual.added, expected.added)) << "frame " << frame;
+    ASSERT_TRUE(testing::samePairs(actual.removed, expected.removed)) << "frame " << frame;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
+                         ::testing::Values(PairFinderKind::kGpuBruteForce,
+                                           PairFinderKind::kGpuBruteForcePaper),
+                         testing::finderTestName);
+
+TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
+  CpuPairFinder one(1);
+  CpuPairFinder two(2);
+  CpuPairFinder all(0);
+  for (int frame = 0; frame < 5; ++frame) {
+    const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 1500, frame);
+    for (PairFinder* finder : {static_cast<PairFinder*>(&one), static_cast<PairFinder*>(&two),
+                               static_cast<PairFinder*>(&all)}) {
+      finder->launch(boxes);
+    }
+    const PairDelta reference = one.finish();
+    for (CpuPairFinder* finder : {&two, &all}) {
+      const PairDelta delta = finder->finish();
+      EXPECT_TRUE(testing::samePairs(delta.added, reference.added));
+      EXPECT_TRUE(testing::samePairs(delta.removed, reference.removed));
+    }
+  }
+}
+
+TEST(CpuPairFinderTest, RejectsANegativeThreadCount) {
+  EXPECT_THROW(CpuPairFinder(-1), std::runtime_error);
+}
+
+TEST(MakePairFinderTest, GpuKindsNeedADevice) {
+  std::string why;
+  if (cudaDeviceAvailable(&why)) {
+    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForce)->name(), "gpubf");
+    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForcePaper)->name(), "gpubf-paper");
+  } else {
+    EXPECT_FALSE(why.empty());
+    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForce), std::runtime_error);
+    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForcePaper), std::runtime_error);
+  }
+  EXPECT_EQ(makePairFinder(PairFinderKind::kCpuBruteForce)->name(), "cpubf");
+}
+
+}  // namespace
+}  // namespace overlap::gpu

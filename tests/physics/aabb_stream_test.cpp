@@ -1,0 +1,124 @@
+// The .aabbs reader and writer, and replaying a stream through a broadphase.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "physics/aabb_stream.h"
+#include "physics/broadphase_replay.h"
+
+namespace overlap::physics {
+namespace {
+
+constexpr std::size_t kHeaderBytes = 304;
+
+std::filesystem::path tempFile(const std::string& name) {
+  return std::filesystem::temp_directory_path() / ("overlap_stream_" + name + ".aabbs");
+}
+
+// Three boxes over two frames: 0 and 1 touch in frame 0, 1 and 2 overlap in frame 1.
+AabbStream smallStream() {
+  AabbStream stream;
+  stream.scene_name = "test";
+  stream.object_type = "box";
+  stream.objects = 3;
+  stream.stored_frames = 2;
+  stream.world = Aabb{{-10, -10, -10}, {10, 10, 10}};
+  stream.boxes = {
+      Aabb{{0, 0, 0}, {1, 1, 1}}, Aabb{{1, 0, 0}, {2, 1, 1}}, Aabb{{5, 5, 5}, {6, 6, 6}},
+      Aabb{{0, 0, 0}, {1, 1, 1}}, Aabb{{3, 0, 0}, {4, 1, 1}}, Aabb{{3.5f, 0.5f, 0}, {5, 2, 1}},
+  };
+  return stream;
+}
+
+std::vector<char> fileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void writeBytes(const std::filesystem::path& path, const std::vector<char>& bytes) {
+  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+std::string readError(const std::filesystem::path& path) {
+  try {
+    readAabbStream(path);
+  } catch (const AabbStreamError& error) {
+    return error.what();
+  }
+  return "no error";
+}
+
+TEST(AabbStream, RoundTripKeepsEveryField) {
+  const auto path = tempFile("roundtrip");
+  writeAabbStream(path, smallStream());
+  EXPECT_EQ(std::filesystem::file_size(path), kHeaderBytes + 6 * 32);
+  const AabbStream read = readAabbStream(path);
+  EXPECT_EQ(read.scene_name, "test");
+  EXPECT_EQ(read.object_type, "box");
+  EXPECT_EQ(read.objects, 3);
+  EXPECT_EQ(read.stored_frames, 2);
+  ASSERT_EQ(read.boxes.size(), 6u);
+  EXPECT_EQ(read.frame(1)[2].min[0], 3.5f);
+  EXPECT_EQ(read.frame(1)[2].max[1], 2.0f);
+  std::filesystem::remove(path);
+}
+
+TEST(AabbStream, MalformedFilesNameTheFileAndTheFirstBadBox) {
+  const auto good = tempFile("good");
+  writeAabbStream(good, smallStream());
+  const std::vector<char> bytes = fileBytes(good);
+  const auto bad = tempFile("bad");
+
+  writeBytes(bad, std::vector<char>(bytes.begin(), bytes.begin() + 100));
+  EXPECT_NE(readError(bad).find("truncated header"), std::string::npos) << readError(bad);
+
+  writeBytes(bad, std::vector<char>(bytes.begin(), bytes.end() - 40));
+  EXPECT_NE(readError(bad).find("first incomplete frame 1"), std::string::npos) << readError(bad);
+
+  std::vector<char> wrong_count = bytes;
+  const std::int32_t five = 5;
+  std::memcpy(wrong_count.data() + 256, &five, sizeof(five));
+  writeBytes(bad, wrong_count);
+  EXPECT_NE(readError(bad).find("does not match 5 objects"), std::string::npos) << readError(bad);
+
+  std::vector<char> with_nan = bytes;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(with_nan.data() + kHeaderBytes + (3 + 2) * 32 + 4, &nan, sizeof(nan));
+  writeBytes(bad, with_nan);
+  EXPECT_NE(readError(bad).find("frame 1, object 2: non-finite y"), std::string::npos)
+      << readError(bad);
+
+  std::vector<char> inverted = bytes;
+  const float big = 100.0f;
+  std::memcpy(inverted.data() + kHeaderBytes + 1 * 32 + 8, &big, sizeof(big));
+  writeBytes(bad, inverted);
+  EXPECT_NE(readError(bad).find("frame 0, object 1: min > max on z"), std::string::npos)
+      << readError(bad);
+
+  EXPECT_NE(readError(bad).find(bad.string()), std::string::npos);
+  EXPECT_NE(readError(tempFile("missing")).find("cannot open"), std::string::npos);
+  std::filesystem::remove(good);
+  std::filesystem::remove(bad);
+}
+
+TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
+  const AabbStream stream = smallStream();
+  for (const char* algorithm : {"bf", "sap", "sap32", "bvh", "cpubf"}) {
+    BroadphaseReplay replay(algorithm, stream.world, stream.objects);
+    replay.update(stream.frame(0));
+    replay.findPairs();
+    EXPECT_EQ(replay.pairs(), (std::vector<std::pair<int, int>>{{0, 1}})) << algorithm;
+    replay.update(stream.frame(1));
+    replay.findPairs();
+    const auto pairs = replay.pairs();
+    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), std::pair{1, 2}) != pairs.end())
+        << algorithm;
+  }
+}
+
+}  // namespace
+}  // namespace overlap::physics
