@@ -57,6 +57,9 @@ class FrameScheduler {
 
   std::uint64_t soundChecksum() const { return sound_checksum_; }
   std::uint64_t aiChecksum() const;
+  // The tasks' own work counters; null when the tasks are off.
+  const stubs::SoundWork* soundWork() const { return sound_ ? &sound_->work() : nullptr; }
+  const stubs::AiWork* aiWork() const { return ai_ ? &ai_->work() : nullptr; }
 
  private:
   void snapshot();

@@ -1,11 +1,14 @@
 // `overlap run`: steps a scene through the frame scheduler and writes
 // frames.csv, summary.json and timeline.json.
+#include <oneapi/tbb/global_control.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <iomanip>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -30,6 +33,7 @@ struct RunOptions {
   int substeps = 0;
   bool ccd = false;
   bool compare_sync = false;
+  int threads = 0;  // 0: every hardware thread
   SchedulerOptions scheduler;
   std::filesystem::path out = "out";
   int capture_every = 0;  // 0: no pictures
@@ -162,6 +166,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["substeps"] = run.substeps;
   parameters["ccd"] = options.ccd;
   parameters["sync"] = options.scheduler.sync;
+  parameters["threads"] = options.threads;
   parameters["tasks"] = options.scheduler.tasks;
   parameters["voices"] = options.scheduler.sound.voices;
   parameters["agents"] = options.scheduler.ai.agents;
@@ -186,6 +191,12 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
 
 void run(const RunOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
+  // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
+  std::optional<tbb::global_control> thread_cap;
+  if (options.threads > 0) {
+    thread_cap.emplace(tbb::global_control::max_allowed_parallelism,
+                       static_cast<std::size_t>(options.threads));
+  }
   try {
     options.scheduler.sound.validate();
     options.scheduler.ai.validate();
@@ -261,6 +272,11 @@ void addRunCommand(CLI::App& app) {
   command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box");
   command->add_flag("--sync", options->scheduler.sync,
                     "run the sound and AI tasks before the broadphase, not beside it");
+  command
+      ->add_option("--threads", options->threads,
+                   "worker threads for the tasks and cpubf (0: all hardware threads)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
   command->add_flag("--compare-sync", options->compare_sync,
                     "run --sync first, then the async loop, and report the speed-up");
   command->add_flag("!--no-tasks", options->scheduler.tasks,

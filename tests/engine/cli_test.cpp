@@ -9,8 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 namespace {
 
@@ -171,6 +173,93 @@ TEST_F(CliTest, RunCapturesEveryKthFrameOutsideThePhysicsTimings) {
   std::string header;
   std::getline(csv, header);
   EXPECT_NE(header.find("render_ms"), std::string::npos);
+}
+
+// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
+std::string stdoutOf(const std::string& args, int* exit_code) {
+  std::string output;
+  FILE* pipe = popen((std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
+  char buffer[4096];
+  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
+    output.append(buffer, got);
+  }
+  *exit_code = WEXITSTATUS(pclose(pipe));
+  return output;
+}
+
+std::string fileText(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+TEST_F(CliTest, RecordThenPairsGivesSortedPairsForEveryStoredFrame) {
+  std::filesystem::create_directories(out_);
+  const std::filesystem::path stream = out_ / "scene4.aabbs";
+  ASSERT_EQ(
+      runOverlap("record --scene 4 --objects 100 --frames 3 --out " + stream.string()).exit_code,
+      0);
+  EXPECT_EQ(std::filesystem::file_size(stream), 304u + 4u * 100u * 32u);
+
+  int exit_code = -1;
+  const std::string exact = stdoutOf("pairs --algo bf --input " + stream.string(), &exit_code);
+  ASSERT_EQ(exit_code, 0);
+  std::istringstream lines(exact);
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "frame,a,b");
+  std::tuple<int, int, int> previous{-1, -1, -1};
+  std::set<int> frames;
+  int rows = 0;
+  while (std::getline(lines, line)) {
+    int frame = 0, a = 0, b = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%d,%d,%d", &frame, &a, &b), 3) << line;
+    EXPECT_LT(a, b);
+    EXPECT_LT(previous, std::make_tuple(frame, a, b)) << "not sorted at " << line;
+    previous = {frame, a, b};
+    frames.insert(frame);
+    ++rows;
+  }
+  EXPECT_GT(rows, 0);
+  EXPECT_LE(*frames.rbegin(), 3);
+  EXPECT_EQ(stdoutOf("pairs --algo cpubf --input " + stream.string(), &exit_code), exact);
+  EXPECT_EQ(exit_code, 0);
+}
+
+TEST_F(CliTest, PairsRejectsABadFileWithoutWritingToStdout) {
+  std::filesystem::create_directories(out_);
+  const std::filesystem::path bad = out_ / "bad.aabbs";
+  std::ofstream(bad) << "not a stream";
+  int exit_code = -1;
+  EXPECT_EQ(stdoutOf("pairs --input " + bad.string(), &exit_code), "");
+  EXPECT_EQ(exit_code, 2);
+  const Result result = runOverlap("pairs --input " + bad.string());
+  EXPECT_NE(result.stderr_text.find(bad.string()), std::string::npos) << result.stderr_text;
+  EXPECT_EQ(stdoutOf("pairs --input /nonexistent.aabbs", &exit_code), "");
+  EXPECT_EQ(exit_code, 2);
+}
+
+TEST_F(CliTest, WavAndTasksAreDeterministicAndCompareSyncMatches) {
+  const std::string args =
+      "run --objects 100 --frames 10 --voices 8 --background-voices 2 "
+      "--agents 16 --compare-sync ";
+  ASSERT_EQ(
+      runOverlap(args + "--wav " + (out_ / "a.wav").string() + " --out " + out_.string()).exit_code,
+      0);
+  ASSERT_EQ(
+      runOverlap(args + "--wav " + (out_ / "b.wav").string() + " --out " + out_.string()).exit_code,
+      0);
+  const std::string a = fileText(out_ / "a.wav");
+  EXPECT_EQ(a.substr(0, 4), "RIFF");
+  EXPECT_EQ(a.size(), 44u + 10u * 1600u * 4u);
+  EXPECT_EQ(a, fileText(out_ / "b.wav"));
+
+  std::ifstream summary_file(out_ / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(summary_file);
+  EXPECT_TRUE(summary["compare_sync"]["identical_state"].get<bool>());
+  EXPECT_TRUE(summary["compare_sync"]["identical_tasks"].get<bool>());
+  EXPECT_GT(summary["compare_sync"]["speedup"].get<double>(), 0.0);
+  const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "timeline.json"));
+  EXPECT_GT(timeline["traceEvents"].size(), 10u * 4u);
 }
 
 }  // namespace
