@@ -2,7 +2,7 @@
 """The first results table: `overlap run` for each algorithm, scene and n.
 
 Runs every combination one after another (never in parallel, so runs do not
-compete for cores), keeps each run's summary.json under --work, and writes
+compete for cores), physics only (--no-tasks, as the paper measures), keeps each run's summary.json under --work, and writes
 one CSV row per run plus a Markdown table of median per-frame times with
 each algorithm's broadphase and total time as a ratio to bf's in the same
 (scene, n).  Resumable: a run whose summary.json exists is not redone.
@@ -41,7 +41,8 @@ def main() -> int:
         summary_path = folder / "summary.json"
         if not summary_path.exists():
             command = [args.overlap, "run", "--scene", str(scene), "--objects", str(n),
-                       "--algo", algo, "--frames", str(args.frames), "--out", str(folder)]
+                       "--algo", algo, "--frames", str(args.frames), "--no-tasks",
+                       "--out", str(folder)]
             subprocess.run(command, check=True, stderr=subprocess.DEVNULL)
         summary = json.loads(summary_path.read_text())
         rows.append(summary)
