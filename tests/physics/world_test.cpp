@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <set>
 
 namespace overlap::physics {
 namespace {
@@ -70,6 +71,38 @@ TEST(PhysicsWorld, SimpleBroadphaseCacheEqualsBruteForceOracle) {
     checked_pairs += expected.size();
   }
   EXPECT_GT(checked_pairs, 100u) << "the scene should be in contact by now";
+}
+
+TEST(PhysicsWorld, CpubfCacheStaysExactAndPersistentOverScene4) {
+  // Our broadphase inside a running world: every frame the cache is the exact
+  // pair set, each pair once, and a pair that stays keeps its cache entry (a
+  // marker left on the entry survives; a removed and re-added pair would come
+  // back without it).  One substep per frame, so a frame is one search.
+  PhysicsWorld world(smallScene(4, 250), WorldOptions{"cpubf", 1});
+  static int marker;
+  std::set<std::pair<int, int>> previous;
+  std::size_t kept = 0;
+  for (int frame = 0; frame < 80; ++frame) {
+    world.stepFrame();
+    ASSERT_EQ(world.cachedPairs(), oraclePairs(world.aabbs(), 250)) << "frame " << frame;
+    std::set<std::pair<int, int>> current;
+    btBroadphasePairArray& array =
+        world.broadphase().getOverlappingPairCache()->getOverlappingPairArray();
+    for (int i = 0; i < array.size(); ++i) {
+      const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
+      const auto* b = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
+      const std::pair key{std::min(a->getUserIndex(), b->getUserIndex()),
+                          std::max(a->getUserIndex(), b->getUserIndex())};
+      ASSERT_TRUE(current.insert(key).second) << "duplicate pair in frame " << frame;
+      if (previous.count(key) != 0) {
+        EXPECT_EQ(array[i].m_internalInfo1, &marker) << "pair lost its entry in frame " << frame;
+        ++kept;
+      }
+      array[i].m_internalInfo1 = &marker;
+    }
+    previous = std::move(current);
+  }
+  EXPECT_GT(kept, 1000u);
 }
 
 TEST(PhysicsWorld, BulletsConservativeBroadphasesMissNoPair) {
