@@ -20,6 +20,15 @@ import time
 COLUMNS = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms", "total_ms"]
 
 
+def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
+    """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary."""
+    summary_path = folder / "summary.json"
+    if not summary_path.exists():
+        subprocess.run([overlap, "run", *options, "--out", str(folder)], check=True,
+                       stderr=subprocess.DEVNULL)
+    return json.loads(summary_path.read_text())
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--overlap", default="build/overlap", help="the overlap binary")
@@ -38,13 +47,9 @@ def main() -> int:
     started = time.monotonic()
     for done, (scene, n, algo) in enumerate(runs):
         folder = pathlib.Path(args.work) / f"s{scene}_n{n}_{algo}"
-        summary_path = folder / "summary.json"
-        if not summary_path.exists():
-            command = [args.overlap, "run", "--scene", str(scene), "--objects", str(n),
-                       "--algo", algo, "--frames", str(args.frames), "--no-tasks",
-                       "--out", str(folder)]
-            subprocess.run(command, check=True, stderr=subprocess.DEVNULL)
-        summary = json.loads(summary_path.read_text())
+        summary = run_summary(args.overlap, folder,
+                              ["--scene", str(scene), "--objects", str(n), "--algo", algo,
+                               "--frames", str(args.frames), "--no-tasks"])
         rows.append(summary)
         elapsed = time.monotonic() - started
         print(f"[{done + 1}/{len(runs)}] scene {scene} n {n} {algo}: "
