@@ -106,7 +106,7 @@ ScheduledFrame FrameScheduler::runFrame() {
     const double launched = timeline_.microsecondsAt(search->launched);
     frame.search_ms = search->search_ms;
     addSpan("search", "broadphase", launched, search->search_ms * 1e3);
-    addSpan("join", "main", timeline_.microsecondsAt(search->joined), t.join_ms * 1e3);
+    addSpan("join", "main", timeline_.microsecondsAt(search->joined), search->join_ms * 1e3);
     frame.overlap_efficiency =
         options_.tasks && !options_.sync
             ? coveredShare(launched, search->search_ms * 1e3, {sound_span_, ai_span_})

@@ -73,6 +73,8 @@ const std::vector<Column>& columns() {
       {"sunk", [](R r) { return r.frame.physics.sunk; }, false},
       {"max_penetration", [](R r) { return r.frame.physics.max_penetration; }, false},
       {"removed", [](R r) { return r.frame.physics.removed_from_simulation; }, false},
+      {"kinetic_energy", [](R r) { return r.frame.physics.kinetic_energy; }, false},
+      {"potential_energy", [](R r) { return r.frame.physics.potential_energy; }, false},
   };
   return kColumns;
 }

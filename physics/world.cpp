@@ -69,8 +69,9 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
     const gpu::HostStopwatch join;
     search.joined = std::chrono::steady_clock::now();
     background_search->finishPairSearch(m_dispatcher1);
-    timings.join_ms += join.ms();
-    timings.broadphase_ms += join.ms();
+    search.join_ms = join.ms();
+    timings.join_ms += search.join_ms;
+    timings.broadphase_ms += search.join_ms;
     search.search_ms = background_search->finder().lastSearchMs();
     if (!first_search) first_search = search;
   }
@@ -306,10 +307,17 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
       ++report.removed_from_simulation;
       continue;
     }
-    const btVector3& c = b.bodies[i]->getWorldTransform().getOrigin();
+    const btRigidBody& body = *b.bodies[i];
+    const btVector3& c = body.getWorldTransform().getOrigin();
     const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
     if (reach > outer) ++report.escaped;
     if (reach > h) ++report.sunk;
+    const double mass = 1.0 / body.getInvMass();
+    const btVector3 spin = body.getAngularVelocity() * body.getWorldTransform().getBasis();
+    const btVector3 rotational = body.getLocalInertia() * spin * spin;  // I w^2 per local axis
+    report.kinetic_energy += 0.5 * (mass * body.getLinearVelocity().length2() + rotational.x() +
+                                    rotational.y() + rotational.z());
+    report.potential_energy -= mass * b.world->getGravity().dot(c);
   }
   const auto n = static_cast<int>(layout_.boxes.size());
   auto edgeOf = [&](const btCollisionObject* object) {

@@ -52,6 +52,7 @@ struct FrameTimings {
 struct BackgroundSearch {
   std::chrono::steady_clock::time_point launched;
   std::chrono::steady_clock::time_point joined;  // when the main thread began to wait
+  double join_ms;                                // waiting for the search and applying its changes
   double search_ms;  // the search alone: GPU events, or the CPU search's own clock
 };
 
@@ -63,6 +64,8 @@ struct FrameReport {
   int sunk = 0;                     // boxes whose centre is outside the interior
   double max_penetration = 0;       // deepest contact overlap / that box's edge
   int removed_from_simulation = 0;  // boxes taken out: non-finite, huge or far away
+  double kinetic_energy = 0;        // J, linear and rotational, boxes in the simulation
+  double potential_energy = 0;      // J, -sum m (g . x) for the gravity of this frame
   std::optional<BackgroundSearch> background_search;
 };
 
