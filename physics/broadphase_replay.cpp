@@ -41,22 +41,29 @@ BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world
   Bullet& b = *bullet_;
   b.broadphase = std::move(choice.broadphase);
   b.indices.resize(static_cast<std::size_t>(objects));
-  b.proxies.resize(static_cast<std::size_t>(objects));
-  for (int i = 0; i < objects; ++i) {
-    b.indices[static_cast<std::size_t>(i)] = i;
-    b.proxies[static_cast<std::size_t>(i)] = b.broadphase->createProxy(
-        lo, lo, BOX_SHAPE_PROXYTYPE, &b.indices[static_cast<std::size_t>(i)],
-        btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher);
-  }
+  for (int i = 0; i < objects; ++i) b.indices[static_cast<std::size_t>(i)] = i;
 }
 
 BroadphaseReplay::~BroadphaseReplay() = default;
 
 void BroadphaseReplay::update(std::span<const Aabb> boxes) {
   Bullet& b = *bullet_;
-  if (boxes.size() != b.proxies.size()) {
+  if (boxes.size() != b.indices.size()) {
     throw std::invalid_argument("replay: frame has " + std::to_string(boxes.size()) +
-                                " boxes, expected " + std::to_string(b.proxies.size()));
+                                " boxes, expected " + std::to_string(b.indices.size()));
+  }
+  // Proxies are created at the first frame's boxes: SAP and DBVT pair a new
+  // proxy with everything it overlaps at once, so n proxies created at one
+  // point would fill the pair cache with n^2/2 pairs, and Bullet's hashed
+  // cache never shrinks its table back.
+  if (b.proxies.empty()) {
+    b.proxies.reserve(boxes.size());
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      b.proxies.push_back(b.broadphase->createProxy(
+          corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
+          btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher));
+    }
+    return;
   }
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);

@@ -1,8 +1,9 @@
 // A broadphase on its own, fed recorded AABBs instead of a simulation.
 //
-// BroadphaseReplay creates one proxy per object (all in the default filter
-// group, so every pair counts), and each step() writes a frame's AABBs into
-// the broadphase, lets it update its pair cache and reads the cache back.
+// BroadphaseReplay creates one proxy per object at the first frame's boxes
+// (all in the default filter group, so every pair counts); each update()
+// after that writes a frame's AABBs into the broadphase, findPairs() lets it
+// update its pair cache, and pairs() reads the cache back.
 // It is how `overlap pairs` and the broadphase benchmark drive Bullet's
 // broadphases and ours through the same btBroadphaseInterface, with the same
 // pair cache the simulation uses.
@@ -30,7 +31,8 @@ class BroadphaseReplay {
   const std::string& algorithm() const { return algorithm_; }
   const std::string& notice() const { return notice_; }
 
-  // Writes the frame's AABBs (one per object) into the broadphase.
+  // Writes the frame's AABBs (one per object) into the broadphase; the first
+  // call creates the proxies there.
   void update(std::span<const Aabb> boxes);
   // Finds the pairs and updates the persistent pair cache.
   void findPairs();
