@@ -11,5 +11,6 @@ void addRunCommand(CLI::App& app);
 void addRecordCommand(CLI::App& app);
 void addPairsCommand(CLI::App& app);
 void addCaptureCommand(CLI::App& app);
+void addLatencyCommand(CLI::App& app);
 
 }  // namespace overlap::engine

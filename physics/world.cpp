@@ -381,6 +381,14 @@ std::vector<BoxPose> PhysicsWorld::boxPoses() const {
   return poses;
 }
 
+std::vector<float> PhysicsWorld::boxSpeeds() const {
+  std::vector<float> speeds(layout_.boxes.size(), 0.0f);
+  for (std::size_t i = 0; i < speeds.size(); ++i) {
+    if (!bullet_->removed[i]) speeds[i] = bullet_->bodies[i]->getLinearVelocity().length();
+  }
+  return speeds;
+}
+
 std::vector<Aabb> PhysicsWorld::aabbs() const {
   std::vector<Aabb> result;
   result.reserve(bullet_->bodies.size());

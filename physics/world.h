@@ -122,6 +122,8 @@ class PhysicsWorld {
   // FNV-1a over every box's position, rotation and velocities.
   std::uint64_t stateHash() const;
   std::vector<BoxPose> boxPoses() const;
+  // Each box's linear speed (m/s); 0 for a box out of the simulation.
+  std::vector<float> boxSpeeds() const;
   // The broadphase's current AABBs, boxes then walls.
   std::vector<Aabb> aabbs() const;
   // Overlapping pairs in the cache as (min index, max index), sorted; walls

@@ -1,4 +1,6 @@
 // The .aabbs reader and writer, and replaying a stream through a broadphase.
+#include "physics/aabb_stream.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,7 +9,6 @@
 #include <fstream>
 #include <limits>
 
-#include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
 
 namespace overlap::physics {
@@ -40,7 +41,8 @@ std::vector<char> fileBytes(const std::filesystem::path& path) {
 }
 
 void writeBytes(const std::filesystem::path& path, const std::vector<char>& bytes) {
-  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
 std::string readError(const std::filesystem::path& path) {
@@ -115,8 +117,7 @@ TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
     replay.update(stream.frame(1));
     replay.findPairs();
     const auto pairs = replay.pairs();
-    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), std::pair{1, 2}) != pairs.end())
-        << algorithm;
+    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), std::pair{1, 2}) != pairs.end()) << algorithm;
   }
 }
 

@@ -1,0 +1,485 @@
+// overlap_bench_broadphase: project issue 3's broadphase benchmark.
+//
+// Every broadphase replays the same recorded scene-4 AABB streams
+// (engine/bench_streams.h) through physics::BroadphaseReplay, in one process,
+// so all algorithms see the same boxes on the same machine under the same
+// load.  A frame's time is "upload to pair cache updated": update() (every
+// box's setAabb) plus findPairs() (the search and the persistent pair-cache
+// update), taken with the steady clock around both.  Each (n, algorithm)
+// replays its stream `repeats` times, each time in a fresh broadphase; the
+// repeats of one n are interleaved across the algorithms, so that a change in
+// the machine's load lands on all of them.  A repeat's figure is the median
+// frame after the warm-up frames; a row reports the median, the fastest and
+// the slowest repeat, and the ratio to bvh (btDbvtBroadphase) at that n.
+//
+// Every frame's pair cache is checked against the exact set, taken from the
+// first exact algorithm run at that n (bf, else cpubf, gpubf, gpubf-paper):
+// an exact algorithm must match it, a conservative one (sap, sap32, bvh) must
+// hold all of it and may hold extra pairs.  A mismatch or a missed pair makes
+// the run fail (exit 1) after it has written its results.
+//
+// GPU algorithms run only where a CUDA device is present; elsewhere they are
+// skipped with a note, never measured as their CPU fallback.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "engine/bench_streams.h"
+#include "engine/cli_errors.h"
+#include "engine/machine_info.h"
+#include "engine/statistics.h"
+#include "gpu/pair_finder.h"
+#include "physics/broadphase_factory.h"
+#include "physics/broadphase_replay.h"
+
+namespace overlap::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using PairList = std::vector<std::pair<int, int>>;
+
+constexpr const char* kProgram = "overlap_bench_broadphase";
+constexpr int kScene = 4;
+// Exact algorithms in the order they are preferred as the reference.
+constexpr std::string_view kExact[] = {"bf", "cpubf", "gpubf", "gpubf-paper"};
+
+struct BenchOptions {
+  std::vector<int> objects{500, 1250, 2000, 2750, 3500};
+  std::vector<std::string> algorithms{"bf", "sap", "bvh", "cpubf", "gpubf", "gpubf-paper"};
+  std::vector<int> big_objects{10000, 30000, 100000};
+  std::vector<std::string> big_algorithms{"bvh", "cpubf", "gpubf"};
+  std::filesystem::path streams = "out/streams";
+  std::filesystem::path out = "out/broadphase";
+  std::uint64_t seed = 42;
+  int record_frames = 64;
+  int big_record_frames = 64;
+  int warmup = 8;
+  int repeats = 5;
+  bool record_only = false;
+};
+
+// One n of the run: its stream's length and the algorithms measured on it.
+struct Workload {
+  int objects;
+  int record_frames;
+  std::vector<std::string> algorithms;  // in broadphaseNames() order
+};
+
+struct Row {
+  int objects = 0;
+  std::string algorithm;
+  int frames = 0;  // measured frames per repeat
+  std::vector<double> repeat_medians_us;
+  std::optional<std::string> reference;  // the exact set's algorithm, if any ran
+  double pairs_sum = 0;
+  double extra_sum = 0;
+  long long mismatched_frames = 0;  // exact algorithms: frames that differ from the reference
+  long long missed = 0;
+  std::optional<double> ratio_vs_bvh;
+
+  double medianUs() const { return median(repeat_medians_us); }
+  double pairsMean() const { return pairs_sum / (frames * static_cast<double>(repeats())); }
+  double extraMean() const { return extra_sum / (frames * static_cast<double>(repeats())); }
+  int repeats() const { return static_cast<int>(repeat_medians_us.size()); }
+};
+
+bool isExact(std::string_view algorithm) {
+  return std::find(std::begin(kExact), std::end(kExact), algorithm) != std::end(kExact);
+}
+
+bool isGpu(std::string_view algorithm) {
+  return algorithm == "gpubf" || algorithm == "gpubf-paper";
+}
+
+std::size_t countMissingFrom(const PairList& wanted, const PairList& held) {
+  PairList missing;
+  std::set_difference(wanted.begin(), wanted.end(), held.begin(), held.end(),
+                      std::back_inserter(missing));
+  return missing.size();
+}
+
+// Replays the whole stream once in a fresh broadphase and adds one repeat to
+// `row`.  With `reference` empty it fills it (this algorithm is the
+// reference); otherwise every frame is checked against it.
+void replayOnce(const physics::AabbStream& stream, int warmup, std::vector<PairList>& reference,
+                bool has_reference, Row& row) {
+  std::optional<physics::BroadphaseReplay> made;
+  try {
+    made.emplace(row.algorithm, stream.world, stream.objects);
+  } catch (const std::invalid_argument& error) {  // e.g. sap beyond 32765 boxes
+    throw UsageError(std::string(error.what()) + " (n = " + std::to_string(stream.objects) + ")");
+  }
+  physics::BroadphaseReplay& replay = *made;
+  if (replay.algorithm() != row.algorithm) {
+    throw std::runtime_error("algorithm " + row.algorithm + " ran as " + replay.algorithm() + ": " +
+                             replay.notice());
+  }
+  const bool fills_reference = has_reference && reference.empty();
+  std::vector<double> frame_us;
+  frame_us.reserve(static_cast<std::size_t>(stream.stored_frames - warmup));
+  for (int frame = 0; frame < stream.stored_frames; ++frame) {
+    const Clock::time_point start = Clock::now();
+    replay.update(stream.frame(frame));
+    replay.findPairs();
+    const double elapsed_us =
+        std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+
+    PairList pairs = replay.pairs();
+    const bool measured = frame >= warmup;
+    if (measured) {
+      frame_us.push_back(elapsed_us);
+      row.pairs_sum += static_cast<double>(pairs.size());
+    }
+    if (fills_reference) {
+      reference.push_back(std::move(pairs));
+    } else if (has_reference) {
+      const PairList& exact = reference[static_cast<std::size_t>(frame)];
+      const std::size_t extra = countMissingFrom(pairs, exact);
+      const std::size_t missed = countMissingFrom(exact, pairs);
+      if (measured) row.extra_sum += static_cast<double>(extra);
+      row.missed += static_cast<long long>(missed);
+      if (extra + missed > 0) ++row.mismatched_frames;
+    }
+  }
+  row.repeat_medians_us.push_back(median(std::move(frame_us)));
+}
+
+std::vector<std::string> inNameOrder(const std::set<std::string>& algorithms) {
+  std::vector<std::string> ordered;
+  for (std::string_view name : physics::broadphaseNames()) {
+    if (algorithms.contains(std::string(name))) ordered.emplace_back(name);
+  }
+  return ordered;
+}
+
+// The run's workloads, GPU algorithms dropped (with `skipped` set) when no
+// device can run them.  Throws UsageError for an empty or ambiguous plan.
+std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& skipped) {
+  std::string why;
+  const bool have_gpu = gpu::cudaDeviceAvailable(&why);
+  std::set<std::string> dropped;
+  auto runnable = [&](const std::vector<std::string>& requested) {
+    std::set<std::string> kept;
+    for (const std::string& algorithm : requested) {
+      if (isGpu(algorithm) && !have_gpu) {
+        dropped.insert(algorithm);
+      } else {
+        kept.insert(algorithm);
+      }
+    }
+    return inNameOrder(kept);
+  };
+
+  std::map<int, Workload> by_objects;
+  auto add = [&](const std::vector<int>& sizes, const std::vector<std::string>& algorithms,
+                 int record_frames, const char* option) {
+    for (int n : sizes) {
+      if (n == 0) continue;  // "0: none"
+      if (by_objects.contains(n)) {
+        throw UsageError(std::string(option) + ": n = " + std::to_string(n) +
+                         " is already in the run");
+      }
+      if (options.warmup > record_frames) {
+        throw UsageError("--warmup " + std::to_string(options.warmup) + ": leaves no frame of " +
+                         std::to_string(record_frames) +
+                         " + 1 to measure at n = " + std::to_string(n));
+      }
+      by_objects.emplace(n, Workload{n, record_frames, runnable(algorithms)});
+    }
+  };
+  add(options.objects, options.algorithms, options.record_frames, "--objects");
+  add(options.big_objects, options.big_algorithms, options.big_record_frames, "--big-objects");
+  if (by_objects.empty()) throw UsageError("--objects, --big-objects: nothing to run");
+
+  if (!dropped.empty()) {
+    skipped = "skipped " + CLI::detail::join(inNameOrder(dropped), ", ") + ": " + why;
+  }
+  std::vector<Workload> workloads;
+  for (auto& [n, workload] : by_objects) workloads.push_back(std::move(workload));
+  return workloads;
+}
+
+// The row whose pairs are the exact set: the first of kExact that runs, if any.
+Row* referenceRow(std::vector<Row>& rows) {
+  for (std::string_view exact : kExact) {
+    for (Row& row : rows) {
+      if (row.algorithm == exact) return &row;
+    }
+  }
+  return nullptr;
+}
+
+std::vector<Row> measure(const Workload& workload, const physics::AabbStream& stream,
+                         const BenchOptions& options, Clock::time_point run_start) {
+  std::vector<Row> rows(workload.algorithms.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    rows[i].objects = workload.objects;
+    rows[i].algorithm = workload.algorithms[i];
+    rows[i].frames = stream.stored_frames - options.warmup;
+  }
+  // The reference runs first in every repeat: its first replay fills the
+  // exact set the others are checked against.
+  std::vector<Row*> run_order;
+  Row* const reference_row = referenceRow(rows);
+  if (reference_row != nullptr) run_order.push_back(reference_row);
+  for (Row& row : rows) {
+    if (reference_row != nullptr) row.reference = reference_row->algorithm;
+    if (&row != reference_row) run_order.push_back(&row);
+  }
+
+  std::vector<PairList> reference;
+  for (int repeat = 0; repeat < options.repeats; ++repeat) {
+    std::string line;
+    for (Row* row : run_order) {
+      replayOnce(stream, options.warmup, reference, reference_row != nullptr, *row);
+      char figure[64];
+      std::snprintf(figure, sizeof(figure), " %s %.1f us", row->algorithm.c_str(),
+                    row->repeat_medians_us.back());
+      line += figure;
+    }
+    const double elapsed = std::chrono::duration<double>(Clock::now() - run_start).count();
+    std::fprintf(stderr, "%s: n=%d repeat %d/%d:%s (%.0f s elapsed)\n", kProgram, workload.objects,
+                 repeat + 1, options.repeats, line.c_str(), elapsed);
+  }
+
+  const auto bvh =
+      std::find_if(rows.begin(), rows.end(), [](const Row& row) { return row.algorithm == "bvh"; });
+  if (bvh != rows.end()) {
+    for (Row& row : rows) row.ratio_vs_bvh = row.medianUs() / bvh->medianUs();
+  }
+  return rows;
+}
+
+// The run's failures, one line each: exact algorithms that disagree with the
+// reference, conservative ones that missed a pair.
+std::vector<std::string> failures(const std::vector<Row>& rows) {
+  std::vector<std::string> found;
+  for (const Row& row : rows) {
+    const std::string where = row.algorithm + " at n=" + std::to_string(row.objects);
+    if (isExact(row.algorithm) && row.mismatched_frames > 0) {
+      found.push_back(where + ": pair cache differs from " + *row.reference + "'s on " +
+                      std::to_string(row.mismatched_frames) + " frames");
+    } else if (row.missed > 0) {
+      found.push_back(where + ": missed " + std::to_string(row.missed) + " overlapping pairs");
+    }
+  }
+  return found;
+}
+
+std::string fixed(double value, int decimals) {
+  char text[48];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
+std::string csvText(const std::vector<Row>& rows, const std::string& command,
+                    const std::vector<std::string>& notes) {
+  std::string csv = "# " + machineSummary() + "; command: " + command + '\n';
+  for (const std::string& note : notes) csv += "# " + note + '\n';
+  csv +=
+      "n,algorithm,frames,repeats,median_us,min_us,max_us,ratio_vs_bvh,pairs_mean,"
+      "extra_pairs_mean,missed_pairs\n";
+  for (const Row& row : rows) {
+    const auto [fastest, slowest] =
+        std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
+    const bool checked = row.reference && row.algorithm != *row.reference;
+    csv += std::to_string(row.objects) + ',' + row.algorithm + ',' + std::to_string(row.frames) +
+           ',' + std::to_string(row.repeats()) + ',' + fixed(row.medianUs(), 1) + ',' +
+           fixed(*fastest, 1) + ',' + fixed(*slowest, 1) + ',' +
+           (row.ratio_vs_bvh ? fixed(*row.ratio_vs_bvh, 3) : "") + ',' + fixed(row.pairsMean(), 1) +
+           ',' + (checked ? fixed(row.extraMean(), 1) : "") + ',' +
+           (checked ? std::to_string(row.missed) : "") + '\n';
+  }
+  return csv;
+}
+
+nlohmann::json rowJson(const Row& row) {
+  const bool checked = row.reference && row.algorithm != *row.reference;
+  auto optional = [](bool present, auto value) {
+    return present ? nlohmann::json(value) : nlohmann::json(nullptr);
+  };
+  return {
+      {"n", row.objects},
+      {"algorithm", row.algorithm},
+      {"frames", row.frames},
+      {"repeats", row.repeats()},
+      {"median_us", row.medianUs()},
+      {"min_us", *std::min_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
+      {"max_us", *std::max_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
+      {"repeat_medians_us", row.repeat_medians_us},
+      {"ratio_vs_bvh", optional(row.ratio_vs_bvh.has_value(), row.ratio_vs_bvh.value_or(0))},
+      {"pairs_mean", row.pairsMean()},
+      {"reference", optional(row.reference.has_value(), row.reference.value_or(""))},
+      {"extra_pairs_mean", optional(checked, row.extraMean())},
+      {"missed_pairs", optional(checked, row.missed)},
+      {"mismatched_frames", optional(checked && isExact(row.algorithm), row.mismatched_frames)}};
+}
+
+std::string quotedCommand(int argc, char** argv) {
+  std::string command;
+  for (int i = 0; i < argc; ++i) {
+    const std::string argument = argv[i];
+    if (i > 0) command += ' ';
+    const bool plain =
+        !argument.empty() && argument.find_first_of(" \t\"'$\\") == std::string::npos;
+    command += plain ? argument : '\'' + argument + '\'';
+  }
+  return command;
+}
+
+void addOptions(CLI::App& app, BenchOptions& options) {
+  const std::vector<std::string> names(physics::broadphaseNames().begin(),
+                                       physics::broadphaseNames().end());
+  app.add_option("--objects,-n", options.objects, "box counts for --algos (0: none)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 10'000'000))
+      ->capture_default_str();
+  app.add_option("--algos", options.algorithms, "broadphases run at each of --objects")
+      ->delimiter(',')
+      ->check(CLI::IsMember(names))
+      ->capture_default_str();
+  app.add_option("--big-objects", options.big_objects, "box counts for --big-algos (0: none)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 10'000'000))
+      ->capture_default_str();
+  app.add_option("--big-algos", options.big_algorithms, "broadphases run at each of --big-objects")
+      ->delimiter(',')
+      ->check(CLI::IsMember(names))
+      ->capture_default_str();
+  app.add_option("--streams", options.streams, "folder of cached .aabbs streams")
+      ->capture_default_str();
+  app.add_option("--out", options.out, "results: OUT.csv and OUT.json")->capture_default_str();
+  app.add_option("--seed", options.seed, "scene 4's seed")->capture_default_str();
+  app.add_option("--record-frames", options.record_frames,
+                 "frames of each --objects stream (F; F + 1 are replayed)")
+      ->check(CLI::Range(1, 100'000))
+      ->capture_default_str();
+  app.add_option("--big-record-frames", options.big_record_frames,
+                 "frames of each --big-objects stream")
+      ->check(CLI::Range(1, 100'000))
+      ->capture_default_str();
+  app.add_option("--warmup", options.warmup, "first replayed frames left out of the figures")
+      ->check(CLI::Range(0, 100'000))
+      ->capture_default_str();
+  app.add_option("--repeats", options.repeats, "replays of each stream per algorithm")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_flag("--record-only", options.record_only,
+               "record the missing streams and stop (to record several n in parallel)");
+}
+
+// What the CSV's columns mean, for its header comment and the JSON.
+std::vector<std::string> csvNotes(const BenchOptions& options, const std::string& skipped) {
+  std::vector<std::string> notes = {
+      "scene " + std::to_string(kScene) + ", seed " + std::to_string(options.seed) +
+          ", streams in " + options.streams.string() +
+          " (recorded with bvh and the scene's default substeps); warm-up frames " +
+          std::to_string(options.warmup),
+      "time per frame: BroadphaseReplay update (setAabb of every box) + findPairs "
+      "(calculateOverlappingPairs: search and pair-cache update); per repeat (fresh "
+      "broadphase) the median of the measured frames; median_us = median over repeats, "
+      "min_us/max_us = fastest/slowest repeat",
+      "ratio_vs_bvh = median_us / bvh's median_us at the same n in this run (bvh = "
+      "btDbvtBroadphase; below 1 is faster than bvh)",
+      "pairs_mean: pairs in the cache per measured frame; extra_pairs_mean: cached pairs not in "
+      "the exact set (bf's, else cpubf's, at that n) per measured frame; missed_pairs: exact "
+      "pairs missing from the cache, summed over every frame and repeat; both empty for the "
+      "reference itself"};
+  if (!skipped.empty()) notes.push_back(skipped);
+  return notes;
+}
+
+int run(const BenchOptions& options, const std::string& command) {
+  std::string skipped;
+  const std::vector<Workload> workloads = planWorkloads(options, skipped);
+  prepareOutputDirectory(options.streams, "--streams");
+  if (!options.record_only) {
+    prepareOutputDirectory(
+        options.out.has_parent_path() ? options.out.parent_path() : std::filesystem::path("."),
+        "--out");
+  }
+  if (!skipped.empty() && !options.record_only) {
+    std::fprintf(stderr, "%s: %s\n", kProgram, skipped.c_str());
+  }
+
+  const Clock::time_point start = Clock::now();
+  std::vector<Row> rows;
+  nlohmann::json streams = nlohmann::json::array();
+  for (const Workload& workload : workloads) {
+    physics::SceneConfig config = physics::SceneConfig::forScene(kScene);
+    config.objects = workload.objects;
+    config.seed = options.seed;
+    const CachedStream cached = loadOrRecordStream(options.streams, config, workload.record_frames);
+    std::fprintf(stderr, "%s: n=%d: %s %s in %.1f s\n", kProgram, workload.objects,
+                 cached.recorded ? "recorded" : "read", cached.path.c_str(), cached.seconds);
+    streams.push_back({{"n", workload.objects},
+                       {"path", cached.path.string()},
+                       {"recorded_frames", workload.record_frames},
+                       {"recorded", cached.recorded},
+                       {"seconds", cached.seconds}});
+    if (options.record_only) continue;
+    const std::vector<Row> measured = measure(workload, cached.stream, options, start);
+    rows.insert(rows.end(), measured.begin(), measured.end());
+  }
+  if (options.record_only) return 0;
+
+  const std::vector<std::string> notes = csvNotes(options, skipped);
+
+  nlohmann::json json = {
+      {"machine", machineInfo()},
+      {"command", command},
+      {"scene", kScene},
+      {"seed", options.seed},
+      {"warmup", options.warmup},
+      {"repeats", options.repeats},
+      {"notes", notes},
+      {"streams", streams},
+      {"run_seconds", std::chrono::duration<double>(Clock::now() - start).count()},
+      {"rows", nlohmann::json::array()}};
+  for (const Row& row : rows) json["rows"].push_back(rowJson(row));
+  std::filesystem::path csv_path = options.out, json_path = options.out;
+  csv_path += ".csv";
+  json_path += ".json";
+  writeFileAtomically(csv_path, csvText(rows, command, notes));
+  writeFileAtomically(json_path, json.dump(2) + '\n');
+  std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
+
+  const std::vector<std::string> failed = failures(rows);
+  for (const std::string& failure : failed) {
+    std::fprintf(stderr, "%s: FAIL %s\n", kProgram, failure.c_str());
+  }
+  return failed.empty() ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace overlap::engine
+
+int main(int argc, char** argv) {
+  using namespace overlap::engine;
+  CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams (project issue 3)",
+               kProgram};
+  BenchOptions options;
+  addOptions(app, options);
+  try {
+    app.parse(argc, argv);
+    return run(options, quotedCommand(argc, argv));
+  } catch (const CLI::CallForHelp& help) {
+    return app.exit(help);
+  } catch (const CLI::ParseError& error) {
+    std::fprintf(stderr, "%s: %s (see --help)\n", kProgram, error.what());
+    return 2;
+  } catch (const UsageError& error) {
+    std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
+    return 2;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "%s: error: %s\n", kProgram, error.what());
+    return 1;
+  }
+}

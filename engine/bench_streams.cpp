@@ -1,0 +1,94 @@
+#include "engine/bench_streams.h"
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "engine/progress.h"
+#include "physics/world.h"
+
+namespace overlap::engine {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void checkHeader(const physics::AabbStream& stream, const std::filesystem::path& path,
+                 const physics::SceneConfig& config, int frames) {
+  auto mismatch = [&](const std::string& field, const std::string& found,
+                      const std::string& expected) {
+    throw std::runtime_error(path.string() + ": cached stream's " + field + " is " + found +
+                             ", its name says " + expected + "; delete it to record it again");
+  };
+  if (stream.scene_name != streamSceneName(config)) {
+    mismatch("scene name", '"' + stream.scene_name + '"', '"' + streamSceneName(config) + '"');
+  }
+  if (stream.objects != config.objects) {
+    mismatch("object count", std::to_string(stream.objects), std::to_string(config.objects));
+  }
+  if (stream.stored_frames != frames + 1) {
+    mismatch("frame count", std::to_string(stream.stored_frames - 1), std::to_string(frames));
+  }
+}
+
+}  // namespace
+
+std::string streamSceneName(const physics::SceneConfig& config) {
+  return "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed);
+}
+
+std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
+                                       const physics::SceneConfig& config, int frames) {
+  return folder /
+         ("scene" + std::to_string(config.scene) + "_seed" + std::to_string(config.seed) + "_n" +
+          std::to_string(config.objects) + "_f" + std::to_string(frames) + ".aabbs");
+}
+
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames) {
+  // bvh and the default substeps: what `overlap record` uses, so both make the same file.
+  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", 0});
+
+  physics::AabbStream stream;
+  stream.scene_name = streamSceneName(config);
+  stream.object_type = "box";
+  stream.objects = config.objects;
+  stream.stored_frames = frames + 1;
+  const auto outer = static_cast<float>(world.layout().outerHalfExtent());
+  stream.world = physics::Aabb{{-outer, -outer, -outer}, {outer, outer, outer}};
+  stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
+  auto keepBoxes = [&] {
+    const std::vector<physics::Aabb> all = world.aabbs();  // boxes, then walls
+    stream.boxes.insert(stream.boxes.end(), all.begin(), all.begin() + config.objects);
+  };
+
+  Progress progress("record n=" + std::to_string(config.objects), frames);
+  keepBoxes();
+  for (int frame = 0; frame < frames; ++frame) {
+    world.stepFrame();
+    keepBoxes();
+    progress.update(frame + 1);
+  }
+  progress.finish();
+  return stream;
+}
+
+CachedStream loadOrRecordStream(const std::filesystem::path& folder,
+                                const physics::SceneConfig& config, int frames) {
+  CachedStream cached;
+  cached.path = cachedStreamPath(folder, config, frames);
+  const auto start = std::chrono::steady_clock::now();
+  if (std::filesystem::exists(cached.path)) {
+    cached.stream = physics::readAabbStream(cached.path);
+    checkHeader(cached.stream, cached.path, config, frames);
+  } else {
+    cached.stream = recordStream(config, frames);
+    physics::writeAabbStream(cached.path, cached.stream);
+    cached.recorded = true;
+  }
+  cached.seconds = secondsSince(start);
+  return cached;
+}
+
+}  // namespace overlap::engine

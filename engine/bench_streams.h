@@ -1,0 +1,47 @@
+// The recorded AABB streams the broadphase benchmark replays, cached on disk.
+//
+// A stream is what `overlap record` writes: a scene simulated with bvh and
+// the scene's default substeps, the boxes' AABBs (walls left out) at the start
+// and after each of F frames, in Broadmark's `.aabbs` layout.  Recording big
+// scenes takes minutes (Bullet, one thread), so each stream is kept in a
+// folder under a name that says what it holds,
+//   scene<S>_seed<X>_n<N>_f<F>.aabbs,
+// and reused by later runs and by other machines.  The same file comes out of
+// `overlap record --scene S --seed X --objects N --frames F --out <that name>`.
+//
+// Invariant: a stream handed out has exactly the scene name, object count and
+// frame count its file name promises; a cached file whose header says
+// otherwise is an error, never silently re-recorded or replayed.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "physics/aabb_stream.h"
+#include "physics/scene.h"
+
+namespace overlap::engine {
+
+// "overlap scene S seed X", the scene name `overlap record` writes.
+std::string streamSceneName(const physics::SceneConfig& config);
+
+std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
+                                       const physics::SceneConfig& config, int frames);
+
+// Simulates `frames` frames of the scene and keeps the boxes' AABBs, with
+// progress on stderr for long recordings.
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames);
+
+struct CachedStream {
+  physics::AabbStream stream;
+  std::filesystem::path path;
+  bool recorded = false;  // false: read from the cache
+  double seconds = 0;     // recording or reading time
+};
+
+// Reads the cached stream, or records and caches it when there is none.
+// Throws std::runtime_error naming the file when a cached header disagrees.
+CachedStream loadOrRecordStream(const std::filesystem::path& folder,
+                                const physics::SceneConfig& config, int frames);
+
+}  // namespace overlap::engine

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# CI under sanitizers, after scripts/setup.sh: the whole ctest suite under
+# AddressSanitizer + UBSan (preset "asan"), then the threaded code (cpubf's
+# worker and oneTBB search, the frame scheduler, the sound and AI tasks)
+# under ThreadSanitizer (preset "tsan").  Both presets build the CPU code
+# only.  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
+# that the CLI tests run captures frames with it); tests/tsan.supp and the
+# TSan section below deal with oneTBB, which is not TSan-instrumented.
+# Usage: scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
+# (default: the presets' build-asan and build-tsan).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+readonly ASAN_DIR="${1:-build-asan}"
+readonly TSAN_DIR="${2:-build-tsan}"
+readonly JOBS="$(nproc)"
+# The threaded tests: their labels and the targets that hold them
+# (tests/*/CMakeLists.txt); engine's CLI tests run the `overlap` binary.
+readonly TSAN_LABELS="gpu|engine|scheduler|stubs"
+readonly TSAN_TARGETS=(overlap_gpu_tests overlap_engine_tests overlap_scheduler_tests stubs_tests)
+
+section() { printf '\n== %s: %s\n' "$(date +%T)" "$*"; }
+
+section "ASan + UBSan: configure and build ($ASAN_DIR)"
+cmake --preset asan -B "$ASAN_DIR" >/dev/null
+cmake --build "$ASAN_DIR" -j "$JOBS"
+section "ASan + UBSan: the whole suite"
+ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
+LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" \
+UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
+  ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS"
+
+section "TSan: configure and build ($TSAN_DIR)"
+# GCC's TSan instruments the resolvers of target_clones functions (cpubf's
+# AVX2 search in gpu/cpu_pair_finder.cpp), which the loader runs before the
+# TSan runtime is up: every binary with cpubf would crash before main().
+# Without function entry/exit hooks the resolvers are safe; reports then
+# show each access's own line rather than its whole stack.
+cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS="--param=tsan-instrument-func-entry-exit=0" \
+  >/dev/null
+cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
+section "TSan: tests labelled $TSAN_LABELS"
+# oneTBB is not built with TSan: the hand-overs inside it are invisible, and
+# every task would look racy against the thread that spawned it.  On one CPU
+# oneTBB starts no worker threads (its default concurrency is the affinity
+# mask's size), so what TSan checks is the project's own threads, mutexes
+# and condition variables (cpubf's background worker, the scheduler's joins).
+TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1:second_deadlock_stack=1" \
+  taskset -c 0 ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L "$TSAN_LABELS"
+section "sanitizers: no finding"

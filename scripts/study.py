@@ -1,0 +1,433 @@
+#!/usr/bin/python3
+"""The study: the paper's sweep redone and extended, with figures and a report.
+
+One command runs every experiment of project issue 6, one `overlap` process
+after another (never two at once, so runs do not compete for cores), and then
+writes the tables, the figures and REPORT.md from whatever results exist:
+
+  sweep     4 scenes x algorithms x n x repetitions, `overlap run --no-tasks`,
+            the same seed every repetition (the paper repeats the same scene
+            and averages; only the timings differ between repetitions)
+  pairs     a recorded scene-4 stream through `overlap pairs` for every
+            algorithm, compared with bf's exact pairs: missed pairs must be 0
+  physics   substeps K and --ccd against escapes, penetration (and energy
+            drift, where frames.csv has energy columns), scenes 3 and 4
+  latency   `overlap latency`: a broadphase one frame late on AABBs grown by
+            growth * |v| * dt, against the pairs it misses and adds
+  timeline  one run with the sound and AI tasks, for the async loop's timeline
+
+Every run keeps its own folder under --out; a run whose result exists is not
+redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
+stable job list, so k machines can share the work on one --out folder.  On a
+machine without a CUDA device the GPU algorithms' runs are skipped (their
+CPU fallback is cpubf, which the study runs anyway) and reported as pending.
+
+  scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
+  scripts/study.py --out out/study --shard 1/2              # half of the full study
+  scripts/study.py --out out/study --no-runs --report       # docs/REPORT.md from results
+
+matplotlib: run with /usr/bin/python3 (Debian's python3-matplotlib).
+"""
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import time
+
+from foundation_table import run_summary
+import study_report
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+GPU_ALGOS = ("gpubf", "gpubf-paper")
+
+# Each profile's values; any option given on the command line wins.
+FULL = {
+    "scenes": "1,2,3,4", "algos": "bf,sap,bvh,gpubf-paper,gpubf,cpubf",
+    "objects": "500,1250,2000,2750,3500", "repetitions": 5, "frames": 2048,
+    "figure_objects": 1250,
+    "pairs_objects": 3500, "pairs_frames": 256,
+    "pairs_algos": "bf,sap,sap32,bvh,cpubf,gpubf,gpubf-paper",
+    "physics_scenes": "3,4", "physics_objects": 3500, "physics_frames": 2048,
+    "physics_substeps": "1,2,4,8", "physics_algo": "bvh",
+    "latency_scenes": "1,2,3,4", "latency_objects": 3500, "latency_frames": 2048,
+    "latency_algos": "bf,sap,bvh,cpubf,gpubf", "latency_growths": "0,1,2",
+    "timeline_objects": 1250, "timeline_frames": 64,
+}
+QUICK = {
+    "scenes": "1,2,3,4", "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1,
+    "frames": 90, "figure_objects": 400,
+    "pairs_objects": 400, "pairs_frames": 90, "pairs_algos": "bf,sap,sap32,bvh,cpubf",
+    "physics_scenes": "3,4", "physics_objects": 400, "physics_frames": 90,
+    "physics_substeps": "1,2,4,8", "physics_algo": "bvh",
+    "latency_scenes": "1,2,3,4", "latency_objects": 400, "latency_frames": 90,
+    "latency_algos": "bvh,cpubf", "latency_growths": "0,1,2",
+    "timeline_objects": 400, "timeline_frames": 16,
+}
+EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline")
+HELP = {
+    "scenes": "sweep: scenes", "algos": "sweep: broadphases", "objects": "sweep: box counts",
+    "repetitions": "sweep: runs of each (scene, algo, n), same seed",
+    "frames": "sweep: frames per run", "figure_objects": "Figures 2-5: n (the nearest one run)",
+    "pairs_objects": "pairs: boxes in the scene-4 stream", "pairs_frames": "pairs: frames recorded",
+    "pairs_algos": "pairs: broadphases compared with bf", "physics_scenes": "physics: scenes",
+    "physics_objects": "physics: boxes", "physics_frames": "physics: frames per run",
+    "physics_substeps": "physics: substeps K, each with and without --ccd",
+    "physics_algo": "physics: broadphase", "latency_scenes": "latency: scenes",
+    "latency_objects": "latency: boxes", "latency_frames": "latency: frames per run",
+    "latency_algos": "latency: broadphases, one process each",
+    "latency_growths": "latency: growth factors of the late AABBs (x |v| dt)",
+    "timeline_objects": "timeline: boxes (scene 4)", "timeline_frames": "timeline: frames",
+}
+
+
+def ints(text: str) -> list:
+    return [int(x) for x in text.split(",") if x]
+
+
+def names(text: str) -> list:
+    return [x for x in text.split(",") if x]
+
+
+def default_substeps(scene: int) -> int:
+    """The scene's default substeps (physics/world.cpp defaultSubsteps), for the ETA only."""
+    return 8 if scene >= 3 else 2
+
+
+class Job:
+    """One unit of work: one or a few `overlap` processes and the file that proves it done.
+
+    Each kind below adds done() (its result exists), commands() (the command
+    lines it runs, for commands.txt and the report) and run().  `labels` are
+    the job's coordinates (scene, objects, algo, ...) for the tables; `weight`
+    is its expected cost relative to the others, for the ETA; `gpu_algo` names
+    the GPU algorithm it needs, if any.
+    """
+
+    def __init__(self, experiment, key, weight, labels, gpu_algo=None):
+        self.experiment, self.key, self.weight = experiment, key, weight
+        self.labels, self.gpu_algo = labels, gpu_algo
+
+
+def check_output(command: list) -> str:
+    """Runs `command`, returns its stdout; on failure shows its stderr and stops the study."""
+    result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if result.returncode != 0:
+        sys.exit(f"study: failed (exit {result.returncode}): {' '.join(command)}\n{result.stderr}")
+    return result.stdout
+
+
+def write_atomically(path: pathlib.Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    partial.write_text(text)
+    partial.replace(path)
+
+
+class RunJob(Job):
+    """`overlap run OPTIONS --out FOLDER`; done when FOLDER/summary.json exists."""
+
+    def __init__(self, experiment, key, weight, labels, overlap, folder, options, gpu_algo=None):
+        super().__init__(experiment, key, weight, labels, gpu_algo)
+        self.overlap, self.folder, self.options = overlap, folder, options
+
+    def done(self):
+        return (self.folder / "summary.json").exists()
+
+    def commands(self):
+        return [[self.overlap, "run", *self.options, "--out", str(self.folder)]]
+
+    def run(self):
+        try:
+            run_summary(self.overlap, self.folder, self.options)
+        except subprocess.CalledProcessError:
+            sys.exit("study: failed: " + " ".join(self.commands()[0]) +
+                     "\n(run it by hand to see its message)")
+
+
+class LatencyJob(Job):
+    """`overlap latency` for one scene and algorithm; its CSV is the result."""
+
+    def __init__(self, key, weight, labels, overlap, path, options, gpu_algo):
+        super().__init__("latency", key, weight, labels, gpu_algo)
+        self.overlap, self.path, self.options = overlap, path, options
+
+    def done(self):
+        return self.path.exists()
+
+    def commands(self):
+        return [[self.overlap, "latency", *self.options]]
+
+    def run(self):
+        write_atomically(self.path, check_output(self.commands()[0]))
+
+
+class PairsJob(Job):
+    """One algorithm's pairs on the recorded scene-4 stream against bf's, frame by frame.
+
+    Writes pairs/<algo>.csv: frame, exact, reported, missed, extra.  The stream
+    and bf's pairs are made by whichever job needs them first.
+    """
+
+    def __init__(self, key, weight, overlap, folder, stream, record_options, frames, algo,
+                 gpu_algo):
+        super().__init__("pairs", key, weight, {"algo": algo}, gpu_algo)
+        self.overlap, self.folder, self.stream, self.frames = overlap, folder, stream, frames
+        self.record_options, self.algo = record_options, algo
+        self.path = folder / f"{algo}.csv"
+        self.exact_path = folder / "bf_pairs.csv"
+
+    def done(self):
+        return self.path.exists()
+
+    def commands(self):
+        record = [self.overlap, "record", *self.record_options, "--out", str(self.stream)]
+        return [record, [self.overlap, "pairs", "--algo", "bf", "--input", str(self.stream)],
+                [self.overlap, "pairs", "--algo", self.algo, "--input", str(self.stream)]]
+
+    def run(self):
+        record, exact, mine = self.commands()
+        if not self.stream.exists():
+            self.stream.parent.mkdir(parents=True, exist_ok=True)
+            check_output(record)
+        if not self.exact_path.exists():
+            write_atomically(self.exact_path, check_output(exact))
+        result = subprocess.run(mine, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        if result.returncode != 0 or "instead" in result.stderr:
+            sys.exit(f"study: {' '.join(mine)} failed or did not run {self.algo}:\n{result.stderr}")
+        exact_frames = pairs_by_frame(self.exact_path.read_text())
+        reported_frames = pairs_by_frame(result.stdout)
+        rows = ["frame,exact,reported,missed,extra"]
+        for frame in range(self.frames + 1):  # the start and after each frame
+            exact_pairs = exact_frames.get(frame, set())
+            reported = reported_frames.get(frame, set())
+            rows.append(f"{frame},{len(exact_pairs)},{len(reported)},"
+                        f"{len(exact_pairs - reported)},{len(reported - exact_pairs)}")
+        write_atomically(self.path, "\n".join(rows) + "\n")
+
+
+def pairs_by_frame(csv_text: str) -> dict:
+    """`overlap pairs` CSV (frame,a,b) as {frame: {(a, b)}}; frames without pairs are absent."""
+    frames = {}
+    for line in csv_text.splitlines()[1:]:
+        frame, a, b = line.split(",")
+        frames.setdefault(int(frame), set()).add((int(a), int(b)))
+    return frames
+
+
+def plan(args) -> list:
+    """Every job of the study, in a stable order (sharding depends on it)."""
+    out, overlap, seed = args.out, args.overlap, str(args.seed)
+    threads = ["--threads", str(args.threads)] if args.threads else []
+    jobs = []
+    if "sweep" in args.experiments:
+        for scene in ints(args.scenes):
+            for n in ints(args.objects):
+                for algo in names(args.algos):
+                    for rep in range(args.repetitions):
+                        key = f"s{scene}_n{n}_{algo}_r{rep}"
+                        jobs.append(RunJob(
+                            "sweep", key, args.frames * default_substeps(scene) * n,
+                            {"scene": scene, "objects": n, "algo": algo, "rep": rep}, overlap,
+                            out / "sweep" / key,
+                            ["--scene", str(scene), "--objects", str(n), "--algo", algo,
+                             "--frames", str(args.frames), "--seed", seed, "--no-tasks", *threads],
+                            algo if algo in GPU_ALGOS else None))
+    if "pairs" in args.experiments:
+        n, frames = args.pairs_objects, args.pairs_frames
+        stream = out / "streams" / f"scene4_seed{seed}_n{n}_f{frames}.aabbs"
+        record = ["--scene", "4", "--objects", str(n), "--frames", str(frames), "--seed", seed]
+        for algo in names(args.pairs_algos):
+            jobs.append(PairsJob(f"pairs_{algo}", frames * n, overlap, out / "pairs", stream,
+                                 record, frames, algo, algo if algo in GPU_ALGOS else None))
+    if "physics" in args.experiments:
+        n, frames = args.physics_objects, args.physics_frames
+        for scene in ints(args.physics_scenes):
+            for substeps in ints(args.physics_substeps):
+                for ccd in (False, True):
+                    key = f"s{scene}_n{n}_k{substeps}" + ("_ccd" if ccd else "")
+                    jobs.append(RunJob(
+                        "physics", key, frames * substeps * n * (2 if ccd else 1),
+                        {"scene": scene, "objects": n, "substeps": substeps, "ccd": ccd}, overlap,
+                        out / "physics" / key,
+                        ["--scene", str(scene), "--objects", str(n), "--algo", args.physics_algo,
+                         "--frames", str(frames), "--seed", seed, "--substeps", str(substeps),
+                         "--no-tasks", *threads] + (["--ccd"] if ccd else [])))
+    if "latency" in args.experiments:
+        n, frames = args.latency_objects, args.latency_frames
+        for scene in ints(args.latency_scenes):
+            for algo in names(args.latency_algos):
+                key = f"s{scene}_n{n}_{algo}"
+                jobs.append(LatencyJob(
+                    key, 2 * frames * default_substeps(scene) * n,
+                    {"scene": scene, "objects": n, "algo": algo}, overlap,
+                    out / "latency" / f"{key}.csv",
+                    ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
+                     "--seed", seed, "--algo", algo, "--growth", args.latency_growths, *threads],
+                    algo if algo in GPU_ALGOS else None))
+    if "timeline" in args.experiments:
+        n, frames = args.timeline_objects, args.timeline_frames
+        # gpubf with the tasks beside it: on a machine without a GPU it runs
+        # cpubf, and the summary (and so the figure) says so.
+        jobs.append(RunJob("timeline", "timeline", frames * 8 * n, {}, overlap, out / "timeline",
+                           ["--scene", "4", "--objects", str(n), "--algo", "gpubf",
+                            "--frames", str(frames), "--seed", seed, *threads]))
+    if args.capture:
+        for scene in ints(args.scenes):
+            jobs.append(CaptureJob(scene, overlap, out / "keyframes", args.capture_objects,
+                                   args.capture_keyframes))
+    return jobs
+
+
+class CaptureJob(Job):
+    """`overlap capture` of one scene's keyframes (Figure 1), when asked to re-capture."""
+
+    def __init__(self, scene, overlap, folder, objects, keyframes):
+        weight = (max(ints(keyframes)) + 1) * default_substeps(scene) * objects
+        super().__init__("capture", f"capture_s{scene}", weight, {"scene": scene})
+        self.scene, self.overlap, self.folder = scene, overlap, folder
+        self.objects, self.keyframes = objects, keyframes
+
+    def done(self):
+        return all((self.folder / f"scene{self.scene}_frame{f:04d}.png").exists()
+                   for f in ints(self.keyframes))
+
+    def commands(self):
+        return [[self.overlap, "capture", "--scene", str(self.scene), "--objects",
+                 str(self.objects), "--keyframes", self.keyframes, "--size", "400x300",
+                 "--out", str(self.folder)]]
+
+    def run(self):
+        check_output(self.commands()[0])
+
+
+def gpu_present(overlap: str, out: pathlib.Path) -> tuple:
+    """(whether gpubf runs on a GPU here, the machine's GPU line), from a one-frame run."""
+    probe = out / "gpu_probe"
+    summary = run_summary(overlap, probe, ["--scene", "1", "--algo", "gpubf", "--objects", "8",
+                                           "--frames", "1", "--no-tasks"])
+    present = summary["parameters"]["algorithm"] == "gpubf"
+    # Another machine sharing --out must probe for itself.
+    for name in ("summary.json", "frames.csv", "timeline.json"):
+        (probe / name).unlink(missing_ok=True)
+    return present, summary["machine"]["gpu"]
+
+
+def format_seconds(seconds: float) -> str:
+    seconds = int(seconds)
+    if seconds >= 3600:
+        return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
+    return f"{seconds // 60}m{seconds % 60:02d}s" if seconds >= 60 else f"{seconds}s"
+
+
+def run_jobs(jobs: list, args) -> list:
+    """Runs this shard's pending jobs one after another; returns the GPU jobs left pending."""
+    shard, shards = args.shard
+    mine = [job for index, job in enumerate(jobs) if index % shards == shard - 1]
+    pending = [job for job in mine if not job.done()]
+    gpu_pending = [job for job in pending if job.gpu_algo]
+    if gpu_pending:
+        present, gpu = gpu_present(args.overlap, args.out)
+        if not present:
+            print(f"study: no CUDA device ({gpu}); {len(gpu_pending)} GPU jobs left pending",
+                  file=sys.stderr)
+            pending = [job for job in pending if not job.gpu_algo]
+        else:
+            gpu_pending = []
+    print(f"study: shard {shard}/{shards}: {len(mine)} of {len(jobs)} jobs, "
+          f"{len(mine) - len(pending) - len(gpu_pending)} already done, {len(pending)} to run",
+          file=sys.stderr)
+    total_weight = sum(job.weight for job in pending)
+    done_weight = 0
+    started = time.monotonic()
+    for index, job in enumerate(pending):
+        job_started = time.monotonic()
+        job.run()
+        done_weight += job.weight
+        elapsed = time.monotonic() - started
+        left = elapsed / done_weight * (total_weight - done_weight)
+        print(f"[{index + 1}/{len(pending)}] {job.experiment} {job.key}: "
+              f"{time.monotonic() - job_started:.1f} s; elapsed {format_seconds(elapsed)}, "
+              f"about {format_seconds(left)} left", file=sys.stderr)
+    return gpu_pending
+
+
+def parse_shard(text: str) -> tuple:
+    try:
+        shard, shards = (int(x) for x in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--shard {text}: expected i/k, e.g. 1/4")
+    if not 1 <= shard <= shards:
+        raise argparse.ArgumentTypeError(f"--shard {text}: i must be in 1..k")
+    return shard, shards
+
+
+def parse_args(argv: list) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--overlap", default=str(REPO / "build" / "overlap"),
+                        help="the overlap binary (default: build/overlap)")
+    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/study"),
+                        help="folder for every run, table and figure (default out/study)")
+    parser.add_argument("--quick", action="store_true",
+                        help="the small version: minutes on a 2-core machine")
+    parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
+                        help="comma-separated subset of " + ",".join(EXPERIMENTS))
+    parser.add_argument("--shard", type=parse_shard, default=(1, 1),
+                        help="i/k: run jobs i, i+k, ... of the stable job list (1-based)")
+    parser.add_argument("--no-runs", action="store_true",
+                        help="run nothing; tables, figures and report from existing results")
+    parser.add_argument("--report", action="store_true",
+                        help="also write docs/REPORT.md with its figures in docs/report/")
+    parser.add_argument("--seed", type=int, default=42, help="every run's seed (default 42)")
+    parser.add_argument("--threads", type=int, default=0,
+                        help="oneTBB thread cap passed to every run (0: all hardware threads)")
+    parser.add_argument("--capture", action="store_true",
+                        help="re-capture Figure 1's keyframes instead of docs/keyframes/")
+    parser.add_argument("--capture-objects", type=int, default=1250,
+                        help="--capture: boxes (default 1250)")
+    parser.add_argument("--capture-keyframes", default="0,512,1024,2047",
+                        help="Figure 1's frames (default 0,512,1024,2047)")
+    for key, value in FULL.items():
+        parser.add_argument("--" + key.replace("_", "-"), type=type(value), default=None,
+                            help=f"{HELP[key]} (default {value}; --quick {QUICK[key]})")
+    args = parser.parse_args(argv)
+    profile = QUICK if args.quick else FULL
+    for key, value in profile.items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    args.experiments = names(args.experiments)
+    unknown = set(args.experiments) - set(EXPERIMENTS)
+    if unknown:
+        parser.error(f"--experiments: unknown {','.join(sorted(unknown))}")
+    args.overlap = str(pathlib.Path(args.overlap).resolve())
+    if not args.no_runs and not os.access(args.overlap, os.X_OK):
+        parser.error(f"--overlap {args.overlap}: not an executable (build it first)")
+    return args
+
+
+def main(argv: list) -> int:
+    args = parse_args(argv)
+    args.argv = argv
+    args.out.mkdir(parents=True, exist_ok=True)
+    jobs = plan(args)
+    write_atomically(args.out / "commands.txt",
+                     "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
+    started = time.time()
+    load = os.getloadavg()[0]
+    gpu_pending = [] if args.no_runs else run_jobs(jobs, args)
+    invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
+        "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": round(time.time() - started, 1),
+        "load_average_at_start": round(load, 2), "gpu_jobs_pending": len(gpu_pending)}
+    if not args.no_runs:
+        log_path = args.out / "study_invocations.json"
+        log = json.loads(log_path.read_text()) if log_path.exists() else []
+        write_atomically(log_path, json.dumps(log + [invocation], indent=1) + "\n")
+    failures = study_report.write_everything(args, jobs)
+    for failure in failures:
+        print(f"study: FAILED: {failure}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

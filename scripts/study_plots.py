@@ -1,0 +1,209 @@
+"""The study's figures (matplotlib, Agg backend), each saved as PNG and SVG.
+
+Every function takes rows already measured and aggregated by study_results
+and draws them as they are: no smoothing, no fitted curves.  Each algorithm
+keeps one colour across all figures.  Run with /usr/bin/python3, whose
+Debian python3-matplotlib is what scripts/setup.sh installs.
+"""
+import pathlib
+import sys
+
+try:
+    import matplotlib
+except ImportError:
+    sys.exit(f"study: {sys.executable} has no matplotlib; run the study with /usr/bin/python3 "
+             "(Debian's python3-matplotlib, which scripts/setup.sh installs)")
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
+
+COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
+           "cpubf": "#ff7f0e", "gpubf": "#d62728", "gpubf-paper": "#9467bd"}
+LANE_COLOURS = {"frame": "#cccccc", "join": "#7f7f7f", "search": "#d62728", "sound": "#1f77b4",
+                "ai": "#2ca02c"}
+
+
+def colour(algo: str) -> str:
+    return COLOURS.get(algo.split(" ")[0], "#8c564b")
+
+
+def save(figure, folder: pathlib.Path, name: str) -> str:
+    """Writes NAME.png and NAME.svg into `folder`; returns NAME.png."""
+    folder.mkdir(parents=True, exist_ok=True)
+    figure.tight_layout()
+    figure.savefig(folder / f"{name}.png", dpi=120)
+    figure.savefig(folder / f"{name}.svg")
+    plt.close(figure)
+    return f"{name}.png"
+
+
+def keyframes(images: list, frames: list, folder: pathlib.Path) -> str:
+    """Figure 1: rows of (scene, [PNG per keyframe]) as one montage."""
+    figure, axes = plt.subplots(len(images), len(frames), squeeze=False,
+                                figsize=(2.6 * len(frames), 2.0 * len(images)))
+    for row, (scene, paths) in enumerate(images):
+        for column, path in enumerate(paths):
+            axis = axes[row][column]
+            axis.imshow(plt.imread(path))
+            axis.set_xticks([])
+            axis.set_yticks([])
+            if row == 0:
+                axis.set_title(f"frame {frames[column]}", fontsize=9)
+            if column == 0:
+                axis.set_ylabel(f"scene {scene}", fontsize=9)
+    return save(figure, folder, "fig1_keyframes")
+
+
+def per_frame(scene: int, n: int, series: dict, folder: pathlib.Path) -> str:
+    """Figures 2-5: update, broadphase and total time per frame, one line per algorithm."""
+    figure, axes = plt.subplots(1, 3, figsize=(13, 3.6))
+    titles = {"update_ms": "update", "broadphase_ms": "broadphase", "total_ms": "total"}
+    for axis, (column, title) in zip(axes, titles.items()):
+        for algo, columns in sorted(series.items()):
+            axis.plot(columns[column], label=algo, color=colour(algo), linewidth=0.8)
+        axis.set_title(f"scene {scene}, {n} boxes: {title}")
+        axis.set_xlabel("frame")
+        axis.set_ylabel("ms")
+        axis.set_yscale("log")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    return save(figure, folder, f"fig{scene + 1}_scene{scene}_per_frame")
+
+
+def total_against_n(cells: list, folder: pathlib.Path) -> str:
+    """Figure 6: mean total frame time against n; bars span the repetitions' run means."""
+    scenes = sorted({c["scene"] for c in cells})
+    figure, axes = plt.subplots(1, len(scenes), figsize=(4 * len(scenes), 3.6), squeeze=False)
+    for axis, scene in zip(axes[0], scenes):
+        mine = [c for c in cells if c["scene"] == scene and not c["fallback"]]
+        for algo in sorted({c["algo"] for c in mine}):
+            points = sorted((c["objects"], c["total_mean"], c["total_min"], c["total_max"])
+                            for c in mine if c["algo"] == algo)
+            n, mean, low, high = zip(*points)
+            axis.errorbar(n, mean, yerr=[[m - lo for m, lo in zip(mean, low)],
+                                         [hi - m for m, hi in zip(mean, high)]],
+                          label=algo, color=colour(algo), marker="o", capsize=3)
+        axis.set_title(f"scene {scene}")
+        axis.set_xlabel("boxes")
+        axis.set_ylabel("total ms / frame")
+        axis.set_yscale("log")
+        axis.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    return save(figure, folder, "fig6_total_against_n")
+
+
+def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
+    """One frame of the async loop: each lane's spans against time since the frame began.
+
+    Left the whole frame, right a zoom on the tasks, the search and the join,
+    which take a small part of it.
+    """
+    lanes = ["main", "broadphase", "sound", "ai"]
+    lanes += sorted({lane for lane, *_ in spans} - set(lanes))
+    busy_end = max((start + duration for _, name, start, duration in spans if name != "frame"),
+                   default=0.0)
+    figure, axes = plt.subplots(1, 2, figsize=(13, 2.8), gridspec_kw={"width_ratios": [1, 1.4]})
+    zoom = f"its first {busy_end * 1.1:.2g} ms: tasks, search and join"
+    for axis, title in zip(axes, ("the whole frame", zoom)):
+        for lane, name, start, duration in spans:
+            row = len(lanes) - 1 - lanes.index(lane)
+            axis.barh(row, duration, left=start, height=0.8 if name != "frame" else 0.3,
+                      color=LANE_COLOURS.get(name, "#8c564b"), edgecolor="black",
+                      linewidth=0.4, label=name)
+        axis.set_yticks(range(len(lanes)))
+        axis.set_yticklabels(reversed(lanes))
+        axis.set_xlabel("ms since the frame began")
+        axis.set_title(f"frame {frame}, broadphase {algo}: {title}", fontsize=10)
+        axis.grid(axis="x", alpha=0.3)
+    if busy_end > 0:
+        axes[1].set_xlim(0, busy_end * 1.1)
+    handles, labels = axes[1].get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    axes[1].legend(unique.values(), unique.keys(), fontsize=8, loc="upper left",
+                   bbox_to_anchor=(1.01, 1.0))
+    return save(figure, folder, "fig_timeline")
+
+
+def broadphase_error(rows: list, folder: pathlib.Path) -> str:
+    """Each algorithm's broadphase time per frame against its extra pairs (misses are 0)."""
+    figure, axis = plt.subplots(figsize=(6, 4))
+    for row in rows:
+        axis.scatter(row["extra_share"] * 100, row["time_ms"], color=colour(row["algo"]), s=40)
+        axis.annotate(row["algo"], (row["extra_share"] * 100, row["time_ms"]), fontsize=8,
+                      xytext=(4, 4), textcoords="offset points")
+    axis.set_xlabel("extra pairs, % of the exact pairs")
+    axis.set_ylabel("update + broadphase ms / frame")
+    axis.set_yscale("log")
+    axis.set_title("broadphase speed against error, scene 4")
+    axis.grid(alpha=0.3)
+    return save(figure, folder, "fig_broadphase_error")
+
+
+def physics(rows: list, folder: pathlib.Path) -> str:
+    """Per scene (columns): time, escapes, deepest penetration (and energy drift) against K."""
+    scenes = sorted({r["scene"] for r in rows})
+    measures = [("total_mean", "total ms / frame"), ("escaped_max", "escaped (max over frames)"),
+                ("penetration_max", "deepest penetration / box edge")]
+    if any("energy_drift" in r for r in rows):
+        measures.append(("energy_drift", "energy drift (end - start) / start"))
+    figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False, sharex=True,
+                                figsize=(4.5 * len(scenes), 2.6 * len(measures)))
+    substeps = sorted({r["substeps"] for r in rows})
+    for column, scene in enumerate(scenes):
+        for row, (key, title) in enumerate(measures):
+            axis = axes[row][column]
+            for ccd, style in ((False, "o-"), (True, "s--")):
+                points = sorted((r["substeps"], r.get(key, float("nan")))
+                                for r in rows if r["scene"] == scene and r["ccd"] == ccd)
+                if points:
+                    axis.plot(*zip(*points), style, label="CCD" if ccd else "no CCD")
+            axis.set_xscale("log", base=2)
+            axis.set_xticks(substeps)
+            axis.set_xticklabels([str(k) for k in substeps])
+            if column == 0:
+                axis.set_ylabel(title)
+            axis.grid(alpha=0.3)
+        axes[0][column].set_title(f"scene {scene}")
+        axes[-1][column].set_xlabel("substeps per frame (K)")
+    axes[0][0].legend(fontsize=8)
+    return save(figure, folder, "fig_physics")
+
+
+def latency(rows: list, folder: pathlib.Path) -> str:
+    """Late broadphase against growth: missed and extra pairs per frame, and the search time.
+
+    Colour: the algorithm; marker: the scene.  An exact algorithm's misses are
+    the latency's alone; a conservative one's are fewer, paid for in extras.
+    """
+    scenes = sorted({r["scene"] for r in rows})
+    markers = "osD^v<>"
+    figure, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    for algo in sorted({r["algo"] for r in rows}):
+        labelled = False
+        for index, scene in enumerate(scenes):
+            mine = sorted((r for r in rows if r["algo"] == algo and r["scene"] == scene),
+                          key=lambda r: r["growth"])
+            if not mine:
+                continue
+            style = {"marker": markers[index % len(markers)], "color": colour(algo),
+                     "label": None if labelled else algo}
+            labelled = True
+            growth = [r["growth"] for r in mine]
+            axes[0].plot(growth, [r["missed_total"] / r["frames"] for r in mine], **style)
+            axes[1].plot(growth, [r["extra_mean"] for r in mine], **style)
+            timed = [(r["growth"], r["late_ms"] / r["on_time_ms"]) for r in mine
+                     if r["on_time_ms"] > 0]
+            if timed:
+                axes[2].plot(*zip(*timed), **style)
+    key = ", ".join(f"{s} {markers[i % len(markers)]}" for i, s in enumerate(scenes))
+    for axis, title in zip(axes, ("missed pairs per frame", "extra pairs per frame",
+                                  "late / on-time search ms (medians)")):
+        axis.set_title(f"{title}\nmarkers: scenes {key}", fontsize=10)
+        axis.set_xlabel("growth (x |v| dt)")
+        axis.grid(alpha=0.3)
+        axis.legend(fontsize=8)
+    axes[0].set_yscale("symlog")
+    axes[1].set_yscale("log")
+    axes[2].set_yscale("log")
+    axes[2].axhline(1.0, color="black", linewidth=0.6)
+    return save(figure, folder, "fig_latency")

@@ -1,0 +1,451 @@
+"""The study's tables, figures and REPORT.md, written from the results that exist.
+
+Every sentence of the report that compares algorithms is computed from the
+tables it sits beside; where a comparison needs runs that are missing (the
+GPU's, on a machine without one) the report says it is pending instead of
+guessing.  write_everything() returns the study's failures (an algorithm
+that missed exact pairs), which make the command exit with 1.
+"""
+import json
+import pathlib
+import shutil
+
+import study_plots
+import study_results
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+EXACT_ALGOS = ("bf", "cpubf", "gpubf", "gpubf-paper")
+
+
+def fmt(x: float) -> str:
+    """Milliseconds and counts at a precision the measurements support."""
+    if x != x:  # NaN
+        return "—"
+    magnitude = abs(x)
+    if magnitude >= 100:
+        return f"{x:.0f}"
+    if magnitude >= 10:
+        return f"{x:.1f}"
+    return f"{x:.2f}" if magnitude >= 0.1 else f"{x:.3g}"
+
+
+def table(headers: list, rows: list) -> list:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines + [""]
+
+
+def algo_order(algos) -> list:
+    known = ["bf", "sap", "sap32", "bvh", "gpubf-paper", "gpubf", "cpubf"]
+    return sorted(algos, key=lambda a: (known.index(a) if a in known else len(known), a))
+
+
+# --- the sweep ---------------------------------------------------------------
+
+def sweep_tables(cells: list) -> list:
+    """Total and update + broadphase ms/frame, scene and n down, algorithms across."""
+    honest = [c for c in cells if not c["fallback"]]
+    algos = algo_order({c["algo"] for c in honest})
+    by_key = {(c["scene"], c["objects"], c["algo"]): c for c in honest}
+    keys = sorted({(c["scene"], c["objects"]) for c in honest})
+    lines = []
+    for title, value in (
+            ("Total ms per frame (mean over repetitions of each run's mean; in brackets the "
+             "ratio to bf)", lambda c: c["total_mean"]),
+            ("Update + broadphase ms per frame (same averaging; ratio to bf)",
+             lambda c: c["update_mean"] + c["broadphase_mean"])):
+        rows = []
+        for scene, n in keys:
+            base = by_key.get((scene, n, "bf"))
+            row = [scene, n]
+            for algo in algos:
+                cell = by_key.get((scene, n, algo))
+                if cell is None:
+                    row.append("—")
+                    continue
+                text = fmt(value(cell))
+                if base is not None and algo != "bf":
+                    text += f" ({value(cell) / value(base):.2f})"
+                row.append(text)
+            rows.append(row)
+        lines += [f"{title}:", ""] + table(["scene", "n"] + algos, rows)
+    return lines
+
+
+def fastest(cells: list, scene: int, n: int, value) -> tuple:
+    present = [c for c in cells if c["scene"] == scene and c["objects"] == n and not c["fallback"]]
+    best = min(present, key=value)
+    return best["algo"], value(best)
+
+
+def claim_lines(cells: list, gpu_pending: int) -> list:
+    """The paper's three claims, each checked on total and on update + broadphase time."""
+    honest = [c for c in cells if not c["fallback"]]
+    by_key = {(c["scene"], c["objects"], c["algo"]): c for c in honest}
+    measures = (("total", lambda c: c["total_mean"]),
+                ("update + broadphase", lambda c: c["update_mean"] + c["broadphase_mean"]))
+    lines = []
+
+    def versus(algo: str, other: str, name: str, value) -> str:
+        pairs = [(k, by_key[k], by_key[(k[0], k[1], other)]) for k in by_key
+                 if k[2] == algo and (k[0], k[1], other) in by_key]
+        if not pairs:
+            return ""
+        wins = [k for k, mine, theirs in pairs if value(mine) < value(theirs)]
+        ratios = [value(mine) / value(theirs) for _, mine, theirs in pairs]
+        losses = sorted(f"s{k[0]} n{k[1]}" for k, *_ in pairs if k not in wins)
+        text = (f"{algo} is faster than {other} ({name}) in {len(wins)} of {len(pairs)} "
+                f"(scene, n) cells; {algo}/{other} from {min(ratios):.2f} to {max(ratios):.2f}")
+        return text + (f"; not faster in {', '.join(losses)}" if losses else "")
+
+    gpu_algos = [a for a in ("gpubf", "gpubf-paper") if any(k[2] == a for k in by_key)]
+    pending = (f" ({gpu_pending} GPU jobs not done yet)" if gpu_pending else "")
+    lines.append("1. *GPU-BF beats BF everywhere.*")
+    if not gpu_algos:
+        lines.append(f"   - GPU: pending a GPU run{pending}; no GPU figure is in this report.")
+    for algo in gpu_algos + ["cpubf"]:
+        prefix = "our CPU twin, not the GPU: " if algo == "cpubf" else ""
+        for name, value in measures:
+            text = versus(algo, "bf", name, value)
+            if text:
+                lines.append(f"   - {prefix}{text}.")
+    lines.append("2. *GPU-BF is near SAP and BVH.*")
+    if not gpu_algos:
+        lines.append(f"   - GPU: pending a GPU run{pending}.")
+    for algo in gpu_algos + ["cpubf"]:
+        prefix = "our CPU twin: " if algo == "cpubf" else ""
+        for other in ("sap", "bvh"):
+            text = versus(algo, other, "total", measures[0][1])
+            if text:
+                lines.append(f"   - {prefix}{text}.")
+    lines.append("3. *GPU-BF does best in scene 4 (mixed sizes).*")
+    scene4 = sorted({k[1] for k in by_key if k[0] == 4})
+    if not gpu_algos:
+        lines.append(f"   - GPU: pending a GPU run{pending}.")
+    for name, value in measures:
+        if scene4:
+            winners = [f"n={n}: {fastest(honest, 4, n, value)[0]}" for n in scene4]
+            lines.append(f"   - fastest {name} in scene 4 among the algorithms run: "
+                         + ", ".join(winners) + ".")
+    lines.append("")
+    lines.append("A difference smaller than the spread between repetitions (the bars of "
+                 "Figure 6, `total_min`/`total_max` in sweep.csv) is not a difference; "
+                 "with one repetition there is no spread to judge by.")
+    return lines + [""]
+
+
+def figure_lines(cells: list, n: int) -> list:
+    """What Figures 2-6 show, read off the aggregated table."""
+    honest = [c for c in cells if not c["fallback"]]
+    lines = []
+    for scene in sorted({c["scene"] for c in honest}):
+        present = [c for c in honest if c["scene"] == scene and c["objects"] == n]
+        if not present:
+            continue
+        ranked = sorted(present, key=lambda c: c["total_mean"])
+        lines.append(f"- Scene {scene}, {n} boxes: total ms/frame, fastest first: "
+                     + ", ".join(f"{c['algo']} {fmt(c['total_mean'])}" for c in ranked)
+                     + "; broadphase: "
+                     + ", ".join(f"{c['algo']} {fmt(c['broadphase_mean'])}" for c in
+                                 sorted(present, key=lambda c: c["broadphase_mean"])) + ".")
+    sizes = sorted({c["objects"] for c in honest})
+    if len(sizes) > 1:
+        for scene in sorted({c["scene"] for c in honest}):
+            growth = []
+            for algo in algo_order({c["algo"] for c in honest}):
+                ends = {c["objects"]: c["total_mean"] for c in honest
+                        if c["scene"] == scene and c["algo"] == algo}
+                if sizes[0] in ends and sizes[-1] in ends:
+                    growth.append(f"{algo} x{ends[sizes[-1]] / ends[sizes[0]]:.1f}")
+            lines.append(f"- Figure 6, scene {scene}: total time from {sizes[0]} to {sizes[-1]} "
+                         f"boxes grows " + ", ".join(growth) + ".")
+    return lines + [""]
+
+
+# --- speed against error -----------------------------------------------------
+
+def pairs_section(pairs: list, cells: list, n: int, figures: dict) -> tuple:
+    if not pairs:
+        return ["No pair comparison has run yet.", ""], []
+    failures = [f"{r['algo']} missed {r['missed']} exact pairs on the scene-4 stream"
+                for r in pairs if r["missed"]]
+    time = {c["algo"]: c["update_mean"] + c["broadphase_mean"]
+            for c in cells if c["scene"] == 4 and c["objects"] == n and not c["fallback"]}
+    rows = []
+    for r in sorted(pairs, key=lambda r: algo_order([r["algo"]])[0]):
+        r["time_ms"] = time.get(r["algo"], float("nan"))
+        rows.append([r["algo"], r["frames"], fmt(r["exact_mean"]), fmt(r["reported_mean"]),
+                     r["missed"], fmt(r["extra_mean"]), f"{100 * r['extra_share']:.2f}%",
+                     r["extra_max"], fmt(r["time_ms"])])
+    lines = table(["algo", "frames", "exact pairs/frame", "reported/frame", "missed (total)",
+                   "extra/frame", "extra share", "extra max", "update+bp ms/frame (sweep)"], rows)
+    if failures:
+        lines.append("**FAILED: " + "; ".join(failures) + ".**")
+    else:
+        lines.append(f"No algorithm missed an exact pair in {pairs[0]['frames']} frames.")
+    extra = [r for r in pairs if r["extra_mean"] > 0]
+    if extra:
+        lines.append("Extra pairs (the narrowphase rejects them): " + ", ".join(
+            f"{r['algo']} {100 * r['extra_share']:.2f}%" for r in extra) + ".")
+    timed = [r for r in pairs if r["time_ms"] == r["time_ms"] and not r["missed"]]
+    if timed:
+        best = min(timed, key=lambda r: r["time_ms"])
+        lines.append(f"Fastest without a miss in scene 4 at {n} boxes: **{best['algo']}** "
+                     f"({fmt(best['time_ms'])} ms/frame update + broadphase).")
+        study_plots.broadphase_error(timed, figures["folder"])
+        lines += ["", "![broadphase speed against error](report/fig_broadphase_error.png)"]
+    else:
+        lines.append(f"No sweep timings for scene 4 at {n} boxes yet, so no time axis.")
+    return lines + [""], failures
+
+
+def best_broadphase_lines(cells: list) -> list:
+    honest = [c for c in cells if not c["fallback"]]
+    lines = []
+    for scene in sorted({c["scene"] for c in honest}):
+        n = max(c["objects"] for c in honest if c["scene"] == scene)
+        total = fastest(honest, scene, n, lambda c: c["total_mean"])
+        search = fastest(honest, scene, n, lambda c: c["update_mean"] + c["broadphase_mean"])
+        lines.append(f"- Scene {scene} at {n} boxes: fastest frame **{total[0]}** "
+                     f"({fmt(total[1])} ms), fastest update + broadphase **{search[0]}** "
+                     f"({fmt(search[1])} ms).")
+    return lines + [""]
+
+
+def physics_section(rows: list, figures: dict) -> list:
+    if not rows:
+        return ["No physics runs yet.", ""]
+    has_energy = any("energy_drift" in r for r in rows)
+    headers = ["scene", "K", "ccd", "ms/frame", "escaped max", "escaped end", "sunk max",
+               "sunk end", "deepest pen. / edge"] + (["energy drift"] if has_energy else [])
+    body = [[r["scene"], r["substeps"], "yes" if r["ccd"] else "no", fmt(r["total_mean"]),
+             r["escaped_max"], r["escaped_final"], r["sunk_max"], r["sunk_final"],
+             fmt(r["penetration_max"])] + ([fmt(r.get("energy_drift", float("nan")))]
+                                           if has_energy else []) for r in rows]
+    lines = [f"{rows[0]['objects']} boxes, {rows[0]['frames']} frames, broadphase "
+             f"{rows[0]['algorithm']}, `--no-tasks`.", ""] + table(headers, body)
+    if not has_energy:
+        lines.append("Energy drift: pending; frames.csv has no `kinetic_energy` and "
+                     "`potential_energy` columns yet (asked of physics/world.h). In scenes 3 "
+                     "and 4 gravity turns every frame and contacts dissipate, so the energy is "
+                     "not conserved: its drift is to be read against the run with most substeps.")
+    for scene in sorted({r["scene"] for r in rows}):
+        mine = [r for r in rows if r["scene"] == scene]
+        safe = [r for r in mine if r["escaped_max"] == 0]
+        if safe:
+            best = min(safe, key=lambda r: (r["total_mean"], r["penetration_max"]))
+            lines.append(f"- Scene {scene}: cheapest setting with no box escaping: "
+                         f"**K={best['substeps']}{' with --ccd' if best['ccd'] else ''}** "
+                         f"({fmt(best['total_mean'])} ms/frame; sunk at most {best['sunk_max']}, "
+                         f"deepest penetration {fmt(best['penetration_max'])} edges).")
+        else:
+            least = min(mine, key=lambda r: (r["escaped_max"], r["total_mean"]))
+            lines.append(f"- Scene {scene}: every setting let boxes escape; fewest: K="
+                         f"{least['substeps']}{' with --ccd' if least['ccd'] else ''} "
+                         f"({least['escaped_max']}).")
+        for k in sorted({r["substeps"] for r in mine}):
+            pair = {r["ccd"]: r for r in mine if r["substeps"] == k}
+            if len(pair) == 2:
+                lines.append(f"  - K={k}: --ccd changes escapes {pair[False]['escaped_max']} -> "
+                             f"{pair[True]['escaped_max']}, penetration "
+                             f"{fmt(pair[False]['penetration_max'])} -> "
+                             f"{fmt(pair[True]['penetration_max'])}, time x"
+                             f"{pair[True]['total_mean'] / pair[False]['total_mean']:.2f}.")
+    study_plots.physics(rows, figures["folder"])
+    return lines + ["", "![physics speed against error](report/fig_physics.png)", ""]
+
+
+def latency_section(rows: list, figures: dict) -> list:
+    if not rows:
+        return ["No latency runs yet.", ""]
+    body = [[r["scene"], r["algo"], f"{r['growth']:g}", r["frames"], fmt(r["exact_mean"]),
+             r["missed_total"], r["missed_frames"], r["missed_max"],
+             f"{100 * r['missed_share']:.3f}%", fmt(r["extra_mean"]),
+             fmt(r["on_time_extra_mean"]), fmt(r["on_time_ms"]), fmt(r["late_ms"])]
+            for r in rows]
+    lines = [f"{rows[0]['objects']} boxes. `growth` g: last frame's AABBs grown by g·|v|·dt "
+             "(v: each box's velocity after last frame, from Bullet). Missed/extra: against the "
+             "exact pairs of this frame's AABBs. Times: medians of writing the AABBs and "
+             "finding the pairs, on time (this frame's AABBs) and late (grown).", ""]
+    lines += table(["scene", "algo", "growth", "frames", "exact/frame", "missed", "frames w/ miss",
+                    "max missed", "missed share", "extra/frame (late)", "extra/frame (on time)",
+                    "on-time ms", "late ms"], body)
+    lines.append("An exact algorithm's rows show the latency alone; a conservative one (bvh, sap) "
+                 "also covers moved boxes with its own extra pairs (bvh's fattened, lazily "
+                 "cleaned cache), so it can miss nothing where an exact one misses.")
+    for scene in sorted({r["scene"] for r in rows}):
+        mine = [r for r in rows if r["scene"] == scene]
+        per_algo = []
+        for algo in algo_order({r["algo"] for r in mine}):
+            clean = [r["growth"] for r in mine if r["algo"] == algo and r["missed_total"] == 0]
+            per_algo.append(f"{algo} {min(clean):g}" if clean else f"{algo} none")
+        lines.append(f"- Scene {scene}: smallest growth without a miss: " + ", ".join(per_algo)
+                     + ".")
+        clean = [r for r in mine if r["missed_total"] == 0]
+        if not clean:
+            least = min(mine, key=lambda r: (r["missed_share"], r["late_ms"]))
+            lines.append(f"  A one-frame-late broadphase missed pairs at every growth tried; "
+                         f"fewest: {least['algo']} at growth {least['growth']:g}, "
+                         f"{least['missed_total']} in {least['frames']} frames "
+                         f"({100 * least['missed_share']:.3f}% of the exact pairs).")
+            continue
+        best = min(clean, key=lambda r: (r["late_pairs_mean"], r["late_ms"]))
+        lines.append(
+            f"  Best choice (no miss, fewest pairs for the narrowphase): **{best['algo']}, growth "
+            f"{best['growth']:g}**: {fmt(best['late_pairs_mean'])} pairs per frame, "
+            f"{best['late_pairs_mean'] / best['exact_mean']:.1f} times the exact "
+            f"{fmt(best['exact_mean'])}. Its on-time search costs {fmt(best['on_time_ms'])} ms "
+            f"on the frame's critical path; run late it would move off that path, beside the "
+            f"previous step (that overlap is not measured here), and take "
+            f"{fmt(best['late_ms'])} ms there.")
+    study_plots.latency(rows, figures["folder"])
+    return lines + ["", "![late broadphase](report/fig_latency.png)", ""]
+
+
+# --- the whole report ----------------------------------------------------------
+
+def machine_lines(jobs: list) -> list:
+    machines = {}
+    for job in jobs:
+        folder = getattr(job, "folder", None)
+        if folder is not None and (folder / "summary.json").exists():
+            m = json.loads((folder / "summary.json").read_text())["machine"]
+            machines[json.dumps(m, sort_keys=True)] = m
+    return [f"- {m['cpu']}, {m['hardware_threads']} hardware threads; GPU: {m['gpu']}; "
+            f"{m['compiler']}, {m['build_type']} build, commit {m['git_commit']}."
+            for m in machines.values()] + [""]
+
+
+def command_lines(args, jobs: list) -> list:
+    """The study's invocations that ran jobs, this report's, and one command per experiment."""
+    lines = ["The study's runs came from:", ""]
+    log = args.out / "study_invocations.json"
+    for run in json.loads(log.read_text()) if log.exists() else []:
+        lines.append(f"- `{' '.join(run['argv'])}`, started {run['started']}, its jobs took "
+                     f"{run['seconds']:.0f} s; the machine's load average at its start was "
+                     f"{run['load_average_at_start']} (above the cores the study used, other "
+                     "jobs were running beside it).")
+    lines += ["", f"This report: `scripts/study.py {' '.join(args.argv)}`.", "",
+              "One command per experiment (every command is in `commands.txt`):", "", "```"]
+    seen = set()
+    for job in jobs:
+        if job.experiment not in seen:
+            seen.add(job.experiment)
+            lines += [" ".join(map(str, c)) for c in job.commands()]
+    return lines + ["```", ""]
+
+
+def keyframe_figure(args, figures: dict) -> list:
+    folder = args.out / "keyframes" if args.capture else REPO / "docs" / "keyframes"
+    frames = [int(f) for f in args.capture_keyframes.split(",")]
+    scenes = sorted({int(s) for s in args.scenes.split(",")})
+    images = [(s, [folder / f"scene{s}_frame{f:04d}.png" for f in frames]) for s in scenes]
+    if not all(p.exists() for _, paths in images for p in paths):
+        return [f"Figure 1: keyframes not found in {folder}.", ""]
+    study_plots.keyframes(images, frames, figures["folder"])
+    where = folder.relative_to(REPO) if folder.is_relative_to(REPO) else folder
+    return [f"Figure 1, keyframes ({where}; boxes amber 1 m, blue small, crimson large):", "",
+            "![keyframes](report/fig1_keyframes.png)", ""]
+
+
+def write_everything(args, jobs: list) -> list:
+    out = args.out
+    figures = {"folder": out / "report"}
+    runs = study_results.sweep_runs(jobs)
+    cells = study_results.aggregate_sweep(runs)
+    pairs = study_results.pair_errors(jobs)
+    physics = study_results.physics_runs(jobs)
+    latency = study_results.latency_rows(jobs)
+    gpu_pending = sum(1 for j in jobs if j.gpu_algo and not j.done())
+    sweep_jobs = [j for j in jobs if j.experiment == "sweep"]
+
+    title = "Overlap: the study" + (" (quick version)" if args.quick else "")
+    lines = [f"# {title}", "",
+             "Serpa & Rodrigues, *Parallelizing Broad Phase Collision Detection for Animation in "
+             "Games* (SBGames 2014), redone and extended. Every number below was measured by "
+             "the commands listed, on the machine listed; tables are also in the results "
+             f"folder `{out}` as CSV.", "", "## Machine", ""] + machine_lines(jobs)
+    lines += ["## Commands", ""] + command_lines(args, jobs)
+
+    lines += ["## 1. The sweep", "",
+              f"Scenes {args.scenes}, algorithms {args.algos}, n in {args.objects}, "
+              f"{args.repetitions} repetition(s) of {args.frames} frames, seed {args.seed} "
+              f"every time, physics only (`--no-tasks`). Runs present: {len(runs)} of "
+              f"{len(sweep_jobs)}" + (f"; {gpu_pending} jobs of the whole study need a CUDA "
+                                      "device and are not done yet." if gpu_pending else "."), ""]
+    lines += keyframe_figure(args, figures)
+    if cells:
+        study_results.write_csv(out / "sweep_runs.csv", runs)
+        study_results.write_csv(out / "sweep.csv", cells)
+        sizes = sorted({c["objects"] for c in cells})
+        n_fig = min(sizes, key=lambda n: abs(n - args.figure_objects))
+        for scene in sorted({c["scene"] for c in cells}):
+            series = study_results.per_frame(runs, scene, n_fig)
+            if series:
+                name = study_plots.per_frame(scene, n_fig, series, figures["folder"])
+                lines += [f"Figure {scene + 1}, scene {scene}, {n_fig} boxes, per frame "
+                          "(mean over repetitions; log scale):", "",
+                          f"![scene {scene}](report/{name})", ""]
+        study_plots.total_against_n(cells, figures["folder"])
+        lines += ["Figure 6, total time against n (bars: the repetitions' run means):", "",
+                  "![total against n](report/fig6_total_against_n.png)", ""]
+        lines += ["What the figures say:", ""] + figure_lines(cells, n_fig)
+        lines += sweep_tables(cells)
+        escaped = max(c["escaped_max"] for c in cells)
+        lines.append(f"Boxes escaped in any sweep run: {escaped}; most sunk at once: "
+                     f"{max(c['sunk_max'] for c in cells)}; deepest penetration "
+                     f"{fmt(max(c['penetration_max'] for c in cells))} box edges.")
+        varied = [f"s{c['scene']} n{c['objects']} {c['algo']}" for c in cells
+                  if not c["same_state_every_rep"]]
+        if any(c["repetitions"] > 1 for c in cells):
+            lines.append("Repetitions end in the same state everywhere." if not varied else
+                         "Repetitions end in different states in: " + ", ".join(varied) + ".")
+        lines += ["", "### The paper's claims, point by point", ""]
+        lines += claim_lines(cells, gpu_pending)
+        lines += ["### Best broadphase per scene (largest n run)", ""]
+        lines += best_broadphase_lines(cells)
+    else:
+        lines += ["No sweep runs yet.", ""]
+
+    lines += ["## 2. The async loop: one frame's timeline", ""]
+    timeline_job = next((j for j in jobs if j.experiment == "timeline"), None)
+    if timeline_job is not None and timeline_job.done():
+        frame, algo, spans = study_results.timeline_frame(timeline_job.folder)
+        study_plots.timeline(frame, algo, spans, figures["folder"])
+        by_name = {}
+        for _, name, _, duration in spans:
+            by_name[name] = by_name.get(name, 0.0) + duration
+        lines += [f"Scene 4, {timeline_job.labels.get('objects', args.timeline_objects)} boxes, "
+                  f"sound and AI tasks on, broadphase {algo} (asked gpubf"
+                  + ("" if algo == "gpubf" else "; no GPU here, so this is the CPU twin") + "). "
+                  f"Frame {frame}, the median-length frame: " + ", ".join(
+                      f"{name} {fmt(ms)} ms" for name, ms in sorted(by_name.items())) + ".", "",
+                  "![timeline](report/fig_timeline.png)", "",
+                  "The join span is drawn as timeline.json holds it: the frame's joins summed "
+                  "over all substeps, placed at the first substep's join; the search span is the "
+                  "first substep's search alone.", ""]
+    else:
+        lines += ["No timeline run yet.", ""]
+
+    lines += ["## 3. Speed against error", "", "### 3.1 Broadphase: pairs against the exact "
+              "oracle (bf)", "", f"Scene 4, {args.pairs_objects} boxes, {args.pairs_frames} "
+              "frames recorded with `overlap record` (bvh, 8 substeps), each algorithm's pair "
+              "cache from `overlap pairs` compared frame by frame with bf's.", ""]
+    section, failures = pairs_section(pairs, cells, args.pairs_objects, figures)
+    lines += section
+    if pairs:
+        study_results.write_csv(out / "pairs.csv", pairs)
+    lines += ["### 3.2 Physics: substeps and CCD", ""] + physics_section(physics, figures)
+    study_results.write_csv(out / "physics.csv", physics)
+    lines += ["### 3.3 A broadphase one frame late", ""] + latency_section(latency, figures)
+    study_results.write_csv(out / "latency.csv", latency)
+
+    text = "\n".join(lines) + "\n"
+    (out / "REPORT.md").write_text(text)
+    if args.report:
+        docs = REPO / "docs"
+        (docs / "report").mkdir(parents=True, exist_ok=True)
+        for image in figures["folder"].iterdir():
+            shutil.copy(image, docs / "report" / image.name)
+        (docs / "REPORT.md").write_text(text)
+    return failures

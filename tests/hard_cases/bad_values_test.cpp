@@ -1,0 +1,120 @@
+// Bad values mid-run: a NaN, an infinite and a 1e30 position put into boxes
+// in contact with others, in scene 2 (where Bullet itself flags the body) and
+// scene 4 (whose bodies never sleep, so Bullet cannot flag them).  Each box must leave the
+// simulation with a message naming it, be counted in FrameReport::removed_from_simulation, and take
+// nothing with it: the run goes on, no other box turns non-finite, and the
+// broadphase's pairs stay exact (bf, cpubf) or miss nothing (sap, bvh).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "physics/world.h"
+#include "tests/hard_cases/hard_case_support.h"
+
+namespace overlap::hard_cases {
+namespace {
+
+constexpr int kBoxes = 120;
+constexpr int kFramesToSettle = 20;  // enough for contacts, at 1 g and at 50 g
+constexpr int kFramesAfterEach = 15;
+
+struct BadValue {
+  const char* what;
+  Eigen::Vector3d position;
+  const char* shown;  // how the removal message prints the bad coordinate
+};
+
+const BadValue kBadValues[] = {
+    {"NaN", {std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0}, "(nan, 0, 0)"},
+    {"infinity", Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()),
+     "(inf, inf, inf)"},
+    {"1e30", Eigen::Vector3d::Constant(1e30), "(1e+30, 1e+30, 1e+30)"},
+};
+
+bool isExact(const std::string& algorithm) {
+  return algorithm == "bf" || algorithm == "cpubf";
+}
+
+class BadValuesMidRun : public ::testing::TestWithParam<std::tuple<int, const char*>> {};
+
+TEST_P(BadValuesMidRun, TheBoxLeavesWithAMessageAndNothingElseBreaks) {
+  const auto [scene, algorithm_name] = GetParam();
+  const std::string algorithm = algorithm_name;
+  physics::SceneConfig config = physics::SceneConfig::forScene(scene);
+  config.objects = kBoxes;
+  physics::PhysicsWorld world(config, physics::WorldOptions{algorithm});
+  for (int frame = 0; frame < kFramesToSettle; ++frame) world.stepFrame();
+
+  // Victims in contact with others: a NaN that reached the solver would spread to them.
+  std::vector<int> victims;
+  const std::vector<physics::BoxPose> poses = world.boxPoses();
+  for (int i = 0; i < kBoxes && victims.size() < std::size(kBadValues); ++i) {
+    if (poses[static_cast<std::size_t>(i)].in_contact) victims.push_back(i);
+  }
+  ASSERT_EQ(victims.size(), std::size(kBadValues)) << "too few boxes in contact";
+
+  int removed = 0;
+  for (std::size_t v = 0; v < std::size(kBadValues); ++v) {
+    const BadValue& bad = kBadValues[v];
+    const int victim = victims[v];
+    SCOPED_TRACE(std::string(bad.what) + " into box " + std::to_string(victim) + ", " + algorithm);
+    world.injectBoxPosition(victim, bad.position);
+    ::testing::internal::CaptureStderr();
+    const physics::FrameReport report = world.stepFrame();
+    const std::string messages = ::testing::internal::GetCapturedStderr();
+    ++removed;
+    EXPECT_NE(messages.find("box " + std::to_string(victim) + " left the simulation"),
+              std::string::npos)
+        << messages;
+    EXPECT_NE(messages.find(bad.shown), std::string::npos) << messages;
+    EXPECT_EQ(report.removed_from_simulation, removed);
+
+    for (int frame = 0; frame < kFramesAfterEach; ++frame) {
+      ::testing::internal::CaptureStderr();
+      const physics::FrameReport later = world.stepFrame();
+      EXPECT_EQ(::testing::internal::GetCapturedStderr(), "") << "frame " << later.frame;
+      ASSERT_EQ(later.removed_from_simulation, removed) << "frame " << later.frame;
+      ASSERT_TRUE(everyBodyIsFinite(world)) << "frame " << later.frame;
+      const PairList cached = world.cachedPairs();
+      const PairList exact = oraclePairs(world.aabbs(), kBoxes);  // walls never pair each other
+      if (isExact(algorithm)) {
+        ASSERT_TRUE(samePairs(cached, exact)) << "frame " << later.frame;
+      } else {
+        ASSERT_TRUE(missesNoPair(cached, exact)) << "frame " << later.frame;
+      }
+      for (const auto& [a, b] : cached) {
+        for (int i = 0; i <= static_cast<int>(v); ++i) {
+          ASSERT_TRUE(a != victims[static_cast<std::size_t>(i)] &&
+                      b != victims[static_cast<std::size_t>(i)])
+              << "a removed box is still paired";
+        }
+      }
+    }
+    const std::vector<physics::BoxPose> remaining = world.boxPoses();
+    EXPECT_EQ(remaining.size(), static_cast<std::size_t>(kBoxes - removed));
+    for (const physics::BoxPose& pose : remaining) {
+      ASSERT_TRUE(std::isfinite(pose.centre[0]) && std::isfinite(pose.centre[1]) &&
+                  std::isfinite(pose.centre[2]));
+    }
+  }
+  EXPECT_EQ(world.framesDone(),
+            kFramesToSettle + static_cast<int>(std::size(kBadValues)) * (1 + kFramesAfterEach));
+}
+
+std::string sceneAndAlgorithm(
+    const ::testing::TestParamInfo<std::tuple<int, const char*>>& param_info) {
+  return "scene" + std::to_string(std::get<0>(param_info.param)) + "_" +
+         std::get<1>(param_info.param);
+}
+
+INSTANTIATE_TEST_SUITE_P(ScenesAndBroadphases, BadValuesMidRun,
+                         ::testing::Combine(::testing::Values(2, 4),
+                                            ::testing::Values("bf", "sap", "bvh", "cpubf")),
+                         sceneAndAlgorithm);
+
+}  // namespace
+}  // namespace overlap::hard_cases

@@ -1,0 +1,107 @@
+"""Smoke test of scripts/study.py: a tiny --quick study end to end, then its outputs checked.
+
+Checks what the study promises rather than what it measured: every planned
+run has its result, the algorithm recorded is the one that ran (a GPU run on
+a machine without a GPU is pending, never a relabelled cpubf), no algorithm
+missed an exact pair, every figure the report shows exists, a second
+invocation redoes nothing, and a shard runs only its share.  Exit 77 (ctest's
+skip) when this interpreter has no matplotlib.
+"""
+import argparse
+import csv
+import importlib.util
+import json
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+
+STUDY = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "study.py"
+SCENES, OBJECTS, ALGOS = [1, 4], [80, 120], ["bf", "bvh", "cpubf", "gpubf"]
+SUBSTEPS = [1, 8]
+TINY = ["--quick", "--threads", "1", "--scenes", ",".join(map(str, SCENES)),
+        "--objects", ",".join(map(str, OBJECTS)), "--algos", ",".join(ALGOS),
+        "--frames", "4", "--figure-objects", "120",
+        "--pairs-objects", "120", "--pairs-frames", "4",
+        "--physics-objects", "120", "--physics-frames", "4",
+        "--physics-substeps", ",".join(map(str, SUBSTEPS)),
+        "--latency-scenes", "1,4", "--latency-objects", "120", "--latency-frames", "4",
+        "--latency-algos", "bvh,cpubf", "--timeline-objects", "120", "--timeline-frames", "4"]
+
+
+def rows(path: pathlib.Path) -> list:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def study(overlap: str, out: pathlib.Path, *extra: str) -> subprocess.CompletedProcess:
+    command = [sys.executable, str(STUDY), "--overlap", overlap, "--out", str(out), *TINY, *extra]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"FAIL: {' '.join(command)} exited {result.returncode}:\n{result.stderr}")
+    return result
+
+
+def check(condition: bool, message: str) -> None:
+    if not condition:
+        sys.exit("FAIL: " + message)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--overlap", required=True)
+    parser.add_argument("--out", type=pathlib.Path, required=True)
+    args = parser.parse_args()
+    if importlib.util.find_spec("matplotlib") is None:
+        print(f"SKIP: {sys.executable} has no matplotlib (install python3-matplotlib)")
+        return 77
+    shutil.rmtree(args.out, ignore_errors=True)
+
+    study(args.overlap, args.out)
+    runs = rows(args.out / "sweep_runs.csv")
+    gpu = json.loads(next((args.out / "sweep").glob("*/summary.json")).read_text())
+    has_gpu = not gpu["machine"]["gpu"].startswith("none")
+    expected = len(SCENES) * len(OBJECTS) * (len(ALGOS) - (0 if has_gpu else 1))
+    check(len(runs) == expected, f"sweep_runs.csv has {len(runs)} runs, expected {expected}")
+    for run in runs:
+        check(run["algorithm"] == run["algo_requested"],
+              f"a {run['algo_requested']} run is recorded as {run['algorithm']}")
+    report = (args.out / "REPORT.md").read_text()
+    if not has_gpu:
+        check("pending a GPU run" in report, "no GPU here, yet the report does not say so")
+    for image in re.findall(r"\]\(report/([^)]+)\)", report):
+        for suffix in (".png", ".svg"):
+            path = args.out / "report" / pathlib.Path(image).with_suffix(suffix)
+            check(path.exists(), f"the report shows {image} but {path} is missing")
+    for figure in ("fig1_keyframes", "fig6_total_against_n", "fig_timeline", "fig_physics",
+                   "fig_latency", "fig_broadphase_error"):
+        check(f"report/{figure}.png" in report, f"the report lacks {figure}")
+    pairs = rows(args.out / "pairs.csv")
+    check({p["algo"] for p in pairs} == {"bf", "sap", "sap32", "bvh", "cpubf"},
+          f"pairs.csv holds {sorted(p['algo'] for p in pairs)}")
+    check(all(p["missed"] == "0" for p in pairs), "an algorithm missed exact pairs")
+    check(len(rows(args.out / "physics.csv")) == 2 * len(SUBSTEPS) * 2,
+          "physics.csv lacks runs")
+    latency = rows(args.out / "latency.csv")
+    check({(r["scene"], r["algo"], r["growth"]) for r in latency} ==
+          {(s, a, g) for s in ("1", "4") for a in ("bvh", "cpubf") for g in ("0", "1", "2")},
+          "latency.csv lacks a (scene, algo, growth)")
+
+    again = study(args.overlap, args.out)
+    check(" 0 to run" in again.stderr, "a second invocation ran jobs again:\n" + again.stderr)
+
+    shard_out = args.out / "shard"
+    sharded = study(args.overlap, shard_out, "--experiments", "sweep", "--shard", "2/3")
+    planned = len(SCENES) * len(OBJECTS) * len(ALGOS)
+    done = len(list((shard_out / "sweep").glob("*/summary.json")))
+    share = len(range(1, planned, 3)) - (0 if has_gpu else sum(
+        1 for i, key in enumerate([(s, n, a) for s in SCENES for n in OBJECTS for a in ALGOS])
+        if i % 3 == 1 and key[2] == "gpubf"))
+    check(done == share, f"shard 2/3 ran {done} sweep runs, expected {share}:\n{sharded.stderr}")
+    print("study.quick: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
