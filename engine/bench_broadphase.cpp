@@ -1,7 +1,7 @@
 // overlap_bench_broadphase: project issue 3's broadphase benchmark.
 //
 // Every broadphase replays the same recorded scene-4 AABB streams
-// (engine/bench_streams.h) through physics::BroadphaseReplay, in one process,
+// (engine/recorded_streams.h) through physics::BroadphaseReplay, in one process,
 // so all algorithms see the same boxes on the same machine under the same
 // load.  A frame's time is "upload to pair cache updated": update() (every
 // box's setAabb) plus findPairs() (the search and the persistent pair-cache
@@ -31,9 +31,9 @@
 #include <string>
 #include <vector>
 
-#include "engine/bench_streams.h"
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
+#include "engine/recorded_streams.h"
 #include "engine/statistics.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase_factory.h"

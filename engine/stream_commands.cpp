@@ -2,15 +2,13 @@
 #include <cstdio>
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
-#include "engine/progress.h"
+#include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
-#include "physics/world.h"
 
 namespace overlap::engine {
 namespace {
@@ -31,31 +29,7 @@ void checkWritableFile(const std::filesystem::path& file) {
 void record(const RecordOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   checkWritableFile(options.out);
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", options.substeps});
-
-  physics::AabbStream stream;
-  stream.scene_name =
-      "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed);
-  stream.object_type = "box";
-  stream.objects = config.objects;
-  stream.stored_frames = options.frames + 1;
-  const auto outer = static_cast<float>(world.layout().outerHalfExtent());
-  stream.world = physics::Aabb{{-outer, -outer, -outer}, {outer, outer, outer}};
-  stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
-  auto keepBoxes = [&] {
-    const std::vector<physics::Aabb> all = world.aabbs();  // boxes, then walls
-    stream.boxes.insert(stream.boxes.end(), all.begin(), all.begin() + config.objects);
-  };
-
-  Progress progress("overlap record", options.frames);
-  keepBoxes();
-  for (int frame = 0; frame < options.frames; ++frame) {
-    world.stepFrame();
-    keepBoxes();
-    progress.update(frame + 1);
-  }
-  progress.finish();
-  physics::writeAabbStream(options.out, stream);
+  physics::writeAabbStream(options.out, recordStream(config, options.frames, options.substeps));
 }
 
 struct PairsOptions {

@@ -1,4 +1,4 @@
-#include "engine/bench_streams.h"
+#include "engine/recorded_streams.h"
 
 #include <chrono>
 #include <stdexcept>
@@ -46,9 +46,8 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
           std::to_string(config.objects) + "_f" + std::to_string(frames) + ".aabbs");
 }
 
-physics::AabbStream recordStream(const physics::SceneConfig& config, int frames) {
-  // bvh and the default substeps: what `overlap record` uses, so both make the same file.
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", 0});
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames, int substeps) {
+  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", substeps});
 
   physics::AabbStream stream;
   stream.scene_name = streamSceneName(config);

@@ -1,4 +1,5 @@
-// The recorded AABB streams the broadphase benchmark replays, cached on disk.
+// Recorded AABB streams: `overlap record` writes them, the broadphase
+// benchmark replays them from a cache on disk.
 //
 // A stream is what `overlap record` writes: a scene simulated with bvh and
 // the scene's default substeps, the boxes' AABBs (walls left out) at the start
@@ -28,9 +29,10 @@ std::string streamSceneName(const physics::SceneConfig& config);
 std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
                                        const physics::SceneConfig& config, int frames);
 
-// Simulates `frames` frames of the scene and keeps the boxes' AABBs, with
-// progress on stderr for long recordings.
-physics::AabbStream recordStream(const physics::SceneConfig& config, int frames);
+// Simulates `frames` frames of the scene (bvh; substeps 0: the scene's
+// default) and keeps the boxes' AABBs, with progress on stderr for long
+// recordings.  `overlap record` and the benchmark both record through it.
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames, int substeps = 0);
 
 struct CachedStream {
   physics::AabbStream stream;
