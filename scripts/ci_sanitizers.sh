@@ -6,13 +6,16 @@
 # only.  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
 # that the CLI tests run captures frames with it); tests/tsan.supp and the
 # TSan section below deal with oneTBB, which is not TSan-instrumented.
-# Usage: scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
-# (default: the presets' build-asan and build-tsan).
+# Usage: [SANITIZERS="asan tsan"] scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
+# (default: both, in the presets' build-asan and build-tsan).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 readonly ASAN_DIR="${1:-build-asan}"
 readonly TSAN_DIR="${2:-build-tsan}"
 readonly JOBS="$(nproc)"
+# -O1 with line tables halves the compile time of -O2 -g (measured on
+# engine/run_command.cpp: 44 s -> 22 s) and keeps the sanitizers' stack traces.
+readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
 # The threaded tests: their labels and the targets that hold them
 # (tests/*/CMakeLists.txt); engine's CLI tests run the `overlap` binary.
 readonly TSAN_LABELS="gpu|engine|scheduler|stubs"
@@ -20,14 +23,20 @@ readonly TSAN_TARGETS=(overlap_gpu_tests overlap_engine_tests overlap_scheduler_
 
 section() { printf '\n== %s: %s\n' "$(date +%T)" "$*"; }
 
+readonly SANITIZERS="${SANITIZERS:-asan tsan}"
+
+if [[ " $SANITIZERS " == *" asan "* ]]; then
 section "ASan + UBSan: configure and build ($ASAN_DIR)"
-cmake --preset asan -B "$ASAN_DIR" >/dev/null
+cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" >/dev/null
 cmake --build "$ASAN_DIR" -j "$JOBS"
 section "ASan + UBSan: the whole suite"
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" \
 UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
   ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS"
+fi
+
+if [[ " $SANITIZERS " == *" tsan "* ]]; then
 
 section "TSan: configure and build ($TSAN_DIR)"
 # GCC's TSan instruments the resolvers of target_clones functions (cpubf's
@@ -35,8 +44,8 @@ section "TSan: configure and build ($TSAN_DIR)"
 # TSan runtime is up: every binary with cpubf would crash before main().
 # Without function entry/exit hooks the resolvers are safe; reports then
 # show each access's own line rather than its whole stack.
-cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS="--param=tsan-instrument-func-entry-exit=0" \
-  >/dev/null
+cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
+  -DCMAKE_CXX_FLAGS="--param=tsan-instrument-func-entry-exit=0" >/dev/null
 cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
 section "TSan: tests labelled $TSAN_LABELS"
 # oneTBB is not built with TSan: the hand-overs inside it are invisible, and
@@ -46,4 +55,5 @@ section "TSan: tests labelled $TSAN_LABELS"
 # and condition variables (cpubf's background worker, the scheduler's joins).
 TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1:second_deadlock_stack=1" \
   taskset -c 0 ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L "$TSAN_LABELS"
+fi
 section "sanitizers: no finding"
