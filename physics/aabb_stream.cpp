@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 namespace overlap::physics {
 namespace {
@@ -72,6 +73,10 @@ AabbStream readAabbStream(const std::filesystem::path& path) {
   std::memcpy(counts, bytes.data() + 2 * kNameBytes, sizeof(counts));
   if (counts[0] <= 0) fail(path, "object count " + std::to_string(counts[0]) + " is not positive");
   if (counts[1] <= 0) fail(path, "frame count " + std::to_string(counts[1]) + " is not positive");
+  // F + 1 frames are stored, and that count must fit the same int32.
+  if (counts[1] == std::numeric_limits<std::int32_t>::max()) {
+    fail(path, "frame count " + std::to_string(counts[1]) + " is too large");
+  }
   if (counts[2] != 0 || counts[3] != 0) fail(path, "reserved header fields are not 0");
   stream.objects = counts[0];
   stream.stored_frames = counts[1] + 1;
@@ -80,15 +85,17 @@ AabbStream readAabbStream(const std::filesystem::path& path) {
     fail(path, "world AABB: " + problem);
   }
 
+  // Compared as box counts: N x (F + 1) x 32 bytes could overflow 64 bits.
   const auto boxes = static_cast<std::uint64_t>(stream.objects) * stream.stored_frames;
-  const std::uint64_t expected = kHeaderBytes + boxes * kAabbBytes;
-  if (bytes.size() != expected) {
+  const std::uint64_t payload = bytes.size() - kHeaderBytes;
+  if (payload % kAabbBytes != 0 || payload / kAabbBytes != boxes) {
     const std::uint64_t complete_frames =
-        (bytes.size() - kHeaderBytes) / (kAabbBytes * static_cast<std::uint64_t>(stream.objects));
+        payload / (kAabbBytes * static_cast<std::uint64_t>(stream.objects));
     fail(path, "size " + std::to_string(bytes.size()) + " bytes does not match " +
                    std::to_string(stream.objects) + " objects x " +
-                   std::to_string(stream.stored_frames) + " frames (" + std::to_string(expected) +
-                   " bytes); first incomplete frame " + std::to_string(complete_frames));
+                   std::to_string(stream.stored_frames) + " frames (" + std::to_string(boxes) +
+                   " boxes of 32 bytes after the header); first incomplete frame " +
+                   std::to_string(complete_frames));
   }
   stream.boxes.resize(boxes);
   for (std::uint64_t i = 0; i < boxes; ++i) {

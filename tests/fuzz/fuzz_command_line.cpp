@@ -10,6 +10,7 @@
 #include <iterator>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "audio_ai_stubs/ai.h"
@@ -112,8 +113,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     try {
       parse(app, arguments);
     } catch (const ParsedWithoutRunning&) {
-      std::vector<std::string> again = splitArguments(data, size);
-      checkAsTheCommandsDo(again);
+      checkAsTheCommandsDo(arguments);
     }
   } catch (const CLI::ParseError&) {
   } catch (const overlap::engine::UsageError&) {

@@ -101,6 +101,13 @@ TEST(AabbStream, MalformedFilesNameTheFileAndTheFirstBadBox) {
   EXPECT_NE(readError(bad).find("frame 0, object 1: min > max on z"), std::string::npos)
       << readError(bad);
 
+  std::vector<char> huge_frame_count = bytes;
+  const std::int32_t largest = std::numeric_limits<std::int32_t>::max();
+  std::memcpy(huge_frame_count.data() + 260, &largest, sizeof(largest));
+  writeBytes(bad, huge_frame_count);
+  EXPECT_NE(readError(bad).find("frame count 2147483647 is too large"), std::string::npos)
+      << readError(bad);
+
   EXPECT_NE(readError(bad).find(bad.string()), std::string::npos);
   EXPECT_NE(readError(tempFile("missing")).find("cannot open"), std::string::npos);
   std::filesystem::remove(good);
