@@ -1,6 +1,6 @@
 // The `overlap` subcommands.  Each add*Command registers one subcommand on the
-// app with its options and the callback that runs it; main() only parses and
-// maps errors to exit codes (engine/cli_errors.h).
+// app with its options and the callback that runs it; runCommandLine() (engine/app.h) only parses
+// and maps errors to exit codes (engine/cli_errors.h).
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -433,10 +433,12 @@ void PhysicsWorld::removeBrokenBoxes() {
     // spread to every box it touches through the solver.
     b.world->removeRigidBody(&body);
     b.removed[i] = true;
-    std::fprintf(stderr,
-                 "overlap: box %zu left the simulation at frame %d: centre (%g, %g, %g) is %s\n", i,
-                 frame_, c.x(), c.y(), c.z(),
-                 disabled ? "not finite or its AABB is too large" : "too far from the origin");
+    std::fprintf(
+        stderr, "overlap: box %zu left the simulation at frame %d: centre (%g, %g, %g) is %s\n", i,
+        frame_, c.x(), c.y(), c.z(),
+        !(std::isfinite(c.x()) && std::isfinite(c.y()) && std::isfinite(c.z())) ? "not finite"
+        : disabled ? "inside an AABB too large for Bullet"
+                   : "too far from the origin");
   }
 }
 

@@ -19,8 +19,9 @@ if ! command -v clang++ >/dev/null ||
   exit 2
 fi
 
+# -O1 with line tables, asserts on: quicker to build than -O2 -g, as fast to fuzz.
 CC=clang CXX=clang++ cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DOVERLAP_FUZZ=ON -DOVERLAP_WITH_CUDA=OFF >/dev/null
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DOVERLAP_FUZZ=ON -DOVERLAP_WITH_CUDA=OFF >/dev/null
 cmake --build "$BUILD_DIR" -j "$(nproc)" --target "${INPUTS[@]/#/fuzz_}"
 ctest --test-dir "$BUILD_DIR" -L fuzz --output-on-failure
 
