@@ -36,6 +36,7 @@
 #include "engine/recorded_streams.h"
 #include "engine/statistics.h"
 #include "gpu/pair_finder.h"
+#include "physics/atomic_file.h"
 #include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 
@@ -447,8 +448,8 @@ int run(const BenchOptions& options, const std::string& command) {
   std::filesystem::path csv_path = options.out, json_path = options.out;
   csv_path += ".csv";
   json_path += ".json";
-  writeFileAtomically(csv_path, csvText(rows, command, notes));
-  writeFileAtomically(json_path, json.dump(2) + '\n');
+  physics::writeFileAtomically(csv_path, csvText(rows, command, notes));
+  physics::writeFileAtomically(json_path, json.dump(2) + '\n');
   std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
 
   const std::vector<std::string> failed = failures(rows);

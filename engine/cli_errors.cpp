@@ -22,19 +22,4 @@ void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view o
   std::filesystem::remove(probe, error);
 }
 
-void writeFileAtomically(const std::filesystem::path& path, std::string_view contents) {
-  std::filesystem::path temporary = path;
-  temporary += ".partial";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-    if (!out.flush()) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw std::runtime_error(path.string() + ": write failed");
-    }
-  }
-  std::filesystem::rename(temporary, path);
-}
-
 }  // namespace overlap::engine

@@ -3,8 +3,7 @@
 // A UsageError is the user's input being wrong (an option, a value, a file):
 // main() prints it as one line and exits with code 2.  Anything else thrown is
 // a failure while working and exits with code 1.  Either way nothing
-// half-written is left behind: outputs are written to a temporary name and
-// renamed into place only when complete.
+// half-written is left behind: outputs go through physics/atomic_file.h.
 #pragma once
 
 #include <filesystem>
@@ -21,9 +20,5 @@ struct UsageError : std::runtime_error {
 // Creates `dir` if needed and proves it writable by writing a probe file;
 // throws UsageError naming the option and the path if it is not.
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option);
-
-// Writes `contents` to `path` through a temporary file in the same folder, so a
-// reader sees either the old file or the whole new one.
-void writeFileAtomically(const std::filesystem::path& path, std::string_view contents);
 
 }  // namespace overlap::engine

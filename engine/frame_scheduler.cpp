@@ -103,13 +103,14 @@ ScheduledFrame FrameScheduler::runFrame() {
     frame.ai_ms = (ai_span_.second - ai_span_.first) / 1e3;
   }
   if (const auto& search = frame.physics.background_search) {
-    const double launched = timeline_.microsecondsAt(search->launched);
+    const double started =
+        timeline_.microsecondsAt(search->launched) + search->start_delay_ms * 1e3;
     frame.search_ms = search->search_ms;
-    addSpan("search", "broadphase", launched, search->search_ms * 1e3);
+    addSpan("search", "broadphase", started, search->search_ms * 1e3);
     addSpan("join", "main", timeline_.microsecondsAt(search->joined), search->join_ms * 1e3);
     frame.overlap_efficiency =
         options_.tasks && !options_.sync
-            ? coveredShare(launched, search->search_ms * 1e3, {sound_span_, ai_span_})
+            ? coveredShare(started, search->search_ms * 1e3, {sound_span_, ai_span_})
             : 0.0;
   }
   ++frame_;

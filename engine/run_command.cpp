@@ -20,6 +20,7 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
+#include "physics/atomic_file.h"
 #include "physics/world.h"
 #include "render/capture_options.h"
 
@@ -251,9 +252,9 @@ void run(const RunOptions& options) {
         {"identical_tasks", sync_run->sound_checksum == result.sound_checksum &&
                                 sync_run->ai_checksum == result.ai_checksum}};
   }
-  writeFileAtomically(options.out / "frames.csv", framesCsv(result.rows));
+  physics::writeFileAtomically(options.out / "frames.csv", framesCsv(result.rows));
   timeline.write(options.out / "timeline.json");
-  writeFileAtomically(options.out / "summary.json", summary.dump(2) + "\n");
+  physics::writeFileAtomically(options.out / "summary.json", summary.dump(2) + "\n");
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "engine/cli_errors.h"
+#include "physics/atomic_file.h"
 
 namespace overlap::engine {
 
@@ -30,7 +30,7 @@ void Timeline::write(const std::filesystem::path& path) const {
                       {"args", {{"frame", span.frame}}}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
-  writeFileAtomically(path, trace.dump());
+  physics::writeFileAtomically(path, trace.dump());
 }
 
 double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy) {

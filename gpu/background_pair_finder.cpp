@@ -26,6 +26,7 @@ void BackgroundPairFinder::launch(std::span<const ObjectBounds> objects) {
     const std::lock_guard lock(mutex_);
     objects_.assign(objects.begin(), objects.end());
     requested_ = true;
+    requested_at_ = std::chrono::steady_clock::now();
     done_ = false;
   }
   in_flight_ = true;
@@ -49,6 +50,9 @@ void BackgroundPairFinder::work() {
     changed_.wait(lock, [this] { return requested_ || stopping_; });
     if (stopping_) return;
     requested_ = false;
+    search_delay_ms_ =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - requested_at_)
+            .count();
     // The caller waits in finish() for done_, and touches nothing meanwhile,
     // so the search can run unlocked.
     lock.unlock();

@@ -8,6 +8,7 @@
 // and only by the caller otherwise: the hand-over is a mutex and a condition.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <exception>
 #include <memory>
@@ -30,6 +31,7 @@ class BackgroundPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return inner_->lastSearchMs(); }
+  double lastSearchDelayMs() const override { return search_delay_ms_; }
 
  private:
   void work();
@@ -38,6 +40,8 @@ class BackgroundPairFinder final : public PairFinder {
   std::vector<ObjectBounds> objects_;
   PairDelta delta_;
   std::exception_ptr error_;
+  std::chrono::steady_clock::time_point requested_at_;
+  double search_delay_ms_ = 0;
 
   std::mutex mutex_;
   std::condition_variable changed_;

@@ -18,7 +18,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -153,15 +152,7 @@ class GpuPairFinder final : public PairFinder {
 
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf: launch() called twice without finish()");
-    if (objects.size() < slot_count_) {
-      throw std::runtime_error("gpubf: slot count shrank from " + std::to_string(slot_count_) +
-                               " to " + std::to_string(objects.size()));
-    }
-    if (objects.size() > std::numeric_limits<std::uint32_t>::max()) {
-      throw std::runtime_error("gpubf: " + std::to_string(objects.size()) +
-                               " slots do not fit 32-bit slot indices");
-    }
-    slot_count_ = static_cast<std::uint32_t>(objects.size());
+    slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     pair_count_ = pair_logic::pairsBelow(slot_count_);
     growWords(pair_logic::wordCount(pair_count_));
 

@@ -57,18 +57,14 @@ class PaperGpuPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
     const HostStopwatch watch;
-    if (objects.size() < slot_count_) {
-      throw std::runtime_error("gpubf-paper: slot count shrank from " +
-                               std::to_string(slot_count_) + " to " +
-                               std::to_string(objects.size()));
-    }
-    const std::uint64_t thread_count = static_cast<std::uint64_t>(objects.size()) * objects.size();
+    const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
+    const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
     const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
     if (block_count > static_cast<std::uint64_t>(std::numeric_limits<int>::max())) {
-      throw std::runtime_error("gpubf-paper: " + std::to_string(objects.size()) +
+      throw std::runtime_error("gpubf-paper: " + std::to_string(slot_count) +
                                " slots need more than the 2^31 - 1 blocks of one launch");
     }
-    slot_count_ = static_cast<std::uint32_t>(objects.size());
+    slot_count_ = slot_count;
     const std::uint64_t pair_count = pair_logic::pairsBelow(slot_count_);
     reserveDiscarding(objects_, objects.size());
     reserveDiscarding(results_, pair_count);

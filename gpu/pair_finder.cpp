@@ -1,5 +1,6 @@
 #include "gpu/pair_finder.h"
 
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +16,20 @@ std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads)
     throw std::runtime_error("makePairFinder: the GPU pair finders need a CUDA device: " + why);
   }
   return kind == PairFinderKind::kGpuBruteForce ? makeGpuPairFinder() : makePaperGpuPairFinder();
+}
+
+std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,
+                               std::size_t objects) {
+  const std::string name(finder);
+  if (objects < previous) {
+    throw std::runtime_error(name + ": slot count shrank from " + std::to_string(previous) +
+                             " to " + std::to_string(objects));
+  }
+  if (objects > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::runtime_error(name + ": " + std::to_string(objects) +
+                             " slots do not fit 32-bit slot indices");
+  }
+  return static_cast<std::uint32_t>(objects);
 }
 
 }  // namespace overlap::gpu

@@ -21,6 +21,7 @@
 #pragma once
 
 #include <compare>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -62,6 +63,10 @@ class PairFinder {
   // How long the last finished search took by its own clock: CUDA events on
   // the GPU (upload to last copy back), the searching thread's on the CPU.
   virtual double lastSearchMs() const = 0;
+  // How long after launch() the last finished search began.  A GPU stream
+  // starts at once; a CPU worker that has to wake up (or wait for a core) may
+  // not, and a measure of what overlapped the search must start it there.
+  virtual double lastSearchDelayMs() const { return 0; }
 };
 
 enum class PairFinderKind { kCpuBruteForce, kGpuBruteForce, kGpuBruteForcePaper };
@@ -78,5 +83,11 @@ std::string cudaDeviceName();
 // std::runtime_error with its reason otherwise; cpu_threads = 0 lets the CPU
 // finder use every hardware thread.
 std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads = 0);
+
+// The new slot count for a launch() over `objects` slots, after the checks
+// every finder makes: it must not shrink below `previous` and must fit the
+// 32-bit slot indices of IndexPair.  Throws std::runtime_error naming `finder`.
+std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,
+                               std::size_t objects);
 
 }  // namespace overlap::gpu

@@ -8,6 +8,8 @@
 #include <iterator>
 #include <limits>
 
+#include "physics/atomic_file.h"
+
 namespace overlap::physics {
 namespace {
 
@@ -125,18 +127,7 @@ void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream
     encodeAabb(stream.boxes[i], bytes.data() + kHeaderBytes + i * kAabbBytes);
   }
 
-  std::filesystem::path temporary = path;
-  temporary += ".partial";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out.flush()) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw AabbStreamError(path.string() + ": write failed");
-    }
-  }
-  std::filesystem::rename(temporary, path);
+  writeFileAtomically(path, std::string_view(bytes.data(), bytes.size()));
 }
 
 }  // namespace overlap::physics

@@ -40,7 +40,8 @@ struct AabbStream {
 // Throws AabbStreamError naming the file and the first problem.
 AabbStream readAabbStream(const std::filesystem::path& path);
 
-// Writes through a temporary file; throws AabbStreamError on failure.
+// Writes through physics/atomic_file.h; throws AabbStreamError for an
+// inconsistent stream and std::runtime_error when the file cannot be written.
 void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream);
 
 }  // namespace overlap::physics

@@ -73,6 +73,7 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
     timings.join_ms += search.join_ms;
     timings.broadphase_ms += search.join_ms;
     search.search_ms = background_search->finder().lastSearchMs();
+    search.start_delay_ms = background_search->finder().lastSearchDelayMs();
     if (!first_search) first_search = search;
   }
   // update + broadphase (+ frame work) + narrowphase; the narrowphase is what remains.

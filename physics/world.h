@@ -53,7 +53,8 @@ struct BackgroundSearch {
   std::chrono::steady_clock::time_point launched;
   std::chrono::steady_clock::time_point joined;  // when the main thread began to wait
   double join_ms;                                // waiting for the search and applying its changes
-  double search_ms;  // the search alone: GPU events, or the CPU search's own clock
+  double search_ms;       // the search alone: GPU events, or the CPU search's own clock
+  double start_delay_ms;  // from launch to the search's start (a CPU worker's wake-up)
 };
 
 struct FrameReport {

@@ -15,7 +15,7 @@ import pathlib
 import sys
 import time
 
-from foundation_table import run_summary
+from overlap_runs import add_table_arguments, results_header, run_summary
 
 
 def median(summary: dict, column: str) -> float:
@@ -24,13 +24,7 @@ def median(summary: dict, column: str) -> float:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--overlap", default="build/overlap", help="the overlap binary")
-    parser.add_argument("--algos", default="cpubf")
-    parser.add_argument("--scenes", default="3,4")
-    parser.add_argument("--objects", default="500,1250,2000,2750,3500")
-    parser.add_argument("--frames", type=int, default=64)
-    parser.add_argument("--work", default="out/async", help="folder for the runs")
-    parser.add_argument("--out", default="docs/results/async", help="prefix of .csv and .md")
+    add_table_arguments(parser, algos="cpubf", scenes="3,4", frames=64, name="async")
     args = parser.parse_args()
 
     runs = [(a, s, n) for a in args.algos.split(",") for s in map(int, args.scenes.split(","))
@@ -70,15 +64,8 @@ def main() -> int:
         writer.writeheader()
         writer.writerows(rows)
     machine = rows[0]["machine"]
-    lines = [f"# Async frame vs --sync: {len(runs)} runs of `overlap run --compare-sync`, "
-             f"{args.frames} frames each",
-             "",
-             f"Machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
-             f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}, "
-             f"commit {machine['git_commit']}.",
-             "",
-             "Command: `scripts/async_table.py " + " ".join(sys.argv[1:]) + "`",
-             "",
+    lines = results_header(f"Async frame vs --sync: {len(runs)} runs of `overlap run "
+                           f"--compare-sync`, {args.frames} frames each", machine) + [
              "Medians per frame in ms. `speed-up` = sync / async total, both runs in one "
              "process. `overlap` = the share of the first substep's search that ran while a "
              "task ran. `bound` = max(tasks, search) + update + narrowphase + solver + "

@@ -39,13 +39,7 @@ fi
 if [[ " $SANITIZERS " == *" tsan "* ]]; then
 
 section "TSan: configure and build ($TSAN_DIR)"
-# GCC's TSan instruments the resolvers of target_clones functions (cpubf's
-# AVX2 search in gpu/cpu_pair_finder.cpp), which the loader runs before the
-# TSan runtime is up: every binary with cpubf would crash before main().
-# Without function entry/exit hooks the resolvers are safe; reports then
-# show each access's own line rather than its whole stack.
-cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
-  -DCMAKE_CXX_FLAGS="--param=tsan-instrument-func-entry-exit=0" >/dev/null
+cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" >/dev/null
 cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
 section "TSan: tests labelled $TSAN_LABELS"
 # oneTBB is not built with TSan: the hand-overs inside it are invisible, and

@@ -11,33 +11,19 @@ each algorithm's broadphase and total time as a ratio to bf's in the same
 """
 import argparse
 import csv
-import json
 import pathlib
-import subprocess
 import sys
 import time
+
+from overlap_runs import add_table_arguments, results_header, run_summary
 
 COLUMNS = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms", "total_ms"]
 
 
-def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
-    """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary."""
-    summary_path = folder / "summary.json"
-    if not summary_path.exists():
-        subprocess.run([overlap, "run", *options, "--out", str(folder)], check=True,
-                       stderr=subprocess.DEVNULL)
-    return json.loads(summary_path.read_text())
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--overlap", default="build/overlap", help="the overlap binary")
-    parser.add_argument("--algos", default="bf,sap,bvh")
-    parser.add_argument("--scenes", default="1,2,3,4")
-    parser.add_argument("--objects", default="500,1250,2000,2750,3500")
-    parser.add_argument("--frames", type=int, default=256)
-    parser.add_argument("--work", default="out/foundation", help="folder for the runs")
-    parser.add_argument("--out", default="docs/results/foundation", help="prefix of .csv and .md")
+    add_table_arguments(parser, algos="bf,sap,bvh", scenes="1,2,3,4", frames=256,
+                        name="foundation")
     args = parser.parse_args()
 
     algos = args.algos.split(",")
@@ -74,14 +60,8 @@ def main() -> int:
     machine = rows[0]["machine"]
     baseline = {(r["parameters"]["scene"], r["parameters"]["objects"]): r["timings_ms"]
                 for r in rows if r["parameters"]["algorithm"] == "bf"}
-    lines = [f"# Foundation results: {len(runs)} runs of `overlap run`, {args.frames} frames each",
-             "",
-             f"Machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
-             f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}, "
-             f"commit {machine['git_commit']}.",
-             "",
-             "Command: `scripts/foundation_table.py " + " ".join(sys.argv[1:]) + "`",
-             "",
+    lines = results_header(f"Foundation results: {len(runs)} runs of `overlap run`, "
+                           f"{args.frames} frames each", machine) + [
              "Median per-frame milliseconds over the run; `(upd+bp)/bf` is update plus "
              "broadphase, and `total/bf` the whole frame, divided by bf's in the same scene "
              "and n (SAP and DBVT do most of their work while the AABBs are updated, so "

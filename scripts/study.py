@@ -36,7 +36,7 @@ import subprocess
 import sys
 import time
 
-from foundation_table import run_summary
+from overlap_runs import run_summary
 import study_report
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -409,6 +409,7 @@ def parse_args(argv: list) -> argparse.Namespace:
 def main(argv: list) -> int:
     args = parse_args(argv)
     args.argv = argv
+    args.full_profile = FULL
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = plan(args)
     write_atomically(args.out / "commands.txt",

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -149,6 +151,25 @@ TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
       EXPECT_TRUE(testing::samePairs(delta.added, reference.added));
       EXPECT_TRUE(testing::samePairs(delta.removed, reference.removed));
     }
+  }
+}
+
+TEST(CheckedSlotCountTest, AcceptsGrowthAndRejectsShrinkingOrOversizedCountsByName) {
+  constexpr std::size_t kMaxSlots = std::numeric_limits<std::uint32_t>::max();
+  EXPECT_EQ(checkedSlotCount("cpubf", 3, 3), 3u);
+  EXPECT_EQ(checkedSlotCount("cpubf", 3, 10), 10u);
+  EXPECT_EQ(checkedSlotCount("cpubf", 0, kMaxSlots), kMaxSlots);
+  try {
+    checkedSlotCount("gpubf", 10, 9);
+    ADD_FAILURE() << "a shrinking slot count was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_STREQ(error.what(), "gpubf: slot count shrank from 10 to 9");
+  }
+  try {
+    checkedSlotCount("gpubf-paper", 0, kMaxSlots + 1);
+    ADD_FAILURE() << "2^32 slots were accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_STREQ(error.what(), "gpubf-paper: 4294967296 slots do not fit 32-bit slot indices");
   }
 }
 

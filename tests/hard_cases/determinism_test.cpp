@@ -1,11 +1,11 @@
-// Determinism: the same scene gives the same state, bit for bit, run after
-// run, whatever the thread count cpubf searches with.
+// Determinism: the same scene gives the same state, bit for bit, after a
+// full run of 2048 frames (SCENES.md), run after run, whatever the thread
+// count cpubf searches with, and whether the broadphase overlaps the frame's
+// sound and AI tasks or runs after them.
 //
-// Frames: a full run (2048 frames) of scene 4 at 60 boxes takes 10.5 s on
-// the 2-core development machine, three of them too long for the suite, so
-// each run here is kFrames = 512 frames (2.5 s): past the first fall, in
-// which the boxes reach their highest speeds, and two thirds of a turn of
-// the rotating gravity, which throws the pile from wall to wall.
+// Cost: one full run of scene 4 at 60 boxes takes 5 to 10 s on the 2-core
+// development machine.  Each test below makes two to four of them and is its
+// own ctest, so `ctest -j` spreads them over the cores.
 #include <btBulletCollisionCommon.h>
 #include <gtest/gtest.h>
 #include <oneapi/tbb/global_control.h>
@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "engine/frame_scheduler.h"
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
@@ -26,7 +27,7 @@ namespace overlap::hard_cases {
 namespace {
 
 constexpr int kBoxes = 60;
-constexpr int kFrames = 512;
+constexpr int kFrames = 2048;
 
 physics::SceneConfig scene4(int objects) {
   physics::SceneConfig config = physics::SceneConfig::forScene(4);
@@ -51,13 +52,32 @@ TEST(Determinism, ThreeRunsOfScene4EndInTheSameState) {
 // above the core count leaves cpubf at one thread per core).  Both bf and
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
 // cpubf must also end where Bullet's own brute force ends.
-TEST(Determinism, CpubfEndsInTheSameStateWithOneOrMoreThreadsAndAsBulletsBruteForce) {
+TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
   const std::uint64_t bullet_bf = hashAfterRun("bf");
   for (const int threads : {1, 2, 4}) {
     const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(threads));
     EXPECT_EQ(hashAfterRun("cpubf"), bullet_bf) << threads << " thread(s)";
   }
+}
+
+// The engine's frame: cpubf searches on its worker while the sound and AI
+// tasks run (async), or the tasks run first and the search after (sync).
+std::uint64_t hashAfterScheduledRun(bool sync) {
+  physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
+  engine::SchedulerOptions options;
+  options.sync = sync;
+  options.sound.voices = 4;
+  options.sound.background_voices = 2;
+  options.ai.agents = 16;
+  engine::Timeline timeline;
+  engine::FrameScheduler scheduler(world, options, timeline);
+  for (int frame = 0; frame < kFrames; ++frame) scheduler.runFrame();
+  return world.stateHash();
+}
+
+TEST(Determinism, AsyncAndSyncFramesEndInTheSameState) {
+  EXPECT_EQ(hashAfterScheduledRun(false), hashAfterScheduledRun(true));
 }
 
 // The pair-finder level, where the thread count is the finder's own: a
