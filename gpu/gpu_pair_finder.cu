@@ -158,10 +158,14 @@ class GpuPairFinder final : public PairFinder {
 
     reserveDiscarding(staging_, objects.size());
     reserveDiscarding(objects_, objects.size());
-    CUDA_CHECK(cudaEventRecord(search_started_, stream_));
     if (!objects.empty()) {
       // The caller's memory is pageable and may change once we return: stage it.
       std::memcpy(staging_.data(), objects.data(), objects.size_bytes());
+    }
+    // After the staging copy: the stream is idle until here, and an event
+    // recorded earlier would count the host's memcpy as GPU time.
+    CUDA_CHECK(cudaEventRecord(search_started_, stream_));
+    if (!objects.empty()) {
       CUDA_CHECK(cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
                                  cudaMemcpyHostToDevice, stream_));
     }
