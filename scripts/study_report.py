@@ -96,7 +96,14 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
         losses = [f"s{k[0]} n{k[1]}" for k, *_ in sorted(pairs) if k not in wins]
         text = (f"{algo} is faster than {other} ({name}) in {len(wins)} of {len(pairs)} "
                 f"(scene, n) cells; {algo}/{other} from {min(ratios):.2f} to {max(ratios):.2f}")
-        return text + (f"; not faster in {', '.join(losses)}" if losses else "")
+        text += f"; not faster in {', '.join(losses)}" if losses else ""
+        if name == "total" and any(mine["repetitions"] > 1 for _, mine, _ in pairs):
+            ties = [f"s{k[0]} n{k[1]}" for k, mine, theirs in sorted(pairs)
+                    if mine["total_min"] <= theirs["total_max"]
+                    and theirs["total_min"] <= mine["total_max"]]
+            text += (f"; the repetitions' ranges overlap (no difference) in {len(ties)} of "
+                     f"{len(pairs)} cells" + (f": {', '.join(ties)}" if ties else ""))
+        return text
 
     gpu_algos = [a for a in ("gpubf", "gpubf-paper") if any(k[2] == a for k in by_key)]
     pending = (f" ({gpu_pending} GPU jobs not done yet)" if gpu_pending else "")
@@ -129,8 +136,9 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
                          + ", ".join(winners) + ".")
     lines.append("")
     lines.append("A difference smaller than the spread between repetitions (the bars of "
-                 "Figure 6, `total_min`/`total_max` in sweep.csv) is not a difference; "
-                 "with one repetition there is no spread to judge by.")
+                 "Figure 6, `total_min`/`total_max` in sweep.csv) is not a difference" +
+                 ("; with one repetition there is no spread to judge by."
+                  if all(c["repetitions"] == 1 for c in cells) else "."))
     return lines + [""]
 
 
