@@ -34,6 +34,7 @@
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
 #include "engine/recorded_streams.h"
+#include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "gpu/pair_finder.h"
 #include "physics/atomic_file.h"
@@ -336,15 +337,13 @@ std::string quotedCommand(int argc, char** argv) {
 }
 
 void addOptions(CLI::App& app, BenchOptions& options) {
-  const std::vector<std::string> names(physics::broadphaseNames().begin(),
-                                       physics::broadphaseNames().end());
   app.add_option("--objects,-n", options.objects, "box counts for --algos (0: none)")
       ->delimiter(',')
       ->check(CLI::Range(0, 10'000'000))
       ->capture_default_str();
   app.add_option("--algos", options.algorithms, "broadphases run at each of --objects")
       ->delimiter(',')
-      ->check(CLI::IsMember(names))
+      ->check(broadphaseNameCheck())
       ->capture_default_str();
   app.add_option("--big-objects", options.big_objects, "box counts for --big-algos (0: none)")
       ->delimiter(',')
@@ -352,7 +351,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
       ->capture_default_str();
   app.add_option("--big-algos", options.big_algorithms, "broadphases run at each of --big-objects")
       ->delimiter(',')
-      ->check(CLI::IsMember(names))
+      ->check(broadphaseNameCheck())
       ->capture_default_str();
   app.add_option("--streams", options.streams, "folder of cached .aabbs streams")
       ->capture_default_str();

@@ -40,7 +40,6 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "gpu/stopwatch.h"
-#include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "physics/world.h"
 
@@ -137,11 +136,7 @@ std::vector<physics::Aabb> grown(std::vector<physics::Aabb> boxes, const std::ve
 
 void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  std::optional<tbb::global_control> thread_cap;
-  if (options.threads > 0) {
-    thread_cap.emplace(tbb::global_control::max_allowed_parallelism,
-                       static_cast<std::size_t>(options.threads));
-  }
+  const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", options.substeps});
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
@@ -216,14 +211,12 @@ void addLatencyCommand(CLI::App& app) {
       "a broadphase one frame late on AABBs grown by |v| dt: per-frame CSV of the pairs it "
       "misses and adds, and its time against the on-time search");
   options->scene.addTo(*command);
-  const std::vector<std::string> names(physics::broadphaseNames().begin(),
-                                       physics::broadphaseNames().end());
   command
       ->add_option("--algo", options->algorithms,
                    "broadphases studied, comma-separated (bf, sap, sap32, bvh, cpubf, gpubf, "
                    "gpubf-paper)")
       ->delimiter(',')
-      ->check(CLI::IsMember(names))
+      ->check(broadphaseNameCheck())
       ->capture_default_str();
   command
       ->add_option("--growth", options->growths,

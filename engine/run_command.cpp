@@ -195,11 +195,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
 void run(const RunOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
-  std::optional<tbb::global_control> thread_cap;
-  if (options.threads > 0) {
-    thread_cap.emplace(tbb::global_control::max_allowed_parallelism,
-                       static_cast<std::size_t>(options.threads));
-  }
+  const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   try {
     options.scheduler.sound.validate();
     options.scheduler.ai.validate();

@@ -106,13 +106,23 @@ nlohmann::json toJson(const physics::SceneConfig& config) {
 }
 
 void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
-  const std::vector<std::string> names(physics::broadphaseNames().begin(),
-                                       physics::broadphaseNames().end());
   command
       .add_option("--algo", algorithm,
                   "broadphase: bf, sap, sap32, bvh (Bullet's), cpubf, gpubf, gpubf-paper (ours)")
-      ->check(CLI::IsMember(names))
+      ->check(broadphaseNameCheck())
       ->capture_default_str();
+}
+
+CLI::Validator broadphaseNameCheck() {
+  return CLI::IsMember(std::vector<std::string>(physics::broadphaseNames().begin(),
+                                                physics::broadphaseNames().end()));
+}
+
+std::optional<tbb::global_control> capThreads(int threads) {
+  if (threads <= 0) return std::nullopt;
+  return std::optional<tbb::global_control>(std::in_place,
+                                            tbb::global_control::max_allowed_parallelism,
+                                            static_cast<std::size_t>(threads));
 }
 
 }  // namespace overlap::engine

@@ -4,6 +4,8 @@
 // resolved after parsing, so `--scene 3 --gravity-scale 10` still works.
 #pragma once
 
+#include <oneapi/tbb/global_control.h>
+
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -29,5 +31,12 @@ nlohmann::json toJson(const physics::SceneConfig& config);
 
 // Registers --algo, checked against the broadphases' names.
 void addAlgorithmOption(CLI::App& command, std::string& algorithm);
+
+// The check for any option that names broadphases (--algo, --algos).
+CLI::Validator broadphaseNameCheck();
+
+// Caps every oneTBB pool of the process (cpubf's search, the tasks) at
+// `threads` for as long as the result lives; 0 leaves oneTBB's default.
+std::optional<tbb::global_control> capThreads(int threads);
 
 }  // namespace overlap::engine

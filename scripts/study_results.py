@@ -43,6 +43,17 @@ def summaries(jobs: list, experiment: str) -> list:
     return found
 
 
+def csv_results(jobs: list, experiment: str) -> list:
+    """(job, its CSV's rows as dicts of strings) for each done job of the experiment whose
+    result is one CSV file (`job.path`): pairs and latency."""
+    found = []
+    for job in jobs:
+        if job.experiment == experiment and job.done():
+            with open(job.path, newline="") as f:
+                found.append((job, list(csv.DictReader(f))))
+    return found
+
+
 def sweep_runs(jobs: list) -> list:
     """One row per sweep run."""
     rows = []
@@ -119,11 +130,8 @@ def per_frame(runs: list, scene: int, n: int) -> dict:
 def pair_errors(jobs: list) -> list:
     """One row per algorithm: its pairs on the scene-4 stream against bf's."""
     rows = []
-    for job in jobs:
-        if job.experiment != "pairs" or not job.done():
-            continue
-        with open(job.path, newline="") as f:
-            frames = [{k: int(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    for job, table in csv_results(jobs, "pairs"):
+        frames = [{k: int(v) for k, v in row.items()} for row in table]
         exact = sum(r["exact"] for r in frames)
         extra = [r["extra"] for r in frames]
         rows.append({"algo": job.labels["algo"], "frames": len(frames),
@@ -162,11 +170,7 @@ def physics_runs(jobs: list) -> list:
 def latency_rows(jobs: list) -> list:
     """One row per (scene, algorithm, growth) of `overlap latency`'s per-frame CSV."""
     rows = []
-    for job in jobs:
-        if job.experiment != "latency" or not job.done():
-            continue
-        with open(job.path, newline="") as f:
-            frames = list(csv.DictReader(f))
+    for job, frames in csv_results(jobs, "latency"):
         groups = {}
         for frame in frames:
             groups.setdefault((frame["algo"], float(frame["growth"])), []).append(frame)
