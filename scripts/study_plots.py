@@ -32,7 +32,10 @@ def save(figure, folder: pathlib.Path, name: str) -> str:
     folder.mkdir(parents=True, exist_ok=True)
     figure.tight_layout()
     figure.savefig(folder / f"{name}.png", dpi=120)
-    figure.savefig(folder / f"{name}.svg")
+    # No date and fixed clip-path ids, so the same results give the same SVG bytes
+    # and a regenerated report differs only where its numbers do.
+    with plt.rc_context({"svg.hashsalt": "overlap"}):
+        figure.savefig(folder / f"{name}.svg", metadata={"Date": None})
     plt.close(figure)
     return f"{name}.png"
 
