@@ -1,5 +1,6 @@
 #include "physics/world.h"
 
+#include <BulletCollision/CollisionDispatch/btGhostObject.h>
 #include <btBulletDynamicsCommon.h>
 
 #include <algorithm>
@@ -21,6 +22,9 @@ namespace {
 
 constexpr double kStrongGravity = 20.0;  // m/s^2: above it a scene is a "50 g" scene
 constexpr int kWallCount = 6;
+// Room in the broadphase for objects a user adds to bulletWorld() (ghosts,
+// sensors): btSimpleBroadphase and btAxisSweep3 have fixed capacities.
+constexpr int kUserObjects = 64;
 // Bullet's default collision margin (0.04 m) would round a 0.1 m box's corners
 // away almost entirely; a tenth of the edge keeps small boxes box-shaped.
 constexpr double kMaxMargin = 0.04;
@@ -119,21 +123,33 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
 };
 
 // Notes every pair the cache gains (Bullet calls it as the pair is created),
-// so the sound task can hear new contacts whatever the broadphase.
+// so the sound task can hear new contacts whatever the broadphase.  The pair
+// cache has one such callback slot, and Bullet's ghost objects (btGhostObject,
+// btPairCachingGhostObject, character controllers) need it for their
+// btGhostPairCallback: the recorder takes the slot and chains every call to
+// the callback it is given, so ghosts work in this world as in any other.
 class NewPairRecorder final : public btOverlappingPairCallback {
  public:
+  explicit NewPairRecorder(btOverlappingPairCallback& next) : next_(next) {}
+
   std::vector<std::pair<const btCollisionObject*, const btCollisionObject*>> added;
 
   btBroadphasePair* addOverlappingPair(btBroadphaseProxy* proxy0,
                                        btBroadphaseProxy* proxy1) override {
     added.emplace_back(static_cast<const btCollisionObject*>(proxy0->m_clientObject),
                        static_cast<const btCollisionObject*>(proxy1->m_clientObject));
-    return nullptr;
+    return next_.addOverlappingPair(proxy0, proxy1);
   }
-  void* removeOverlappingPair(btBroadphaseProxy*, btBroadphaseProxy*, btDispatcher*) override {
-    return nullptr;
+  void* removeOverlappingPair(btBroadphaseProxy* proxy0, btBroadphaseProxy* proxy1,
+                              btDispatcher* dispatcher) override {
+    return next_.removeOverlappingPair(proxy0, proxy1, dispatcher);
   }
+  // The pair cache never calls this on its ghost callback (btGhostPairCallback
+  // asserts if it is), so it is not passed on.
   void removeOverlappingPairsContainingProxy(btBroadphaseProxy*, btDispatcher*) override {}
+
+ private:
+  btOverlappingPairCallback& next_;
 };
 
 btVector3 toBullet(const Eigen::Vector3d& v) {
@@ -163,12 +179,20 @@ struct PhysicsWorld::Bullet {
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
   std::vector<double> edges;                         // per box
   std::vector<bool> removed;                         // per box: out of the simulation
-  NewPairRecorder new_pairs;
+  btGhostPairCallback ghost_pairs;                   // what the pair cache's slot is for
+  NewPairRecorder new_pairs{ghost_pairs};
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
 
   ~Bullet() {
     for (auto& body : bodies) world->removeRigidBody(body.get());
+  }
+  // True for the world's own boxes and walls, false for objects a user added
+  // to bulletWorld() (a ghost object, say).
+  bool owns(const btCollisionObject* object) const {
+    const int index = object->getUserIndex();
+    return index >= 0 && static_cast<std::size_t>(index) < bodies.size() &&
+           bodies[static_cast<std::size_t>(index)].get() == object;
   }
 };
 
@@ -182,7 +206,8 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
-  BroadphaseChoice choice = makeBroadphase(options.algorithm, -bound, bound, n + kWallCount);
+  BroadphaseChoice choice =
+      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
   b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
@@ -329,6 +354,7 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
   for (int m = 0; m < dispatcher.getNumManifolds(); ++m) {
     const btPersistentManifold* manifold =
         const_cast<btDispatcher&>(dispatcher).getManifoldByIndexInternal(m);
+    if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
     const double edge = std::min(edgeOf(manifold->getBody0()), edgeOf(manifold->getBody1()));
     for (int p = 0; p < manifold->getNumContacts(); ++p) {
       const double depth = -manifold->getContactPoint(p).getDistance();
@@ -453,8 +479,10 @@ std::vector<NewContact> PhysicsWorld::newContacts() const {
   std::vector<NewContact> contacts;
   contacts.reserve(b.new_pairs.added.size());
   for (const auto& [object0, object1] : b.new_pairs.added) {
-    // A box that left the simulation after the pair was made has no state to hear.
-    if (object0->getBroadphaseHandle() == nullptr || object1->getBroadphaseHandle() == nullptr) {
+    // A box that left the simulation after the pair was made has no state to
+    // hear; a ghost object added to bulletWorld() makes no sound.
+    if (object0->getBroadphaseHandle() == nullptr || object1->getBroadphaseHandle() == nullptr ||
+        !b.owns(object0) || !b.owns(object1)) {
       continue;
     }
     const int index0 = object0->getUserIndex();

@@ -140,6 +140,12 @@ class PhysicsWorld {
   // a box whose AABB becomes unusable leaves the simulation with a message.
   void injectBoxPosition(int box, const Eigen::Vector3d& position);
 
+  // Bullet's world, for what this class does not wrap.  Up to 64 objects of
+  // your own may be added (a btPairCachingGhostObject sees the boxes that
+  // enter it under every broadphase; give such objects a user index of -1, the
+  // default, and they are left out of the error counts and the sound).  Do not
+  // replace the pair cache's ghost-pair callback: the world's forwards to
+  // Bullet's btGhostPairCallback already.
   btDiscreteDynamicsWorld& bulletWorld();
   btBroadphaseInterface& broadphase();
 
