@@ -57,11 +57,19 @@ void AiConfig::validate() const {
 AgentCrowd::AgentCrowd(const AiConfig& config, float container_half_extent)
     : config_(config), half_extent_(container_half_extent), random_(config.seed) {
   config_.validate();
-  if (!(half_extent_ > config_.agent_radius + config_.wall_margin)) {
+  if (!(half_extent_ > 0.0f) || !std::isfinite(half_extent_)) {
     throw std::invalid_argument("AgentCrowd: container half extent " +
-                                std::to_string(half_extent_) +
-                                " m leaves no room for agents (agent_radius + wall_margin = " +
-                                std::to_string(config_.agent_radius + config_.wall_margin) + " m)");
+                                std::to_string(half_extent_) + " m has no interior");
+  }
+  // A container too small for an agent and its wall margin (a scene of one
+  // box is about 1 m across) gets agents scaled down to fit: radius and margin
+  // shrink together to half the half extent, so every scene the physics
+  // accepts has a crowd.
+  const float room = config_.agent_radius + config_.wall_margin;
+  if (!(half_extent_ > room)) {
+    const float scale = 0.5f * half_extent_ / room;
+    config_.agent_radius *= scale;
+    config_.wall_margin *= scale;
   }
   const auto count = static_cast<std::size_t>(config_.agents);
   positions_.resize(count);

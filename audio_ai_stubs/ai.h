@@ -11,11 +11,11 @@
 // the result does not depend on the order agents are visited.
 //
 // Invariants: every agent's centre stays at least agent_radius inside the
-// container's interior.  Steering keeps agents clear of boxes; an agent that
-// a moving box catches anyway is pushed out to the box's bounding sphere and
-// counted (where spheres crowd together, that push can land it in a
-// neighbour's).  The same config, start and box sequence give bit-identical
-// agents on any thread.
+// container's interior (in a container too small for agent_radius plus
+// wall_margin both shrink to fit, so any container with an interior works).  Steering keeps agents
+// clear of boxes; an agent that a moving box catches anyway is pushed out to the box's bounding
+// sphere and counted (where spheres crowd together, that push can land it in a neighbour's).  The
+// same config, start and box sequence give bit-identical agents on any thread.
 #pragma once
 
 #include <Eigen/Core>
@@ -63,7 +63,8 @@ struct AiWork {
 
 class AgentCrowd {
  public:
-  // The interior is [-container_half_extent, container_half_extent]^3.
+  // The interior is [-container_half_extent, container_half_extent]^3; throws
+  // std::invalid_argument if it has none or `config` is invalid.
   AgentCrowd(const AiConfig& config, float container_half_extent);
 
   // Steers and moves every agent by one frame among `boxes`.
@@ -79,7 +80,6 @@ class AgentCrowd {
   // FNV-1a over every position and velocity, for determinism checks.
   std::uint64_t checksum() const;
   const AiWork& work() const { return work_; }
-  float containerHalfExtent() const { return half_extent_; }
 
  private:
   Eigen::Vector3f seek(std::size_t agent);

@@ -170,8 +170,25 @@ TEST(AgentCrowd, RejectsANonFiniteBox) {
   }
 }
 
-TEST(AgentCrowd, RejectsAContainerTooSmallForAnAgent) {
-  EXPECT_THROW(AgentCrowd(smallCrowd(1), 1.0f), std::invalid_argument);
+// A scene of one box has a container about 1 m across, less than the default
+// agent radius plus wall margin (1.3 m): the crowd shrinks to fit, it does not
+// fail the run.
+TEST(AgentCrowd, ShrinksItsAgentsToFitATinyContainer) {
+  constexpr float kTiny = 1.0f;
+  AgentCrowd crowd(smallCrowd(16), kTiny);
+  const std::vector<Obstacle> boxes = {{Eigen::Vector3f(0.2f, -0.5f, 0.1f), 0.4f}};
+  for (int frame = 0; frame < 60; ++frame) crowd.runFrame(boxes);
+  for (const Eigen::Vector3f& position : crowd.positions()) {
+    ASSERT_TRUE(position.allFinite());
+    EXPECT_LT(position.cwiseAbs().maxCoeff(), kTiny);
+  }
+  EXPECT_GT(crowd.work().frames, 0u);
+}
+
+TEST(AgentCrowd, RejectsAContainerWithNoInterior) {
+  EXPECT_THROW(AgentCrowd(smallCrowd(1), 0.0f), std::invalid_argument);
+  EXPECT_THROW(AgentCrowd(smallCrowd(1), std::numeric_limits<float>::quiet_NaN()),
+               std::invalid_argument);
 }
 
 }  // namespace
