@@ -2,14 +2,21 @@
 
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "overlap_build_info.h"
 
 namespace overlap::engine {
 
 void addCommands(CLI::App& app) {
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("overlap ") + OVERLAP_VERSION + " (git " +
+                                        OVERLAP_GIT_COMMIT + ", " + OVERLAP_BUILD_TYPE + ")");
+  app.footer(
+      "Start with `overlap run` (a one-minute demo into ./out); "
+      "`overlap SUBCOMMAND --help` lists its options with their defaults and an example.");
   addRunCommand(app);
   addRecordCommand(app);
   addPairsCommand(app);
@@ -23,10 +30,8 @@ int runCommandLine(int argc, char** argv) {
   addCommands(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& help) {
-    return app.exit(help);
-  } catch (const CLI::CallForAllHelp& help) {
-    return app.exit(help);
+  } catch (const CLI::Success& help_or_version) {
+    return app.exit(help_or_version);
   } catch (const CLI::ParseError& error) {
     std::fprintf(stderr, "overlap: %s (see --help)\n", error.what());
     return 2;

@@ -1,5 +1,6 @@
 // `overlap capture`: keyframe pictures of a scene, like the paper's Figure 1.
 #include <algorithm>
+#include <cstdio>
 #include <memory>
 #include <string>
 
@@ -15,7 +16,7 @@ namespace {
 
 struct CaptureOptions {
   SceneOptions scene;
-  std::string algorithm = "bvh";
+  std::string algorithm;
   std::string keyframes = "0,512,1024,2047";
   std::string size = "800x600";
   std::string colour = "size";
@@ -30,30 +31,32 @@ render::ColourMode parseColourMode(const std::string& text) {
 void capture(const CaptureOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   std::vector<int> keyframes;
-  render::ImageSize size{};
   try {
     keyframes = render::parseFrameList(options.keyframes);
-    size = render::parseImageSize(options.size);
   } catch (const std::runtime_error& error) {
-    throw UsageError(std::string("--keyframes/--size: ") + error.what());
+    throw UsageError(std::string("--keyframes: ") + error.what());
   }
   if (keyframes.empty()) throw UsageError("--keyframes: no frames given");
   prepareOutputDirectory(options.out, "--out");
 
-  FrameCapture camera(options.out, size.width, size.height, parseColourMode(options.colour));
-  physics::PhysicsWorld world(config, physics::WorldOptions{options.algorithm, options.substeps});
+  const std::unique_ptr<FrameCapture> camera =
+      openCapture(options.out, options.size, parseColourMode(options.colour));
+  const std::unique_ptr<physics::PhysicsWorld> world =
+      makeWorld(config, physics::WorldOptions{options.algorithm, options.substeps});
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
   for (int frame = 0; frame <= last; ++frame) {
-    world.stepFrame();
+    world->stepFrame();
     if (frame == *next) {
-      camera.capture(world, frame);
+      camera->capture(*world, frame);
       ++next;
     }
     progress.update(frame + 1);
   }
   progress.finish();
+  std::fprintf(stderr, "overlap capture: wrote %zu PNGs in %s\n", camera->written().size(),
+               options.out.string().c_str());
 }
 
 }  // namespace
@@ -66,14 +69,20 @@ void addCaptureCommand(CLI::App& app) {
   options->scene.addTo(*command);
   command->add_option("--keyframes", options->keyframes, "frames to render, comma-separated")
       ->capture_default_str();
-  command->add_option("--size", options->size, "image size WIDTHxHEIGHT")->capture_default_str();
+  CLI::Option* size = command->add_option("--capture-size", options->size, "PNG size WIDTHxHEIGHT")
+                          ->capture_default_str();
+  // The name this option had before run and capture agreed on one; hidden.
+  command->add_option("--size", options->size)->group("")->excludes(size);
   command->add_option("--colour", options->colour, "colour boxes by size class or by contact")
       ->check(CLI::IsMember({"size", "contact"}))
       ->capture_default_str();
   addAlgorithmOption(*command, options->algorithm);
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
+  addSubstepsOption(*command, options->substeps);
   command->add_option("--out", options->out, "output folder")->capture_default_str();
+  command->footer(
+      "Example:\n"
+      "  overlap capture --scene 3 --objects 1250 --keyframes 0,100,200 --capture-size 400x300 "
+      "--out shots");
   command->callback([options] { capture(*options); });
 }
 

@@ -4,6 +4,9 @@
 #include <cstdio>
 #include <vector>
 
+#include "engine/cli_errors.h"
+#include "render/capture_options.h"
+
 namespace overlap::engine {
 namespace {
 
@@ -26,6 +29,20 @@ FrameCapture::FrameCapture(const std::filesystem::path& folder, int width, int h
                            render::ColourMode mode)
     : folder_(folder), renderer_(width, height, mode) {}
 
+std::unique_ptr<FrameCapture> openCapture(const std::filesystem::path& folder,
+                                          const std::string& size_text, render::ColourMode mode) {
+  try {
+    const render::ImageSize size = render::parseImageSize(size_text);
+    return std::make_unique<FrameCapture>(folder, size.width, size.height, mode);
+  } catch (const render::ImageSizeError& error) {
+    throw UsageError("--capture-size " + size_text + ": " + error.what());
+  } catch (const render::RenderError&) {
+    throw;  // OSMesa failing is the program's failure, not the value's
+  } catch (const std::runtime_error& error) {
+    throw UsageError(std::string("--capture-size: ") + error.what());
+  }
+}
+
 double FrameCapture::capture(const physics::PhysicsWorld& world, int frame) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<render::BoxInstance> boxes;
@@ -40,6 +57,7 @@ double FrameCapture::capture(const physics::PhysicsWorld& world, int frame) {
   char name[64];
   std::snprintf(name, sizeof(name), "scene%d_frame%04d.png", world.config().scene, frame);
   render::writePng(renderer_.render(view), folder_ / name);
+  written_.push_back(folder_ / name);
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
 }

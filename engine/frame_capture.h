@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "physics/world.h"
 #include "render/renderer.h"
@@ -21,9 +23,19 @@ class FrameCapture {
   // milliseconds the render and the PNG took.
   double capture(const physics::PhysicsWorld& world, int frame);
 
+  // Every PNG written so far, in order.
+  const std::vector<std::filesystem::path>& written() const { return written_; }
+
  private:
   std::filesystem::path folder_;
   render::OffscreenRenderer renderer_;
+  std::vector<std::filesystem::path> written_;
 };
+
+// Parses a --capture-size text (WIDTHxHEIGHT) and opens a camera writing into
+// `folder`.  A malformed size, or one this OpenGL cannot render, is a
+// UsageError naming the option and the value; OSMesa failing is not.
+std::unique_ptr<FrameCapture> openCapture(const std::filesystem::path& folder,
+                                          const std::string& size_text, render::ColourMode mode);
 
 }  // namespace overlap::engine

@@ -50,7 +50,7 @@ using Pairs = std::vector<std::pair<int, int>>;
 
 struct LatencyOptions {
   SceneOptions scene;
-  std::vector<std::string> algorithms = {"bvh"};
+  std::vector<std::string> algorithms = {kDefaultAlgorithm};
   std::vector<double> growths = {1.0};
   int frames = 2048;
   int substeps = 0;
@@ -137,7 +137,9 @@ std::vector<physics::Aabb> grown(std::vector<physics::Aabb> boxes, const std::ve
 void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", options.substeps});
+  const std::unique_ptr<physics::PhysicsWorld> scene =
+      makeWorld(config, physics::WorldOptions{"bvh", options.substeps});
+  physics::PhysicsWorld& world = *scene;
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
 
@@ -213,8 +215,7 @@ void addLatencyCommand(CLI::App& app) {
   options->scene.addTo(*command);
   command
       ->add_option("--algo", options->algorithms,
-                   "broadphases studied, comma-separated (bf, sap, sap32, bvh, cpubf, gpubf, "
-                   "gpubf-paper)")
+                   "broadphases studied, comma-separated: " + broadphaseNameList())
       ->delimiter(',')
       ->check(broadphaseNameCheck())
       ->capture_default_str();
@@ -224,14 +225,15 @@ void addLatencyCommand(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  command->add_option("--frames", options->frames, "frames of 1/30 s")
+  command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
-  command->add_option("--threads", options->threads, "oneTBB's thread cap for cpubf (0: all)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
+  addSubstepsOption(*command, options->substeps);
+  addThreadsOption(*command, options->threads);
+  command->footer(
+      "Example:\n"
+      "  overlap latency --scene 4 --objects 1000 --frames 60 --algo bvh,cpubf --growth 0,1,2 "
+      "> latency.csv");
   command->callback([options] { measureLatency(*options); });
 }
 

@@ -59,7 +59,13 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
   stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
   auto keepBoxes = [&] {
     const std::vector<physics::Aabb> all = world.aabbs();  // boxes, then walls
-    stream.boxes.insert(stream.boxes.end(), all.begin(), all.begin() + config.objects);
+    for (int i = 0; i < config.objects; ++i) {
+      const physics::Aabb& box = all[static_cast<std::size_t>(i)];
+      // aabbs() gives a box out of the simulation as an inverted, empty box.
+      const bool left_simulation = box.min[0] > box.max[0];
+      stream.boxes.push_back(left_simulation ? physics::parkedBox(stream.world, i, config.objects)
+                                             : box);
+    }
   };
 
   Progress progress("record n=" + std::to_string(config.objects), frames);

@@ -30,8 +30,9 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
                                        const physics::SceneConfig& config, int frames);
 
 // Simulates `frames` frames of the scene (bvh; substeps 0: the scene's
-// default) and keeps the boxes' AABBs, with progress on stderr for long
-// recordings.  `overlap record` and the benchmark both record through it.
+// default) and keeps the boxes' AABBs, a box that has left the simulation as
+// physics::parkedBox(), with progress on stderr for long recordings.  `overlap record` and the
+// benchmark both record through it.
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames, int substeps = 0);
 
 struct CachedStream {

@@ -27,18 +27,33 @@
 namespace overlap::engine {
 namespace {
 
+// `overlap run` with no options is the demo: scene 4 at a size that finishes in
+// about a minute on two cores without a GPU, with every output written.
+// --paper is the paper's full run (SCENES.md: 3500 boxes, 2048 frames).
+constexpr int kDemoObjects = 1000;
+constexpr int kDemoFrames = 300;
+constexpr int kPaperObjects = 3500;
+constexpr int kPaperFrames = 2048;
+// PNGs the demo writes when --capture-every is not given: frames 0, F/4, F/2, 3F/4.
+constexpr int kDefaultKeyframes = 4;
+
 struct RunOptions {
   SceneOptions scene;
-  std::string algorithm = "gpubf";
-  int frames = 2048;
+  std::string algorithm;
+  int frames = kDemoFrames;
+  bool paper = false;
   int substeps = 0;
   bool ccd = false;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
   SchedulerOptions scheduler;
   std::filesystem::path out = "out";
-  int capture_every = 0;  // 0: no pictures
+  std::optional<int> capture_every;  // unset: kDefaultKeyframes pictures; 0: none
   std::string capture_size = "800x600";
+  std::optional<std::filesystem::path> wav;  // unset: OUT/sound.wav
+  bool no_wav = false;
+  bool no_tasks = false;
+  CLI::Option* frames_option = nullptr;
 };
 
 struct FrameRow {
@@ -127,22 +142,14 @@ struct RunResult {
 RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
                   const SchedulerOptions& scheduler_options, FrameCapture* camera,
                   Timeline& timeline, const char* label) {
-  std::unique_ptr<physics::PhysicsWorld> world;
-  try {
-    world = std::make_unique<physics::PhysicsWorld>(
-        config, physics::WorldOptions{options.algorithm, options.substeps, options.ccd});
-  } catch (const std::invalid_argument& error) {
-    throw UsageError(std::string("--") + error.what());
-  }
-  if (!world->algorithmNotice().empty()) {
-    std::fprintf(stderr, "overlap: %s\n", world->algorithmNotice().c_str());
-  }
+  const std::unique_ptr<physics::PhysicsWorld> world =
+      makeWorld(config, physics::WorldOptions{options.algorithm, options.substeps, options.ccd});
   FrameScheduler scheduler(*world, scheduler_options, timeline);
   RunResult result;
   Progress progress(label, options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
     FrameRow row{scheduler.runFrame()};
-    if (camera != nullptr && frame % options.capture_every == 0) {
+    if (camera != nullptr && frame % *options.capture_every == 0) {
       row.render_ms = camera->capture(*world, frame);
     }
     result.rows.push_back(row);
@@ -173,7 +180,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["tasks"] = options.scheduler.tasks;
   parameters["voices"] = options.scheduler.sound.voices;
   parameters["agents"] = options.scheduler.ai.agents;
-  parameters["capture_every"] = options.capture_every;
+  parameters["capture_every"] = *options.capture_every;
 
   nlohmann::json errors = columnStatistics(run.rows, false);
   errors["escaped_final"] = run.rows.back().frame.physics.escaped;
@@ -192,8 +199,45 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
           {"machine", machineInfo()}};
 }
 
-void run(const RunOptions& options) {
-  const physics::SceneConfig config = options.scene.resolve();
+// What --paper, --capture-every and --wav leave unsaid, filled in.
+RunOptions resolveDefaults(RunOptions options, physics::SceneConfig& config) {
+  if (options.paper) {
+    if (!options.scene.objectsGiven()) config.objects = kPaperObjects;
+    if (options.frames_option->count() == 0) options.frames = kPaperFrames;
+  }
+  if (!options.capture_every) {
+    options.capture_every =
+        std::max(1, (options.frames + kDefaultKeyframes - 1) / kDefaultKeyframes);
+  }
+  options.scheduler.tasks = !options.no_tasks;
+  if (options.no_wav || options.no_tasks) {
+    options.scheduler.wav.reset();
+  } else {
+    options.scheduler.wav = options.wav.value_or(options.out / "sound.wav");
+  }
+  return options;
+}
+
+// The closing line: every file the run wrote, where.
+std::string writtenLine(const std::filesystem::path& out,
+                        const std::optional<std::filesystem::path>& wav,
+                        const FrameCapture* camera) {
+  std::string line = "overlap run: wrote " + (out / "frames.csv").string() + ", " +
+                     (out / "summary.json").string() + ", " + (out / "timeline.json").string() +
+                     " (open in https://ui.perfetto.dev)";
+  if (wav) line += ", " + wav->string();
+  if (camera != nullptr && !camera->written().empty()) {
+    line += ", " + std::to_string(camera->written().size()) + " PNGs in " +
+            camera->written().front().parent_path().string() + " (" +
+            camera->written().front().filename().string() + " to " +
+            camera->written().back().filename().string() + ")";
+  }
+  return line;
+}
+
+void run(const RunOptions& given) {
+  physics::SceneConfig config = given.scene.resolve();
+  const RunOptions options = resolveDefaults(given, config);
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   try {
@@ -208,16 +252,10 @@ void run(const RunOptions& options) {
     prepareOutputDirectory(wav.has_parent_path() ? wav.parent_path() : ".", "--wav");
   }
   std::unique_ptr<FrameCapture> camera;
-  if (options.capture_every > 0) {
-    render::ImageSize size{};
-    try {
-      size = render::parseImageSize(options.capture_size);
-    } catch (const std::runtime_error& error) {
-      throw UsageError(std::string("--capture-size: ") + error.what());
-    }
+  if (*options.capture_every > 0) {
     prepareOutputDirectory(options.out / "frames", "--out");
-    camera = std::make_unique<FrameCapture>(options.out / "frames", size.width, size.height,
-                                            render::ColourMode::kSizeClass);
+    camera =
+        openCapture(options.out / "frames", options.capture_size, render::ColourMode::kSizeClass);
   }
 
   std::optional<RunResult> sync_run;
@@ -251,35 +289,50 @@ void run(const RunOptions& options) {
   physics::writeFileAtomically(options.out / "frames.csv", framesCsv(result.rows));
   timeline.write(options.out / "timeline.json");
   physics::writeFileAtomically(options.out / "summary.json", summary.dump(2) + "\n");
+  std::fprintf(stderr, "%s\n",
+               writtenLine(options.out, options.scheduler.wav, camera.get()).c_str());
 }
 
 }  // namespace
 
 void addRunCommand(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
-  CLI::App* command =
-      app.add_subcommand("run", "step a scene; write frames.csv, summary.json and timeline.json");
-  options->scene.addTo(*command);
+  CLI::App* command = app.add_subcommand(
+      "run",
+      "step a scene through the frame scheduler; write frames.csv, summary.json, "
+      "timeline.json, the sound as a WAV and keyframe PNGs.  With no options: the demo, scene 4 "
+      "with " +
+          std::to_string(kDemoObjects) + " boxes for " + std::to_string(kDemoFrames) +
+          " frames (about a minute on two cores); --paper for the paper's full run");
+  options->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, options->algorithm);
-  command->add_option("--frames", options->frames, "frames of 1/30 s")
-      ->check(CLI::Range(1, 1'000'000))
-      ->capture_default_str();
+  options->frames_option =
+      command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
+          ->check(CLI::Range(1, 1'000'000))
+          ->capture_default_str();
   command
-      ->add_option("--substeps", options->substeps,
-                   "fixed steps per frame (default: 2 for scenes 1-2, 8 for 3-4)")
-      ->check(CLI::Range(1, 1000));
-  command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box");
-  command->add_flag("--sync", options->scheduler.sync,
-                    "run the sound and AI tasks before the broadphase, not beside it");
+      ->add_flag("--paper", options->paper,
+                 "the paper's full run: --objects " + std::to_string(kPaperObjects) + " --frames " +
+                     std::to_string(kPaperFrames) +
+                     " (about half an hour on two cores without a GPU); either given "
+                     "explicitly wins")
+      ->default_str("off");
+  addSubstepsOption(*command, options->substeps);
+  command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box")
+      ->default_str("off");
   command
-      ->add_option("--threads", options->threads,
-                   "worker threads for the tasks and cpubf (0: all hardware threads)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
-  command->add_flag("--compare-sync", options->compare_sync,
-                    "run --sync first, then the async loop, and report the speed-up");
-  command->add_flag("!--no-tasks", options->scheduler.tasks,
-                    "physics only: no sound or AI tasks (the paper's measurements)");
+      ->add_flag("--sync", options->scheduler.sync,
+                 "run the sound and AI tasks before the broadphase, not beside it")
+      ->default_str("off");
+  addThreadsOption(*command, options->threads);
+  command
+      ->add_flag("--compare-sync", options->compare_sync,
+                 "run --sync first, then the async loop, and report the speed-up")
+      ->default_str("off");
+  command
+      ->add_flag("--no-tasks", options->no_tasks,
+                 "physics only: no sound or AI tasks (the paper's measurements)")
+      ->default_str("off");
   command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
       ->capture_default_str();
   command
@@ -288,15 +341,22 @@ void addRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
       ->capture_default_str();
-  command->add_option("--wav", options->scheduler.wav,
-                      "write the run's sound mix to this WAV file");
+  command->add_option("--wav", options->wav, "the WAV file the run's sound mix goes to")
+      ->default_str("OUT/sound.wav");
+  command->add_flag("--no-wav", options->no_wav, "write no WAV")->default_str("off");
   command->add_option("--out", options->out, "output folder")->capture_default_str();
   command
       ->add_option("--capture-every", options->capture_every,
                    "write every K-th frame as a PNG under OUT/frames (0: none)")
-      ->check(CLI::NonNegativeNumber);
-  command->add_option("--capture-size", options->capture_size, "captured image size WxH")
+      ->check(CLI::NonNegativeNumber)
+      ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
+  command->add_option("--capture-size", options->capture_size, "PNG size WIDTHxHEIGHT")
       ->capture_default_str();
+  command->footer(
+      "Examples:\n"
+      "  overlap run                                  # the demo, into ./out\n"
+      "  overlap run --paper --algo bvh --out paper   # the paper's scene 4 with Bullet's BVH\n"
+      "  overlap run --scene 2 --objects 1000 --frames 300 --no-tasks --out s2");
   command->callback([options] { run(*options); });
 }
 

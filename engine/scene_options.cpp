@@ -1,20 +1,21 @@
 #include "engine/scene_options.h"
 
+#include <cstdio>
+#include <string_view>
+#include <tuple>
+
 #include "engine/cli_errors.h"
 #include "physics/broadphase_factory.h"
 
 namespace overlap::engine {
 namespace {
 
-void addSizeRange(CLI::App& command, const std::string& name, std::vector<double>& range,
-                  const physics::SizeRange& paper, const std::string& what) {
-  command
-      .add_option(name, range,
-                  "scene 4: " + what + " edge factor range LO HI (default " +
-                      CLI::detail::to_string(paper.lo) + " " + CLI::detail::to_string(paper.hi) +
-                      ")")
+CLI::Option* addSizeRange(CLI::App& command, const std::string& name, std::vector<double>& range,
+                          const physics::SizeRange& paper, const std::string& what) {
+  return command.add_option(name, range, "scene 4: " + what + " edge factor range LO HI")
       ->expected(2)
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::PositiveNumber)
+      ->default_str(CLI::detail::to_string(paper.lo) + " " + CLI::detail::to_string(paper.hi));
 }
 
 physics::SizeRange rangeOr(const std::vector<double>& given, const physics::SizeRange& paper) {
@@ -23,14 +24,15 @@ physics::SizeRange rangeOr(const std::vector<double>& given, const physics::Size
 
 }  // namespace
 
-void SceneOptions::addTo(CLI::App& command) {
+void SceneOptions::addTo(CLI::App& command, int objects) {
+  config_.objects = objects;
   command
       .add_option("--scene", config_.scene, "1 fall, 2 kicks, 3 rotating gravity, 4 mixed sizes")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();
-  command.add_option("--objects,-n", config_.objects, "dynamic boxes")
-      ->check(CLI::Range(1, 10'000'000))
-      ->capture_default_str();
+  objects_option_ = command.add_option("--objects,-n", config_.objects, "dynamic boxes")
+                        ->check(CLI::Range(1, 10'000'000))
+                        ->capture_default_str();
   command.add_option("--seed", config_.seed, "seed of the start state (and scene 2's kicks)")
       ->capture_default_str();
   command.add_option("--fill", config_.fill_fraction, "share of the interior the boxes fill")
@@ -55,24 +57,38 @@ void SceneOptions::addTo(CLI::App& command) {
   command.add_option("--gravity", config_.g, "g in m/s^2")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  command
-      .add_option("--gravity-scale", gravity_scale_,
-                  "gravity in g (default 1 for scenes 1-2, 50 for scenes 3-4)")
-      ->check(CLI::NonNegativeNumber);
-  command.add_option("--kicks", config_.kicks_per_frame, "scene 2: objects kicked per frame")
+  command.add_option("--gravity-scale", gravity_scale_, "gravity in g")
       ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  command
-      .add_option("--rotation", config_.rotation_per_frame,
-                  "scenes 3-4: gravity rotation per frame (rad)")
-      ->capture_default_str();
-  addSizeRange(command, "--small-sizes", small_, config_.small, "small");
-  addSizeRange(command, "--average-sizes", average_, config_.average, "average");
-  addSizeRange(command, "--large-sizes", large_, config_.large, "large");
+      ->default_str("1 for scenes 1-2, 50 for scenes 3-4");
+  using Config = const physics::SceneConfig&;
+  scene_specific_ = {
+      {command.add_option("--kicks", config_.kicks_per_frame, "scene 2: objects kicked per frame")
+           ->check(CLI::NonNegativeNumber)
+           ->capture_default_str(),
+       [](Config c) { return c.kicks(); }, "scene 2"},
+      {command
+           .add_option("--rotation", config_.rotation_per_frame,
+                       "scenes 3-4: gravity rotation per frame (rad)")
+           ->capture_default_str(),
+       [](Config c) { return c.rotatingGravity(); }, "scenes 3-4"},
+  };
+  for (auto [name, range, paper, what] :
+       {std::tuple{"--small-sizes", &small_, config_.small, "small"},
+        std::tuple{"--average-sizes", &average_, config_.average, "average"},
+        std::tuple{"--large-sizes", &large_, config_.large, "large"}}) {
+    scene_specific_.push_back({addSizeRange(command, name, *range, paper, what),
+                               [](Config c) { return c.mixedSizes(); }, "scene 4"});
+  }
 }
 
 physics::SceneConfig SceneOptions::resolve() const {
   physics::SceneConfig config = config_;
+  for (const SceneSpecific& option : scene_specific_) {
+    if (option.option->count() > 0 && !option.used_by(config)) {
+      throw UsageError(option.option->get_name() + ": scene " + std::to_string(config.scene) +
+                       " does not use it (" + option.scenes + " only)");
+    }
+  }
   config.gravity_scale =
       gravity_scale_.value_or(physics::SceneConfig::forScene(config.scene).gravity_scale);
   config.small = rangeOr(small_, config_.small);
@@ -106,9 +122,11 @@ nlohmann::json toJson(const physics::SceneConfig& config) {
 }
 
 void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
+  algorithm = kDefaultAlgorithm;
   command
       .add_option("--algo", algorithm,
-                  "broadphase: bf, sap, sap32, bvh (Bullet's), cpubf, gpubf, gpubf-paper (ours)")
+                  "broadphase: " + broadphaseNameList() + " (" + kDefaultAlgorithm +
+                      " without a CUDA device runs the fastest exact CPU finder and says so)")
       ->check(broadphaseNameCheck())
       ->capture_default_str();
 }
@@ -116,6 +134,42 @@ void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
 CLI::Validator broadphaseNameCheck() {
   return CLI::IsMember(std::vector<std::string>(physics::broadphaseNames().begin(),
                                                 physics::broadphaseNames().end()));
+}
+
+std::string broadphaseNameList() {
+  std::string list;
+  for (const std::string_view name : physics::broadphaseNames()) {
+    list += (list.empty() ? "" : ", ") + std::string(name);
+  }
+  return list;
+}
+
+void addSubstepsOption(CLI::App& command, int& substeps) {
+  command.add_option("--substeps", substeps, "fixed Bullet steps per frame")
+      ->check(CLI::Range(1, 1000))
+      ->default_str("the scene's: 8 at gravity above 20 m/s^2 (scenes 3-4), else 2");
+}
+
+void addThreadsOption(CLI::App& command, int& threads) {
+  command
+      .add_option("--threads", threads,
+                  "worker threads for the tasks and cpubf (0: all hardware threads)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+}
+
+std::unique_ptr<physics::PhysicsWorld> makeWorld(const physics::SceneConfig& config,
+                                                 const physics::WorldOptions& options) {
+  std::unique_ptr<physics::PhysicsWorld> world;
+  try {
+    world = std::make_unique<physics::PhysicsWorld>(config, options);
+  } catch (const std::invalid_argument& error) {
+    throw UsageError(std::string("--") + error.what());
+  }
+  if (!world->algorithmNotice().empty()) {
+    std::fprintf(stderr, "overlap: %s\n", world->algorithmNotice().c_str());
+  }
+  return world;
 }
 
 std::optional<tbb::global_control> capThreads(int threads) {

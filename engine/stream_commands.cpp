@@ -29,11 +29,19 @@ void checkWritableFile(const std::filesystem::path& file) {
 void record(const RecordOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   checkWritableFile(options.out);
-  physics::writeAabbStream(options.out, recordStream(config, options.frames, options.substeps));
+  physics::AabbStream stream;
+  try {
+    stream = recordStream(config, options.frames, options.substeps);
+  } catch (const std::invalid_argument& error) {  // a scene the options cannot build
+    throw UsageError(std::string("--") + error.what());
+  }
+  physics::writeAabbStream(options.out, stream);
+  std::fprintf(stderr, "overlap record: wrote %s (%d objects, the start and %d frames)\n",
+               options.out.string().c_str(), stream.objects, stream.stored_frames - 1);
 }
 
 struct PairsOptions {
-  std::string algorithm = "bf";
+  std::string algorithm;
   std::filesystem::path input;
 };
 
@@ -65,12 +73,16 @@ void addRecordCommand(CLI::App& app) {
   CLI::App* command =
       app.add_subcommand("record", "run a scene and write its AABBs as a Broadmark .aabbs file");
   options->scene.addTo(*command);
-  command->add_option("--frames", options->frames, "frames to record (F; F + 1 are stored)")
+  command
+      ->add_option("--frames", options->frames,
+                   "frames to record, each --frame-time long (F; F + 1 are stored)")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
+  addSubstepsOption(*command, options->substeps);
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
+  command->footer(
+      "Example:\n"
+      "  overlap record --scene 4 --objects 1000 --frames 120 --out scene4.aabbs");
   command->callback([options] { record(*options); });
 }
 
@@ -80,6 +92,9 @@ void addPairsCommand(CLI::App& app) {
       "pairs", "print each frame's pairs of a .aabbs file as CSV (frame,a,b) on stdout");
   addAlgorithmOption(*command, options->algorithm);
   command->add_option("--input", options->input, "a Broadmark .aabbs file")->required();
+  command->footer(
+      "Example:\n"
+      "  overlap pairs --algo cpubf --input scene4.aabbs > pairs.csv");
   command->callback([options] { printPairs(*options); });
 }
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <system_error>
 
 #include "physics/atomic_file.h"
 
@@ -17,6 +18,9 @@ static_assert(std::endian::native == std::endian::little,
               "the .aabbs layout is little-endian; add byte swapping for this machine");
 
 constexpr std::size_t kNameBytes = 128;
+// How far beyond the world's +x face parkedBox() puts its points: inside the
+// margin BroadphaseReplay gives SAP's quantized bounds (12.5% + 1 m).
+constexpr float kParkingDistance = 0.5f;
 constexpr std::size_t kAabbBytes = 8 * sizeof(float);
 constexpr std::size_t kHeaderBytes = 2 * kNameBytes + 4 * sizeof(std::int32_t) + kAabbBytes;
 
@@ -60,10 +64,32 @@ std::string aabbProblem(const Aabb& box) {
 
 }  // namespace
 
+Aabb parkedBox(const Aabb& world, int object, int objects) {
+  const auto columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(objects))));
+  const int row = object / columns;
+  const int column = object % columns;
+  auto along = [&](int axis, int cell) {
+    const float span = world.max[axis] - world.min[axis];
+    return world.min[axis] + span * (static_cast<float>(cell) + 0.5f) / static_cast<float>(columns);
+  };
+  const float x = world.max[0] + kParkingDistance;
+  const float y = along(1, row);
+  const float z = along(2, column);
+  return Aabb{{x, y, z}, {x, y, z}};
+}
+
 AabbStream readAabbStream(const std::filesystem::path& path) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) fail(path, "is a directory, not a .aabbs file");
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "cannot open");
-  const std::vector<char> bytes{std::istreambuf_iterator<char>(in), {}};
+  std::vector<char> bytes;
+  try {
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  } catch (const std::ios_base::failure& failure) {  // libstdc++ throws on EISDIR and the like
+    fail(path, std::string("cannot read: ") + failure.what());
+  }
+  if (in.bad()) fail(path, "cannot read");
   if (bytes.size() < kHeaderBytes) {
     fail(path, "truncated header: " + std::to_string(bytes.size()) + " bytes, need " +
                    std::to_string(kHeaderBytes));
@@ -114,6 +140,16 @@ void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream
   if (stream.objects <= 0 || stream.stored_frames < 2 ||
       stream.boxes.size() != static_cast<std::size_t>(stream.objects) * stream.stored_frames) {
     throw AabbStreamError(path.string() + ": inconsistent stream to write");
+  }
+  // Every box readAabbStream() would refuse is refused here, before a byte is written.
+  if (const std::string problem = aabbProblem(stream.world); !problem.empty()) {
+    fail(path, "world AABB to write: " + problem);
+  }
+  for (std::size_t i = 0; i < stream.boxes.size(); ++i) {
+    if (const std::string problem = aabbProblem(stream.boxes[i]); !problem.empty()) {
+      fail(path, "box to write at frame " + std::to_string(i / stream.objects) + ", object " +
+                     std::to_string(i % stream.objects) + ": " + problem);
+    }
   }
   std::vector<char> bytes(kHeaderBytes + stream.boxes.size() * kAabbBytes, 0);
   std::memcpy(bytes.data(), stream.scene_name.data(),

@@ -5,8 +5,17 @@
 //   then F + 1 frames of N AABBs; an AABB is min then max, each float32 x, y, z, 0.
 // The reader checks everything before handing out a single box: sizes that
 // match the counts, finite coordinates, min <= max; the first problem is
-// reported with the file, frame and object.  The fourth float of each corner
-// is written as 0 and not checked on reading.
+// reported with the file, frame and object.  The writer refuses the same
+// boxes, so every file it writes reads back.  The fourth float of each
+// corner is written as 0 and not checked on reading.
+//
+// A box that has left the simulation (Bullet took it out: NaN, a huge AABB,
+// too far away) still needs N boxes in each frame.  It is stored "parked":
+// a point (min = max) half a metre beyond the world AABB's +x face, at its
+// own cell of a ceil(sqrt(N))-square grid over that face.  Parked boxes are
+// valid AABBs, outside the world, touching nothing inside it and no other
+// parked box, so an exact broadphase pairs them with nothing, as the
+// simulation's pair cache does.
 #pragma once
 
 #include <filesystem>
@@ -37,11 +46,15 @@ struct AabbStream {
   }
 };
 
+// The box stored for `object` of `objects` once it has left the simulation.
+Aabb parkedBox(const Aabb& world, int object, int objects);
+
 // Throws AabbStreamError naming the file and the first problem.
 AabbStream readAabbStream(const std::filesystem::path& path);
 
 // Writes through physics/atomic_file.h; throws AabbStreamError for an
-// inconsistent stream and std::runtime_error when the file cannot be written.
+// inconsistent stream or a box the reader would refuse (naming its frame and
+// object), std::runtime_error when the file cannot be written.
 void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream);
 
 }  // namespace overlap::physics

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -154,16 +155,20 @@ SceneLayout generateScene(const SceneConfig& config) {
     const double radius = sizes[i].first * kSqrt3 / 2;
     const double reach = layout.half_extent - radius;  // sphere stays off the walls
     if (reach <= 0) {
-      throw std::runtime_error("scene: a box of edge " + std::to_string(sizes[i].first) +
-                               " m does not fit in the container; raise --objects");
+      throw std::invalid_argument("objects: " + std::to_string(config.objects) +
+                                  " leave no room in the container for a box of edge " +
+                                  std::to_string(sizes[i].first) + " m; raise --objects");
     }
     int tries = 0;
     Eigen::Vector3d centre;
     do {
       if (++tries > kMaxPlacementTries) {
-        throw std::runtime_error("scene: could not place box " + std::to_string(i) + " in " +
-                                 std::to_string(kMaxPlacementTries) +
-                                 " tries without overlap; lower --fill or raise --objects");
+        std::ostringstream fill;
+        fill << config.fill_fraction;
+        throw std::invalid_argument(
+            "fill: " + fill.str() + " leaves no room for " + std::to_string(config.objects) +
+            " boxes: box " + std::to_string(i) + " found no place without overlap in " +
+            std::to_string(kMaxPlacementTries) + " tries; lower --fill or raise --objects");
       }
       centre = {random.uniform(-reach, reach), random.uniform(-reach, reach),
                 random.uniform(-reach, reach)};

@@ -65,7 +65,8 @@ struct SceneLayout {
   double outerHalfExtent() const { return half_extent + wall_thickness; }
 };
 
-// Throws std::runtime_error if the boxes cannot be placed (fill too high).
+// Throws std::invalid_argument naming the option at fault if the boxes cannot
+// be placed (--fill too high, or too few --objects for the biggest box).
 SceneLayout generateScene(const SceneConfig& config);
 
 std::string sizeClassName(SizeClass size_class);

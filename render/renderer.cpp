@@ -160,9 +160,9 @@ struct OffscreenRenderer::Context {
     gl.GetIntegerv(GL_MAX_VIEWPORT_DIMS, max_viewport);
     const GLint limit = std::min({max_renderbuffer_size, max_viewport[0], max_viewport[1]});
     if (width > limit || height > limit) {
-      throw RenderError("image size " + std::to_string(width) + "x" + std::to_string(height) +
-                        " exceeds this OpenGL's limit of " + std::to_string(limit) +
-                        " pixels a side");
+      throw ImageSizeError("image size " + std::to_string(width) + "x" + std::to_string(height) +
+                           " exceeds this OpenGL's limit of " + std::to_string(limit) +
+                           " pixels a side");
     }
     GLuint framebuffer = 0;
     GLuint renderbuffers[2] = {0, 0};
@@ -249,8 +249,8 @@ struct OffscreenRenderer::Context {
 OffscreenRenderer::OffscreenRenderer(int width, int height, ColourMode mode)
     : context_(std::make_unique<Context>()) {
   if (width <= 0 || height <= 0) {
-    throw RenderError("image size " + std::to_string(width) + "x" + std::to_string(height) +
-                      " is not positive");
+    throw ImageSizeError("image size " + std::to_string(width) + "x" + std::to_string(height) +
+                         " is not positive");
   }
   Context& c = *context_;
   c.width = width;

@@ -59,9 +59,9 @@ Eigen::Vector3f boxColour(ColourMode mode, const BoxInstance& box);
 
 class OffscreenRenderer {
  public:
-  // Creates the GL context and everything the draws need.  Throws RenderError
-  // if the size is not positive or above this OpenGL's limit, or if OSMesa
-  // cannot give an OpenGL 3.3 core context.
+  // Creates the GL context and everything the draws need.  Throws
+  // ImageSizeError if the size is not positive or above this OpenGL's limit,
+  // RenderError if OSMesa cannot give an OpenGL 3.3 core context.
   OffscreenRenderer(int width, int height, ColourMode mode = ColourMode::kSizeClass);
   ~OffscreenRenderer();
   // A moved-from renderer may only be destroyed or assigned to.

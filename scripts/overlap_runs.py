@@ -16,7 +16,8 @@ def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
     """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary."""
     summary_path = folder / "summary.json"
     if not summary_path.exists():
-        subprocess.run([overlap, "run", *options, "--out", str(folder)], check=True,
+        subprocess.run([overlap, "run", *options, "--capture-every", "0", "--no-wav",
+                        "--out", str(folder)], check=True,
                        stderr=subprocess.DEVNULL)
     return json.loads(summary_path.read_text())
 

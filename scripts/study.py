@@ -136,7 +136,8 @@ class RunJob(Job):
         return (self.folder / "summary.json").exists()
 
     def commands(self):
-        return [[self.overlap, "run", *self.options, "--out", str(self.folder)]]
+        return [[self.overlap, "run", *self.options, "--capture-every", "0", "--no-wav",
+                 "--out", str(self.folder)]]
 
     def run(self):
         try:
@@ -295,8 +296,8 @@ class CaptureJob(Job):
 
     def commands(self):
         return [[self.overlap, "capture", "--scene", str(self.scene), "--objects",
-                 str(self.objects), "--keyframes", self.keyframes, "--size", "400x300",
-                 "--out", str(self.folder)]]
+                 str(self.objects), "--keyframes", self.keyframes, "--capture-size", "400x300",
+                 "--algo", "bvh", "--out", str(self.folder)]]
 
     def run(self):
         check_output(self.commands()[0])

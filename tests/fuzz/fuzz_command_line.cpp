@@ -75,7 +75,7 @@ void checkAsTheCommandsDo(std::vector<std::string>& arguments) {
       command->add_option("--capture-size", checks[i].image_size);
     }
     if (names[i] == "capture") {
-      command->add_option("--size", checks[i].image_size);
+      command->add_option("--capture-size,--size", checks[i].image_size);
       command->add_option("--keyframes", checks[i].keyframes);
     }
     commands.push_back(command);

@@ -128,5 +128,69 @@ TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
   }
 }
 
+TEST(AabbStream, WriterRefusesWhatTheReaderWouldNamingFrameAndObject) {
+  const auto path = tempFile("unwritable");
+  std::filesystem::remove(path);
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  for (const Aabb& bad : {Aabb{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}},
+                          Aabb{{0, std::nanf(""), 0}, {1, 1, 1}}, Aabb{{0, 0, 2}, {1, 1, 1}}}) {
+    AabbStream stream = smallStream();
+    stream.boxes[4] = bad;  // frame 1, object 1
+    try {
+      writeAabbStream(path, stream);
+      FAIL() << "a bad box was written";
+    } catch (const AabbStreamError& error) {
+      EXPECT_NE(std::string(error.what()).find("frame 1, object 1"), std::string::npos)
+          << error.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(path));
+  }
+}
+
+TEST(AabbStream, ReadingADirectoryNamesIt) {
+  const auto folder = std::filesystem::temp_directory_path() / "overlap_stream_folder.aabbs";
+  std::filesystem::create_directories(folder);
+  EXPECT_NE(readError(folder).find(folder.string() + ": is a directory"), std::string::npos)
+      << readError(folder);
+  std::filesystem::remove(folder);
+}
+
+// Parked boxes (objects out of the simulation) are valid, outside the world,
+// and pair with nothing: not the boxes inside, not each other.
+TEST(AabbStream, ParkedBoxesAreValidAndPairWithNothing) {
+  constexpr int kObjects = 50;
+  const Aabb world{{-10, -10, -10}, {10, 10, 10}};
+  AabbStream stream;
+  stream.scene_name = "parked";
+  stream.object_type = "box";
+  stream.objects = kObjects;
+  stream.stored_frames = 2;
+  stream.world = world;
+  // Half the objects stand apart along the world's +x face, half are parked;
+  // both frames alike.
+  for (int frame = 0; frame < 2; ++frame) {
+    for (int i = 0; i < kObjects; ++i) {
+      const float y = -10.0f + 0.8f * static_cast<float>(i);
+      stream.boxes.push_back(i < kObjects / 2 ? Aabb{{9.5f, y, -10}, {10, y + 0.4f, 10}}
+                                              : parkedBox(world, i, kObjects));
+    }
+  }
+  const auto path = tempFile("parked");
+  writeAabbStream(path, stream);
+  const AabbStream read = readAabbStream(path);
+  for (int i = kObjects / 2; i < kObjects; ++i) {
+    EXPECT_GT(read.frame(1)[static_cast<std::size_t>(i)].min[0], world.max[0]);
+  }
+  for (const char* algorithm : {"bf", "sap", "sap32", "bvh", "cpubf"}) {
+    BroadphaseReplay replay(algorithm, read.world, read.objects);
+    for (int frame = 0; frame < 2; ++frame) {
+      replay.update(read.frame(frame));
+      replay.findPairs();
+      EXPECT_TRUE(replay.pairs().empty()) << algorithm << ": " << replay.pairs().size() << " pairs";
+    }
+  }
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace overlap::physics
