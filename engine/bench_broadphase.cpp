@@ -25,6 +25,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <set>
@@ -324,10 +325,13 @@ nlohmann::json rowJson(const Row& row) {
       {"mismatched_frames", optional(checked && isExact(row.algorithm), row.mismatched_frames)}};
 }
 
+// The command line as it reruns from the repository's top: the executable as
+// the build puts it (build/overlap_bench_broadphase), not this machine's path.
 std::string quotedCommand(int argc, char** argv) {
   std::string command;
   for (int i = 0; i < argc; ++i) {
-    const std::string argument = argv[i];
+    const std::string argument =
+        i == 0 ? "build/" + std::filesystem::path(argv[0]).filename().string() : argv[i];
     if (i > 0) command += ' ';
     const bool plain =
         !argument.empty() && argument.find_first_of(" \t\"'$\\") == std::string::npos;

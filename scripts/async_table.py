@@ -65,7 +65,8 @@ def main() -> int:
         writer.writerows(rows)
     machine = rows[0]["machine"]
     lines = results_header(f"Async frame vs --sync: {len(runs)} runs of `overlap run "
-                           f"--compare-sync`, {args.frames} frames each", machine) + [
+                           f"--compare-sync`, {args.frames} frames each", machine,
+                           args.work) + [
              "Medians per frame in ms. `speed-up` = sync / async total, both runs in one "
              "process. `overlap` = the share of the first substep's search that ran while a "
              "task ran. `bound` = max(tasks, search) + update + narrowphase + solver + "

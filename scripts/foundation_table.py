@@ -61,7 +61,7 @@ def main() -> int:
     baseline = {(r["parameters"]["scene"], r["parameters"]["objects"]): r["timings_ms"]
                 for r in rows if r["parameters"]["algorithm"] == "bf"}
     lines = results_header(f"Foundation results: {len(runs)} runs of `overlap run`, "
-                           f"{args.frames} frames each", machine) + [
+                           f"{args.frames} frames each", machine, args.work) + [
              "Median per-frame milliseconds over the run; `(upd+bp)/bf` is update plus "
              "broadphase, and `total/bf` the whole frame, divided by bf's in the same scene "
              "and n (SAP and DBVT do most of their work while the AABBs are updated, so "

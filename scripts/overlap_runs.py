@@ -34,11 +34,26 @@ def add_table_arguments(parser: argparse.ArgumentParser, algos: str, scenes: str
     parser.add_argument("--out", default=f"docs/results/{name}", help="prefix of .csv and .md")
 
 
-def results_header(title: str, machine: dict) -> list:
-    """A results file's first lines: its title, the machine, the command that wrote it."""
+REPO = pathlib.Path(__file__).resolve().parent.parent
+
+
+def portable(text: str, folders: dict) -> str:
+    """`text` (a command line, a path) without this machine's absolute paths, for the
+    committed docs: each of `folders` (a scratch folder outside the repository -> the name
+    the docs give it, e.g. "$OUT") is shown by its name, the repository's own paths
+    relative to the repository."""
+    for folder, name in folders.items():
+        text = text.replace(str(pathlib.Path(folder).resolve()), name)
+    return text.replace(str(REPO) + "/", "")
+
+
+def results_header(title: str, machine: dict, work: str) -> list:
+    """A results file's first lines: its title, the machine, the command that wrote it
+    (its --work folder, scratch space for the runs, shown as $WORK)."""
+    command = portable(" ".join(sys.argv[1:]), {work: "$WORK"})
     return [f"# {title}", "",
             f"Machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
             f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}, "
             f"commit {machine['git_commit']}.", "",
-            f"Command: `scripts/{pathlib.Path(sys.argv[0]).name} " + " ".join(sys.argv[1:]) + "`",
-            ""]
+            f"Command: `scripts/{pathlib.Path(sys.argv[0]).name} {command}` ($WORK: the "
+            "folder the runs were kept in).", ""]

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <set>
 
 namespace overlap::physics {
@@ -136,11 +137,14 @@ TEST(PhysicsWorld, NoBoxPassesThroughAWallAt50g) {
 
 TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
   // The negative control for the test above: without substeps they tunnel.
+  // The count is recorded (--gtest_output=json: most_escaped) for README.md.
   PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1});
   int most_escaped = 0;
   for (int frame = 0; frame < 300; ++frame) {
     most_escaped = std::max(most_escaped, world.stepFrame().escaped);
   }
+  RecordProperty("most_escaped", most_escaped);
+  std::printf("scene 3, 300 boxes, 1 step per frame: %d escaped within 300 frames\n", most_escaped);
   EXPECT_GT(most_escaped, 0);
 }
 

@@ -74,6 +74,14 @@ def main() -> int:
         for suffix in (".png", ".svg"):
             path = args.out / "report" / pathlib.Path(image).with_suffix(suffix)
             check(path.exists(), f"the report shows {image} but {path} is missing")
+    # Committed reports name no path of the machine they were made on.
+    for local in (str(args.out.resolve()), str(STUDY.parents[1])):
+        check(local not in report, f"the report names the local path {local}")
+        check(all(local not in run["folder"] for run in runs),
+              f"sweep_runs.csv names the local path {local}")
+    # Broadphases are ranked on update + broadphase (SAP's work is in the update).
+    check("; broadphase:" not in report and "update + broadphase, fastest first" in report,
+          "the report ranks broadphases on the broadphase column alone")
     for figure in ("fig1_keyframes", "fig6_total_against_n", "fig_timeline", "fig_physics",
                    "fig_latency", "fig_broadphase_error"):
         check(f"report/{figure}.png" in report, f"the report lacks {figure}")
