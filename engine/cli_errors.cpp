@@ -22,4 +22,12 @@ void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view o
   std::filesystem::remove(probe, error);
 }
 
+void prepareOutputFile(const std::filesystem::path& file, std::string_view option) {
+  std::error_code error;
+  if (std::filesystem::is_directory(file, error)) {
+    throw UsageError(std::string(option) + " " + file.string() + ": is a directory, not a file");
+  }
+  prepareOutputDirectory(file.has_parent_path() ? file.parent_path() : ".", option);
+}
+
 }  // namespace overlap::engine

@@ -21,4 +21,8 @@ struct UsageError : std::runtime_error {
 // throws UsageError naming the option and the path if it is not.
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option);
 
+// The same for a file to be written: its folder is prepared, and a path that
+// names an existing directory is a UsageError.
+void prepareOutputFile(const std::filesystem::path& file, std::string_view option);
+
 }  // namespace overlap::engine

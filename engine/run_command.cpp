@@ -247,10 +247,7 @@ void run(const RunOptions& given) {
     throw UsageError(std::string("task options: ") + error.what());
   }
   prepareOutputDirectory(options.out, "--out");
-  if (options.scheduler.wav) {
-    const std::filesystem::path wav = *options.scheduler.wav;
-    prepareOutputDirectory(wav.has_parent_path() ? wav.parent_path() : ".", "--wav");
-  }
+  if (options.scheduler.wav) prepareOutputFile(*options.scheduler.wav, "--wav");
   std::unique_ptr<FrameCapture> camera;
   if (*options.capture_every > 0) {
     prepareOutputDirectory(options.out / "frames", "--out");

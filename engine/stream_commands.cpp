@@ -20,15 +20,9 @@ struct RecordOptions {
   std::filesystem::path out;
 };
 
-void checkWritableFile(const std::filesystem::path& file) {
-  const std::filesystem::path parent =
-      file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
-  prepareOutputDirectory(parent, "--out");
-}
-
 void record(const RecordOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  checkWritableFile(options.out);
+  prepareOutputFile(options.out, "--out");
   physics::AabbStream stream;
   try {
     stream = recordStream(config, options.frames, options.substeps);

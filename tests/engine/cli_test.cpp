@@ -79,6 +79,21 @@ TEST_F(CliTest, UnwritableOutFailsBeforeTheRun) {
   EXPECT_NE(result.stderr_text.find("/proc/overlap-out"), std::string::npos) << result.stderr_text;
 }
 
+TEST_F(CliTest, OutputFileThatIsADirectoryFailsBeforeTheRun) {
+  std::filesystem::create_directories(out_ / "folder");
+  for (const std::string& args :
+       {"run --objects 50 --frames 2 --capture-every 0 --wav " + (out_ / "folder").string() +
+            " --out " + out_.string(),
+        "record --objects 50 --frames 2 --out " + (out_ / "folder").string()}) {
+    const Result result = runOverlap(args);
+    EXPECT_EQ(result.exit_code, 2) << args << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find((out_ / "folder").string() + ": is a directory"),
+              std::string::npos)
+        << result.stderr_text;
+    EXPECT_FALSE(std::filesystem::exists(out_ / "frames.csv")) << args;
+  }
+}
+
 TEST_F(CliTest, RunWritesFramesAndSummary) {
   const Result result = runOverlap(
       "run --scene 2 --objects 100 --frames 12 --algo bf --seed 5 --out " + out_.string());
