@@ -22,7 +22,6 @@
 #include "engine/statistics.h"
 #include "physics/atomic_file.h"
 #include "physics/world.h"
-#include "render/capture_options.h"
 
 namespace overlap::engine {
 namespace {
