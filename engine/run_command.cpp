@@ -20,6 +20,7 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
+#include "engine/task_load.h"
 #include "physics/atomic_file.h"
 #include "physics/world.h"
 #include "render/capture_options.h"
@@ -35,6 +36,7 @@ struct RunOptions {
   bool ccd = false;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
+  std::optional<double> task_load;
   SchedulerOptions scheduler;
   std::filesystem::path out = "out";
   int capture_every = 0;  // 0: no pictures
@@ -61,13 +63,14 @@ const std::vector<Column>& columns() {
       {"narrowphase_ms", [](R r) { return r.frame.physics.timings.narrowphase_ms; }, true},
       {"solver_ms", [](R r) { return r.frame.physics.timings.solver_ms; }, true},
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
-      {"total_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
-      {"tasks_ms", [](R r) { return r.frame.physics.timings.frame_work_ms; }, true},
+      {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
+      {"total_ms", [](R r) { return r.frame.frame_ms; }, true},
       {"sound_ms", [](R r) { return r.frame.sound_ms; }, true},
       {"ai_ms", [](R r) { return r.frame.ai_ms; }, true},
-      {"search_ms", [](R r) { return r.frame.search_ms; }, true},
+      {"tasks_wait_ms", [](R r) { return r.frame.tasks_wait_ms; }, true},
+      {"tasks_hidden", [](R r) { return r.frame.tasks_hidden; }, true},
+      {"search_ms", [](R r) { return r.frame.physics.timings.search_ms; }, true},
       {"join_ms", [](R r) { return r.frame.physics.timings.join_ms; }, true},
-      {"overlap_efficiency", [](R r) { return r.frame.overlap_efficiency; }, true},
       {"render_ms", [](R r) { return r.render_ms; }, true},
       {"pairs", [](R r) { return r.frame.physics.pairs; }, false},
       {"escaped", [](R r) { return r.frame.physics.escaped; }, false},
@@ -123,14 +126,17 @@ struct RunResult {
   physics::SceneLayout layout;
 };
 
+physics::WorldOptions worldOptions(const RunOptions& options) {
+  return physics::WorldOptions{options.algorithm, options.substeps, options.ccd};
+}
+
 // One whole run; `camera` and `timeline` may be null (the sync half of --compare-sync).
 RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
                   const SchedulerOptions& scheduler_options, FrameCapture* camera,
                   Timeline& timeline, const char* label) {
   std::unique_ptr<physics::PhysicsWorld> world;
   try {
-    world = std::make_unique<physics::PhysicsWorld>(
-        config, physics::WorldOptions{options.algorithm, options.substeps, options.ccd});
+    world = std::make_unique<physics::PhysicsWorld>(config, worldOptions(options));
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string("--") + error.what());
   }
@@ -161,7 +167,8 @@ RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
 }
 
 nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& config,
-                         const RunResult& run) {
+                         const RunResult& run,
+                         const std::optional<TaskLoadCalibration>& calibration) {
   nlohmann::json parameters = toJson(config);
   parameters["algorithm_requested"] = options.algorithm;
   parameters["algorithm"] = run.algorithm;
@@ -172,7 +179,10 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["threads"] = options.threads;
   parameters["tasks"] = options.scheduler.tasks;
   parameters["voices"] = options.scheduler.sound.voices;
+  parameters["background_voices"] = options.scheduler.sound.background_voices;
   parameters["agents"] = options.scheduler.ai.agents;
+  if (options.task_load) parameters["task_load"] = *options.task_load;
+  if (calibration) parameters["task_load_calibration"] = toJson(*calibration);
   parameters["capture_every"] = options.capture_every;
 
   nlohmann::json errors = columnStatistics(run.rows, false);
@@ -192,7 +202,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
           {"machine", machineInfo()}};
 }
 
-void run(const RunOptions& options) {
+void run(RunOptions options) {
   const physics::SceneConfig config = options.scene.resolve();
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
@@ -203,6 +213,16 @@ void run(const RunOptions& options) {
     throw UsageError(std::string("task options: ") + error.what());
   }
   prepareOutputDirectory(options.out, "--out");
+  std::optional<TaskLoadCalibration> calibration;
+  if (options.task_load && options.scheduler.tasks) {
+    calibration = calibrateTaskLoad(*options.task_load, config, worldOptions(options),
+                                    options.scheduler.sound, options.scheduler.ai);
+    std::fprintf(stderr,
+                 "overlap: task load %g: physics step %.3g ms over %d scratch frames -> %d voices "
+                 "(%d background), %d agents\n",
+                 *options.task_load, calibration->physics_ms, kCalibrationFrames,
+                 calibration->voices, calibration->background_voices, calibration->agents);
+  }
   if (options.scheduler.wav) {
     const std::filesystem::path wav = *options.scheduler.wav;
     prepareOutputDirectory(wav.has_parent_path() ? wav.parent_path() : ".", "--wav");
@@ -232,13 +252,11 @@ void run(const RunOptions& options) {
   const RunResult result =
       runOnce(options, config, options.scheduler, camera.get(), timeline, "overlap run");
 
-  nlohmann::json summary = summarize(options, config, result);
+  nlohmann::json summary = summarize(options, config, result, calibration);
   if (sync_run) {
     std::vector<double> sync_totals, async_totals;
-    for (const FrameRow& row : sync_run->rows)
-      sync_totals.push_back(row.frame.physics.timings.total_ms);
-    for (const FrameRow& row : result.rows)
-      async_totals.push_back(row.frame.physics.timings.total_ms);
+    for (const FrameRow& row : sync_run->rows) sync_totals.push_back(row.frame.frame_ms);
+    for (const FrameRow& row : result.rows) async_totals.push_back(row.frame.frame_ms);
     summary["compare_sync"] = {
         {"sync_total_ms_median", median(sync_totals)},
         {"async_total_ms_median", median(async_totals)},
@@ -270,12 +288,19 @@ void addRunCommand(CLI::App& app) {
       ->check(CLI::Range(1, 1000));
   command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box");
   command->add_flag("--sync", options->scheduler.sync,
-                    "run the sound and AI tasks before the broadphase, not beside it");
+                    "run the frame's jobs one after another: the sound and AI tasks, then the "
+                    "physics step (default: the tasks beside the whole step)");
   command
       ->add_option("--threads", options->threads,
-                   "worker threads for the tasks and cpubf (0: all hardware threads)")
+                   "threads the run uses, the main thread included: it runs Bullet, N - 1 oneTBB "
+                   "workers run the tasks and cpubf's search (0: one per hardware thread)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
+  command
+      ->add_option("--task-load", options->task_load,
+                   "size the sound and AI tasks to cost X times the physics step, measured on "
+                   "the scene's first frames (overrides --voices, --background-voices, --agents)")
+      ->check(CLI::Range(0.0, 100.0));
   command->add_flag("--compare-sync", options->compare_sync,
                     "run --sync first, then the async loop, and report the speed-up");
   command->add_flag("!--no-tasks", options->scheduler.tasks,

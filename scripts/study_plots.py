@@ -19,8 +19,10 @@ import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first
 
 COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
            "cpubf": "#ff7f0e", "gpubf": "#d62728", "gpubf-paper": "#9467bd"}
-LANE_COLOURS = {"frame": "#cccccc", "join": "#7f7f7f", "search": "#d62728", "sound": "#1f77b4",
-                "ai": "#2ca02c"}
+LANE_COLOURS = {"frame": "#eeeeee", "physics": "#cccccc", "substep": "#aaaaaa",
+                "join": "#555555", "narrowphase": "#9467bd", "search": "#d62728",
+                "tasks": "#dddddd", "sound": "#1f77b4", "ai": "#2ca02c",
+                "wait for tasks": "#ff7f0e"}
 
 
 def colour(algo: str) -> str:
@@ -98,19 +100,22 @@ def total_against_n(cells: list, folder: pathlib.Path) -> str:
 def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
     """One frame of the async loop: each lane's spans against time since the frame began.
 
-    Left the whole frame, right a zoom on the tasks, the search and the join,
-    which take a small part of it.
+    Left the whole frame, right a zoom on its first substep, where the first
+    search, its join and the narrowphase that follows are wide enough to see.
+    Nested spans of the main lane (frame > physics > substep > join,
+    narrowphase) are drawn ever thinner, so each stays visible.
     """
-    lanes = ["main", "broadphase", "sound", "ai"]
+    lanes = ["main", "broadphase", "tasks", "sound", "ai"]
     lanes += sorted({lane for lane, *_ in spans} - set(lanes))
-    busy_end = max((start + duration for _, name, start, duration in spans if name != "frame"),
-                   default=0.0)
-    figure, axes = plt.subplots(1, 2, figsize=(13, 2.8), gridspec_kw={"width_ratios": [1, 1.4]})
-    zoom = f"its first {busy_end * 1.1:.2g} ms: tasks, search and join"
+    heights = {"frame": 0.9, "physics": 0.75, "substep": 0.6, "join": 0.4, "narrowphase": 0.4}
+    first_substep = next(((start, duration) for _, name, start, duration in spans
+                          if name == "substep"), None)
+    figure, axes = plt.subplots(1, 2, figsize=(13, 3.2), gridspec_kw={"width_ratios": [1, 1.4]})
+    zoom = "its first substep" if first_substep else "the whole frame"
     for axis, title in zip(axes, ("the whole frame", zoom)):
         for lane, name, start, duration in spans:
             row = len(lanes) - 1 - lanes.index(lane)
-            axis.barh(row, duration, left=start, height=0.8 if name != "frame" else 0.3,
+            axis.barh(row, duration, left=start, height=heights.get(name, 0.8),
                       color=LANE_COLOURS.get(name, "#8c564b"), edgecolor="black",
                       linewidth=0.4, label=name)
         axis.set_yticks(range(len(lanes)))
@@ -118,8 +123,9 @@ def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
         axis.set_xlabel("ms since the frame began")
         axis.set_title(f"frame {frame}, broadphase {algo}: {title}", fontsize=10)
         axis.grid(axis="x", alpha=0.3)
-    if busy_end > 0:
-        axes[1].set_xlim(0, busy_end * 1.1)
+    if first_substep:
+        start, duration = first_substep
+        axes[1].set_xlim(start - 0.05 * duration, start + 1.05 * duration)
     handles, labels = axes[1].get_legend_handles_labels()
     unique = dict(zip(labels, handles))
     axes[1].legend(unique.values(), unique.keys(), fontsize=8, loc="upper left",
