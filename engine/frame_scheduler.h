@@ -20,8 +20,8 @@
 // snapshot, each task, physics.  Both orders give the same pairs, state and
 // sound: the tasks only read the snapshot, and physics never reads the tasks.
 //
-// Threads: the main thread runs Bullet; oneTBB's workers run the tasks and a
-// CPU search, the search's arena first (the main thread waits for it).  A
+// Threads: the main thread runs Bullet; oneTBB's workers run the tasks
+// (first: their arena has the higher priority) and a CPU search.  A
 // oneTBB thread cap of N (`overlap run --threads N`, tbb::global_control)
 // leaves N - 1 workers, so the run uses N threads in all.  A main thread
 // that waits (for a search, or for the tasks at the join) runs what nobody
@@ -116,7 +116,10 @@ class FrameScheduler {
   int frame_ = 0;
   // Each task writes only its own entry while it runs.
   std::vector<Task> tasks_;
-  tbb::task_arena arena_;
+  // High priority: the workers serve the tasks first.  Nobody else can run
+  // them before the join, while the main thread runs a search itself when
+  // every worker is busy (a search's arena has normal priority).
+  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
   tbb::task_group group_;
 };
 

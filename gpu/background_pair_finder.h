@@ -2,8 +2,8 @@
 // so that launch() returns at once and the search runs off the caller's
 // thread, as the GPU finders' search runs on their CUDA stream.
 //
-// The finder has no thread of its own: the job runs in a high-priority
-// oneTBB arena, on a pool worker when one is free.  finish() joins by waiting
+// The finder has no thread of its own: the job runs in a oneTBB arena of
+// its own, on a pool worker when one is free.  finish() joins by waiting
 // inside that arena, so a caller whose workers are all busy (with the
 // engine's sound and AI tasks, say) runs the job itself instead of sleeping,
 // and otherwise helps the search's parallel loop.  Every thread involved is
@@ -53,9 +53,10 @@ class BackgroundPairFinder final : public PairFinder {
   double search_delay_ms_ = 0;
   bool in_flight_ = false;  // between launch() and finish(); caller's thread only
 
-  // High priority: the search is on the frame's critical path (the main
-  // thread waits for it), the tasks beside it are not.
-  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
+  // Normal priority: a caller with other work for the pool (the engine's
+  // tasks, at high priority) keeps its workers there, and joins the search
+  // itself; an idle pool helps the search.
+  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::normal};
   tbb::task_group job_;
 };
 

@@ -216,3 +216,46 @@ def latency(rows: list, folder: pathlib.Path) -> str:
     axes[2].set_yscale("log")
     axes[2].axhline(1.0, color="black", linewidth=0.6)
     return save(figure, folder, "fig_latency")
+
+
+def overlap(rows: list, folder: pathlib.Path) -> str:
+    """The overlap-timing study: per scene, frame times and speed-up against the task load.
+
+    Top: sync (solid), async (dashed) and this machine's ideal (dotted), one
+    colour per n.  Bottom: the measured speed-up (solid) and the ideal's (dotted).
+    """
+    scenes = sorted({r["scene"] for r in rows})
+    sizes = sorted({r["objects"] for r in rows})
+    palette = plt.get_cmap("viridis")
+    figure, axes = plt.subplots(2, len(scenes), figsize=(5.5 * len(scenes), 7), squeeze=False)
+    for column, scene in enumerate(scenes):
+        times, speedups = axes[0][column], axes[1][column]
+        for index, n in enumerate(sizes):
+            mine = sorted((r for r in rows if r["scene"] == scene and r["objects"] == n),
+                          key=lambda r: r["load"])
+            if not mine:
+                continue
+            colour_n = palette(index / max(1, len(sizes) - 1) * 0.85)
+            loads = [r["load"] for r in mine]
+            times.plot(loads, [r["sync_ms"] for r in mine], "-o", color=colour_n,
+                       label=f"n {n} sync")
+            times.plot(loads, [r["async_ms"] for r in mine], "--s", color=colour_n,
+                       label=f"n {n} async")
+            times.plot(loads, [r["ideal_ms"] for r in mine], ":", color=colour_n,
+                       label=f"n {n} ideal")
+            speedups.plot(loads, [r["speedup"] for r in mine], "-o", color=colour_n,
+                          label=f"n {n}")
+            speedups.plot(loads, [r["ideal_speedup"] for r in mine], ":", color=colour_n,
+                          label=f"n {n} ideal")
+        times.set_yscale("log")
+        times.set_title(f"scene {scene}: frame time (median)", fontsize=10)
+        times.set_ylabel("ms per frame")
+        speedups.axhline(1.0, color="black", linewidth=0.6)
+        speedups.set_title(f"scene {scene}: speed-up, sync / async", fontsize=10)
+        speedups.set_ylabel("speed-up")
+        for axis in (times, speedups):
+            axis.set_xlabel("task load X (tasks' cost / physics step)")
+            axis.grid(alpha=0.3)
+            axis.legend(fontsize=7, ncol=2)
+    figure.tight_layout()
+    return save(figure, folder, "fig_overlap")

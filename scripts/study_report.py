@@ -10,6 +10,7 @@ import json
 import pathlib
 import shutil
 
+import study_overlap
 import study_plots
 import study_results
 
@@ -502,9 +503,14 @@ def write_everything(args, jobs: list) -> list:
     study_results.write_csv(out / "physics.csv", physics)
     lines += ["### 3.3 A broadphase one frame late", ""] + latency_section(latency, figures, cells)
     study_results.write_csv(out / "latency.csv", latency)
+    overlap = study_overlap.overlap_rows(jobs)
+    lines += ["## 4. The asynchronous frame: where overlap pays", ""]
+    lines += study_overlap.overlap_section(overlap, figures, fmt, table)
+    study_results.write_csv(out / "overlap.csv", overlap)
 
     figures["folder"].mkdir(parents=True, exist_ok=True)
-    for table_name in ("sweep_runs.csv", "sweep.csv", "pairs.csv", "physics.csv", "latency.csv"):
+    for table_name in ("sweep_runs.csv", "sweep.csv", "pairs.csv", "physics.csv", "latency.csv",
+                       "overlap.csv"):
         if (out / table_name).exists():
             shutil.copy(out / table_name, figures["folder"] / table_name)
     text = "\n".join(lines) + "\n"
