@@ -12,6 +12,7 @@
 
 #include "engine/frame_scheduler.h"
 #include "physics/pair_finder_broadphase.h"
+#include "tests/engine/scheduler_test_support.h"
 
 namespace overlap::engine {
 namespace {
@@ -20,15 +21,6 @@ physics::SceneConfig smallScene() {
   physics::SceneConfig config = physics::SceneConfig::forScene(4);
   config.objects = 120;
   return config;
-}
-
-SchedulerOptions cheapTasks(bool sync) {
-  SchedulerOptions options;
-  options.sync = sync;
-  options.sound.voices = 8;
-  options.sound.background_voices = 4;
-  options.ai.agents = 32;
-  return options;
 }
 
 struct Outcome {
@@ -41,7 +33,7 @@ struct Outcome {
 Outcome runFrames(const std::string& algorithm, bool sync, int frames) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{algorithm});
   Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+  FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
   Outcome outcome;
   for (int frame = 0; frame < frames; ++frame) {
     scheduler.runFrame();
@@ -70,7 +62,7 @@ TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowpha
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     Timeline timeline;
-    FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
     constexpr int kFrames = 25;
     for (int frame = 0; frame < kFrames; ++frame) scheduler.runFrame();
     EXPECT_EQ(scheduler.soundWork()->frames, kFrames) << "sync " << sync;
@@ -103,7 +95,7 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     ASSERT_TRUE(world.broadphaseRunsInBackground());
     Timeline timeline;
-    FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
     for (int frame = 0; frame < 20; ++frame) {
       scheduler.runFrame();
       auto spans = spansOfFrame(timeline, frame);
@@ -140,7 +132,7 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
 TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
   Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(false), timeline);
+  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
   for (int frame = 0; frame < 10; ++frame) {
     const ScheduledFrame scheduled = scheduler.runFrame();
     double drawn_us = 0;
@@ -162,7 +154,7 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
     SCOPED_TRACE(sync ? "sync" : "async");
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     Timeline timeline;
-    FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
     int calls = 0;
     scheduler.addTask("physics-free game logic", [&calls] {
       if (++calls == 4) throw std::runtime_error("the script divided by zero");
@@ -207,7 +199,7 @@ TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
     config.objects = 400;
     physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
     Timeline timeline;
-    FrameScheduler scheduler(world, cheapTasks(false), timeline);
+    FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
     std::atomic<std::size_t> most{0};
     scheduler.addTask("count threads", [&most] {
       for (int i = 0; i < 200; ++i) {
@@ -251,7 +243,7 @@ TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
 TEST(FrameScheduler, NewContactsBecomeImpactSounds) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"bvh"});
   Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(false), timeline);
+  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
   std::size_t contacts = 0;
   for (int frame = 0; frame < 30; ++frame) {
     scheduler.runFrame();

@@ -14,6 +14,7 @@
 
 #include "engine/frame_scheduler.h"
 #include "physics/world.h"
+#include "tests/engine/scheduler_test_support.h"
 #include "tests/hard_cases/hard_case_support.h"
 
 namespace overlap::hard_cases {
@@ -127,13 +128,8 @@ TEST(BadValuesThroughTheScheduler, ANaNBoxLeavesEveryConsumerAndTheRunCompletes)
     physics::SceneConfig config = physics::SceneConfig::forScene(4);
     config.objects = kBoxes;
     physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
-    engine::SchedulerOptions options;
-    options.sync = sync;
-    options.sound.voices = 8;
-    options.sound.background_voices = 2;
-    options.ai.agents = 32;
     engine::Timeline timeline;
-    engine::FrameScheduler scheduler(world, options, timeline);
+    engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
     for (int frame = 0; frame < kFramesToSettle; ++frame) scheduler.runFrame();
 
     int victim = -1;

@@ -21,6 +21,7 @@
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
+#include "tests/engine/scheduler_test_support.h"
 #include "tests/hard_cases/hard_case_support.h"
 
 namespace overlap::hard_cases {
@@ -75,13 +76,8 @@ struct ScheduledRun {
 
 ScheduledRun scheduledRun(bool sync) {
   physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
-  engine::SchedulerOptions options;
-  options.sync = sync;
-  options.sound.voices = 4;
-  options.sound.background_voices = 2;
-  options.ai.agents = 16;
   engine::Timeline timeline;
-  engine::FrameScheduler scheduler(world, options, timeline);
+  engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
   ScheduledRun run;
   for (int frame = 0; frame < kFrames; ++frame) {
     scheduler.runFrame();
