@@ -216,12 +216,13 @@ void run(RunOptions options) {
   prepareOutputDirectory(options.out, "--out");
   std::optional<TaskLoadCalibration> calibration;
   if (options.task_load && options.scheduler.tasks) {
-    calibration = calibrateTaskLoad(*options.task_load, config, worldOptions(options),
-                                    options.scheduler.sound, options.scheduler.ai);
+    calibration =
+        calibrateTaskLoad(*options.task_load, options.frames, config, worldOptions(options),
+                          options.scheduler.sound, options.scheduler.ai);
     std::fprintf(stderr,
-                 "overlap: task load %g: physics step %.3g ms over %d scratch frames -> %d voices "
-                 "(%d background), %d agents\n",
-                 *options.task_load, calibration->physics_ms, kCalibrationFrames,
+                 "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
+                 "frames) -> %d voices (%d always sounding), %d agents\n",
+                 *options.task_load, calibration->physics_ms, calibration->physics_frames,
                  calibration->voices, calibration->background_voices, calibration->agents);
   }
   if (options.scheduler.wav) {

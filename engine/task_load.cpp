@@ -2,46 +2,88 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <vector>
 
-#include "engine/frame_scheduler.h"
 #include "engine/statistics.h"
+#include "gpu/stopwatch.h"
 
 namespace overlap::engine {
+namespace {
 
-TaskLoadCalibration calibrateTaskLoad(double load, const physics::SceneConfig& config,
+constexpr int kTimedFrames = 3;  // frames timed per guess
+constexpr int kRescales = 4;     // guesses after the first
+constexpr double kClose = 0.05;  // a guess this close to the budget is kept
+
+// The count whose cost (ms per frame, measured by `cost`) is about
+// `budget_ms`, starting from `guess`.
+int sizeToBudget(double budget_ms, int guess, const std::function<double(int)>& cost,
+                 double& cost_ms) {
+  cost_ms = 0;
+  if (budget_ms <= 0) return 0;
+  int count = std::max(1, guess);
+  for (int attempt = 0; attempt <= kRescales; ++attempt) {
+    cost_ms = cost(count);
+    if (cost_ms <= 0 || std::fabs(cost_ms / budget_ms - 1) < kClose) break;
+    count = std::max(1, static_cast<int>(std::lround(count * budget_ms / cost_ms)));
+  }
+  return count;
+}
+
+double medianFrameMs(int frames, const std::function<void()>& frame) {
+  std::vector<double> times;
+  for (int i = 0; i < frames; ++i) {
+    const gpu::HostStopwatch watch;
+    frame();
+    times.push_back(watch.ms());
+  }
+  return median(times);
+}
+
+}  // namespace
+
+TaskLoadCalibration calibrateTaskLoad(double load, int frames, const physics::SceneConfig& config,
                                       const physics::WorldOptions& world_options,
                                       stubs::SoundConfig& sound, stubs::AiConfig& ai) {
-  physics::PhysicsWorld world(config, world_options);
-  SchedulerOptions options;
-  options.sync = true;
-  options.sound = stubs::SoundConfig{};  // the default sizes, whatever was asked
-  options.sound.sample_rate = sound.sample_rate;
-  options.ai = stubs::AiConfig{};
-  Timeline timeline;
-  FrameScheduler scheduler(world, options, timeline);
-  std::vector<double> physics_ms, sound_ms, ai_ms;
-  for (int frame = 0; frame < kCalibrationFrames; ++frame) {
-    const ScheduledFrame measured = scheduler.runFrame();
-    physics_ms.push_back(measured.physics.timings.total_ms);
-    sound_ms.push_back(measured.sound_ms);
-    ai_ms.push_back(measured.ai_ms);
-  }
-  const stubs::SoundWork& work = *scheduler.soundWork();
-  stubs::SoundConfig as_run = options.sound;
-  as_run.frame_seconds = config.frame_time;  // as the scheduler sets it
-  const double samples_per_frame = as_run.samplesPerFrame();
-  const double sounding_voices =
-      static_cast<double>(work.voice_samples) / (samples_per_frame * kCalibrationFrames);
-
   TaskLoadCalibration result;
+  physics::PhysicsWorld world(config, world_options);
+  result.physics_frames = std::min(frames, kMostCalibrationFrames);
+  std::vector<double> physics_ms;
+  for (int frame = 0; frame < result.physics_frames; ++frame) {
+    physics_ms.push_back(world.stepFrame().timings.total_ms);
+  }
   result.physics_ms = median(physics_ms);
-  result.sound_ms_per_voice = median(sound_ms) / std::max(1.0, sounding_voices);
-  result.ai_ms_per_agent = median(ai_ms) / std::max(1, options.ai.agents);
   const double budget_ms = load * result.physics_ms / 2;  // each task's share
-  result.background_voices = static_cast<int>(std::lround(budget_ms / result.sound_ms_per_voice));
+
+  stubs::SoundConfig sound_config = sound;
+  sound_config.frame_seconds = config.frame_time;
+  result.background_voices = sizeToBudget(
+      budget_ms, stubs::SoundConfig{}.voices,
+      [&](int voices) {
+        sound_config.voices = sound_config.background_voices = voices;
+        stubs::SoundMixer mixer(sound_config);
+        return medianFrameMs(kTimedFrames, [&] { mixer.runFrame({}); });
+      },
+      result.sound_ms);
   result.voices = result.background_voices + std::min(kImpactVoicePool, result.background_voices);
-  result.agents = static_cast<int>(std::lround(budget_ms / result.ai_ms_per_agent));
+
+  std::vector<stubs::Obstacle> obstacles;
+  for (const physics::BoxPose& pose : world.boxPoses()) {
+    obstacles.push_back(
+        {Eigen::Vector3f(pose.centre[0], pose.centre[1], pose.centre[2]), pose.edge * 0.8660254f});
+  }
+  stubs::AiConfig ai_config = ai;
+  ai_config.frame_seconds = config.frame_time;
+  const auto half_extent = static_cast<float>(world.layout().half_extent);
+  result.agents = sizeToBudget(
+      budget_ms, stubs::AiConfig{}.agents,
+      [&](int agents) {
+        ai_config.agents = agents;
+        stubs::AgentCrowd crowd(ai_config, half_extent);
+        return medianFrameMs(kTimedFrames, [&] { crowd.runFrame(obstacles); });
+      },
+      result.ai_ms);
+
   sound.voices = result.voices;
   sound.background_voices = result.background_voices;
   ai.agents = result.agents;
@@ -49,10 +91,10 @@ TaskLoadCalibration calibrateTaskLoad(double load, const physics::SceneConfig& c
 }
 
 nlohmann::json toJson(const TaskLoadCalibration& calibration) {
-  return {{"frames", kCalibrationFrames},
+  return {{"physics_frames", calibration.physics_frames},
           {"physics_ms", calibration.physics_ms},
-          {"sound_ms_per_voice", calibration.sound_ms_per_voice},
-          {"ai_ms_per_agent", calibration.ai_ms_per_agent},
+          {"sound_ms", calibration.sound_ms},
+          {"ai_ms", calibration.ai_ms},
           {"voices", calibration.voices},
           {"background_voices", calibration.background_voices},
           {"agents", calibration.agents}};
