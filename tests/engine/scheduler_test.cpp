@@ -28,6 +28,7 @@ struct Outcome {
   std::uint64_t state_hash;
   std::uint64_t sound_checksum;
   std::uint64_t ai_checksum;
+  std::uint64_t impacts;
 };
 
 Outcome runFrames(const std::string& algorithm, bool sync, int frames) {
@@ -42,6 +43,7 @@ Outcome runFrames(const std::string& algorithm, bool sync, int frames) {
   outcome.state_hash = world.stateHash();
   outcome.sound_checksum = scheduler.soundChecksum();
   outcome.ai_checksum = scheduler.aiChecksum();
+  outcome.impacts = scheduler.soundWork()->impacts_started;
   return outcome;
 }
 
@@ -233,6 +235,7 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSamePairsStateAndTasks) {
 // broadphase gives the same sound where it gives the same physics.
 TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
   const Outcome bf = runFrames("bf", false, 60);
+  ASSERT_GT(bf.impacts, 10u) << "the scene should sound contacts";
   for (const char* algorithm : {"sap", "bvh", "cpubf"}) {
     const Outcome other = runFrames(algorithm, false, 60);
     ASSERT_EQ(other.state_hash, bf.state_hash) << algorithm << ": not the same physics";
