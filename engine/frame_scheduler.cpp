@@ -126,20 +126,28 @@ void FrameScheduler::runTask(Task& task) {
   task.span = {start, now()};
 }
 
+// The frame's jobs, top to bottom (frame_scheduler.h draws the graph).
 ScheduledFrame FrameScheduler::runFrame() {
   ScheduledFrame frame;
   const double frame_start = now();
-  if (!tasks_.empty()) snapshot();  // 1
+  // 1. snapshot, main thread.  Depends on: frame N-1's step.
+  if (!tasks_.empty()) snapshot();
   std::pair<double, double> tasks_job{-1, -1};
   double physics_start = 0;
   {
-    TasksBeside beside(*this, !options_.sync && !tasks_.empty());  // 2, on the workers
+    // 2. tasks.  Depends on: 1.  Async: on the workers from here on, and
+    // joined when `beside` goes, whichever way this block is left.
+    TasksBeside beside(*this, !options_.sync && !tasks_.empty());
     if (options_.sync) {
-      for (Task& task : tasks_) runTask(task);  // 2, on the main thread
+      for (Task& task : tasks_) runTask(task);  // sync: here, one after another
     }
+    // 3. physics, main thread.  Depends on: 1 (the snapshot copied the state
+    // the step changes).  Every substep's search is launched and joined
+    // inside, before that substep's narrowphase.
     physics_start = now();
-    frame.physics = world_.stepFrame();  // 3
-    beside.join();                       // 4
+    frame.physics = world_.stepFrame();
+    // 4. join, main thread.  Depends on: 2, 3.
+    beside.join();
     if (!options_.sync) {
       tasks_job = {beside.launched(), beside.joined()};
       frame.tasks_wait_ms = (beside.joined() - beside.waited()) / 1e3;
