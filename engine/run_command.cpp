@@ -317,23 +317,33 @@ void addRunCommand(CLI::App& app) {
                    "workers run the tasks and cpubf's search (0: one per hardware thread)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
-  command
-      ->add_option("--task-load", options->task_load,
-                   "size the sound and AI tasks to cost X times the physics step, measured on "
-                   "the scene's first frames (overrides --voices, --background-voices, --agents)")
-      ->check(CLI::Range(0.0, 100.0));
+  CLI::Option* task_load =
+      command
+          ->add_option("--task-load", options->task_load,
+                       "size the sound and AI tasks to cost X times the physics step, measured "
+                       "on the scene's first frames (instead of --voices, --background-voices, "
+                       "--agents)")
+          ->check(CLI::Range(0.0, 100.0));
   command->add_flag("--compare-sync", options->compare_sync,
                     "run --sync first, then the async loop, and report the speed-up");
-  command->add_flag("!--no-tasks", options->scheduler.tasks,
-                    "physics only: no sound or AI tasks (the paper's measurements)");
-  command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
-      ->capture_default_str();
-  command
-      ->add_option("--background-voices", options->scheduler.sound.background_voices,
-                   "sound: of the voices, always sounding")
-      ->capture_default_str();
-  command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
-      ->capture_default_str();
+  CLI::Option* no_tasks =
+      command->add_flag("!--no-tasks", options->scheduler.tasks,
+                        "physics only: no sound or AI tasks (the paper's measurements)");
+  CLI::Option* voices =
+      command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
+          ->capture_default_str();
+  CLI::Option* background_voices =
+      command
+          ->add_option("--background-voices", options->scheduler.sound.background_voices,
+                       "sound: of the voices, always sounding")
+          ->capture_default_str();
+  CLI::Option* agents =
+      command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
+          ->capture_default_str();
+  // The knob sizes the tasks itself: with the tasks off, or sized by hand, it is a mistake.
+  for (CLI::Option* other : {no_tasks, voices, background_voices, agents}) {
+    task_load->excludes(other);
+  }
   command->add_option("--wav", options->scheduler.wav,
                       "write the run's sound mix to this WAV file");
   command->add_option("--out", options->out, "output folder")->capture_default_str();

@@ -1,6 +1,7 @@
-// `overlap run --threads N` as a user runs it: the process never has more
-// than N threads (main, oneTBB's workers, cpubf's search, the renderer),
-// counted in /proc/<pid>/task while it runs.  Issue 12, item 6.
+// `overlap run`'s frame options as a user runs them: --threads N (the
+// process never has more than N threads: main, oneTBB's workers, cpubf's
+// search, the renderer, counted in /proc/<pid>/task while it runs; issue 12,
+// item 6) and --task-load X (the tasks sized from the scene, recorded).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>
@@ -9,6 +10,8 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
@@ -61,6 +64,41 @@ TEST(ThreadCap, RunWithThreadsNeverHasMoreThreadsThanThat) {
     EXPECT_EQ(status, 0) << "--threads " << threads;
     EXPECT_GE(most, 1u);
     EXPECT_LE(most, static_cast<std::size_t>(threads)) << "--threads " << threads;
+  }
+  std::filesystem::remove_all(out);
+}
+
+TEST(TaskLoad, SizesTheTasksFromTheSceneAndRecordsIt) {
+  const std::filesystem::path out =
+      std::filesystem::temp_directory_path() / "overlap_task_load_test";
+  std::filesystem::remove_all(out);
+  for (const char* load : {"0", "1"}) {
+    const auto [status, threads] =
+        runCountingThreads({"run", "--scene", "4", "--objects", "100", "--frames", "4", "--algo",
+                            "cpubf", "--task-load", load, "--out", out.string()});
+    ASSERT_EQ(status, 0) << "--task-load " << load;
+    std::ifstream in(out / "summary.json");
+    const nlohmann::json summary = nlohmann::json::parse(in);
+    const nlohmann::json& parameters = summary["parameters"];
+    const nlohmann::json& calibration = parameters["task_load_calibration"];
+    EXPECT_EQ(calibration["physics_frames"], 4);
+    EXPECT_GT(calibration["physics_ms"].get<double>(), 0.0);
+    EXPECT_EQ(parameters["voices"], calibration["voices"]);
+    EXPECT_EQ(parameters["agents"], calibration["agents"]);
+    if (std::string(load) == "0") {
+      EXPECT_EQ(parameters["voices"], 0);
+      EXPECT_EQ(parameters["agents"], 0);
+    } else {
+      EXPECT_GT(parameters["voices"].get<int>(), 0);
+      EXPECT_GT(parameters["agents"].get<int>(), 0);
+    }
+  }
+  // The knob sizes the tasks itself: off, or sized by hand, is a usage error.
+  for (const char* conflicting : {"--no-tasks", "--agents=5", "--voices=5"}) {
+    EXPECT_EQ(
+        runCountingThreads({"run", "--task-load", "1", conflicting, "--out", out.string()}).first,
+        2)
+        << conflicting;
   }
   std::filesystem::remove_all(out);
 }
