@@ -12,30 +12,44 @@ namespace overlap::engine {
 namespace {
 
 constexpr int kTimedFrames = 3;  // frames timed per guess
-constexpr int kRescales = 4;     // guesses after the first
+constexpr int kRescales = 5;     // guesses after the first
 constexpr double kClose = 0.05;  // a guess this close to the budget is kept
 
 // The count whose cost (ms per frame, measured by `cost`) is about
-// `budget_ms`, starting from `guess`.
+// `budget_ms`, starting from `guess`: each next guess assumes cost ~ count^k,
+// with k measured from the last two guesses (first 1.25: a crowd's cost grows
+// faster than its size, and overshooting it is what takes long).
 int sizeToBudget(double budget_ms, int guess, const std::function<double(int)>& cost,
                  double& cost_ms) {
   cost_ms = 0;
   if (budget_ms <= 0) return 0;
   int count = std::max(1, guess);
-  for (int attempt = 0; attempt <= kRescales; ++attempt) {
-    cost_ms = cost(count);
+  cost_ms = cost(count);
+  double exponent = 1.25;
+  for (int attempt = 0; attempt < kRescales; ++attempt) {
     if (cost_ms <= 0 || std::fabs(cost_ms / budget_ms - 1) < kClose) break;
-    count = std::max(1, static_cast<int>(std::lround(count * budget_ms / cost_ms)));
+    const int next = std::max(
+        1, static_cast<int>(std::lround(count * std::pow(budget_ms / cost_ms, 1 / exponent))));
+    if (next == count) break;
+    const double next_ms = cost(next);
+    if (next_ms > 0 && cost_ms > 0) {
+      exponent = std::clamp(std::log(next_ms / cost_ms) / std::log(double(next) / count), 0.5, 3.0);
+    }
+    count = next;
+    cost_ms = next_ms;
   }
   return count;
 }
 
-double medianFrameMs(int frames, const std::function<void()>& frame) {
+// The median of kTimedFrames frames; just the first when it is already far
+// over `budget_ms` (a guess that large is only there to be corrected).
+double frameMs(double budget_ms, const std::function<void()>& frame) {
   std::vector<double> times;
-  for (int i = 0; i < frames; ++i) {
+  for (int i = 0; i < kTimedFrames; ++i) {
     const gpu::HostStopwatch watch;
     frame();
     times.push_back(watch.ms());
+    if (times.front() > 4 * budget_ms) break;
   }
   return median(times);
 }
@@ -62,7 +76,7 @@ TaskLoadCalibration calibrateTaskLoad(double load, int frames, const physics::Sc
       [&](int voices) {
         sound_config.voices = sound_config.background_voices = voices;
         stubs::SoundMixer mixer(sound_config);
-        return medianFrameMs(kTimedFrames, [&] { mixer.runFrame({}); });
+        return frameMs(budget_ms, [&] { mixer.runFrame({}); });
       },
       result.sound_ms);
   result.voices = result.background_voices + std::min(kImpactVoicePool, result.background_voices);
@@ -80,7 +94,7 @@ TaskLoadCalibration calibrateTaskLoad(double load, int frames, const physics::Sc
       [&](int agents) {
         ai_config.agents = agents;
         stubs::AgentCrowd crowd(ai_config, half_extent);
-        return medianFrameMs(kTimedFrames, [&] { crowd.runFrame(obstacles); });
+        return frameMs(budget_ms, [&] { crowd.runFrame(obstacles); });
       },
       result.ai_ms);
 

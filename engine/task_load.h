@@ -8,9 +8,10 @@
 //   sizes  each task gets X * P / 2: sound as that many always-sounding
 //          voices (plus a pool of up to 8 for impacts), AI as that many
 //          agents among the scratch scene's last boxes.  A task's cost is
-//          timed at a guessed size and the size rescaled by budget / cost,
-//          up to four times (the AI's cost grows faster than its agent count,
-//          as agents crowd each other).
+//          timed at a guessed size and the size corrected, up to five
+//          times, assuming cost ~ size^k with k measured from the last two
+//          guesses (the AI's cost grows faster than its agent count, as
+//          agents crowd each other).
 // X = 0 gives no voices and no agents: the tasks are scheduled and do
 // nothing.  The measured task time over the physics time of the run itself
 // (summary.json, and the study's `T/P measured`) is what to plot against.
