@@ -231,13 +231,11 @@ void run(RunOptions options) {
   }
   std::unique_ptr<FrameCapture> camera;
   if (options.capture_every > 0) {
-    if (options.threads > 0) {
-      // --threads bounds the renderer too: OSMesa's llvmpipe draws on the
-      // calling thread and keeps no shader-cache thread (unless the user's
-      // environment says otherwise).
-      setenv("LP_NUM_THREADS", "0", 0);
-      setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
-    }
+    // --threads bounds the renderer too: OSMesa's llvmpipe draws on the
+    // calling thread and keeps no shader-cache thread (unless the user's
+    // environment says otherwise).
+    setenv("LP_NUM_THREADS", "0", 0);
+    setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
     render::ImageSize size{};
     try {
       size = render::parseImageSize(options.capture_size);
