@@ -11,7 +11,7 @@ the two runs' per-frame medians:
   measured load T / P (the knob X sizes the tasks from the scene's first
                 frames; a settled pile costs more, so T / P is what to read)
   hidden        the share of the tasks' time the async frame saved:
-                (sync - async) / T, clipped to [0, 1]
+                (sync - async) / T, clipped to [0, 1]; none when T < P / 100
   ideal         what this machine allows: max(P, T) when the physics (main
                 thread) and the tasks (a worker) each have a core, P + T when
                 there is one thread; async / ideal says how close it comes
@@ -34,7 +34,9 @@ def overlap_rows(jobs: list) -> list:
             "measured_load": tasks / physics if physics > 0 else float("nan"),
             "sync_ms": sync, "async_ms": async_, "speedup": sync / async_,
             "physics_ms": physics, "tasks_ms": tasks,
-            "hidden": min(1.0, max(0.0, (sync - async_) / tasks)) if tasks > 0 else float("nan"),
+            # Tasks of under 1% of the step hide nothing measurable.
+            "hidden": (min(1.0, max(0.0, (sync - async_) / tasks)) if tasks > 0.01 * physics
+                       else float("nan")),
             "ideal_ms": ideal, "ideal_speedup": sync / ideal, "async_over_ideal": async_ / ideal,
             "identical": c["identical_state"] and c["identical_tasks"]})
     rows.sort(key=lambda r: (r["scene"], r["objects"], r["load"]))
@@ -86,7 +88,7 @@ def overlap_section(rows: list, figures: dict, fmt, table) -> list:
                "hidden", "ideal ms", "async / ideal", "identical"]
     body = [[r["scene"], r["objects"], f"{r['load']:g}", fmt(r["measured_load"]),
              fmt(r["sync_ms"]), fmt(r["async_ms"]), f"{r['speedup']:.2f}",
-             f"{r['hidden']:.2f}", fmt(r["ideal_ms"]), f"{r['async_over_ideal']:.2f}",
+             fmt(r["hidden"]), fmt(r["ideal_ms"]), f"{r['async_over_ideal']:.2f}",
              "yes" if r["identical"] else "**no**"] for r in rows]
     lines += table(headers, body)
     name = study_plots.overlap(rows, figures["folder"])

@@ -222,14 +222,15 @@ def overlap(rows: list, folder: pathlib.Path) -> str:
     """The overlap-timing study: per scene, frame times and speed-up against the task load.
 
     Top: sync (solid), async (dashed) and this machine's ideal (dotted), one
-    colour per n.  Bottom: the measured speed-up (solid) and the ideal's (dotted).
+    colour per n.  Middle: the measured speed-up (solid) and the ideal's
+    (dotted).  Bottom: the share of the tasks' time the async frame hid.
     """
     scenes = sorted({r["scene"] for r in rows})
     sizes = sorted({r["objects"] for r in rows})
     palette = plt.get_cmap("viridis")
-    figure, axes = plt.subplots(2, len(scenes), figsize=(5.5 * len(scenes), 7), squeeze=False)
+    figure, axes = plt.subplots(3, len(scenes), figsize=(5.5 * len(scenes), 10), squeeze=False)
     for column, scene in enumerate(scenes):
-        times, speedups = axes[0][column], axes[1][column]
+        times, speedups, hidden = axes[0][column], axes[1][column], axes[2][column]
         for index, n in enumerate(sizes):
             mine = sorted((r for r in rows if r["scene"] == scene and r["objects"] == n),
                           key=lambda r: r["load"])
@@ -247,13 +248,17 @@ def overlap(rows: list, folder: pathlib.Path) -> str:
                           label=f"n {n}")
             speedups.plot(loads, [r["ideal_speedup"] for r in mine], ":", color=colour_n,
                           label=f"n {n} ideal")
+            hidden.plot(loads, [r["hidden"] for r in mine], "-o", color=colour_n, label=f"n {n}")
         times.set_yscale("log")
         times.set_title(f"scene {scene}: frame time (median)", fontsize=10)
         times.set_ylabel("ms per frame")
         speedups.axhline(1.0, color="black", linewidth=0.6)
         speedups.set_title(f"scene {scene}: speed-up, sync / async", fontsize=10)
         speedups.set_ylabel("speed-up")
-        for axis in (times, speedups):
+        hidden.set_title(f"scene {scene}: share of the tasks' time hidden", fontsize=10)
+        hidden.set_ylabel("(sync - async) / tasks")
+        hidden.set_ylim(-0.05, 1.05)
+        for axis in (times, speedups, hidden):
             axis.set_xlabel("task load X (tasks' cost / physics step)")
             axis.grid(alpha=0.3)
             axis.legend(fontsize=7, ncol=2)
