@@ -56,7 +56,7 @@ void SoundConfig::validate() const {
   if (!(frame_seconds > 0.0) || samplesPerFrame() < 1) {
     fail("frame_seconds", "must give at least one sample per frame");
   }
-  if (voices < 1) fail("voices", "must be at least 1");
+  if (voices < 0) fail("voices", "must be non-negative");
   if (background_voices < 0 || background_voices > voices) {
     fail("background_voices", "must be in [0, voices]");
   }

@@ -1,25 +1,46 @@
 // The asynchronous frame: the game loop this project is named for.
 //
-// Each frame, on the main thread, the jobs below run in this order; each
-// names what it depends on.  Bullet is only ever called from the main thread.
-//   1. snapshot    main      last frame's box positions and new contacts,
-//                            copied into plain arrays   (depends on: last frame)
-//   2. update      main      AABBs into the broadphase  (depends on: 1)
-//   3. launch      GPU or    the broadphase search      (depends on: 2)
-//                  worker
-//   4. sound, AI   TBB       the stub game systems      (depends on: 1 only)
-//   5. join        main      wait for 3 and 4           (depends on: 3, 4)
-//   6. apply       main      the search's pair changes into Bullet's cache
-//   7. narrowphase, solver, integrate   main            (depends on: 6)
-// Jobs 2-7 happen inside Bullet's step (PhysicsWorld::stepFrame), which
-// calls back into the scheduler between 3 and 5.  With `sync`, the same work
-// runs one job after another: sound, AI, then the broadphase.  Both orders
-// give the same pairs and the same state: the tasks only read the snapshot.
+// Frame N is a small graph of jobs, run by FrameScheduler::runFrame() in this
+// order; each names what it depends on.  Bullet is only ever called from the
+// main thread.
+//   1. snapshot  main      frame N-1's boxes and new contacts, copied into
+//                          plain arrays                (depends on: frame N-1)
+//   2. tasks     workers   sound, AI and any added task, each reading only
+//                          the snapshot                (depends on: 1)
+//   3. physics   main      Bullet's step, all K substeps: update, search,
+//                          narrowphase, solver, integrate
+//                                                      (depends on: 1, which
+//                          must copy the state before the step changes it)
+//   4. join      main      wait for every task         (depends on: 2, 3)
+// The tasks run beside the whole step.  Inside each substep the broadphase
+// launches its search (on its CUDA stream, or as a oneTBB job off the main
+// thread) and joins it right before that substep's narrowphase: physics/
+// does that on its own and reports when; the scheduler only draws it.
+// With `sync`, the same jobs run one after another on the main thread:
+// snapshot, each task, physics.  Both orders give the same pairs, state and
+// sound: the tasks only read the snapshot, and physics never reads the tasks.
+//
+// Threads: the main thread runs Bullet; oneTBB's workers run the tasks
+// (first: their arena has the higher priority) and a CPU search.  A
+// oneTBB thread cap of N (`overlap run --threads N`, tbb::global_control)
+// leaves N - 1 workers, so the run uses N threads in all.  A main thread
+// that waits (for a search, or for the tasks at the join) runs what nobody
+// has taken yet, so no core idles while work is queued.
+//
+// A task that throws does not stop the frame: the step finishes, every task
+// is joined, then runFrame() throws one error naming the task, the frame
+// and the cause.  A step that throws still joins the tasks before the error
+// leaves runFrame().
 #pragma once
 
+#include <oneapi/tbb/task_arena.h>
+#include <oneapi/tbb/task_group.h>
+
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "audio_ai_stubs/ai.h"
@@ -31,7 +52,7 @@
 namespace overlap::engine {
 
 struct SchedulerOptions {
-  bool sync = false;  // run the tasks before the broadphase instead of beside it
+  bool sync = false;  // run the jobs one after another instead of the tasks beside physics
   bool tasks = true;  // false: physics only (the paper's measurements)
   stubs::SoundConfig sound;
   stubs::AiConfig ai;
@@ -40,16 +61,21 @@ struct SchedulerOptions {
 
 struct ScheduledFrame {
   physics::FrameReport physics;
-  double sound_ms = 0;
+  double frame_ms = 0;  // the whole frame, snapshot to join
+  double sound_ms = 0;  // each task's own duration, on whatever thread ran it
   double ai_ms = 0;
-  double search_ms = 0;           // the search itself: GPU events or its worker's clock
-  double overlap_efficiency = 0;  // share of the search that ran while a CPU task ran
+  double tasks_wait_ms = 0;  // the main thread waiting for the tasks after the step
+  double tasks_hidden = 0;   // share of the tasks' time that ran beside the step
 };
 
 class FrameScheduler {
  public:
   FrameScheduler(physics::PhysicsWorld& world, const SchedulerOptions& options, Timeline& timeline);
   ~FrameScheduler();
+
+  // A game system of the caller's, run each frame as a task beside physics
+  // (it must read only what the snapshot-taking caller gave it).
+  void addTask(std::string name, std::function<void()> work);
 
   ScheduledFrame runFrame();
   // Finishes the WAV file, if any.
@@ -62,10 +88,21 @@ class FrameScheduler {
   const stubs::AiWork* aiWork() const { return ai_ ? &ai_->work() : nullptr; }
 
  private:
+  struct Task {
+    std::string name;
+    std::function<void()> work;
+    std::pair<double, double> span{};  // this frame's, timeline microseconds
+    std::string error;                 // this frame's, empty if none
+  };
+  class TasksBeside;
+
   void snapshot();
   void runSound();
   void runAi();
-  void runTasks();
+  void runTask(Task& task);
+  void drawFrame(ScheduledFrame& frame, double frame_start, std::pair<double, double> tasks_job,
+                 double physics_start);
+  double now() const { return timeline_.microsecondsAt(Timeline::Clock::now()); }
 
   physics::PhysicsWorld& world_;
   SchedulerOptions options_;
@@ -77,10 +114,13 @@ class FrameScheduler {
   std::vector<stubs::Obstacle> obstacles_;
   std::uint64_t sound_checksum_;
   int frame_ = 0;
-  // This frame's task spans (start, end) in timeline microseconds; each is
-  // written only by its own task.
-  std::pair<double, double> sound_span_{};
-  std::pair<double, double> ai_span_{};
+  // Each task writes only its own entry while it runs.
+  std::vector<Task> tasks_;
+  // High priority: the workers serve the tasks first.  Nobody else can run
+  // them before the join, while the main thread runs a search itself when
+  // every worker is busy (a search's arena has normal priority).
+  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
+  tbb::task_group group_;
 };
 
 }  // namespace overlap::engine

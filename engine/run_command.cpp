@@ -3,6 +3,7 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <iomanip>
@@ -20,6 +21,7 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
+#include "engine/task_load.h"
 #include "physics/atomic_file.h"
 #include "physics/world.h"
 
@@ -45,6 +47,7 @@ struct RunOptions {
   bool ccd = false;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
+  std::optional<double> task_load;
   SchedulerOptions scheduler;
   std::filesystem::path out = "out";
   std::optional<int> capture_every;  // unset: kDefaultKeyframes pictures; 0: none
@@ -75,13 +78,14 @@ const std::vector<Column>& columns() {
       {"narrowphase_ms", [](R r) { return r.frame.physics.timings.narrowphase_ms; }, true},
       {"solver_ms", [](R r) { return r.frame.physics.timings.solver_ms; }, true},
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
-      {"total_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
-      {"tasks_ms", [](R r) { return r.frame.physics.timings.frame_work_ms; }, true},
+      {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
+      {"total_ms", [](R r) { return r.frame.frame_ms; }, true},
       {"sound_ms", [](R r) { return r.frame.sound_ms; }, true},
       {"ai_ms", [](R r) { return r.frame.ai_ms; }, true},
-      {"search_ms", [](R r) { return r.frame.search_ms; }, true},
+      {"tasks_wait_ms", [](R r) { return r.frame.tasks_wait_ms; }, true},
+      {"tasks_hidden", [](R r) { return r.frame.tasks_hidden; }, true},
+      {"search_ms", [](R r) { return r.frame.physics.timings.search_ms; }, true},
       {"join_ms", [](R r) { return r.frame.physics.timings.join_ms; }, true},
-      {"overlap_efficiency", [](R r) { return r.frame.overlap_efficiency; }, true},
       {"render_ms", [](R r) { return r.render_ms; }, true},
       {"pairs", [](R r) { return r.frame.physics.pairs; }, false},
       {"escaped", [](R r) { return r.frame.physics.escaped; }, false},
@@ -137,12 +141,15 @@ struct RunResult {
   physics::SceneLayout layout;
 };
 
+physics::WorldOptions worldOptions(const RunOptions& options) {
+  return physics::WorldOptions{options.algorithm, options.substeps, options.ccd};
+}
+
 // One whole run; `camera` and `timeline` may be null (the sync half of --compare-sync).
 RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
                   const SchedulerOptions& scheduler_options, FrameCapture* camera,
                   Timeline& timeline, const char* label) {
-  const std::unique_ptr<physics::PhysicsWorld> world =
-      makeWorld(config, physics::WorldOptions{options.algorithm, options.substeps, options.ccd});
+  const std::unique_ptr<physics::PhysicsWorld> world = makeWorld(config, worldOptions(options));
   FrameScheduler scheduler(*world, scheduler_options, timeline);
   RunResult result;
   Progress progress(label, options.frames);
@@ -167,7 +174,8 @@ RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
 }
 
 nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& config,
-                         const RunResult& run) {
+                         const RunResult& run,
+                         const std::optional<TaskLoadCalibration>& calibration) {
   nlohmann::json parameters = toJson(config);
   parameters["algorithm_requested"] = options.algorithm;
   parameters["algorithm"] = run.algorithm;
@@ -178,7 +186,10 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["threads"] = options.threads;
   parameters["tasks"] = options.scheduler.tasks;
   parameters["voices"] = options.scheduler.sound.voices;
+  parameters["background_voices"] = options.scheduler.sound.background_voices;
   parameters["agents"] = options.scheduler.ai.agents;
+  if (options.task_load) parameters["task_load"] = *options.task_load;
+  if (calibration) parameters["task_load_calibration"] = toJson(*calibration);
   parameters["capture_every"] = *options.capture_every;
 
   nlohmann::json errors = columnStatistics(run.rows, false);
@@ -236,7 +247,7 @@ std::string writtenLine(const std::filesystem::path& out,
 
 void run(const RunOptions& given) {
   physics::SceneConfig config = given.scene.resolve();
-  const RunOptions options = resolveDefaults(given, config);
+  RunOptions options = resolveDefaults(given, config);
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   try {
@@ -247,8 +258,24 @@ void run(const RunOptions& given) {
   }
   prepareOutputDirectory(options.out, "--out");
   if (options.scheduler.wav) prepareOutputFile(*options.scheduler.wav, "--wav");
+  std::optional<TaskLoadCalibration> calibration;
+  if (options.task_load && options.scheduler.tasks) {
+    calibration =
+        calibrateTaskLoad(*options.task_load, options.frames, config, worldOptions(options),
+                          options.scheduler.sound, options.scheduler.ai);
+    std::fprintf(stderr,
+                 "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
+                 "frames) -> %d voices (%d always sounding), %d agents\n",
+                 *options.task_load, calibration->physics_ms, calibration->physics_frames,
+                 calibration->voices, calibration->background_voices, calibration->agents);
+  }
   std::unique_ptr<FrameCapture> camera;
   if (*options.capture_every > 0) {
+    // --threads bounds the renderer too: OSMesa's llvmpipe draws on the
+    // calling thread and keeps no shader-cache thread (unless the user's
+    // environment says otherwise).
+    setenv("LP_NUM_THREADS", "0", 0);
+    setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
     prepareOutputDirectory(options.out / "frames", "--out");
     camera =
         openCapture(options.out / "frames", options.capture_size, render::ColourMode::kSizeClass);
@@ -266,17 +293,27 @@ void run(const RunOptions& given) {
   const RunResult result =
       runOnce(options, config, options.scheduler, camera.get(), timeline, "overlap run");
 
-  nlohmann::json summary = summarize(options, config, result);
+  nlohmann::json summary = summarize(options, config, result, calibration);
   if (sync_run) {
-    std::vector<double> sync_totals, async_totals;
-    for (const FrameRow& row : sync_run->rows)
-      sync_totals.push_back(row.frame.physics.timings.total_ms);
-    for (const FrameRow& row : result.rows)
-      async_totals.push_back(row.frame.physics.timings.total_ms);
+    const auto medianOf = [](const std::vector<FrameRow>& rows, auto value) {
+      std::vector<double> values;
+      for (const FrameRow& row : rows) values.push_back(value(row.frame));
+      return median(values);
+    };
+    const auto frameMs = [](const ScheduledFrame& f) { return f.frame_ms; };
+    const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
+    const auto tasksMs = [](const ScheduledFrame& f) { return f.sound_ms + f.ai_ms; };
+    const double sync_ms = medianOf(sync_run->rows, frameMs);
+    const double async_ms = medianOf(result.rows, frameMs);
     summary["compare_sync"] = {
-        {"sync_total_ms_median", median(sync_totals)},
-        {"async_total_ms_median", median(async_totals)},
-        {"speedup", median(sync_totals) / median(async_totals)},
+        {"sync_total_ms_median", sync_ms},
+        {"async_total_ms_median", async_ms},
+        {"speedup", sync_ms / async_ms},
+        // The sync run's parts: what the async frame overlaps.
+        {"sync_physics_ms_median", medianOf(sync_run->rows, physicsMs)},
+        {"sync_tasks_ms_median", medianOf(sync_run->rows, tasksMs)},
+        {"async_physics_ms_median", medianOf(result.rows, physicsMs)},
+        {"async_tasks_ms_median", medianOf(result.rows, tasksMs)},
         {"sync_state_hash", hex(sync_run->state_hash)},
         {"identical_state", sync_run->state_hash == result.state_hash},
         {"identical_tasks", sync_run->sound_checksum == result.sound_checksum &&
@@ -318,25 +355,42 @@ void addRunCommand(CLI::App& app) {
       ->default_str("off");
   command
       ->add_flag("--sync", options->scheduler.sync,
-                 "run the sound and AI tasks before the broadphase, not beside it")
+                 "run the frame's jobs one after another: the sound and AI tasks, then the "
+                 "physics step (default: the tasks beside the whole step)")
       ->default_str("off");
   addThreadsOption(*command, options->threads);
   command
       ->add_flag("--compare-sync", options->compare_sync,
                  "run --sync first, then the async loop, and report the speed-up")
       ->default_str("off");
-  command
-      ->add_flag("--no-tasks", options->no_tasks,
-                 "physics only: no sound or AI tasks (the paper's measurements)")
-      ->default_str("off");
-  command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
-      ->capture_default_str();
-  command
-      ->add_option("--background-voices", options->scheduler.sound.background_voices,
-                   "sound: of the voices, always sounding")
-      ->capture_default_str();
-  command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
-      ->capture_default_str();
+  CLI::Option* task_load =
+      command
+          ->add_option("--task-load", options->task_load,
+                       "size the sound and AI tasks to cost X times the physics step, measured "
+                       "on the scene's first frames (instead of --voices, --background-voices, "
+                       "--agents)")
+          ->check(CLI::Range(0.0, 100.0))
+          ->default_str("unset: --voices and --agents");
+  CLI::Option* no_tasks =
+      command
+          ->add_flag("--no-tasks", options->no_tasks,
+                     "physics only: no sound or AI tasks (the paper's measurements)")
+          ->default_str("off");
+  CLI::Option* voices =
+      command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
+          ->capture_default_str();
+  CLI::Option* background_voices =
+      command
+          ->add_option("--background-voices", options->scheduler.sound.background_voices,
+                       "sound: of the voices, always sounding")
+          ->capture_default_str();
+  CLI::Option* agents =
+      command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
+          ->capture_default_str();
+  // The knob sizes the tasks itself: with the tasks off, or sized by hand, it is a mistake.
+  for (CLI::Option* other : {no_tasks, voices, background_voices, agents}) {
+    task_load->excludes(other);
+  }
   command->add_option("--wav", options->wav, "the WAV file the run's sound mix goes to")
       ->default_str("OUT/sound.wav");
   command->add_flag("--no-wav", options->no_wav, "write no WAV")->default_str("off");

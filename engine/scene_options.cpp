@@ -153,7 +153,8 @@ void addSubstepsOption(CLI::App& command, int& substeps) {
 void addThreadsOption(CLI::App& command, int& threads) {
   command
       .add_option("--threads", threads,
-                  "worker threads for the tasks and cpubf (0: all hardware threads)")
+                  "threads the run uses, the main thread included: it runs Bullet, N - 1 oneTBB "
+                  "workers run the tasks and cpubf's search (0: one per hardware thread)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
 }

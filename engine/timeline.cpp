@@ -21,13 +21,15 @@ void Timeline::write(const std::filesystem::path& path) const {
                         {"tid", it->second},
                         {"args", {{"name", span.lane}}}});
     }
+    nlohmann::json args = {{"frame", span.frame}};
+    if (span.substep >= 0) args["substep"] = span.substep;
     events.push_back({{"name", span.name},
                       {"ph", "X"},
                       {"pid", 1},
                       {"tid", it->second},
                       {"ts", span.start_us},
                       {"dur", span.duration_us},
-                      {"args", {{"frame", span.frame}}}});
+                      {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
   physics::writeFileAtomically(path, trace.dump());

@@ -1,7 +1,8 @@
 // The frame timeline: named spans on named lanes (main thread, broadphase
-// search, sound, AI), written in the Chrome trace event format, which
-// Perfetto (ui.perfetto.dev) and chrome://tracing open.  Times are
-// microseconds since the run started.
+// search, tasks, sound, AI), each tagged with its frame and, for a
+// substep's spans (substep, search, join, narrowphase), its substep; written in the Chrome trace
+// event format, which Perfetto (ui.perfetto.dev) and chrome://tracing open.  Times are microseconds
+// since the run started.
 #pragma once
 
 #include <chrono>
@@ -17,6 +18,7 @@ struct Span {
   double start_us;
   double duration_us;
   int frame;
+  int substep = -1;  // the physics substep it belongs to; -1: the whole frame's
 };
 
 class Timeline {

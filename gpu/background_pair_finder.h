@@ -1,19 +1,27 @@
-// Runs a pair finder that searches inside launch() (cpubf) on a worker
-// thread of its own, so that launch() returns at once and the caller's thread
-// is free for other work until finish(), as it is with the GPU finders.
+// Runs a pair finder that searches inside launch() (cpubf) as a oneTBB job,
+// so that launch() returns at once and the search runs off the caller's
+// thread, as the GPU finders' search runs on their CUDA stream.
 //
-// The worker is started once and sleeps between frames; launch() copies the
-// objects, so the caller may change its array while the search runs.  The
-// inner finder is only touched by the worker between launch() and finish(),
-// and only by the caller otherwise: the hand-over is a mutex and a condition.
+// The finder has no thread of its own: the job runs in a oneTBB arena of
+// its own, on a pool worker when one is free.  finish() joins by waiting
+// inside that arena, so a caller whose workers are all busy (with the
+// engine's sound and AI tasks, say) runs the job itself instead of sleeping,
+// and otherwise helps the search's parallel loop.  Every thread involved is
+// oneTBB's or the caller's, so a oneTBB thread cap (tbb::global_control, as
+// `overlap run --threads` sets it) bounds the search too.
+//
+// Invariants: the inner finder is touched only by the job between launch()
+// and finish(), and only by the caller otherwise; launch() copies the
+// objects; a search in flight is always joined, by finish() or by the
+// destructor.
 #pragma once
 
+#include <oneapi/tbb/task_arena.h>
+#include <oneapi/tbb/task_group.h>
+
 #include <chrono>
-#include <condition_variable>
 #include <exception>
 #include <memory>
-#include <mutex>
-#include <thread>
 #include <vector>
 
 #include "gpu/pair_finder.h"
@@ -23,7 +31,7 @@ namespace overlap::gpu {
 class BackgroundPairFinder final : public PairFinder {
  public:
   explicit BackgroundPairFinder(std::unique_ptr<PairFinder> inner);
-  ~BackgroundPairFinder() override;
+  ~BackgroundPairFinder() noexcept override;  // joins a search in flight
   BackgroundPairFinder(const BackgroundPairFinder&) = delete;
   BackgroundPairFinder& operator=(const BackgroundPairFinder&) = delete;
 
@@ -34,7 +42,8 @@ class BackgroundPairFinder final : public PairFinder {
   double lastSearchDelayMs() const override { return search_delay_ms_; }
 
  private:
-  void work();
+  void search();
+  void join();
 
   std::unique_ptr<PairFinder> inner_;
   std::vector<ObjectBounds> objects_;
@@ -42,14 +51,13 @@ class BackgroundPairFinder final : public PairFinder {
   std::exception_ptr error_;
   std::chrono::steady_clock::time_point requested_at_;
   double search_delay_ms_ = 0;
-
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  bool requested_ = false;  // a search is waiting for the worker
-  bool done_ = false;       // the worker finished the search
   bool in_flight_ = false;  // between launch() and finish(); caller's thread only
-  bool stopping_ = false;
-  std::thread worker_;  // last: started after everything it reads exists
+
+  // Normal priority: a caller with other work for the pool (the engine's
+  // tasks, at high priority) keeps its workers there, and joins the search
+  // itself; an idle pool helps the search.
+  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::normal};
+  tbb::task_group job_;
 };
 
 }  // namespace overlap::gpu

@@ -90,12 +90,12 @@ inline std::uint32_t chunkBits(const Columns& columns, const Slot& b, std::uint3
 
 }  // namespace
 
-CpuPairFinder::CpuPairFinder(int threads)
-    : arena_(threads > 0 ? threads : tbb::task_arena::automatic) {
+CpuPairFinder::CpuPairFinder(int threads) {
   if (threads < 0) {
     throw std::runtime_error("CpuPairFinder: thread count " + std::to_string(threads) +
                              " is negative (0 means all hardware threads)");
   }
+  if (threads > 0) arena_.emplace(threads);
 }
 
 void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
@@ -171,7 +171,7 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
   }
   const std::uint64_t word_count = words_.size();
   const std::uint64_t block_count = (word_count + kBlockWords - 1) / kBlockWords;
-  arena_.execute([&] {
+  const auto search = [&] {
     tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, block_count),
                       [&](const tbb::blocked_range<std::uint64_t>& blocks) {
                         Changes& changes = thread_changes_.local();
@@ -181,7 +181,12 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
                                       changes);
                         }
                       });
-  });
+  };
+  if (arena_) {
+    arena_->execute(search);
+  } else {
+    search();
+  }
 
   result_.added.clear();
   result_.removed.clear();

@@ -81,7 +81,7 @@ std::string cudaDeviceName();
 
 // Makes a finder.  The GPU kinds need cudaDeviceAvailable() and throw
 // std::runtime_error with its reason otherwise; cpu_threads = 0 lets the CPU
-// finder use every hardware thread.
+// finder use every thread of the caller's oneTBB arena.
 std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads = 0);
 
 // The new slot count for a launch() over `objects` slots, after the checks

@@ -28,7 +28,17 @@ PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> find
   if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
 }
 
-PairFinderBroadphase::~PairFinderBroadphase() = default;
+PairFinderBroadphase::~PairFinderBroadphase() {
+  if (!search_in_flight_) return;
+  // Join, so the finder's search never outlives the boxes it reads; with no
+  // dispatcher here its answer is dropped with the cache.
+  try {
+    finder_->finish();
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "PairFinderBroadphase: the search joined at destruction failed: %s\n",
+                 error.what());
+  }
+}
 
 btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
                                                      const btVector3& aabbMax, int /*shapeType*/,
@@ -154,8 +164,22 @@ void PairFinderBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& a
 }
 
 void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
+  using Clock = std::chrono::steady_clock;
+  const auto msSince = [](Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  };
+  SearchTimes times;
+  times.launched = Clock::now();
   launchPairSearch();
+  // Nothing of Bullet's step can run before its narrowphase has the pairs:
+  // join at once.  The search ran off this thread all the same, beside
+  // whatever else the machine runs (the engine's tasks).
+  times.joined = Clock::now();
   finishPairSearch(dispatcher);
+  times.join_ms = msSince(times.joined);
+  times.search_ms = finder_->lastSearchMs();
+  times.start_delay_ms = finder_->lastSearchDelayMs();
+  last_search_ = times;
 }
 
 void PairFinderBroadphase::launchPairSearch() {

@@ -4,11 +4,13 @@
 //
 // Each proxy owns a slot of the finder; its m_uniqueId is its slot index, so
 // the same sequence of calls numbers proxies the same way on every run.  A
-// frame's search is split in two public halves so that a scheduler can run
-// CPU work while the GPU searches: launchPairSearch() hands the current boxes
-// to the finder, finishPairSearch() applies what changed to the owned
+// search has two halves: launchPairSearch() hands the current boxes to the
+// finder (which searches on its CUDA stream, or off this thread on the CPU),
+// finishPairSearch() joins it and applies what changed to the owned
 // btHashedOverlappingPairCache (removals through the dispatcher, which frees
 // the pair's algorithm; a pair that stays keeps its cache entry untouched).
+// Inside Bullet's step, calculateOverlappingPairs() does both, and records
+// when the search ran and how long the caller waited: lastSearch().
 //
 // Invariants:
 // - The cache holds exactly the pairs the finder last reported (minus those
@@ -19,6 +21,8 @@
 //   to a new proxy.
 // - A proxy whose AABB is non-finite or inverted is out of the search (its
 //   pairs are removed, one message on stderr) until it gets a valid AABB.
+// - A launched search is always joined: by finishPairSearch(), or, on a path
+//   that skips it (an exception), by the destructor.
 // Like the rest of Bullet, it is not thread-safe: call it from one thread.
 #pragma once
 
@@ -30,6 +34,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "physics/search_times.h"
 
 namespace overlap::physics {
 
@@ -52,7 +57,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
                const btVector3& aabbMax = btVector3(0, 0, 0)) override;
   void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                 btBroadphaseAabbCallback& callback) override;
-  // launchPairSearch() then finishPairSearch(dispatcher).
+  // launchPairSearch() then finishPairSearch(dispatcher), timed: lastSearch().
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
   btOverlappingPairCache* getOverlappingPairCache() override { return pair_cache_.get(); }
   const btOverlappingPairCache* getOverlappingPairCache() const override {
@@ -70,6 +75,9 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void finishPairSearch(btDispatcher* dispatcher);
 
   const gpu::PairFinder& finder() const { return *finder_; }
+  // The last calculateOverlappingPairs()'s search.
+  const SearchTimes& lastSearch() const { return last_search_; }
+  bool searchInFlight() const { return search_in_flight_; }
 
  private:
   enum class SlotState : std::uint8_t {
@@ -100,6 +108,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
   std::size_t live_count_ = 0;
   bool search_in_flight_ = false;
+  SearchTimes last_search_;
 };
 
 }  // namespace overlap::physics

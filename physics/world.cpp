@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -35,17 +37,18 @@ constexpr btScalar kContactDistance = 0.01f;
 // container reaches it, and a box there is a broken state, not a physical one.
 constexpr double kFarAway = 1e6;
 
-// btDiscreteDynamicsWorld with each stage of a substep timed from inside, and
-// the frame's CPU work slotted into the first substep's broadphase.
+// btDiscreteDynamicsWorld with each stage of a substep timed from inside.
+// A background broadphase (PairFinderBroadphase) launches and joins its own
+// search inside computeOverlappingPairs(); this world only reads its times.
 class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
  public:
   using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
 
   FrameTimings timings;
-  const FrameWork* pending_work = nullptr;            // consumed by the next broadphase
-  PairFinderBroadphase* background_search = nullptr;  // set when the broadphase can overlap
+  std::vector<SubstepReport> substeps;                // this frame's, the last one running
+  PairFinderBroadphase* background_search = nullptr;  // set when the broadphase searches off-thread
   std::function<void()> after_aabb_update;
-  std::optional<BackgroundSearch> first_search;  // of this frame
+  std::function<void()> after_narrowphase;
 
   void updateAabbs() override {
     const gpu::HostStopwatch watch;
@@ -54,39 +57,27 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
     timings.update_ms += watch.ms();
   }
   void computeOverlappingPairs() override {
-    const FrameWork* work = std::exchange(pending_work, nullptr);
-    const bool overlapped = work != nullptr && work->overlapped && background_search != nullptr;
-    if (work != nullptr && !overlapped) runFrameWork(*work);  // one after the other
-    if (background_search == nullptr) {
-      const gpu::HostStopwatch watch;
-      btDiscreteDynamicsWorld::computeOverlappingPairs();
-      timings.broadphase_ms += watch.ms();
-      return;
+    const gpu::HostStopwatch watch;
+    btDiscreteDynamicsWorld::computeOverlappingPairs();
+    timings.broadphase_ms += watch.ms();
+    if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
+    SubstepReport& substep = substeps.back();
+    if (background_search != nullptr) {
+      substep.search = background_search->lastSearch();
+      timings.search_ms += substep.search->search_ms;
+      timings.join_ms += substep.search->join_ms;
     }
-    // launch -> (the frame's CPU work) -> join: the search runs meanwhile.
-    BackgroundSearch search{};
-    const gpu::HostStopwatch launch;
-    search.launched = std::chrono::steady_clock::now();
-    background_search->launchPairSearch();
-    timings.broadphase_ms += launch.ms();
-    if (overlapped) runFrameWork(*work);
-    const gpu::HostStopwatch join;
-    search.joined = std::chrono::steady_clock::now();
-    background_search->finishPairSearch(m_dispatcher1);
-    search.join_ms = join.ms();
-    timings.join_ms += search.join_ms;
-    timings.broadphase_ms += search.join_ms;
-    search.search_ms = background_search->finder().lastSearchMs();
-    search.start_delay_ms = background_search->finder().lastSearchDelayMs();
-    if (!first_search) first_search = search;
+    substep.narrowphase_start = std::chrono::steady_clock::now();
   }
-  // update + broadphase (+ frame work) + narrowphase; the narrowphase is what remains.
+  // update + broadphase + narrowphase; the narrowphase is what remains.
   void performDiscreteCollisionDetection() override {
-    const double before = timings.update_ms + timings.broadphase_ms + timings.frame_work_ms;
+    const double before = timings.update_ms + timings.broadphase_ms;
     const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
-    const double after = timings.update_ms + timings.broadphase_ms + timings.frame_work_ms;
+    const double after = timings.update_ms + timings.broadphase_ms;
     timings.narrowphase_ms += watch.ms() - (after - before);
+    if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
+    if (after_narrowphase) after_narrowphase();
   }
   void createPredictiveContacts(btScalar dt) override {
     const gpu::HostStopwatch watch;
@@ -113,43 +104,6 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
     btDiscreteDynamicsWorld::integrateTransforms(dt);
     timings.integrate_ms += watch.ms();
   }
-
- private:
-  void runFrameWork(const FrameWork& work) {
-    const gpu::HostStopwatch watch;
-    work.run();
-    timings.frame_work_ms += watch.ms();
-  }
-};
-
-// Notes every pair the cache gains (Bullet calls it as the pair is created),
-// so the sound task can hear new contacts whatever the broadphase.  The pair
-// cache has one such callback slot, and Bullet's ghost objects (btGhostObject,
-// btPairCachingGhostObject, character controllers) need it for their
-// btGhostPairCallback: the recorder takes the slot and chains every call to
-// the callback it is given, so ghosts work in this world as in any other.
-class NewPairRecorder final : public btOverlappingPairCallback {
- public:
-  explicit NewPairRecorder(btOverlappingPairCallback& next) : next_(next) {}
-
-  std::vector<std::pair<const btCollisionObject*, const btCollisionObject*>> added;
-
-  btBroadphasePair* addOverlappingPair(btBroadphaseProxy* proxy0,
-                                       btBroadphaseProxy* proxy1) override {
-    added.emplace_back(static_cast<const btCollisionObject*>(proxy0->m_clientObject),
-                       static_cast<const btCollisionObject*>(proxy1->m_clientObject));
-    return next_.addOverlappingPair(proxy0, proxy1);
-  }
-  void* removeOverlappingPair(btBroadphaseProxy* proxy0, btBroadphaseProxy* proxy1,
-                              btDispatcher* dispatcher) override {
-    return next_.removeOverlappingPair(proxy0, proxy1, dispatcher);
-  }
-  // The pair cache never calls this on its ghost callback (btGhostPairCallback
-  // asserts if it is), so it is not passed on.
-  void removeOverlappingPairsContainingProxy(btBroadphaseProxy*, btDispatcher*) override {}
-
- private:
-  btOverlappingPairCallback& next_;
 };
 
 btVector3 toBullet(const Eigen::Vector3d& v) {
@@ -179,8 +133,9 @@ struct PhysicsWorld::Bullet {
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
   std::vector<double> edges;                         // per box
   std::vector<bool> removed;                         // per box: out of the simulation
-  btGhostPairCallback ghost_pairs;                   // what the pair cache's slot is for
-  NewPairRecorder new_pairs{ghost_pairs};
+  btGhostPairCallback ghost_pairs;                   // the pair cache's slot, for ghost objects
+  std::vector<std::pair<int, int>> touching;         // pairs whose manifold has points, sorted
+  std::vector<NewContact> new_contacts;              // this frame's
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
 
@@ -215,9 +170,12 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
                                                  &b.collision_config);
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
+  // Bullet's ghost objects (btGhostObject, character controllers) need the
+  // pair cache's one ghost-pair slot; the world itself does not use it.
+  b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.ghost_pairs);
   b.world->background_search = dynamic_cast<PairFinderBroadphase*>(b.broadphase.get());
   b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
-  b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.new_pairs);
+  b.world->after_narrowphase = [this] { noteContactsStarted(); };
   b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
   b.world->setGravity(toBullet(b.gravity.gravity()));
   // A separate stream for the kicks, so scene 2's start equals the others'.
@@ -301,23 +259,27 @@ void PhysicsWorld::applySceneForces() {
   }
 }
 
-FrameReport PhysicsWorld::stepFrame(const FrameWork* work) {
+FrameReport PhysicsWorld::stepFrame() {
   Bullet& b = *bullet_;
   const gpu::HostStopwatch frame_watch;
   b.world->timings = {};
-  b.world->first_search.reset();
-  b.world->pending_work = work;
-  b.new_pairs.added.clear();
+  b.world->substeps.clear();
+  b.new_contacts.clear();
   applySceneForces();
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
   for (int k = 0; k < substeps_; ++k) {
+    b.world->substeps.push_back(SubstepReport{std::chrono::steady_clock::now(), {}, {}, {}, {}});
     // maxSubSteps = 0: exactly one step of dt, no accumulator rounding.
     b.world->stepSimulation(dt, 0);
+    b.world->substeps.back().end = std::chrono::steady_clock::now();
   }
+  // The last substep's solver and integration may have broken a box: out now,
+  // so that nothing reads it between frames (the next update would be late).
+  removeBrokenBoxes();
   FrameReport report;
   report.frame = frame_++;
   report.timings = b.world->timings;
-  report.background_search = b.world->first_search;
+  report.substeps = std::exchange(b.world->substeps, {});
   report.timings.total_ms = frame_watch.ms();
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
   measureContainment(report);
@@ -466,48 +428,63 @@ void PhysicsWorld::removeBrokenBoxes() {
         !(std::isfinite(c.x()) && std::isfinite(c.y()) && std::isfinite(c.z())) ? "not finite"
         : disabled ? "inside an AABB too large for Bullet"
                    : "too far from the origin");
+    // Nor may a contact it began this frame reach the sound.
+    const int box = static_cast<int>(i);
+    std::erase_if(b.new_contacts, [box](const NewContact& contact) {
+      return contact.a == box || contact.b == box;
+    });
   }
 }
 
-std::vector<NewContact> PhysicsWorld::newContacts() const {
-  const Bullet& b = *bullet_;
+// After each narrowphase: the pairs whose manifold has points now and had
+// none after the last one began touching.  Their speeds are read before the
+// solver, at impact.
+void PhysicsWorld::noteContactsStarted() {
+  Bullet& b = *bullet_;
+  std::vector<std::pair<int, int>> touching;
+  for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
+    const btPersistentManifold* manifold = b.dispatcher.getManifoldByIndexInternal(m);
+    if (manifold->getNumContacts() == 0) continue;
+    if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
+    touching.push_back(
+        std::minmax(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
+  }
+  std::sort(touching.begin(), touching.end());
+  touching.erase(std::unique(touching.begin(), touching.end()), touching.end());
+  std::vector<std::pair<int, int>> began;
+  std::set_difference(touching.begin(), touching.end(), b.touching.begin(), b.touching.end(),
+                      std::back_inserter(began));
+  b.touching = std::move(touching);
+
   const auto n = static_cast<int>(layout_.boxes.size());
   const double h = layout_.half_extent;
   const auto edgeOf = [&](int index) {
     return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
   };
-  std::vector<NewContact> contacts;
-  contacts.reserve(b.new_pairs.added.size());
-  for (const auto& [object0, object1] : b.new_pairs.added) {
-    // A box that left the simulation after the pair was made has no state to
-    // hear; a ghost object added to bulletWorld() makes no sound.
-    if (object0->getBroadphaseHandle() == nullptr || object1->getBroadphaseHandle() == nullptr ||
-        !b.owns(object0) || !b.owns(object1)) {
-      continue;
-    }
-    const int index0 = object0->getUserIndex();
-    const int index1 = object1->getUserIndex();
-    const btVector3& c0 = object0->getWorldTransform().getOrigin();
-    const btVector3& c1 = object1->getWorldTransform().getOrigin();
+  for (const auto& [index0, index1] : began) {
+    const btRigidBody& body0 = *b.bodies[static_cast<std::size_t>(index0)];
+    const btRigidBody& body1 = *b.bodies[static_cast<std::size_t>(index1)];
+    const btVector3& c0 = body0.getWorldTransform().getOrigin();
+    const btVector3& c1 = body1.getWorldTransform().getOrigin();
     // Boxes close along the line between their centres; a box closes on a
-    // wall along the wall's normal.
+    // wall (always index1, numbered after the boxes) along the wall's normal.
     btVector3 line = c1 - c0;
-    if (index0 >= n || index1 >= n) {
-      const int wall = std::max(index0, index1) - n;
-      const btVector3& wall_centre = index0 >= n ? c0 : c1;
+    if (index1 >= n) {
+      const int axis = (index1 - n) / 2;
       line = btVector3(0, 0, 0);
-      line[wall / 2] = index0 >= n ? -wall_centre[wall / 2] : wall_centre[wall / 2];
+      line[axis] = c1[axis];
     }
-    const btVector3 v0 = btRigidBody::upcast(object0)->getLinearVelocity();
-    const btVector3 v1 = btRigidBody::upcast(object1)->getLinearVelocity();
     const btScalar length = line.length();
-    const btScalar closing = length > 0 ? (v0 - v1).dot(line) / length : 0;
-    const btVector3& box_centre = index0 < n ? c0 : c1;
-    contacts.push_back(NewContact{index0, index1, std::max(0.0f, closing),
-                                  static_cast<float>(std::clamp(box_centre.x() / h, -1.0, 1.0)),
-                                  std::min(edgeOf(index0), edgeOf(index1))});
+    const btScalar closing =
+        length > 0 ? (body0.getLinearVelocity() - body1.getLinearVelocity()).dot(line) / length : 0;
+    b.new_contacts.push_back(NewContact{index0, index1, std::max(0.0f, closing),
+                                        static_cast<float>(std::clamp(c0.x() / h, -1.0, 1.0)),
+                                        std::min(edgeOf(index0), edgeOf(index1))});
   }
-  return contacts;
+}
+
+const std::vector<NewContact>& PhysicsWorld::newContacts() const {
+  return bullet_->new_contacts;
 }
 
 bool PhysicsWorld::broadphaseRunsInBackground() const {
@@ -521,6 +498,7 @@ void PhysicsWorld::injectBoxPosition(int box, const Eigen::Vector3d& position) {
   btRigidBody& body = *bullet_->bodies[static_cast<std::size_t>(box)];
   body.getWorldTransform().setOrigin(toBullet(position));
   body.activate(true);
+  removeBrokenBoxes();
 }
 
 btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {

@@ -4,8 +4,11 @@
 // steps it one frame at a time (K fixed substeps of frame_time / K), and
 // reports what the frame cost and what it got wrong.  Times are taken inside
 // Bullet's step: AABB update, broadphase (pair search and pair-cache update),
-// narrowphase, solver and integration are each summed over the substeps.
-// Bullet is not thread-safe here: one PhysicsWorld is used from one thread.
+// narrowphase, solver and integration are each summed over the substeps, and
+// each substep reports when it ran, when its narrowphase ran and, for a
+// broadphase that searches off the main thread, when its search ran and how
+// long the step waited for it.  Bullet is not thread-safe here: one
+// PhysicsWorld is used from one thread; it starts no task of its own.
 //
 // Invariants: box i of the layout is rigid body i; the walls come after the
 // boxes; the same config and options give bit-identical runs (stateHash()).
@@ -14,13 +17,13 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "physics/scene.h"
+#include "physics/search_times.h"
 
 class btBroadphaseInterface;
 class btDiscreteDynamicsWorld;
@@ -39,27 +42,29 @@ int defaultSubsteps(const SceneConfig& config);
 struct FrameTimings {
   double update_ms = 0;       // AABBs written into the broadphase
   double broadphase_ms = 0;   // pair search and pair-cache update, as the main thread saw it
-  double frame_work_ms = 0;   // the frame's CPU tasks, run inside the first broadphase
-  double join_ms = 0;         // after the tasks: waiting for the search, applying its changes
+  double search_ms = 0;       // a background broadphase's searches by their own clock
+  double join_ms = 0;         // of broadphase_ms: waiting for those searches, applying changes
   double narrowphase_ms = 0;  // contact generation for the cached pairs
   double solver_ms = 0;       // constraint solver
   double integrate_ms = 0;    // motion prediction and integration
-  double total_ms = 0;        // the whole frame
+  double total_ms = 0;        // the whole step
 };
 
-// The first substep's search by a broadphase that runs in the background
-// (the one the frame's CPU work overlaps).
-struct BackgroundSearch {
-  std::chrono::steady_clock::time_point launched;
-  std::chrono::steady_clock::time_point joined;  // when the main thread began to wait
-  double join_ms;                                // waiting for the search and applying its changes
-  double search_ms;       // the search alone: GPU events, or the CPU search's own clock
-  double start_delay_ms;  // from launch to the search's start (a CPU worker's wake-up)
+// One substep, as the main thread lived it.
+struct SubstepReport {
+  std::chrono::steady_clock::time_point start;
+  std::chrono::steady_clock::time_point narrowphase_start;  // the pairs are in the cache
+  std::chrono::steady_clock::time_point narrowphase_end;
+  std::chrono::steady_clock::time_point end;
+  // A broadphase that searches in the background (cpubf, gpubf, gpubf-paper):
+  // its search, launched and joined inside this substep before the narrowphase.
+  std::optional<SearchTimes> search;
 };
 
 struct FrameReport {
   int frame = 0;
   FrameTimings timings;
+  std::vector<SubstepReport> substeps;
   int pairs = 0;                    // overlapping pairs in the cache after the frame
   int escaped = 0;                  // boxes whose centre is beyond a wall's outer face
   int sunk = 0;                     // boxes whose centre is outside the interior
@@ -67,7 +72,6 @@ struct FrameReport {
   int removed_from_simulation = 0;  // boxes taken out: non-finite, huge or far away
   double kinetic_energy = 0;        // J, linear and rotational, boxes in the simulation
   double potential_energy = 0;      // J, -sum m (g . x) for the gravity of this frame
-  std::optional<BackgroundSearch> background_search;
 };
 
 struct BoxPose {
@@ -78,23 +82,17 @@ struct BoxPose {
   bool in_contact;
 };
 
-// A pair the broadphase added to the cache during the last frame: a new
-// contact for the sound task.  Walls are numbered after the boxes.
+// Two bodies that began touching during the last frame: their contact
+// manifold gained its first point in some substep's narrowphase.  It follows
+// the physics, not the broadphase (a fattened AABB pair is no contact), so
+// every broadphase hears the same contacts.  Walls are numbered after the boxes.
 struct NewContact {
-  int a;
+  int a;  // a < b
   int b;
-  float closing_speed;  // m/s along the line between the centres (walls: their normal)
+  float closing_speed;  // m/s, before that substep's solver, along the line
+                        // between the centres (walls: their normal)
   float pan;            // the contact's x in the container, -1 left .. 1 right
   float edge;           // the smaller box's edge
-};
-
-// The CPU work a frame runs while its broadphase searches (engine's
-// scheduler).  With `overlapped`, a broadphase that can search in the
-// background (cpubf, gpubf, gpubf-paper) is launched first, `run` runs, and
-// the search is joined; otherwise `run` runs first and the broadphase after.
-struct FrameWork {
-  std::function<void()> run;
-  bool overlapped = true;
 };
 
 struct Aabb {
@@ -109,9 +107,10 @@ class PhysicsWorld {
   PhysicsWorld(const PhysicsWorld&) = delete;
   PhysicsWorld& operator=(const PhysicsWorld&) = delete;
 
-  // Runs one frame: scene forces (kicks, gravity), then K substeps; `work`
-  // runs during the first substep's broadphase.
-  FrameReport stepFrame(const FrameWork* work = nullptr);
+  // Runs one frame: scene forces (kicks, gravity), then K substeps, then
+  // takes out any box the last substep broke (so no broken box is seen
+  // between frames).
+  FrameReport stepFrame();
 
   const SceneConfig& config() const { return config_; }
   const SceneLayout& layout() const { return layout_; }
@@ -131,13 +130,14 @@ class PhysicsWorld {
   // are numbered after the boxes.
   std::vector<std::pair<int, int>> cachedPairs() const;
 
-  // Pairs the broadphase added during the last frame, in the order added.
-  std::vector<NewContact> newContacts() const;
+  // Contacts that began during the last frame, by substep, then by (a, b).
+  const std::vector<NewContact>& newContacts() const;
   // True when the broadphase can search while other work runs.
   bool broadphaseRunsInBackground() const;
 
   // Puts box `box` at `position` (any value, NaN included), for hard cases:
-  // a box whose AABB becomes unusable leaves the simulation with a message.
+  // a box whose state is unusable leaves the simulation at once, with a
+  // message, as one a step broke would.
   void injectBoxPosition(int box, const Eigen::Vector3d& position);
 
   // Bullet's world, for what this class does not wrap.  Up to 64 objects of
@@ -154,6 +154,7 @@ class PhysicsWorld {
   void applySceneForces();
   void measureContainment(FrameReport& report) const;
   void removeBrokenBoxes();
+  void noteContactsStarted();
 
   SceneConfig config_;
   SceneLayout layout_;

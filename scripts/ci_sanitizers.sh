@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # CI under sanitizers, after scripts/setup.sh: the whole ctest suite under
 # AddressSanitizer + UBSan (preset "asan"), then the threaded code (cpubf's
-# worker and oneTBB search, the frame scheduler, the sound and AI tasks)
+# oneTBB search job, the frame scheduler, the sound and AI tasks)
 # under ThreadSanitizer (preset "tsan").  Both presets build the CPU code
 # only.  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
 # that the CLI tests run captures frames with it); tests/tsan.supp and the
@@ -45,8 +45,9 @@ section "TSan: tests labelled $TSAN_LABELS"
 # oneTBB is not built with TSan: the hand-overs inside it are invisible, and
 # every task would look racy against the thread that spawned it.  On one CPU
 # oneTBB starts no worker threads (its default concurrency is the affinity
-# mask's size), so what TSan checks is the project's own threads, mutexes
-# and condition variables (cpubf's background worker, the scheduler's joins).
+# mask's size).  The engine's tasks and cpubf's search are oneTBB jobs, so
+# here they run on the main thread: TSan checks the project's own atomics
+# and the code around the joins, not a second thread.
 TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1:second_deadlock_stack=1" \
   taskset -c 0 ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L "$TSAN_LABELS"
 fi

@@ -15,6 +15,10 @@ writes the tables, the figures and REPORT.md from whatever results exist:
   latency   `overlap latency`: a broadphase one frame late on AABBs grown by
             growth * |v| * dt, against the pairs it misses and adds
   timeline  one run with the sound and AI tasks, for the async loop's timeline
+  overlap   the async frame against --sync (`overlap run --compare-sync`, one
+            process per point): scenes 1 and 4, n x task load, frame times,
+            speed-up, the share of the tasks' time hidden and this machine's
+            ideal
 
 Every run keeps its own folder under --out; a run whose result exists is not
 redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
@@ -25,6 +29,7 @@ CPU fallback is cpubf, which the study runs anyway) and reported as pending.
   scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
   scripts/study.py --out out/study --shard 1/2              # half of the full study
   scripts/study.py --out out/study --no-runs --report       # docs/REPORT.md from results
+  scripts/study.py --out out/study --experiments overlap    # the overlap-timing study only
 
 matplotlib: run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
@@ -54,6 +59,8 @@ FULL = {
     "latency_scenes": "1,2,3,4", "latency_objects": 3500, "latency_frames": 2048,
     "latency_algos": "bf,sap,bvh,cpubf,gpubf", "latency_growths": "0,1,2",
     "timeline_objects": 1250, "timeline_frames": 64,
+    "overlap_scenes": "1,4", "overlap_objects": "500,1250,3500",
+    "overlap_loads": "0,0.5,1,1.5,2", "overlap_frames": 48, "overlap_algo": "gpubf",
 }
 QUICK = {
     "scenes": "1,2,3,4", "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1,
@@ -64,8 +71,10 @@ QUICK = {
     "latency_scenes": "1,2,3,4", "latency_objects": 400, "latency_frames": 90,
     "latency_algos": "bvh,cpubf", "latency_growths": "0,1,2",
     "timeline_objects": 400, "timeline_frames": 16,
+    "overlap_scenes": "1,4", "overlap_objects": "150,300",
+    "overlap_loads": "0,1,2", "overlap_frames": 10, "overlap_algo": "gpubf",
 }
-EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline")
+EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline", "overlap")
 HELP = {
     "scenes": "sweep: scenes", "algos": "sweep: broadphases", "objects": "sweep: box counts",
     "repetitions": "sweep: runs of each (scene, algo, n), same seed",
@@ -79,6 +88,10 @@ HELP = {
     "latency_algos": "latency: broadphases, one process each",
     "latency_growths": "latency: growth factors of the late AABBs (x |v| dt)",
     "timeline_objects": "timeline: boxes (scene 4)", "timeline_frames": "timeline: frames",
+    "overlap_scenes": "overlap: scenes", "overlap_objects": "overlap: box counts",
+    "overlap_loads": "overlap: --task-load values (tasks' cost / the physics step)",
+    "overlap_frames": "overlap: frames per run (each run is a sync and an async run)",
+    "overlap_algo": "overlap: broadphase (gpubf runs cpubf without a GPU, and says so)",
 }
 
 
@@ -274,6 +287,21 @@ def plan(args) -> list:
         jobs.append(RunJob("timeline", "timeline", frames * 8 * n, {}, overlap, out / "timeline",
                            ["--scene", "4", "--objects", str(n), "--algo", "gpubf",
                             "--frames", str(frames), "--seed", seed, *threads]))
+    if "overlap" in args.experiments:
+        frames = args.overlap_frames
+        for scene in ints(args.overlap_scenes):
+            for n in ints(args.overlap_objects):
+                for load in names(args.overlap_loads):
+                    key = f"s{scene}_n{n}_load{load}"
+                    # The sync run, the async run and the calibration's frames.
+                    weight = (2 * frames + 6) * default_substeps(scene) * n * (1 + float(load))
+                    jobs.append(RunJob(
+                        "overlap", key, weight,
+                        {"scene": scene, "objects": n, "load": float(load)}, overlap,
+                        out / "overlap" / key,
+                        ["--scene", str(scene), "--objects", str(n), "--algo", args.overlap_algo,
+                         "--frames", str(frames), "--seed", seed, "--task-load", load,
+                         "--compare-sync", *threads]))
     if args.capture:
         for scene in ints(args.scenes):
             jobs.append(CaptureJob(scene, overlap, out / "keyframes", args.capture_objects,

@@ -19,8 +19,10 @@ import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first
 
 COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
            "cpubf": "#ff7f0e", "gpubf": "#d62728", "gpubf-paper": "#9467bd"}
-LANE_COLOURS = {"frame": "#cccccc", "join": "#7f7f7f", "search": "#d62728", "sound": "#1f77b4",
-                "ai": "#2ca02c"}
+LANE_COLOURS = {"frame": "#eeeeee", "physics": "#cccccc", "substep": "#aaaaaa",
+                "join": "#555555", "narrowphase": "#9467bd", "search": "#d62728",
+                "tasks": "#dddddd", "sound": "#1f77b4", "ai": "#2ca02c",
+                "wait for tasks": "#ff7f0e"}
 
 
 def colour(algo: str) -> str:
@@ -98,19 +100,22 @@ def total_against_n(cells: list, folder: pathlib.Path) -> str:
 def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
     """One frame of the async loop: each lane's spans against time since the frame began.
 
-    Left the whole frame, right a zoom on the tasks, the search and the join,
-    which take a small part of it.
+    Left the whole frame, right a zoom on its first substep, where the first
+    search, its join and the narrowphase that follows are wide enough to see.
+    Nested spans of the main lane (frame > physics > substep > join,
+    narrowphase) are drawn ever thinner, so each stays visible.
     """
-    lanes = ["main", "broadphase", "sound", "ai"]
+    lanes = ["main", "broadphase", "tasks", "sound", "ai"]
     lanes += sorted({lane for lane, *_ in spans} - set(lanes))
-    busy_end = max((start + duration for _, name, start, duration in spans if name != "frame"),
-                   default=0.0)
-    figure, axes = plt.subplots(1, 2, figsize=(13, 2.8), gridspec_kw={"width_ratios": [1, 1.4]})
-    zoom = f"its first {busy_end * 1.1:.2g} ms: tasks, search and join"
+    heights = {"frame": 0.9, "physics": 0.75, "substep": 0.6, "join": 0.4, "narrowphase": 0.4}
+    first_substep = next(((start, duration) for _, name, start, duration in spans
+                          if name == "substep"), None)
+    figure, axes = plt.subplots(1, 2, figsize=(13, 3.2), gridspec_kw={"width_ratios": [1, 1.4]})
+    zoom = "its first substep" if first_substep else "the whole frame"
     for axis, title in zip(axes, ("the whole frame", zoom)):
         for lane, name, start, duration in spans:
             row = len(lanes) - 1 - lanes.index(lane)
-            axis.barh(row, duration, left=start, height=0.8 if name != "frame" else 0.3,
+            axis.barh(row, duration, left=start, height=heights.get(name, 0.8),
                       color=LANE_COLOURS.get(name, "#8c564b"), edgecolor="black",
                       linewidth=0.4, label=name)
         axis.set_yticks(range(len(lanes)))
@@ -118,8 +123,9 @@ def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
         axis.set_xlabel("ms since the frame began")
         axis.set_title(f"frame {frame}, broadphase {algo}: {title}", fontsize=10)
         axis.grid(axis="x", alpha=0.3)
-    if busy_end > 0:
-        axes[1].set_xlim(0, busy_end * 1.1)
+    if first_substep:
+        start, duration = first_substep
+        axes[1].set_xlim(start - 0.05 * duration, start + 1.05 * duration)
     handles, labels = axes[1].get_legend_handles_labels()
     unique = dict(zip(labels, handles))
     axes[1].legend(unique.values(), unique.keys(), fontsize=8, loc="upper left",
@@ -210,3 +216,51 @@ def latency(rows: list, folder: pathlib.Path) -> str:
     axes[2].set_yscale("log")
     axes[2].axhline(1.0, color="black", linewidth=0.6)
     return save(figure, folder, "fig_latency")
+
+
+def overlap(rows: list, folder: pathlib.Path) -> str:
+    """The overlap-timing study: per scene, frame times and speed-up against the task load.
+
+    Top: sync (solid), async (dashed) and this machine's ideal (dotted), one
+    colour per n.  Middle: the measured speed-up (solid) and the ideal's
+    (dotted).  Bottom: the share of the tasks' time the async frame hid.
+    """
+    scenes = sorted({r["scene"] for r in rows})
+    sizes = sorted({r["objects"] for r in rows})
+    palette = plt.get_cmap("viridis")
+    figure, axes = plt.subplots(3, len(scenes), figsize=(5.5 * len(scenes), 10), squeeze=False)
+    for column, scene in enumerate(scenes):
+        times, speedups, hidden = axes[0][column], axes[1][column], axes[2][column]
+        for index, n in enumerate(sizes):
+            mine = sorted((r for r in rows if r["scene"] == scene and r["objects"] == n),
+                          key=lambda r: r["load"])
+            if not mine:
+                continue
+            colour_n = palette(index / max(1, len(sizes) - 1) * 0.85)
+            loads = [r["load"] for r in mine]
+            times.plot(loads, [r["sync_ms"] for r in mine], "-o", color=colour_n,
+                       label=f"n {n} sync")
+            times.plot(loads, [r["async_ms"] for r in mine], "--s", color=colour_n,
+                       label=f"n {n} async")
+            times.plot(loads, [r["ideal_ms"] for r in mine], ":", color=colour_n,
+                       label=f"n {n} ideal")
+            speedups.plot(loads, [r["speedup"] for r in mine], "-o", color=colour_n,
+                          label=f"n {n}")
+            speedups.plot(loads, [r["ideal_speedup"] for r in mine], ":", color=colour_n,
+                          label=f"n {n} ideal")
+            hidden.plot(loads, [r["hidden"] for r in mine], "-o", color=colour_n, label=f"n {n}")
+        times.set_yscale("log")
+        times.set_title(f"scene {scene}: frame time (median)", fontsize=10)
+        times.set_ylabel("ms per frame")
+        speedups.axhline(1.0, color="black", linewidth=0.6)
+        speedups.set_title(f"scene {scene}: speed-up, sync / async", fontsize=10)
+        speedups.set_ylabel("speed-up")
+        hidden.set_title(f"scene {scene}: share of the tasks' time hidden", fontsize=10)
+        hidden.set_ylabel("(sync - async) / tasks")
+        hidden.set_ylim(-0.05, 1.05)
+        for axis in (times, speedups, hidden):
+            axis.set_xlabel("task load X (tasks' cost / physics step)")
+            axis.grid(alpha=0.3)
+            axis.legend(fontsize=7, ncol=2)
+    figure.tight_layout()
+    return save(figure, folder, "fig_overlap")

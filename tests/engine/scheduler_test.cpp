@@ -1,10 +1,18 @@
-// The asynchronous frame: every task once per frame, a join that waits for
-// all of them, and the same answers as running everything in sequence.
+// The asynchronous frame: every task once per frame beside the whole step,
+// the graph's order in the timeline, errors that leave nothing in flight, a
+// thread cap that holds, and the same answers as running everything in
+// sequence, under every broadphase.
 #include <gtest/gtest.h>
+#include <oneapi/tbb/global_control.h>
 
+#include <atomic>
+#include <filesystem>
 #include <map>
+#include <stdexcept>
 
 #include "engine/frame_scheduler.h"
+#include "physics/pair_finder_broadphase.h"
+#include "tests/engine/scheduler_test_support.h"
 
 namespace overlap::engine {
 namespace {
@@ -15,26 +23,18 @@ physics::SceneConfig smallScene() {
   return config;
 }
 
-SchedulerOptions cheapTasks(bool sync) {
-  SchedulerOptions options;
-  options.sync = sync;
-  options.sound.voices = 8;
-  options.sound.background_voices = 4;
-  options.ai.agents = 32;
-  return options;
-}
-
 struct Outcome {
   std::vector<std::vector<std::pair<int, int>>> pairs;  // per frame
   std::uint64_t state_hash;
   std::uint64_t sound_checksum;
   std::uint64_t ai_checksum;
+  std::uint64_t impacts;
 };
 
 Outcome runFrames(const std::string& algorithm, bool sync, int frames) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{algorithm});
   Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+  FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
   Outcome outcome;
   for (int frame = 0; frame < frames; ++frame) {
     scheduler.runFrame();
@@ -43,42 +43,179 @@ Outcome runFrames(const std::string& algorithm, bool sync, int frames) {
   outcome.state_hash = world.stateHash();
   outcome.sound_checksum = scheduler.soundChecksum();
   outcome.ai_checksum = scheduler.aiChecksum();
+  outcome.impacts = scheduler.soundWork()->impacts_started;
   return outcome;
 }
 
-TEST(FrameScheduler, EveryTaskRunsExactlyOncePerFrame) {
+// Spans of one frame by name, in the order drawn.
+std::map<std::string, std::vector<Span>> spansOfFrame(const Timeline& timeline, int frame) {
+  std::map<std::string, std::vector<Span>> spans;
+  for (const Span& span : timeline.spans()) {
+    if (span.frame == frame) spans[span.name].push_back(span);
+  }
+  return spans;
+}
+
+double endOf(const Span& span) {
+  return span.start_us + span.duration_us;
+}
+
+TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowphase) {
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     Timeline timeline;
-    FrameScheduler scheduler(world, cheapTasks(sync), timeline);
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
     constexpr int kFrames = 25;
     for (int frame = 0; frame < kFrames; ++frame) scheduler.runFrame();
     EXPECT_EQ(scheduler.soundWork()->frames, kFrames) << "sync " << sync;
     EXPECT_EQ(scheduler.aiWork()->frames, kFrames) << "sync " << sync;
-    std::map<std::pair<int, std::string>, int> spans;
-    for (const Span& span : timeline.spans()) ++spans[{span.frame, span.name}];
+    const auto substeps = static_cast<std::size_t>(world.substeps());
+    ASSERT_GT(substeps, 1u);
     for (int frame = 0; frame < kFrames; ++frame) {
-      for (const char* task : {"sound", "ai", "search", "join"}) {
-        EXPECT_EQ((spans[{frame, task}]), 1) << task << " in frame " << frame << ", sync " << sync;
+      auto spans = spansOfFrame(timeline, frame);
+      for (const char* once : {"frame", "physics", "tasks", "sound", "ai"}) {
+        EXPECT_EQ(spans[once].size(), 1u) << once << " in frame " << frame << ", sync " << sync;
+      }
+      for (const char* each : {"substep", "search", "join", "narrowphase"}) {
+        ASSERT_EQ(spans[each].size(), substeps) << each << " in frame " << frame;
+        for (std::size_t k = 0; k < substeps; ++k) {
+          EXPECT_EQ(spans[each][k].substep, static_cast<int>(k)) << each << " in frame " << frame;
+        }
       }
     }
   }
 }
 
-TEST(FrameScheduler, JoinWaitsForEveryTask) {
-  physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-  ASSERT_TRUE(world.broadphaseRunsInBackground());
-  Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(false), timeline);
-  for (int frame = 0; frame < 25; ++frame) scheduler.runFrame();
-  std::map<int, double> join_start;
-  for (const Span& span : timeline.spans()) {
-    if (span.name == "join") join_start[span.frame] = span.start_us;
+// The frame's graph, read back from the timeline: the tasks are launched
+// before the first substep and joined after the last; every task runs
+// inside that window; each substep's search starts after its substep does
+// and is joined before that substep's narrowphase.  In sync, every task is
+// done before the physics starts.
+TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
+  for (const bool sync : {false, true}) {
+    SCOPED_TRACE(sync ? "sync" : "async");
+    physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
+    ASSERT_TRUE(world.broadphaseRunsInBackground());
+    Timeline timeline;
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+    for (int frame = 0; frame < 20; ++frame) {
+      scheduler.runFrame();
+      auto spans = spansOfFrame(timeline, frame);
+      const Span& tasks = spans["tasks"].front();
+      const Span& physics = spans["physics"].front();
+      const std::vector<Span>& substeps = spans["substep"];
+      for (const char* task : {"sound", "ai"}) {
+        const Span& span = spans[task].front();
+        EXPECT_GE(span.start_us, tasks.start_us) << task << ", frame " << frame;
+        EXPECT_LE(endOf(span), endOf(tasks)) << task << ", frame " << frame;
+        if (sync) {
+          EXPECT_LE(endOf(span), physics.start_us) << task << ", frame " << frame;
+        }
+      }
+      if (!sync) {
+        EXPECT_LE(tasks.start_us, substeps.front().start_us) << "frame " << frame;
+        EXPECT_GE(endOf(tasks), endOf(substeps.back())) << "frame " << frame;
+      }
+      for (std::size_t k = 0; k < substeps.size(); ++k) {
+        const Span& search = spans["search"][k];
+        const Span& join = spans["join"][k];
+        const Span& narrowphase = spans["narrowphase"][k];
+        EXPECT_GE(search.start_us, substeps[k].start_us) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(endOf(search), endOf(join)) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(endOf(join), narrowphase.start_us) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(endOf(narrowphase), endOf(substeps[k])) << "frame " << frame << ", substep " << k;
+      }
+    }
   }
-  for (const Span& span : timeline.spans()) {
-    if (span.name != "sound" && span.name != "ai") continue;
-    EXPECT_LE(span.start_us + span.duration_us, join_start.at(span.frame))
-        << span.name << " of frame " << span.frame << " ended after the join began";
+}
+
+// Issue 12, item 7: frames.csv's join_ms is the frame's joins summed over
+// the substeps; the timeline draws each substep's join, so they add up.
+TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
+  physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
+  Timeline timeline;
+  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
+  for (int frame = 0; frame < 10; ++frame) {
+    const ScheduledFrame scheduled = scheduler.runFrame();
+    double drawn_us = 0;
+    int joins = 0;
+    for (const Span& span : spansOfFrame(timeline, frame)["join"]) {
+      drawn_us += span.duration_us;
+      ++joins;
+    }
+    EXPECT_EQ(joins, world.substeps());
+    EXPECT_NEAR(drawn_us / 1e3, scheduled.physics.timings.join_ms, 1e-9) << "frame " << frame;
+  }
+}
+
+// Issue 12, item 3: a task that throws leaves nothing in flight.  The step
+// finishes (its searches joined), every other task finishes, the error names
+// the task, the frame and the cause, and the next frames run normally.
+TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
+  for (const bool sync : {false, true}) {
+    SCOPED_TRACE(sync ? "sync" : "async");
+    physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
+    Timeline timeline;
+    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+    int calls = 0;
+    scheduler.addTask("physics-free game logic", [&calls] {
+      if (++calls == 4) throw std::runtime_error("the script divided by zero");
+    });
+    for (int frame = 0; frame < 3; ++frame) scheduler.runFrame();
+    try {
+      scheduler.runFrame();
+      FAIL() << "the task's error was lost";
+    } catch (const std::runtime_error& error) {
+      EXPECT_STREQ(error.what(),
+                   "task 'physics-free game logic' failed in frame 3: the script divided by zero");
+    }
+    const auto& broadphase = dynamic_cast<const physics::PairFinderBroadphase&>(world.broadphase());
+    EXPECT_FALSE(broadphase.searchInFlight());
+    EXPECT_EQ(world.framesDone(), 4);
+    EXPECT_EQ(scheduler.soundWork()->frames, 4u) << "the other tasks ran to the end";
+    EXPECT_EQ(scheduler.aiWork()->frames, 4u);
+    for (int frame = 0; frame < 3; ++frame) EXPECT_NO_THROW(scheduler.runFrame());
+    EXPECT_EQ(world.framesDone(), 7);
+  }
+}
+
+// Issue 12, item 6: a oneTBB cap of N threads (what `overlap run --threads N`
+// sets) bounds every thread of the run, cpubf's search included: the main
+// thread and N - 1 workers.  Counted in /proc/self/task from inside a task,
+// while the tasks and the search run.  Caps grow, as a worker that exists
+// stays.
+std::size_t threadsNow() {
+  return static_cast<std::size_t>(
+      std::distance(std::filesystem::directory_iterator("/proc/self/task"),
+                    std::filesystem::directory_iterator{}));
+}
+
+TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
+  if (threadsNow() != 1) {
+    GTEST_SKIP() << threadsNow() << " threads before the test: earlier tests of this process left "
+                 << "oneTBB workers; ctest runs each test in a process of its own";
+  }
+  for (const std::size_t cap : {1u, 2u, 3u}) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, cap);
+    physics::SceneConfig config = smallScene();
+    config.objects = 400;
+    physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
+    Timeline timeline;
+    FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
+    std::atomic<std::size_t> most{0};
+    scheduler.addTask("count threads", [&most] {
+      for (int i = 0; i < 200; ++i) {
+        std::size_t now = threadsNow();
+        std::size_t seen = most.load();
+        while (now > seen && !most.compare_exchange_weak(seen, now)) {
+        }
+      }
+    });
+    for (int frame = 0; frame < 10; ++frame) {
+      scheduler.runFrame();
+      most = std::max(most.load(), threadsNow());
+    }
+    EXPECT_LE(most.load(), cap) << "threads with a cap of " << cap;
   }
 }
 
@@ -93,10 +230,23 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSamePairsStateAndTasks) {
   }
 }
 
+// Issue 12, item 5: impact sounds start where contacts begin (a manifold's
+// first point), not where a broadphase's AABBs first overlap, so every
+// broadphase gives the same sound where it gives the same physics.
+TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
+  const Outcome bf = runFrames("bf", false, 60);
+  ASSERT_GT(bf.impacts, 10u) << "the scene should sound contacts";
+  for (const char* algorithm : {"sap", "bvh", "cpubf"}) {
+    const Outcome other = runFrames(algorithm, false, 60);
+    ASSERT_EQ(other.state_hash, bf.state_hash) << algorithm << ": not the same physics";
+    EXPECT_EQ(other.sound_checksum, bf.sound_checksum) << algorithm;
+  }
+}
+
 TEST(FrameScheduler, NewContactsBecomeImpactSounds) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"bvh"});
   Timeline timeline;
-  FrameScheduler scheduler(world, cheapTasks(false), timeline);
+  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
   std::size_t contacts = 0;
   for (int frame = 0; frame < 30; ++frame) {
     scheduler.runFrame();
@@ -114,7 +264,7 @@ TEST(FrameScheduler, PhysicsOnlyRunsNoTasks) {
   FrameScheduler scheduler(world, options, timeline);
   const ScheduledFrame frame = scheduler.runFrame();
   EXPECT_EQ(scheduler.soundWork(), nullptr);
-  EXPECT_EQ(frame.physics.timings.frame_work_ms, 0.0);
+  EXPECT_EQ(frame.sound_ms + frame.ai_ms + frame.tasks_wait_ms, 0.0);
   EXPECT_GT(frame.physics.pairs, 0);
 }
 

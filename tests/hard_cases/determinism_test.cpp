@@ -21,6 +21,7 @@
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
+#include "tests/engine/scheduler_test_support.h"
 #include "tests/hard_cases/hard_case_support.h"
 
 namespace overlap::hard_cases {
@@ -61,23 +62,47 @@ TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBrut
   }
 }
 
-// The engine's frame: cpubf searches on its worker while the sound and AI
-// tasks run (async), or the tasks run first and the search after (sync).
-std::uint64_t hashAfterScheduledRun(bool sync) {
+// The engine's frame: the sound and AI tasks beside the whole physics step,
+// cpubf's searches launched and joined inside it (async), or the same jobs
+// one after another (sync).  Every frame's pairs, the final state, the sound
+// and the AI must be bit-identical over the full 2048 frames.
+struct ScheduledRun {
+  std::uint64_t pairs_digest = 0xcbf29ce484222325ULL;  // FNV-1a over every frame's pairs
+  std::uint64_t state_hash = 0;
+  std::uint64_t sound_checksum = 0;
+  std::uint64_t ai_checksum = 0;
+  std::uint64_t impacts = 0;
+};
+
+ScheduledRun scheduledRun(bool sync) {
   physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
-  engine::SchedulerOptions options;
-  options.sync = sync;
-  options.sound.voices = 4;
-  options.sound.background_voices = 2;
-  options.ai.agents = 16;
   engine::Timeline timeline;
-  engine::FrameScheduler scheduler(world, options, timeline);
-  for (int frame = 0; frame < kFrames; ++frame) scheduler.runFrame();
-  return world.stateHash();
+  engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
+  ScheduledRun run;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    scheduler.runFrame();
+    for (const auto& [a, b] : world.cachedPairs()) {
+      for (const int index : {a, b})
+        run.pairs_digest =
+            (run.pairs_digest ^ static_cast<std::uint64_t>(index)) * 0x100000001b3ULL;
+    }
+    run.pairs_digest = (run.pairs_digest ^ 0xffu) * 0x100000001b3ULL;  // frame separator
+  }
+  run.state_hash = world.stateHash();
+  run.sound_checksum = scheduler.soundChecksum();
+  run.ai_checksum = scheduler.aiChecksum();
+  run.impacts = scheduler.soundWork()->impacts_started;
+  return run;
 }
 
-TEST(Determinism, AsyncAndSyncFramesEndInTheSameState) {
-  EXPECT_EQ(hashAfterScheduledRun(false), hashAfterScheduledRun(true));
+TEST(Determinism, AsyncAndSyncFramesGiveTheSamePairsStateAndSoundFor2048Frames) {
+  const ScheduledRun async_run = scheduledRun(false);
+  const ScheduledRun sync_run = scheduledRun(true);
+  EXPECT_EQ(async_run.pairs_digest, sync_run.pairs_digest);
+  EXPECT_EQ(async_run.state_hash, sync_run.state_hash);
+  EXPECT_EQ(async_run.sound_checksum, sync_run.sound_checksum);
+  EXPECT_EQ(async_run.ai_checksum, sync_run.ai_checksum);
+  EXPECT_GT(async_run.impacts, 0u) << "the sound should have heard contacts";
 }
 
 // The pair-finder level, where the thread count is the finder's own: a

@@ -27,7 +27,8 @@ TINY = ["--quick", "--threads", "1", "--scenes", ",".join(map(str, SCENES)),
         "--physics-objects", "120", "--physics-frames", "4",
         "--physics-substeps", ",".join(map(str, SUBSTEPS)),
         "--latency-scenes", "1,4", "--latency-objects", "120", "--latency-frames", "4",
-        "--latency-algos", "bvh,cpubf", "--timeline-objects", "120", "--timeline-frames", "4"]
+        "--latency-algos", "bvh,cpubf", "--timeline-objects", "120", "--timeline-frames", "4",
+        "--overlap-objects", "80", "--overlap-loads", "0,1", "--overlap-frames", "3"]
 
 
 def rows(path: pathlib.Path) -> list:
@@ -83,7 +84,7 @@ def main() -> int:
     check("; broadphase:" not in report and "update + broadphase, fastest first" in report,
           "the report ranks broadphases on the broadphase column alone")
     for figure in ("fig1_keyframes", "fig6_total_against_n", "fig_timeline", "fig_physics",
-                   "fig_latency", "fig_broadphase_error"):
+                   "fig_latency", "fig_broadphase_error", "fig_overlap"):
         check(f"report/{figure}.png" in report, f"the report lacks {figure}")
     pairs = rows(args.out / "pairs.csv")
     check({p["algo"] for p in pairs} == {"bf", "sap", "sap32", "bvh", "cpubf"},
@@ -95,6 +96,14 @@ def main() -> int:
     check({(r["scene"], r["algo"], r["growth"]) for r in latency} ==
           {(s, a, g) for s in ("1", "4") for a in ("bvh", "cpubf") for g in ("0", "1", "2")},
           "latency.csv lacks a (scene, algo, growth)")
+
+    overlap = rows(args.out / "overlap.csv")
+    check({(r["scene"], r["load"]) for r in overlap} == {("1", "0"), ("1", "1"), ("4", "0"),
+                                                         ("4", "1")},
+          f"overlap.csv holds {sorted((r['scene'], r['load']) for r in overlap)}")
+    check(all(r["identical"] == "True" for r in overlap),
+          "a sync and an async run of the overlap study ended differently")
+    check("## 4. The asynchronous frame" in report, "the report lacks the overlap section")
 
     again = study(args.overlap, args.out)
     check(" 0 to run" in again.stderr, "a second invocation ran jobs again:\n" + again.stderr)
