@@ -139,7 +139,9 @@ const char* collectiveName(Collective kind) {
 }
 
 std::string format(const uint3& v) {
-  return "(" + std::to_string(v.x) + "," + std::to_string(v.y) + "," + std::to_string(v.z) + ")";
+  char text[40];
+  std::snprintf(text, sizeof text, "(%u,%u,%u)", v.x, v.y, v.z);
+  return text;
 }
 
 std::string hex(unsigned mask) {
