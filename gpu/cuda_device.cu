@@ -1,6 +1,6 @@
 // cudaDeviceAvailable for CUDA builds: a device must exist, the driver must
 // be new enough for this runtime, and the binary must hold code the device
-// can run (it is built for CMAKE_CUDA_ARCHITECTURES only).  The emulation
+// can run (SASS for CMAKE_CUDA_ARCHITECTURES, sm_75 to sm_90, and sm_90 PTX).  The emulation
 // build (gpu/emulation/) compiles this file too and has one device.
 #include <cuda_runtime.h>
 
