@@ -1,6 +1,12 @@
-// Pair logic: the per-pair rules every pair finder applies, compiled for the
-// CPU and, under nvcc, for the GPU too, so that the CPU finder that CI tests
-// runs exactly the arithmetic the kernels run.
+// Pair logic: the per-pair rules every pair finder applies, one source compiled
+// for the CPU and, under nvcc, for the GPU.  What is shared is these functions
+// (the pair numbering and its inverse, the AABB and filter tests, the XOR
+// split), which cpubf calls in a loop of its own; the kernels' own code (warp
+// ballots and shuffles, atomics, grid-stride loops, the host code around them)
+// is not cpubf's.  That code runs on the CPU in the CUDA emulation build
+// (gpu/emulation/), which executes the .cu files themselves; it cannot show
+// timing, memory ordering and races between the threads of a block (they run
+// one at a time), or what the real driver does.
 //
 // Pair numbering is triangular and independent of the slot count n:
 //   p(a, b) = b (b - 1) / 2 + a   for a < b,

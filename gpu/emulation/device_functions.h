@@ -13,6 +13,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <source_location>
 #include <type_traits>
 
@@ -69,6 +70,17 @@ template <class T>
 T shuffle(Collective kind, unsigned mask, T value, int operand, int width,
           const std::source_location& site) {
   return fromBits<T>(collective(kind, mask, toBits(value), operand, width, site));
+}
+
+// Stores `value` while `replace(old, value)` holds; returns the old value.
+template <class T, class Replace>
+T replaceWhile(T* address, T value, Replace replace) {
+  std::atomic_ref<T> target(*address);
+  T old = target.load(std::memory_order_relaxed);
+  while (replace(old, value) &&
+         !target.compare_exchange_weak(old, value, std::memory_order_relaxed)) {
+  }
+  return old;
 }
 
 }  // namespace detail
@@ -160,42 +172,33 @@ inline int __ffsll(long long x) {
 
 // Atomics return the old value, as on the device.
 template <class T>
-requires std::is_arithmetic_v<T> T atomicAdd(T* address, std::type_identity_t<T> value) {
+T atomicAdd(T* address, std::type_identity_t<T> value) {
   return std::atomic_ref<T>(*address).fetch_add(value, std::memory_order_relaxed);
 }
 
 template <class T>
-requires std::is_integral_v<T> T atomicSub(T* address, std::type_identity_t<T> value) {
+T atomicSub(T* address, std::type_identity_t<T> value) {
   return std::atomic_ref<T>(*address).fetch_sub(value, std::memory_order_relaxed);
 }
 
 template <class T>
-requires std::is_integral_v<T> T atomicExch(T* address, std::type_identity_t<T> value) {
+T atomicExch(T* address, std::type_identity_t<T> value) {
   return std::atomic_ref<T>(*address).exchange(value, std::memory_order_relaxed);
 }
 
 template <class T>
-requires std::is_integral_v<T> T atomicCAS(T* address, std::type_identity_t<T> expected,
-                                           std::type_identity_t<T> desired) {
+T atomicCAS(T* address, std::type_identity_t<T> expected, std::type_identity_t<T> desired) {
   std::atomic_ref<T>(*address).compare_exchange_strong(expected, desired,
                                                        std::memory_order_relaxed);
   return expected;
 }
 
 template <class T>
-requires std::is_integral_v<T> T atomicMax(T* address, std::type_identity_t<T> value) {
-  std::atomic_ref<T> target(*address);
-  T old = target.load(std::memory_order_relaxed);
-  while (old < value && !target.compare_exchange_weak(old, value, std::memory_order_relaxed)) {
-  }
-  return old;
+T atomicMax(T* address, std::type_identity_t<T> value) {
+  return ::overlap::cuda_emulation::detail::replaceWhile(address, value, std::less<T>());
 }
 
 template <class T>
-requires std::is_integral_v<T> T atomicMin(T* address, std::type_identity_t<T> value) {
-  std::atomic_ref<T> target(*address);
-  T old = target.load(std::memory_order_relaxed);
-  while (value < old && !target.compare_exchange_weak(old, value, std::memory_order_relaxed)) {
-  }
-  return old;
+T atomicMin(T* address, std::type_identity_t<T> value) {
+  return ::overlap::cuda_emulation::detail::replaceWhile(address, value, std::greater<T>());
 }

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "engine/frame_scheduler.h"
+#include "gpu/pair_finder.h"
 
 namespace overlap::engine {
 namespace {
@@ -90,6 +91,19 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSamePairsStateAndTasks) {
     EXPECT_EQ(async_run.state_hash, sync_run.state_hash) << algorithm;
     EXPECT_EQ(async_run.sound_checksum, sync_run.sound_checksum) << algorithm;
     EXPECT_EQ(async_run.ai_checksum, sync_run.ai_checksum) << algorithm;
+  }
+}
+
+TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
+  std::string why;
+  if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  const Outcome reference = runFrames("cpubf", true, 30);
+  for (const char* algorithm : {"gpubf", "gpubf-paper"}) {
+    const Outcome async_run = runFrames(algorithm, false, 30);
+    EXPECT_EQ(async_run.pairs, reference.pairs) << algorithm;
+    EXPECT_EQ(async_run.state_hash, reference.state_hash) << algorithm;
+    EXPECT_EQ(async_run.sound_checksum, reference.sound_checksum) << algorithm;
+    EXPECT_EQ(async_run.ai_checksum, reference.ai_checksum) << algorithm;
   }
 }
 

@@ -167,12 +167,14 @@ TEST(CudaEmulation, SyncthreadsOrdersTheBlockAndItsAbsenceShows) {
 }
 
 __global__ void atomics(unsigned* counter32, unsigned long long* counter64, float* sum,
-                        int* popcounts) {
+                        int* popcounts, unsigned* extremes) {
   atomicAdd(counter32, 1u);
   atomicAdd(counter64, 1ull << 33);
   atomicAdd(sum, 0.5f);
   const unsigned i = blockIdx.x * blockDim.x + threadIdx.x;
   popcounts[i] = __popc(i) + __popcll(static_cast<unsigned long long>(i) << 40);
+  atomicMax(&extremes[0], i);
+  atomicMin(&extremes[1], i);
 }
 
 TEST(CudaEmulation, AtomicsFromEveryBlockAddUpAndPopcCounts) {
@@ -182,13 +184,18 @@ TEST(CudaEmulation, AtomicsFromEveryBlockAddUpAndPopcCounts) {
   Device<unsigned long long> counter64(1);
   Device<float> sum(1);
   Device<int> popcounts(kBlocks * kThreads);
+  Device<unsigned> extremes(2);
+  const unsigned start[2] = {0, ~0u};
+  cudaMemcpy(extremes.get(), start, sizeof start, cudaMemcpyHostToDevice);
   cudaMemset(counter32.get(), 0, sizeof(unsigned));
   cudaMemset(counter64.get(), 0, sizeof(unsigned long long));
   cudaMemset(sum.get(), 0, sizeof(float));
-  atomics<<<kBlocks, kThreads>>>(counter32.get(), counter64.get(), sum.get(), popcounts.get());
+  atomics<<<kBlocks, kThreads>>>(counter32.get(), counter64.get(), sum.get(), popcounts.get(),
+                                 extremes.get());
   EXPECT_EQ(counter32.copyOut()[0], kBlocks * kThreads);
   EXPECT_EQ(counter64.copyOut()[0], (1ull << 33) * kBlocks * kThreads);
   EXPECT_EQ(sum.copyOut()[0], 0.5f * kBlocks * kThreads);
+  EXPECT_EQ(extremes.copyOut(), (std::vector<unsigned>{kBlocks * kThreads - 1, 0}));
   const std::vector<int> host = popcounts.copyOut();
   for (unsigned i = 0; i < kBlocks * kThreads; ++i) {
     ASSERT_EQ(host[i], 2 * __builtin_popcount(i)) << i;
