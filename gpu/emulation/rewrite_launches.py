@@ -15,7 +15,7 @@ import sys
 LAUNCH = re.compile(r"([A-Za-z_][\w:]*(?:<[^<>]*>)?)(\s*)<<<(.*?)>>>(\s*)\(", re.DOTALL)
 
 
-def rewrite(source: str) -> str:
+def rewrite(source: str) -> tuple[str, int]:
     def replace(match: re.Match) -> str:
         kernel, space_before, config, space_after = match.groups()
         name = kernel.split("<")[0]
