@@ -217,4 +217,25 @@ TEST_F(CudaEmulationRuntimeDeathTest, AKernelGivenAHostPointerAborts) {
                "argument 1 \\(0x[0-9a-f]+\\) is not in a live device or pinned allocation");
 }
 
+#if defined(__SANITIZE_ADDRESS__)
+__global__ void writePastTheEnd(int* values, int count) {
+  values[count + static_cast<int>(threadIdx.x)] = 1;
+}
+
+// Inside a kernel only AddressSanitizer sees an access (device memory is host
+// memory with ASan's red zones here): the CI's ASan build is the emulation's
+// memcheck, naming the kernel and its line.  (Built in ASan builds only.)
+TEST_F(CudaEmulationRuntimeDeathTest, AnOutOfBoundsWriteInAKernelIsCaughtUnderAsan) {
+  int* values = nullptr;
+  cudaMalloc(reinterpret_cast<void**>(&values), 64 * sizeof(int));
+  EXPECT_DEATH(
+      {
+        writePastTheEnd<<<1, 1>>>(values, 64);
+        cudaDeviceSynchronize();
+      },
+      "heap-buffer-overflow.*WRITE of size 4.*writePastTheEnd");
+  cudaFree(values);
+}
+#endif
+
 }  // namespace
