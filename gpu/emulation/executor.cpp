@@ -294,7 +294,8 @@ class BlockRunner {
             failAt(lane, "waits at " + describeWait(lane) + " for " + describeLane(other) +
                              ", which exited");
           }
-          complete = complete && other.kind == lane.kind && other.mask == mask;
+          complete = complete && other.state == LaneState::kWaiting && other.kind == lane.kind &&
+                     other.mask == mask;
         }
         if (!complete) continue;
         completeWarpCollective(first, mask);
