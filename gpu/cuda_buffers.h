@@ -31,28 +31,37 @@ class CudaBuffer {
   }
   CudaBuffer(CudaBuffer&& other) noexcept
       : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
+  // Frees what this buffer held, then takes `other`'s memory (never a swap).
   CudaBuffer& operator=(CudaBuffer&& other) noexcept {
-    std::swap(data_, other.data_);
-    std::swap(count_, other.count_);
+    if (this != &other) {
+      release();
+      data_ = std::exchange(other.data_, nullptr);
+      count_ = std::exchange(other.count_, 0);
+    }
     return *this;
   }
   CudaBuffer(const CudaBuffer&) = delete;
   CudaBuffer& operator=(const CudaBuffer&) = delete;
+  ~CudaBuffer() { release(); }
+
+  T* data() const { return data_; }
+  std::size_t size() const { return count_; }
+
+ private:
   // Freeing cannot report an error from a destructor; a failure here means the
-  // context is already lost, which the next checked call reports.
-  ~CudaBuffer() {
+  // context is already lost, which the next checked call reports.  cudaFree
+  // waits for the device, so no queued work still uses the memory.
+  void release() noexcept {
     if (data_ == nullptr) return;
     if constexpr (kSpace == MemorySpace::kDevice) {
       cudaFree(data_);
     } else {
       cudaFreeHost(data_);
     }
+    data_ = nullptr;
+    count_ = 0;
   }
 
-  T* data() const { return data_; }
-  std::size_t size() const { return count_; }
-
- private:
   T* data_ = nullptr;
   std::size_t count_ = 0;
 };

@@ -1,6 +1,7 @@
 // cudaDeviceAvailable for CUDA builds: a device must exist, the driver must
 // be new enough for this runtime, and the binary must hold code the device
-// can run (it is built for CMAKE_CUDA_ARCHITECTURES only).
+// can run (SASS for CMAKE_CUDA_ARCHITECTURES, sm_75 to sm_90, and sm_90 PTX).  The emulation
+// build (gpu/emulation/) compiles this file too and has one device.
 #include <cuda_runtime.h>
 
 #include <string>
@@ -57,6 +58,9 @@ std::string cudaDeviceName() {
       cudaGetDeviceProperties(&properties, device) != cudaSuccess) {
     return {};
   }
+#if defined(OVERLAP_CUDA_EMULATION)
+  return properties.name;  // "CUDA emulation on the CPU, N threads": no SM to name
+#endif
   return std::string(properties.name) + " (sm_" + std::to_string(properties.major) +
          std::to_string(properties.minor) + ", " + std::to_string(properties.multiProcessorCount) +
          " SMs)";

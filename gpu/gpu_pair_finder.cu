@@ -180,9 +180,22 @@ class GpuPairFinder final : public PairFinder {
     in_flight_ = true;
   }
 
+  // The frame ends here whether this returns or throws.  After a throw no work
+  // of it stays queued, and previous_ still names the last frame the caller
+  // received a delta for, so the next frame's delta is taken against it.
   PairDelta finish() override {
     if (!in_flight_) throw std::runtime_error("gpubf: finish() called without launch()");
     in_flight_ = false;
+    try {
+      return collectDelta();
+    } catch (...) {
+      cudaStreamSynchronize(stream_);  // its own error is the one being thrown
+      throw;
+    }
+  }
+
+ private:
+  PairDelta collectDelta() {
     CUDA_CHECK(cudaEventSynchronize(counts_ready_));
     const std::size_t added_count = host_counts_.data()[0];
     const std::size_t removed_count = host_counts_.data()[1];
@@ -203,7 +216,7 @@ class GpuPairFinder final : public PairFinder {
     float elapsed_ms = 0;
     CUDA_CHECK(cudaEventElapsedTime(&elapsed_ms, search_started_, done));
     last_search_ms_ = elapsed_ms;
-    previous_ = 1 - previous_;
+    previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
     // Atomics append in no fixed order; sorting restores the contract.
     IndexPair* const added = host_added_.data();
@@ -213,9 +226,9 @@ class GpuPairFinder final : public PairFinder {
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
- private:
   ChangeLists changeLists() const {
-    return ChangeLists{added_.data(), removed_.data(), counts_.data(), added_.size()};
+    return ChangeLists{added_.data(), removed_.data(), counts_.data(),
+                       std::min(added_.size(), removed_.size())};
   }
 
   // The counts, and the lists' first kSpeculativeCopy entries on the chance
@@ -235,26 +248,25 @@ class GpuPairFinder final : public PairFinder {
                                cudaMemcpyDeviceToHost, stream_));
   }
 
-  // Both word buffers cover `words`; last frame's words are kept and every new
-  // word is zero.
+  // Both word buffers cover `words`: the one previous_ names keeps last
+  // frame's words, every other word is zero.  New buffers are filled before
+  // they replace the old ones, so a throw leaves the old ones in place.
   void growWords(std::uint64_t words) {
     if (words > words_[0].size()) {
       const std::size_t capacity = std::max<std::size_t>(words, 2 * words_[0].size());
-      DeviceBuffer<std::uint32_t> grown[2] = {DeviceBuffer<std::uint32_t>(capacity),
-                                              DeviceBuffer<std::uint32_t>(capacity)};
-      for (DeviceBuffer<std::uint32_t>& buffer : grown) {
-        CUDA_CHECK(cudaMemsetAsync(buffer.data(), 0, capacity * sizeof(std::uint32_t), stream_));
-      }
+      DeviceBuffer<std::uint32_t> last_frame(capacity);
+      DeviceBuffer<std::uint32_t> this_frame(capacity);
+      CUDA_CHECK(cudaMemsetAsync(last_frame.data(), 0, capacity * sizeof(std::uint32_t), stream_));
+      CUDA_CHECK(cudaMemsetAsync(this_frame.data(), 0, capacity * sizeof(std::uint32_t), stream_));
       if (word_count_ > 0) {
-        CUDA_CHECK(cudaMemcpyAsync(grown[previous_].data(), words_[previous_].data(),
+        CUDA_CHECK(cudaMemcpyAsync(last_frame.data(), words_[previous_].data(),
                                    word_count_ * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice,
                                    stream_));
       }
-      words_[0] = std::move(grown[0]);
-      words_[1] = std::move(grown[1]);
-      // The old buffers, now in `grown`, are freed on return; the copy above
-      // must be done reading them.  Growth is rare, so waiting costs nothing.
+      // The copy reads the old buffer, freed below.  Growth is rare: waiting costs nothing.
       CUDA_CHECK(cudaStreamSynchronize(stream_));
+      words_[previous_] = std::move(last_frame);
+      words_[1 - previous_] = std::move(this_frame);
     }
     word_count_ = words;
   }
@@ -262,8 +274,12 @@ class GpuPairFinder final : public PairFinder {
   // The kernel counted `needed` changes on one list but stored only what fit:
   // collect them again from the two frames' words into lists that fit them.
   void recollectChanges(std::size_t needed) {
-    reserveDiscarding(added_, needed);
-    reserveDiscarding(removed_, needed);
+    // Both lists are replaced only once both exist: they share one capacity.
+    const std::size_t capacity = std::max(needed, 2 * added_.size());
+    DeviceBuffer<IndexPair> added(capacity);
+    DeviceBuffer<IndexPair> removed(capacity);
+    added_ = std::move(added);
+    removed_ = std::move(removed);
     CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, 2 * sizeof(unsigned long long), stream_));
     collectChangesKernel<<<blocksFor(word_count_), kThreadsPerBlock, 0, stream_>>>(
         word_count_, words_[previous_].data(), words_[1 - previous_].data(), changeLists());
@@ -283,15 +299,17 @@ class GpuPairFinder final : public PairFinder {
   bool in_flight_ = false;
   double last_search_ms_ = 0;
 
-  PinnedBuffer<ObjectBounds> staging_;
-  DeviceBuffer<ObjectBounds> objects_;
+  PinnedBuffer<ObjectBounds> staging_;  // this frame's boxes, copied from the caller
+  DeviceBuffer<ObjectBounds> objects_;  // ... and uploaded from staging_
+  // One bit per pair: words_[previous_] holds the last finished frame's, the
+  // other the frame being searched (or last searched, if finish() threw).
   DeviceBuffer<std::uint32_t> words_[2];
-  int previous_ = 0;  // index of the buffer holding last frame's words
-  DeviceBuffer<IndexPair> added_;
-  DeviceBuffer<IndexPair> removed_;  // same capacity as added_
-  DeviceBuffer<unsigned long long> counts_;
+  int previous_ = 0;
+  DeviceBuffer<IndexPair> added_;            // this frame's appeared pairs, in atomic order
+  DeviceBuffer<IndexPair> removed_;          // ... and vanished ones; same capacity as added_
+  DeviceBuffer<unsigned long long> counts_;  // their counts, which may exceed the capacity
   PinnedBuffer<unsigned long long> host_counts_;
-  PinnedBuffer<IndexPair> host_added_;
+  PinnedBuffer<IndexPair> host_added_;  // the lists on the host, sorted by finish()
   PinnedBuffer<IndexPair> host_removed_;
 };
 

@@ -71,14 +71,15 @@ class PaperGpuPairFinder final : public PairFinder {
     // New pairs had no overlap last frame.
     previous_.resize(pair_count, 0);
     current_.resize(pair_count);
+    if (pair_count > 0) {
+      CUDA_CHECK(cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(),
+                            cudaMemcpyHostToDevice));
+      paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
+          objects_.data(), slot_count_, results_.data());
+      CUDA_CHECK(cudaGetLastError());
+    }
+    // Only a launched search is in flight: after a throw, finish() refuses.
     in_flight_ = true;
-    launch_ms_ = 0;
-    if (pair_count == 0) return;
-    CUDA_CHECK(
-        cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(), cudaMemcpyHostToDevice));
-    paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
-        objects_.data(), slot_count_, results_.data());
-    CUDA_CHECK(cudaGetLastError());
     launch_ms_ = watch.ms();
   }
 

@@ -1,6 +1,12 @@
-// Pair logic: the per-pair rules every pair finder applies, compiled for the
-// CPU and, under nvcc, for the GPU too, so that the CPU finder that CI tests
-// runs exactly the arithmetic the kernels run.
+// Pair logic: the per-pair rules every pair finder applies, one source compiled
+// for the CPU and, under nvcc, for the GPU.  What is shared is these functions
+// (the pair numbering and its inverse, the AABB and filter tests, the XOR
+// split), which cpubf calls in a loop of its own; the kernels' own code (warp
+// ballots and shuffles, atomics, grid-stride loops, the host code around them)
+// is not cpubf's.  That code runs on the CPU in the CUDA emulation build
+// (gpu/emulation/), which executes the .cu files themselves; it cannot show
+// timing, memory ordering and races between the threads of a block (they run
+// one at a time), or what the real driver does.
 //
 // Pair numbering is triangular and independent of the slot count n:
 //   p(a, b) = b (b - 1) / 2 + a   for a < b,
@@ -15,7 +21,7 @@
 // the CPU loop vectorizes and a GPU warp does not diverge.
 #pragma once
 
-#include <math.h>  // ::sqrt, which names the same function in host and device code
+#include <math.h>  // ::sqrtf, which names the same function in host and device code
 
 #include <cstdint>
 
@@ -41,15 +47,30 @@ OVERLAP_HD constexpr std::uint64_t pairIndex(std::uint32_t a, std::uint32_t b) {
   return pairsBelow(b) + a;
 }
 
-// Inverse of pairIndex: b is the largest b with pairsBelow(b) <= p.  The double
-// square root lands within one of it even where p has more than 53 bits; the
-// integer steps make the result exact.
+// The row b of pair p (the largest b with pairsBelow(b) <= p) to within one,
+// in FP32 and integer arithmetic only: consumer GPUs run FP64 at 1/32 to 1/64
+// of the FP32 rate.  The FP32 square root of 2p is off by up to ~2^-23 of b
+// (hundreds of rows near b = 2^32); one Newton step on the exact integer
+// residual p - pairsBelow(b), rounded, takes it to at most one row (checked at
+// row boundaries across the whole range in tests/gpu/pair_logic_test.cpp).
+OVERLAP_HD inline std::uint64_t rowEstimate(std::uint64_t p) {
+  constexpr std::int64_t kLargestSlot = 0xFFFFFFFFll;
+  const auto clamp = [](std::int64_t b) {
+    return static_cast<std::uint64_t>(b < 1 ? 1 : (b > kLargestSlot ? kLargestSlot : b));
+  };
+  const std::uint64_t first =
+      clamp(static_cast<std::int64_t>(::sqrtf(2.0f * static_cast<float>(p)) + 0.5f));
+  // Two's complement makes the difference right when pairsBelow(first) > p.
+  const auto residual = static_cast<std::int64_t>(p - pairsBelow(first));
+  const float step = static_cast<float>(residual) / (static_cast<float>(first) - 0.5f);
+  return clamp(static_cast<std::int64_t>(first) + static_cast<std::int64_t>(::rintf(step)));
+}
+
+// Inverse of pairIndex, exact for every p below pairsBelow(2^32): the integer
+// steps settle the estimate's last row whatever it is.
 OVERLAP_HD inline IndexPair pairAt(std::uint64_t p) {
   constexpr std::uint64_t kLargestSlot = 0xFFFFFFFFull;
-  const double estimate = (1.0 + ::sqrt(1.0 + 8.0 * static_cast<double>(p))) * 0.5;
-  std::uint64_t b = estimate >= static_cast<double>(kLargestSlot)
-                        ? kLargestSlot
-                        : static_cast<std::uint64_t>(estimate);
+  std::uint64_t b = rowEstimate(p);
   while (b > 1 && pairsBelow(b) > p) --b;
   while (b < kLargestSlot && pairsBelow(b + 1) <= p) ++b;
   return IndexPair{static_cast<std::uint32_t>(p - pairsBelow(b)), static_cast<std::uint32_t>(b)};

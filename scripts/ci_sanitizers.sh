@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # CI under sanitizers, after scripts/setup.sh: the whole ctest suite under
-# AddressSanitizer + UBSan (preset "asan"), then the threaded code (cpubf's
+# AddressSanitizer + UBSan (preset "asan", a CUDA emulation build: the .cu
+# files run on the CPU, so every GPU test runs, none may skip, and ASan
+# stands in for compute-sanitizer's memcheck), then the threaded code (cpubf's
 # oneTBB search job, the frame scheduler, the sound and AI tasks)
-# under ThreadSanitizer (preset "tsan").  Both presets build the CPU code
-# only.  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
+# under ThreadSanitizer (preset "tsan", CPU code only: TSan cannot follow
+# the emulation's fibers).  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
 # that the CLI tests run captures frames with it); tests/tsan.supp and the
 # TSan section below deal with oneTBB, which is not TSan-instrumented.
 # Usage: [SANITIZERS="asan tsan"] scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
@@ -29,11 +31,15 @@ if [[ " $SANITIZERS " == *" asan "* ]]; then
 section "ASan + UBSan: configure and build ($ASAN_DIR)"
 cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" >/dev/null
 cmake --build "$ASAN_DIR" -j "$JOBS"
-section "ASan + UBSan: the whole suite"
+section "ASan + UBSan: the whole suite, the GPU tests on the CUDA emulation"
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" \
 UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
-  ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS"
+  ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" | tee "$ASAN_DIR/ctest.log"
+if grep -q "(Skipped)" "$ASAN_DIR/ctest.log"; then
+  echo "ci_sanitizers: tests skipped in the CUDA emulation build (see above)" >&2
+  exit 1
+fi
 fi
 
 if [[ " $SANITIZERS " == *" tsan "* ]]; then

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # The GPU session's run on the device machine (an H100, no Bullet, no package
 # registry), from the repository root:
-#   scripts/gpu_benchmark.sh [BUILD_DIR] [STEP...]     STEP: tests, record, bench
-# With no step it runs all three in that order.  Each step fits the device
+#   scripts/gpu_benchmark.sh [BUILD_DIR] [STEP...]   STEP: tests, sanitize, record, bench
+# With no step it runs all four in that order.  Each step fits the device
 # tool's 10-minute limit on its own, so a session can run them as separate calls.
 #
-# Before, on the development machine (CUDA code is compiled there, for sm_90):
+# Before, on the development machine (CUDA code is compiled there, sm_75 to sm_90):
 #   cmake --build BUILD_DIR --target overlap_bench_broadphase overlap_gpu_tests
 #   scripts/gpu_bundle.sh BUILD_DIR      # Bullet, oneTBB... into BUILD_DIR/gpu-libs
 # and carry BUILD_DIR/overlap_bench_broadphase, BUILD_DIR/tests/gpu/overlap_gpu_tests
@@ -13,12 +13,16 @@
 #
 #   tests   the GPU tests (gtest binary; ctest's paths point at the other
 #           machine); fails if any test fails or is skipped.
+#   sanitize  the GPU finders' tests under compute-sanitizer: memcheck (out of
+#           bounds, misaligned, leaks) and racecheck (shared-memory hazards);
+#           fails on any report.  What the CUDA emulation's ASan build cannot
+#           see: the real device, its memory model and its driver.
 #   record  records the missing streams into out/streams, one process per n
 #           (Bullet runs on one thread per process).
 #   bench   overlap_bench_broadphase with every algorithm at the paper's n and
 #           bvh, cpubf, gpubf at BIG_OBJECTS; fails if no GPU algorithm ran.
 # Writes into $OUT: nvidia-smi.txt, gpu_tests.{log,xml}, record_n*.log,
-# broadphase_gpu.{csv,json}, bench.log.
+# sanitizer_{memcheck,racecheck}.log, broadphase_gpu.{csv,json}, bench.log.
 # Knobs (environment): BIG_OBJECTS (10000,30000,100000), BIG_FRAMES (frames
 # recorded at BIG_OBJECTS, 24: 17 measured after 8 warm-up frames; 100000
 # boxes took 787 s for 24 frames on the 2-core development machine, so run
@@ -29,7 +33,7 @@ cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 shift || true
 steps=("$@")
-((${#steps[@]})) || steps=(tests record bench)
+((${#steps[@]})) || steps=(tests sanitize record bench)
 
 : "${OUT:?gpu_benchmark: OUT must name the output folder}"
 readonly SMALL_OBJECTS=500,1250,2000,2750,3500
@@ -51,6 +55,20 @@ run_tests() {
   if grep -q '^\[  SKIPPED \]' "$OUT/gpu_tests.log"; then
     fail "GPU tests were skipped on the device machine (see gpu_tests.log)"
   fi
+}
+
+run_sanitizers() {
+  local sanitizer
+  sanitizer="$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)"
+  [[ -x "$sanitizer" ]] || fail "compute-sanitizer not found (CUDA toolkit's bin/)"
+  local tool
+  for tool in memcheck racecheck; do
+    local extra=()
+    [[ "$tool" == memcheck ]] && extra=(--leak-check full)
+    "$sanitizer" --tool "$tool" "${extra[@]}" --error-exitcode 1 \
+      "$tests" --gtest_filter='*gpubf*' 2>&1 | tee "$OUT/sanitizer_$tool.log" ||
+      fail "compute-sanitizer $tool found errors (see sanitizer_$tool.log)"
+  done
 }
 
 record_streams() {
@@ -83,8 +101,9 @@ nvidia-smi >"$OUT/nvidia-smi.txt" 2>&1 || echo "gpu_benchmark: nvidia-smi failed
 for step in "${steps[@]}"; do
   case "$step" in
     tests) run_tests ;;
+    sanitize) run_sanitizers ;;
     record) record_streams ;;
     bench) run_bench ;;
-    *) fail "unknown step '$step' (tests, record, bench)" ;;
+    *) fail "unknown step '$step' (tests, sanitize, record, bench)" ;;
   esac
 done

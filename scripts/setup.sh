@@ -9,6 +9,7 @@ readonly PACKAGES=(
   libbullet-dev libeigen3-dev libosmesa6-dev libtbb-dev
   googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   nlohmann-json3-dev libpng-dev python3-matplotlib
+  libboost-context-dev  # fibers for the CUDA emulation build (gpu/emulation/)
   clang libclang-rt-14-dev  # the libFuzzer targets (scripts/ci_fuzz.sh); the runtime is only a Recommends of clang
 )
 

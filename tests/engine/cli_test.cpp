@@ -304,6 +304,48 @@ TEST_F(CliTest, RecordWritesBoxesThatLeftTheSimulationSoPairsReadsThem) {
   }
 }
 
+// The GPU finders, run by `overlap` itself: without a device it falls back to
+// cpubf and says so, and then there is nothing to compare.
+bool fellBackToCpubf(const Result& result) {
+  return result.stderr_text.find("running cpubf instead") != std::string::npos;
+}
+
+TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
+  std::filesystem::create_directories(out_);
+  const std::filesystem::path stream = out_ / "scene4.aabbs";
+  ASSERT_EQ(
+      runOverlap("record --scene 4 --objects 300 --frames 20 --out " + stream.string()).exit_code,
+      0);
+  int exit_code = -1;
+  const std::string exact = stdoutOf("pairs --algo cpubf --input " + stream.string(), &exit_code);
+  ASSERT_EQ(exit_code, 0);
+  ASSERT_GT(lineCount(exact), 100);
+  for (const std::string algo : {"gpubf", "gpubf-paper"}) {
+    const std::string args = "pairs --algo " + algo + " --input " + stream.string();
+    const Result result = runOverlap(args);
+    ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+    if (fellBackToCpubf(result)) GTEST_SKIP() << result.stderr_text;
+    EXPECT_EQ(stdoutOf(args, &exit_code), exact) << algo;
+    EXPECT_EQ(exit_code, 0);
+  }
+}
+
+TEST_F(CliTest, RunWithGpubfNamesTheDeviceItRanOn) {
+  const Result result =
+      runOverlap("run --scene 4 --objects 150 --frames 6 --algo gpubf --out " + out_.string());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  if (fellBackToCpubf(result)) GTEST_SKIP() << result.stderr_text;
+  std::ifstream summary_file(out_ / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(summary_file);
+  EXPECT_EQ(summary["parameters"]["algorithm"], "gpubf");
+  const std::string gpu = summary["machine"]["gpu"];
+#if OVERLAP_CUDA_EMULATION
+  EXPECT_TRUE(gpu.starts_with("CUDA emulation on the CPU, ")) << gpu;
+#else
+  EXPECT_FALSE(gpu.starts_with("none")) << gpu;
+#endif
+}
+
 TEST_F(CliTest, PairsRejectsABadFileWithoutWritingToStdout) {
   std::filesystem::create_directories(out_);
   const std::filesystem::path bad = out_ / "bad.aabbs";

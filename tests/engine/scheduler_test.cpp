@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "engine/frame_scheduler.h"
+#include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
 #include "tests/engine/scheduler_test_support.h"
 
@@ -240,6 +241,19 @@ TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
     const Outcome other = runFrames(algorithm, false, 60);
     ASSERT_EQ(other.state_hash, bf.state_hash) << algorithm << ": not the same physics";
     EXPECT_EQ(other.sound_checksum, bf.sound_checksum) << algorithm;
+  }
+}
+
+TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
+  std::string why;
+  if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  const Outcome reference = runFrames("cpubf", true, 30);
+  for (const char* algorithm : {"gpubf", "gpubf-paper"}) {
+    const Outcome async_run = runFrames(algorithm, false, 30);
+    EXPECT_EQ(async_run.pairs, reference.pairs) << algorithm;
+    EXPECT_EQ(async_run.state_hash, reference.state_hash) << algorithm;
+    EXPECT_EQ(async_run.sound_checksum, reference.sound_checksum) << algorithm;
+    EXPECT_EQ(async_run.ai_checksum, reference.ai_checksum) << algorithm;
   }
 }
 

@@ -97,6 +97,45 @@ TEST_P(PairFinderTest, ManyChangesAtOnce) {
   EXPECT_TRUE(pairs.empty());
 }
 
+// Slots 0.. in clusters of identical boxes (every pair inside a cluster
+// overlaps, none across), the other slots apart: sum of k (k - 1) / 2 pairs.
+std::vector<ObjectBounds> clusters(std::uint32_t n, std::initializer_list<std::uint32_t> sizes) {
+  std::vector<ObjectBounds> boxes;
+  float x = 0;
+  for (const std::uint32_t size : sizes) {
+    boxes.insert(boxes.end(), size, box(x, 0, 0, x + 1, 1, 1));
+    x += 10;
+  }
+  while (boxes.size() < n) {
+    const float far = 1000.0f + 3.0f * static_cast<float>(boxes.size());
+    boxes.push_back(box(far, 0, 0, far + 1, 1, 1));
+  }
+  return boxes;
+}
+
+TEST_P(PairFinderTest, ChangeCountsAroundTheChangeListCapacities) {
+  // gpubf copies the first 4096 changes of each list back speculatively,
+  // fetches whole lists above that, holds 16384 changes per list at first and
+  // collects them again into grown lists above that (32768 after the first
+  // growth).  Each count is added in one frame and removed in the next.
+  constexpr std::uint32_t kSlots = 300;
+  const struct {
+    std::size_t changes;
+    std::initializer_list<std::uint32_t> sizes;
+  } frames[] = {{4096, {91, 2}},          {4097, {91, 2, 2}}, {16384, {181, 14, 3}},
+                {16385, {181, 14, 3, 2}}, {39903, {283}},     {4095, {91}}};
+  std::vector<IndexPair> pairs;
+  const std::vector<ObjectBounds> apart = clusters(kSlots, {});
+  for (const auto& frame : frames) {
+    SCOPED_TRACE(std::to_string(frame.changes) + " changes");
+    const std::vector<ObjectBounds> boxes = clusters(kSlots, frame.sizes);
+    ASSERT_EQ(testing::oraclePairs(boxes).size(), frame.changes);
+    testing::expectFrameMatchesOracle(*finder_, boxes, pairs);
+    testing::expectFrameMatchesOracle(*finder_, apart, pairs);
+    EXPECT_TRUE(pairs.empty());
+  }
+}
+
 TEST_P(PairFinderTest, RejectsAShrinkingSlotCount) {
   const std::vector<ObjectBounds> boxes(10, box(0, 0, 0, 1, 1, 1));
   finder_->launch(boxes);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <random>
 
 #include "tests/gpu/pair_test_support.h"
 
@@ -74,6 +75,28 @@ TEST(PairLogicTest, PairAtIsExactBeyondDoublePrecision) {
       const IndexPair pair = pairAt(p);
       ASSERT_LT(pair.a, pair.b);
       ASSERT_EQ(pairIndex(pair.a, pair.b), p);
+    }
+  }
+}
+
+// The kernels' decode: exact at the first and last pair of rows sampled over
+// the whole range and at the top, and its FP32 estimate at most one row off,
+// so each lane's correction loop runs at most once.
+TEST(PairLogicTest, PairAtIsExactAtRowBoundariesAndItsEstimateWithinOneRow) {
+  constexpr std::uint64_t kLargest = std::numeric_limits<std::uint32_t>::max();
+  std::mt19937_64 random(11);
+  std::vector<std::uint64_t> rows;
+  for (int i = 0; i < 200000; ++i) rows.push_back(2 + random() % (kLargest - 1));
+  for (std::uint64_t b = 2; b < 5000; ++b) rows.push_back(b);
+  for (std::uint64_t b = kLargest - 5000; b <= kLargest; ++b) rows.push_back(b);
+  for (const std::uint64_t row : rows) {
+    const auto b = static_cast<std::uint32_t>(row);
+    const std::uint64_t first = pairsBelow(b);
+    for (const std::uint64_t p : {first, first + b - 1, first + random() % b}) {
+      const IndexPair expected{static_cast<std::uint32_t>(p - first), b};
+      ASSERT_EQ(pairAt(p), expected) << "p = " << p;
+      const std::uint64_t estimate = pair_logic::rowEstimate(p);
+      ASSERT_LE(std::max(estimate, row) - std::min(estimate, row), 1u) << "p = " << p;
     }
   }
 }

@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <set>
+#include <string>
+
+#include "gpu/pair_finder.h"
 
 namespace overlap::physics {
 namespace {
@@ -74,12 +77,18 @@ TEST(PhysicsWorld, SimpleBroadphaseCacheEqualsBruteForceOracle) {
   EXPECT_GT(checked_pairs, 100u) << "the scene should be in contact by now";
 }
 
-TEST(PhysicsWorld, CpubfCacheStaysExactAndPersistentOverScene4) {
+class OurBroadphaseTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
   // Our broadphase inside a running world: every frame the cache is the exact
   // pair set, each pair once, and a pair that stays keeps its cache entry (a
   // marker left on the entry survives; a removed and re-added pair would come
   // back without it).  One substep per frame, so a frame is one search.
-  PhysicsWorld world(smallScene(4, 250), WorldOptions{"cpubf", 1});
+  std::string why;
+  if (GetParam() != std::string("cpubf") && !gpu::cudaDeviceAvailable(&why)) {
+    GTEST_SKIP() << "no CUDA device: " << why;
+  }
+  PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
   static int marker;
   std::set<std::pair<int, int>> previous;
   std::size_t kept = 0;
@@ -105,6 +114,14 @@ TEST(PhysicsWorld, CpubfCacheStaysExactAndPersistentOverScene4) {
   }
   EXPECT_GT(kept, 1000u);
 }
+
+INSTANTIATE_TEST_SUITE_P(Finders, OurBroadphaseTest,
+                         ::testing::Values("cpubf", "gpubf", "gpubf-paper"),
+                         [](const ::testing::TestParamInfo<const char*>& info) {
+                           return info.param == std::string("gpubf-paper")
+                                      ? std::string("gpubf_paper")
+                                      : std::string(info.param);
+                         });
 
 TEST(PhysicsWorld, BulletsConservativeBroadphasesMissNoPair) {
   // SAP quantizes and DBVT fattens, so their caches may hold extra pairs, but

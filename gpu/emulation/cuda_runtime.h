@@ -1,0 +1,153 @@
+// The CUDA emulation's <cuda_runtime.h>: the slice of the CUDA runtime API
+// and of the device language that gpu/*.cu use, for the host compiler.  In
+// the emulation build (OVERLAP_CUDA_EMULATION) this directory is on the
+// include path ahead of the toolkit, so the .cu files compile unchanged; the
+// build rewrites `kernel<<<grid, block, shared, stream>>>(args)` into a call
+// of cuda_emulation::launchKernel (gpu/emulation/rewrite_launches.py).
+//
+// What the emulation holds to, so that a bug a GPU would show shows here:
+// - Every CUDA thread is a fiber with its own code path; a warp collective
+//   returns only when every lane its mask names has reached it, and
+//   __syncthreads when the whole block has.  A lane that exits or waits at a
+//   different collective aborts the program naming block, thread and mask.
+// - Streams are lazy: enqueued work runs when the host waits for it (event or
+//   stream or device synchronize, a blocking copy, cudaFree), never before.
+// - Device and pinned allocations start as garbage (0xA5 bytes); copies,
+//   memsets, frees and a kernel's pointer arguments are checked against the
+//   live allocations, and a violation aborts naming the call site.
+// - Launch limits give cudaErrorInvalidConfiguration through cudaGetLastError.
+// What it cannot show: timing, memory ordering and races between threads
+// (a block's threads run one at a time on one OS thread), the real driver.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <source_location>
+
+// Device-language keywords: plain C++ on the host.
+#define __global__
+#define __device__
+#define __host__
+#define __forceinline__ inline
+#define __launch_bounds__(...)
+// A block runs start to finish on one OS thread (executor.cpp), so a
+// thread_local is per block.  (No __noinline__: libstdc++ spells its own
+// attribute that way.)
+#define __shared__ static thread_local
+
+using cudaEvent_t = struct CudaEmulationEvent*;
+using cudaStream_t = struct CudaEmulationStream*;
+
+// The values of the toolkit's driver_types.h, so codes compare as on a GPU.
+enum cudaError_t {
+  cudaSuccess = 0,
+  cudaErrorInvalidValue = 1,
+  cudaErrorMemoryAllocation = 2,
+  cudaErrorInvalidConfiguration = 9,
+  cudaErrorInvalidDevicePointer = 17,
+  cudaErrorNoDevice = 100,
+  cudaErrorInvalidDevice = 101,
+  cudaErrorInvalidResourceHandle = 400,
+  cudaErrorNotReady = 600,
+};
+using cudaError = cudaError_t;
+
+enum cudaMemcpyKind {
+  cudaMemcpyHostToHost = 0,
+  cudaMemcpyHostToDevice = 1,
+  cudaMemcpyDeviceToHost = 2,
+  cudaMemcpyDeviceToDevice = 3,
+  cudaMemcpyDefault = 4,
+};
+
+inline constexpr unsigned cudaStreamDefault = 0x00;
+inline constexpr unsigned cudaStreamNonBlocking = 0x01;
+inline constexpr unsigned cudaEventDefault = 0x00;
+inline constexpr unsigned cudaEventBlockingSync = 0x01;
+inline constexpr unsigned cudaEventDisableTiming = 0x02;
+
+struct uint3 {
+  unsigned x, y, z;
+};
+
+struct dim3 {
+  unsigned x = 1, y = 1, z = 1;
+  constexpr dim3(unsigned vx = 1, unsigned vy = 1, unsigned vz = 1) : x(vx), y(vy), z(vz) {}
+  constexpr dim3(uint3 v) : x(v.x), y(v.y), z(v.z) {}
+};
+
+struct cudaDeviceProp {
+  char name[256];
+  std::size_t totalGlobalMem;
+  std::size_t sharedMemPerBlock;
+  int warpSize;
+  int maxThreadsPerBlock;
+  int maxThreadsDim[3];
+  int maxGridSize[3];
+  int major;
+  int minor;
+  int multiProcessorCount;
+};
+
+struct cudaFuncAttributes {
+  std::size_t sharedSizeBytes;
+  int maxThreadsPerBlock;
+  int numRegs;
+  int ptxVersion;
+  int binaryVersion;
+};
+
+using CudaSite = std::source_location;
+#define OVERLAP_CUDA_SITE CudaSite site = CudaSite::current()
+
+// The runtime API (gpu/emulation/runtime.cpp).  Each call takes its call site
+// as a defaulted last argument, for the messages of the memory checks.
+cudaError_t cudaGetDeviceCount(int* count);
+cudaError_t cudaGetDevice(int* device);
+cudaError_t cudaSetDevice(int device);
+cudaError_t cudaGetDeviceProperties(cudaDeviceProp* properties, int device);
+cudaError_t cudaDeviceSynchronize(OVERLAP_CUDA_SITE);
+cudaError_t cudaGetLastError();
+cudaError_t cudaPeekAtLastError();
+const char* cudaGetErrorName(cudaError_t error);
+const char* cudaGetErrorString(cudaError_t error);
+
+cudaError_t cudaMalloc(void** pointer, std::size_t bytes, OVERLAP_CUDA_SITE);
+cudaError_t cudaMallocHost(void** pointer, std::size_t bytes, OVERLAP_CUDA_SITE);
+cudaError_t cudaFree(void* pointer, OVERLAP_CUDA_SITE);
+cudaError_t cudaFreeHost(void* pointer, OVERLAP_CUDA_SITE);
+cudaError_t cudaMemcpy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                       OVERLAP_CUDA_SITE);
+cudaError_t cudaMemcpyAsync(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                            cudaStream_t stream = nullptr, OVERLAP_CUDA_SITE);
+cudaError_t cudaMemset(void* to, int value, std::size_t bytes, OVERLAP_CUDA_SITE);
+cudaError_t cudaMemsetAsync(void* to, int value, std::size_t bytes, cudaStream_t stream = nullptr,
+                            OVERLAP_CUDA_SITE);
+
+cudaError_t cudaStreamCreate(cudaStream_t* stream);
+cudaError_t cudaStreamCreateWithFlags(cudaStream_t* stream, unsigned flags);
+cudaError_t cudaStreamDestroy(cudaStream_t stream);
+cudaError_t cudaStreamSynchronize(cudaStream_t stream, OVERLAP_CUDA_SITE);
+cudaError_t cudaStreamQuery(cudaStream_t stream, OVERLAP_CUDA_SITE);
+cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned flags = 0);
+
+cudaError_t cudaEventCreate(cudaEvent_t* event);
+cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags);
+cudaError_t cudaEventDestroy(cudaEvent_t event);
+cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream = nullptr);
+cudaError_t cudaEventSynchronize(cudaEvent_t event, OVERLAP_CUDA_SITE);
+cudaError_t cudaEventQuery(cudaEvent_t event, OVERLAP_CUDA_SITE);
+cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end);
+
+// Every kernel is an ordinary function here; its attributes are the device's.
+template <class... Params>
+cudaError_t cudaFuncGetAttributes(cudaFuncAttributes* attributes, void (*kernel)(Params...)) {
+  if (attributes == nullptr || kernel == nullptr) return cudaErrorInvalidValue;
+  *attributes = cudaFuncAttributes{0, 1024, 0, 0, 0};
+  return cudaSuccess;
+}
+
+#undef OVERLAP_CUDA_SITE
+
+#include "gpu/emulation/device_functions.h"
+#include "gpu/emulation/kernel_launch.h"

@@ -1,0 +1,27 @@
+// The CUDA emulation's internals shared by runtime.cpp (the API: memory,
+// streams, events) and executor.cpp (running a grid): the fatal-error report
+// and the grid runner.
+#pragma once
+
+#include <source_location>
+#include <string>
+
+#include "gpu/emulation/cuda_runtime.h"
+
+namespace overlap::cuda_emulation::detail {
+
+// "file:line" of a call site.
+std::string where(const std::source_location& site);
+
+// Prints "CUDA emulation: <message>" to stderr and aborts: a kernel or API
+// misuse the emulation caught, which a GPU would not report so plainly.
+[[noreturn]] void fail(const std::string& message);
+
+// The OS threads that run blocks (OVERLAP_CUDA_EMULATION_THREADS, else every
+// hardware thread), fixed at first use.
+int workerThreadCount();
+
+// Runs every block of a validated launch and returns when all are done.
+void runGrid(const KernelLaunch& launch);
+
+}  // namespace overlap::cuda_emulation::detail

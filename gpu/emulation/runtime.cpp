@@ -1,0 +1,568 @@
+// The CUDA emulation's runtime API: one device, memory, streams and events.
+//
+// Memory: device and pinned allocations are host memory from posix_memalign
+// (so AddressSanitizer guards them), filled with kGarbage at allocation and
+// again at free.  A table of the live allocations checks every copy, memset,
+// free and kernel pointer argument; a violation aborts naming the call site.
+//
+// Streams are lazy.  Each holds a queue of operations; an operation runs only
+// when the host waits for it (a synchronize, a blocking copy, cudaFree's
+// implicit synchronization), after the operations it depends on: those
+// before it on its stream, and for the legacy default stream and blocking
+// streams, each other's earlier work, as CUDA orders them.  Work enqueued and
+// never waited for does not run, so a missing synchronization reads garbage.
+// One mutex serializes the API: the emulated device runs one thing at a time.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <functional>
+#include <iterator>
+#include <map>
+#include <mutex>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "gpu/emulation/executor.h"
+
+struct CudaEmulationStream {
+  struct Operation {
+    std::function<void()> run;
+    std::vector<std::pair<CudaEmulationStream*, std::uint64_t>> after;  // (stream, sequence)
+  };
+  bool blocking = true;  // synchronizes with the legacy default stream
+  std::deque<Operation> pending;
+  std::uint64_t enqueued = 0;   // sequence number of the last operation enqueued
+  std::uint64_t completed = 0;  // ... and of the last one run
+};
+
+struct CudaEmulationEvent {
+  bool timing = true;
+  CudaEmulationStream* stream = nullptr;  // where it was last recorded
+  std::uint64_t sequence = 0;
+  bool recorded = false;
+  std::chrono::steady_clock::time_point when;
+};
+
+namespace overlap::cuda_emulation::detail {
+namespace {
+
+constexpr unsigned char kGarbage = 0xA5;
+constexpr std::size_t kAlignment = 256;  // cudaMalloc's guarantee
+constexpr std::size_t kMaxSharedBytesPerBlock = 48 * 1024;
+
+thread_local cudaError_t t_last_error = cudaSuccess;
+
+cudaError_t record(cudaError_t error) {
+  if (error != cudaSuccess) t_last_error = error;
+  return error;
+}
+
+enum class Space { kDevice, kPinned };
+
+struct Allocation {
+  std::size_t bytes;
+  Space space;
+  std::source_location site;
+};
+
+const char* spaceName(Space space) {
+  return space == Space::kDevice ? "device" : "pinned host";
+}
+
+class Runtime {
+ public:
+  std::mutex mutex;
+
+  // --- memory --------------------------------------------------------------
+  cudaError_t allocate(void** pointer, std::size_t bytes, Space space,
+                       const std::source_location& site) {
+    if (pointer == nullptr) return cudaErrorInvalidValue;
+    *pointer = nullptr;
+    if (bytes == 0) return cudaSuccess;
+    void* memory = nullptr;
+    if (posix_memalign(&memory, kAlignment, bytes) != 0) return cudaErrorMemoryAllocation;
+    std::memset(memory, kGarbage, bytes);
+    allocations_.emplace(address(memory), Allocation{bytes, space, site});
+    *pointer = memory;
+    return cudaSuccess;
+  }
+
+  cudaError_t release(void* pointer, Space space, const char* call,
+                      const std::source_location& site) {
+    if (pointer == nullptr) return cudaSuccess;
+    synchronizeAll();  // cudaFree and cudaFreeHost synchronize the device
+    const auto found = allocations_.find(address(pointer));
+    if (found == allocations_.end() || found->second.space != space) {
+      fail(std::string(call) + " at " + where(site) + ": " + describe(pointer) + " is not a live " +
+           spaceName(space) + " allocation");
+    }
+    std::memset(pointer, kGarbage, found->second.bytes);
+    allocations_.erase(found);
+    std::free(pointer);
+    return cudaSuccess;
+  }
+
+  // The allocation [pointer, pointer + bytes) lies in, if any; aborts when it
+  // starts in one and runs past its end.
+  const Allocation* checkRange(const void* pointer, std::size_t bytes, const char* call,
+                               const char* role, const std::source_location& site) const {
+    const auto [base, allocation] = containing(pointer);
+    if (allocation == nullptr) return nullptr;
+    const std::uintptr_t offset = address(pointer) - base;
+    if (offset + bytes > allocation->bytes) {
+      fail(std::string(call) + " at " + where(site) + ": the " + role + " range of " +
+           std::to_string(bytes) + " bytes at offset " + std::to_string(offset) +
+           " runs past the end of a " + spaceName(allocation->space) + " allocation of " +
+           std::to_string(allocation->bytes) + " bytes made at " + where(allocation->site));
+    }
+    return allocation;
+  }
+
+  // A copy's or memset's pointer: device memory where `device` says so,
+  // otherwise host memory (pinned, checked, or pageable, not checkable).
+  void checkOperand(const void* pointer, std::size_t bytes, bool device, const char* call,
+                    const char* role, const std::source_location& site) const {
+    if (bytes == 0) return;
+    const Allocation* allocation = checkRange(pointer, bytes, call, role, site);
+    const bool is_device = allocation != nullptr && allocation->space == Space::kDevice;
+    if (device && !is_device) {
+      fail(std::string(call) + " at " + where(site) + ": the " + role + " " + describe(pointer) +
+           " is not in a live device allocation");
+    }
+    if (!device && is_device) {
+      fail(std::string(call) + " at " + where(site) + ": the " + role + " " + describe(pointer) +
+           " is device memory where the copy's kind says host");
+    }
+  }
+
+  void checkKernelArgument(const void* pointer, std::size_t position, const KernelLaunch& launch) {
+    if (pointer == nullptr) return;
+    const auto [base, allocation] = containing(pointer);
+    if (allocation == nullptr || address(pointer) - base > allocation->bytes) {
+      fail("kernel " + std::string(launch.kernel_name) + " launched at " + where(launch.site) +
+           ": pointer argument " + std::to_string(position + 1) + " (" + describe(pointer) +
+           ") is not in a live device or pinned allocation");
+    }
+  }
+
+  // --- streams -------------------------------------------------------------
+  CudaEmulationStream* stream(cudaStream_t handle) {
+    if (handle == nullptr) return &legacy_;
+    return streams_.count(handle) != 0 ? handle : nullptr;
+  }
+
+  CudaEmulationStream* createStream(bool blocking) {
+    auto* created = new CudaEmulationStream;
+    created->blocking = blocking;
+    streams_.insert(created);
+    return created;
+  }
+
+  void destroyStream(CudaEmulationStream* doomed) {
+    runUntil(*doomed, doomed->enqueued);  // its work still completes, as on a GPU
+    for (CudaEmulationEvent* event : events_) {
+      if (event->stream == doomed) event->stream = nullptr;
+    }
+    streams_.erase(doomed);
+    delete doomed;
+  }
+
+  // Returns the operation's sequence number on `target`.
+  std::uint64_t enqueue(CudaEmulationStream& target, std::function<void()> run,
+                        std::vector<std::pair<CudaEmulationStream*, std::uint64_t>> after = {}) {
+    if (&target == &legacy_) {
+      for (CudaEmulationStream* other : streams_) {
+        if (other->blocking) after.emplace_back(other, other->enqueued);
+      }
+    } else if (target.blocking) {
+      after.emplace_back(&legacy_, legacy_.enqueued);
+    }
+    target.pending.push_back({std::move(run), std::move(after)});
+    return ++target.enqueued;
+  }
+
+  void runUntil(CudaEmulationStream& target, std::uint64_t sequence) {
+    while (target.completed < sequence) {
+      CudaEmulationStream::Operation operation = std::move(target.pending.front());
+      target.pending.pop_front();
+      for (const auto& [other, other_sequence] : operation.after) runUntil(*other, other_sequence);
+      operation.run();
+      ++target.completed;
+    }
+  }
+
+  void synchronizeAll() {
+    runUntil(legacy_, legacy_.enqueued);
+    for (CudaEmulationStream* each : streams_) runUntil(*each, each->enqueued);
+  }
+
+  // --- events --------------------------------------------------------------
+  bool known(cudaEvent_t event) const { return events_.count(event) != 0; }
+  void addEvent(cudaEvent_t event) { events_.insert(event); }
+  void removeEvent(cudaEvent_t event) { events_.erase(event); }
+
+ private:
+  static std::uintptr_t address(const void* pointer) {
+    return reinterpret_cast<std::uintptr_t>(pointer);
+  }
+
+  static std::string describe(const void* pointer) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%p", pointer);
+    return text;
+  }
+
+  std::pair<std::uintptr_t, const Allocation*> containing(const void* pointer) const {
+    auto after = allocations_.upper_bound(address(pointer));
+    if (after == allocations_.begin()) return {0, nullptr};
+    const auto& [base, allocation] = *std::prev(after);
+    // One past the end still belongs to it (an empty range there is legal).
+    if (address(pointer) - base > allocation.bytes) return {0, nullptr};
+    return {base, &allocation};
+  }
+
+  std::map<std::uintptr_t, Allocation> allocations_;
+  CudaEmulationStream legacy_;
+  std::set<CudaEmulationStream*> streams_;
+  std::set<CudaEmulationEvent*> events_;
+};
+
+Runtime& runtime() {
+  static Runtime instance;
+  return instance;
+}
+
+bool validDims(const dim3& dims, unsigned max_x, unsigned max_y, unsigned max_z) {
+  return dims.x >= 1 && dims.y >= 1 && dims.z >= 1 && dims.x <= max_x && dims.y <= max_y &&
+         dims.z <= max_z;
+}
+
+cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                 cudaStream_t handle, bool blocking, const char* call,
+                 const std::source_location& site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(handle);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  if (kind < cudaMemcpyHostToHost || kind > cudaMemcpyDefault) return record(cudaErrorInvalidValue);
+  if (kind == cudaMemcpyDefault) {
+    // Unified addressing: the table knows which side each pointer is on.
+    rt.checkRange(to, bytes, call, "destination", site);
+    rt.checkRange(from, bytes, call, "source", site);
+  } else {
+    rt.checkOperand(to, bytes, kind == cudaMemcpyHostToDevice || kind == cudaMemcpyDeviceToDevice,
+                    call, "destination", site);
+    rt.checkOperand(from, bytes, kind == cudaMemcpyDeviceToHost || kind == cudaMemcpyDeviceToDevice,
+                    call, "source", site);
+  }
+  const std::uint64_t sequence = rt.enqueue(*target, [=] {
+    if (bytes != 0) std::memmove(to, from, bytes);
+  });
+  if (blocking) rt.runUntil(*target, sequence);
+  return cudaSuccess;
+}
+
+cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bool blocking,
+                 const char* call, const std::source_location& site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(handle);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  rt.checkOperand(to, bytes, true, call, "destination", site);
+  const std::uint64_t sequence = rt.enqueue(*target, [=] {
+    if (bytes != 0) std::memset(to, value, bytes);
+  });
+  if (blocking) rt.runUntil(*target, sequence);
+  return cudaSuccess;
+}
+
+}  // namespace
+
+void enqueueLaunch(KernelLaunch launch) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(launch.stream);
+  if (target == nullptr) {
+    record(cudaErrorInvalidResourceHandle);
+    return;
+  }
+  const dim3& block = launch.block;
+  if (!validDims(block, 1024, 1024, 64) ||
+      static_cast<std::uint64_t>(block.x) * block.y * block.z > 1024 ||
+      !validDims(launch.grid, 0x7FFFFFFFu, 65535, 65535) ||
+      launch.shared_bytes > kMaxSharedBytesPerBlock) {
+    record(cudaErrorInvalidConfiguration);
+    return;
+  }
+  for (std::size_t i = 0; i < launch.pointer_arguments.size(); ++i) {
+    rt.checkKernelArgument(launch.pointer_arguments[i], i, launch);
+  }
+  rt.enqueue(*target, [launch = std::move(launch)] { runGrid(launch); });
+}
+
+}  // namespace overlap::cuda_emulation::detail
+
+using namespace overlap::cuda_emulation::detail;
+
+cudaError_t cudaGetDeviceCount(int* count) {
+  if (count == nullptr) return record(cudaErrorInvalidValue);
+  *count = 1;
+  return cudaSuccess;
+}
+
+cudaError_t cudaGetDevice(int* device) {
+  if (device == nullptr) return record(cudaErrorInvalidValue);
+  *device = 0;
+  return cudaSuccess;
+}
+
+cudaError_t cudaSetDevice(int device) {
+  return device == 0 ? cudaSuccess : record(cudaErrorInvalidDevice);
+}
+
+cudaError_t cudaGetDeviceProperties(cudaDeviceProp* properties, int device) {
+  if (properties == nullptr) return record(cudaErrorInvalidValue);
+  if (device != 0) return record(cudaErrorInvalidDevice);
+  *properties = cudaDeviceProp{};
+  const int workers = workerThreadCount();
+  std::snprintf(properties->name, sizeof properties->name, "CUDA emulation on the CPU, %d %s",
+                workers, workers == 1 ? "thread" : "threads");
+  properties->totalGlobalMem = static_cast<std::size_t>(sysconf(_SC_PHYS_PAGES)) *
+                               static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  properties->sharedMemPerBlock = 48 * 1024;
+  properties->warpSize = 32;
+  properties->maxThreadsPerBlock = 1024;
+  properties->maxThreadsDim[0] = properties->maxThreadsDim[1] = 1024;
+  properties->maxThreadsDim[2] = 64;
+  properties->maxGridSize[0] = 0x7FFFFFFF;
+  properties->maxGridSize[1] = properties->maxGridSize[2] = 65535;
+  properties->multiProcessorCount = workers;
+  return cudaSuccess;
+}
+
+cudaError_t cudaDeviceSynchronize(CudaSite) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  rt.synchronizeAll();
+  return cudaSuccess;
+}
+
+cudaError_t cudaGetLastError() {
+  return std::exchange(t_last_error, cudaSuccess);
+}
+
+cudaError_t cudaPeekAtLastError() {
+  return t_last_error;
+}
+
+const char* cudaGetErrorName(cudaError_t error) {
+  switch (error) {
+    case cudaSuccess:
+      return "cudaSuccess";
+    case cudaErrorInvalidValue:
+      return "cudaErrorInvalidValue";
+    case cudaErrorMemoryAllocation:
+      return "cudaErrorMemoryAllocation";
+    case cudaErrorInvalidConfiguration:
+      return "cudaErrorInvalidConfiguration";
+    case cudaErrorInvalidDevicePointer:
+      return "cudaErrorInvalidDevicePointer";
+    case cudaErrorNoDevice:
+      return "cudaErrorNoDevice";
+    case cudaErrorInvalidDevice:
+      return "cudaErrorInvalidDevice";
+    case cudaErrorInvalidResourceHandle:
+      return "cudaErrorInvalidResourceHandle";
+    case cudaErrorNotReady:
+      return "cudaErrorNotReady";
+  }
+  return "cudaErrorUnknown";
+}
+
+const char* cudaGetErrorString(cudaError_t error) {
+  switch (error) {
+    case cudaSuccess:
+      return "no error";
+    case cudaErrorInvalidValue:
+      return "invalid argument";
+    case cudaErrorMemoryAllocation:
+      return "out of memory";
+    case cudaErrorInvalidConfiguration:
+      return "invalid configuration argument";
+    case cudaErrorInvalidDevicePointer:
+      return "invalid device pointer";
+    case cudaErrorNoDevice:
+      return "no CUDA-capable device is detected";
+    case cudaErrorInvalidDevice:
+      return "invalid device ordinal";
+    case cudaErrorInvalidResourceHandle:
+      return "invalid resource handle";
+    case cudaErrorNotReady:
+      return "device not ready";
+  }
+  return "unknown error";
+}
+
+cudaError_t cudaMalloc(void** pointer, std::size_t bytes, CudaSite site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  return record(rt.allocate(pointer, bytes, Space::kDevice, site));
+}
+
+cudaError_t cudaMallocHost(void** pointer, std::size_t bytes, CudaSite site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  return record(rt.allocate(pointer, bytes, Space::kPinned, site));
+}
+
+cudaError_t cudaFree(void* pointer, CudaSite site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  return record(rt.release(pointer, Space::kDevice, "cudaFree", site));
+}
+
+cudaError_t cudaFreeHost(void* pointer, CudaSite site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  return record(rt.release(pointer, Space::kPinned, "cudaFreeHost", site));
+}
+
+cudaError_t cudaMemcpy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                       CudaSite site) {
+  return copy(to, from, bytes, kind, nullptr, true, "cudaMemcpy", site);
+}
+
+cudaError_t cudaMemcpyAsync(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                            cudaStream_t stream, CudaSite site) {
+  return copy(to, from, bytes, kind, stream, false, "cudaMemcpyAsync", site);
+}
+
+cudaError_t cudaMemset(void* to, int value, std::size_t bytes, CudaSite site) {
+  return fill(to, value, bytes, nullptr, true, "cudaMemset", site);
+}
+
+cudaError_t cudaMemsetAsync(void* to, int value, std::size_t bytes, cudaStream_t stream,
+                            CudaSite site) {
+  return fill(to, value, bytes, stream, false, "cudaMemsetAsync", site);
+}
+
+cudaError_t cudaStreamCreate(cudaStream_t* stream) {
+  return cudaStreamCreateWithFlags(stream, cudaStreamDefault);
+}
+
+cudaError_t cudaStreamCreateWithFlags(cudaStream_t* stream, unsigned flags) {
+  if (stream == nullptr || (flags & ~cudaStreamNonBlocking) != 0) {
+    return record(cudaErrorInvalidValue);
+  }
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  *stream = rt.createStream((flags & cudaStreamNonBlocking) == 0);
+  return cudaSuccess;
+}
+
+cudaError_t cudaStreamDestroy(cudaStream_t stream) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (stream == nullptr || rt.stream(stream) == nullptr) {
+    return record(cudaErrorInvalidResourceHandle);
+  }
+  rt.destroyStream(stream);
+  return cudaSuccess;
+}
+
+cudaError_t cudaStreamSynchronize(cudaStream_t stream, CudaSite) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  rt.runUntil(*target, target->enqueued);
+  return cudaSuccess;
+}
+
+// Waiting is what runs work here, so a query runs it too: a polling loop ends.
+cudaError_t cudaStreamQuery(cudaStream_t stream, CudaSite site) {
+  return cudaStreamSynchronize(stream, site);
+}
+
+cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned flags) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr || !rt.known(event)) return record(cudaErrorInvalidResourceHandle);
+  if (flags != 0) return record(cudaErrorInvalidValue);
+  if (event->recorded && event->stream != nullptr) {
+    rt.enqueue(*target, [] {}, {{event->stream, event->sequence}});
+  }
+  return cudaSuccess;
+}
+
+cudaError_t cudaEventCreate(cudaEvent_t* event) {
+  return cudaEventCreateWithFlags(event, cudaEventDefault);
+}
+
+cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
+  if (event == nullptr || (flags & ~(cudaEventBlockingSync | cudaEventDisableTiming)) != 0) {
+    return record(cudaErrorInvalidValue);
+  }
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  *event = new CudaEmulationEvent;
+  (*event)->timing = (flags & cudaEventDisableTiming) == 0;
+  rt.addEvent(*event);
+  return cudaSuccess;
+}
+
+cudaError_t cudaEventDestroy(cudaEvent_t event) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
+  rt.removeEvent(event);
+  delete event;
+  return cudaSuccess;
+}
+
+cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr || !rt.known(event)) return record(cudaErrorInvalidResourceHandle);
+  event->stream = target;
+  event->recorded = true;
+  event->sequence =
+      rt.enqueue(*target, [event] { event->when = std::chrono::steady_clock::now(); });
+  return cudaSuccess;
+}
+
+cudaError_t cudaEventSynchronize(cudaEvent_t event, CudaSite) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
+  if (event->recorded && event->stream != nullptr) rt.runUntil(*event->stream, event->sequence);
+  return cudaSuccess;
+}
+
+cudaError_t cudaEventQuery(cudaEvent_t event, CudaSite site) {
+  return cudaEventSynchronize(event, site);
+}
+
+cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (ms == nullptr) return record(cudaErrorInvalidValue);
+  if (!rt.known(start) || !rt.known(end) || !start->timing || !end->timing || !start->recorded ||
+      !end->recorded) {
+    return record(cudaErrorInvalidResourceHandle);
+  }
+  for (const cudaEvent_t event : {start, end}) {
+    if (event->stream != nullptr && event->stream->completed < event->sequence) {
+      return record(cudaErrorNotReady);
+    }
+  }
+  *ms = std::chrono::duration<float, std::milli>(end->when - start->when).count();
+  return cudaSuccess;
+}
