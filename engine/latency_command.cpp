@@ -212,9 +212,10 @@ void addLatencyCommand(CLI::App& app) {
       "misses and adds, and its time against the on-time search");
   options->scene.addTo(*command);
   command
-      ->add_option("--algo", options->algorithms,
-                   "broadphases studied, comma-separated (bf, sap, sap32, bvh, cpubf, gpubf, "
-                   "gpubf-paper)")
+      ->add_option(
+          "--algo", options->algorithms,
+          "broadphases studied, comma-separated (bf, sap, sap32, bvh, cpubf, cpusap, gpubf, "
+          "gpubf-paper)")
       ->delimiter(',')
       ->check(broadphaseNameCheck())
       ->capture_default_str();

@@ -107,8 +107,9 @@ nlohmann::json toJson(const physics::SceneConfig& config) {
 
 void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
   command
-      .add_option("--algo", algorithm,
-                  "broadphase: bf, sap, sap32, bvh (Bullet's), cpubf, gpubf, gpubf-paper (ours)")
+      .add_option(
+          "--algo", algorithm,
+          "broadphase: bf, sap, sap32, bvh (Bullet's), cpubf, cpusap, gpubf, gpubf-paper (ours)")
       ->check(broadphaseNameCheck())
       ->capture_default_str();
 }

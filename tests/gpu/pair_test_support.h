@@ -29,6 +29,9 @@ inline void PrintTo(PairFinderKind kind, std::ostream* out) {
     case PairFinderKind::kCpuBruteForce:
       *out << "cpubf";
       return;
+    case PairFinderKind::kCpuSweepAndPrune:
+      *out << "cpusap";
+      return;
     case PairFinderKind::kGpuBruteForce:
       *out << "gpubf";
       return;
@@ -182,12 +185,18 @@ inline std::string finderName(PairFinderKind kind) {
   switch (kind) {
     case PairFinderKind::kCpuBruteForce:
       return "cpubf";
+    case PairFinderKind::kCpuSweepAndPrune:
+      return "cpusap";
     case PairFinderKind::kGpuBruteForce:
       return "gpubf";
     case PairFinderKind::kGpuBruteForcePaper:
       return "gpubf_paper";
   }
   return "unknown";
+}
+
+inline bool isGpuFinder(PairFinderKind kind) {
+  return kind == PairFinderKind::kGpuBruteForce || kind == PairFinderKind::kGpuBruteForcePaper;
 }
 
 // Names parameterized tests after their finder.

@@ -73,12 +73,14 @@ TEST(PhysicsWorld, SimpleBroadphaseCacheEqualsBruteForceOracle) {
   EXPECT_GT(checked_pairs, 100u) << "the scene should be in contact by now";
 }
 
-TEST(PhysicsWorld, CpubfCacheStaysExactAndPersistentOverScene4) {
+class OurBroadphaseInAWorld : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(OurBroadphaseInAWorld, CacheStaysExactAndPersistentOverScene4) {
   // Our broadphase inside a running world: every frame the cache is the exact
   // pair set, each pair once, and a pair that stays keeps its cache entry (a
   // marker left on the entry survives; a removed and re-added pair would come
   // back without it).  One substep per frame, so a frame is one search.
-  PhysicsWorld world(smallScene(4, 250), WorldOptions{"cpubf", 1});
+  PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
   static int marker;
   std::set<std::pair<int, int>> previous;
   std::size_t kept = 0;
@@ -104,6 +106,8 @@ TEST(PhysicsWorld, CpubfCacheStaysExactAndPersistentOverScene4) {
   }
   EXPECT_GT(kept, 1000u);
 }
+
+INSTANTIATE_TEST_SUITE_P(CpuFinders, OurBroadphaseInAWorld, ::testing::Values("cpubf", "cpusap"));
 
 TEST(PhysicsWorld, BulletsConservativeBroadphasesMissNoPair) {
   // SAP quantizes and DBVT fattens, so their caches may hold extra pairs, but
