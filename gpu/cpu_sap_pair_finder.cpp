@@ -23,6 +23,8 @@ namespace {
 // the current axis' by this factor, so that two axes of about the same
 // spread do not trade places (and force a full sort) every frame.
 constexpr double kAxisSwitchFactor = 1.1;
+// Boxes sampled to measure the spread.
+constexpr std::size_t kSpreadSamples = 2048;
 // Slabs this many mean box extents wide: on scene-4 streams, 3 to 4 gave the
 // fewest sweep steps (wider slabs hold more boxes per scan, narrower ones
 // copy more boxes into several slabs).
@@ -42,6 +44,9 @@ constexpr int kRadixBits[kRadixPasses] = {11, 11, 10};  // the 32 key bits, low 
 // task costs much more than handing it out.
 constexpr std::size_t kChunksPerThread = 8;
 constexpr std::size_t kMinEntriesPerChunk = 256;
+// Steps 4 and 7 go parallel in pieces of at least this many entries or slots.
+constexpr std::size_t kMinEntriesPerGather = 2048;
+constexpr std::size_t kMinSlotsPerDeltaPart = 1024;
 
 // The float's bits as an unsigned key with the same order: -inf < ... < -0 <
 // +0 < ... < +inf.  Not for NaN, which step 1 keeps out of the sort.
@@ -87,33 +92,40 @@ CpuSapPairFinder::CpuSapPairFinder(int threads, sap::SweepKernel kernel)
 CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBounds> objects) {
   regular_.clear();
   inverted_.clear();
-  // Centres are summed relative to the first one, in double, so that boxes
-  // far from the origin keep their spread.
-  std::array<double, 3> origin{}, sum{}, sum_of_squares{}, extents{};
+  placed_.assign(slot_count_, 0);
+  for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+    const ObjectBounds& box = objects[slot];
+    if (box.group == 0 || box.mask == 0) continue;  // pairs with nothing
+    if (isOrdered(box)) {
+      regular_.push_back(slot);
+      placed_[slot] = 1;        // swept, not yet placed by step 3
+    } else if (!hasNaN(box)) {  // NaN pairs with nothing
+      inverted_.push_back(slot);
+    }
+  }
+
+  // The spread only steers the axes and the slabs, never the answer: a
+  // sample of the boxes measures it well enough.  Centres are summed
+  // relative to the first one, in double, so that boxes far from the origin
+  // keep their spread.
   Spread spread;
   spread.lowest.fill(std::numeric_limits<float>::infinity());
   spread.highest.fill(-std::numeric_limits<float>::infinity());
-  std::size_t finite = 0;
-  for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
-    const ObjectBounds& box = objects[slot];
-    if (box.group == 0 || box.mask == 0 || hasNaN(box)) continue;  // pairs with nothing
-    if (!isOrdered(box)) {
-      inverted_.push_back(slot);
-      continue;
-    }
-    regular_.push_back(slot);
-    bool is_finite = true;
-    for (int axis = 0; axis < 3; ++axis) {
-      is_finite &= std::isfinite(box.min[axis]) & std::isfinite(box.max[axis]);
-    }
-    if (!is_finite) continue;  // sorted and swept, but no measure of the spread
+  std::array<double, 3> origin{}, sum{}, sum_of_squares{}, extents{};
+  std::size_t sampled = 0;
+  const std::size_t stride = std::max<std::size_t>(1, regular_.size() / kSpreadSamples);
+  for (std::size_t k = 0; k < regular_.size(); k += stride) {
+    const ObjectBounds& box = objects[regular_[k]];
+    float all = 0;
+    for (int axis = 0; axis < 3; ++axis) all += box.min[axis] + box.max[axis];
+    if (!std::isfinite(all)) continue;  // an infinite box (or one near FLT_MAX)
     std::array<double, 3> centre;
     for (int axis = 0; axis < 3; ++axis) {
       centre[axis] = 0.5 * (double{box.min[axis]} + double{box.max[axis]});
       spread.lowest[axis] = std::min(spread.lowest[axis], box.min[axis]);
       spread.highest[axis] = std::max(spread.highest[axis], box.max[axis]);
     }
-    if (finite++ == 0) origin = centre;
+    if (sampled++ == 0) origin = centre;
     for (int axis = 0; axis < 3; ++axis) {
       const double offset = centre[axis] - origin[axis];
       sum[axis] += offset;
@@ -121,8 +133,8 @@ CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBo
       extents[axis] += double{box.max[axis]} - double{box.min[axis]};
     }
   }
-  for (int axis = 0; axis < 3 && finite > 0; ++axis) {
-    const double count = static_cast<double>(finite);
+  for (int axis = 0; axis < 3 && sampled > 0; ++axis) {
+    const double count = static_cast<double>(sampled);
     const double mean = sum[axis] / count;
     spread.variance[axis] = sum_of_squares[axis] / count - mean * mean;
     spread.mean_extent[axis] = extents[axis] / count;
@@ -159,8 +171,6 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
   if (same_axis && !entries_.empty()) {
     // Last frame's order, re-keyed, without the boxes that left the sweep,
     // then the boxes that joined it.
-    placed_.assign(slot_count_, 0);
-    for (const std::uint32_t slot : regular_) placed_[slot] = 1;  // 1: still swept
     std::size_t kept = 0;
     for (const std::uint64_t entry : entries_) {
       const auto slot = static_cast<std::uint32_t>(entry);
@@ -170,8 +180,12 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
       }
     }
     entries_.resize(kept);
-    for (const std::uint32_t slot : regular_) {
-      if (placed_[slot] == 1) entries_.push_back(sortEntry(objects[slot], sweep_axis_, slot));
+    for (std::size_t k = 0; kept < regular_.size() && k < regular_.size(); ++k) {
+      const std::uint32_t slot = regular_[k];
+      if (placed_[slot] == 1) {
+        entries_.push_back(sortEntry(objects[slot], sweep_axis_, slot));
+        ++kept;
+      }
     }
     sorted_incrementally_ = insertionSortWithin(kInsertionMovesPerBox * entries_.size());
     if (!sorted_incrementally_) radixSort();
@@ -231,8 +245,28 @@ void CpuSapPairFinder::radixSort() {
   }
 }
 
+template <typename Body>
+void CpuSapPairFinder::forPieces(std::size_t count, std::size_t grain, const Body& body) {
+  if (arena_.max_concurrency() <= 1 || count < 2 * grain) {
+    body(std::size_t{0}, count);
+    return;
+  }
+  arena_.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, count, grain),
+        [&](const tbb::blocked_range<std::size_t>& range) { body(range.begin(), range.end()); });
+  });
+}
+
+void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
+  layout_.plan(objects, entries_, sweep_axis_, slab_axis_, grid_);
+  forPieces(layout_.size(), kMinEntriesPerGather, [&](std::size_t first, std::size_t end) {
+    layout_.gather(static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(end));
+  });
+}
+
 void CpuSapPairFinder::sweep() {
-  for (std::vector<std::uint64_t>& pairs : thread_pairs_) pairs.clear();
+  for (PairKeys& pairs : thread_pairs_) pairs.clear();
   const auto threads = static_cast<std::size_t>(arena_.max_concurrency());
   const std::size_t chunks =
       std::clamp<std::size_t>(layout_.size() / kMinEntriesPerChunk, 1, threads * kChunksPerThread);
@@ -245,7 +279,7 @@ void CpuSapPairFinder::sweep() {
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, chunk_starts_.size() - 1, 1),
         [&](const tbb::blocked_range<std::size_t>& range) {
-          std::vector<std::uint64_t>& pairs = thread_pairs_.local();
+          PairKeys& pairs = thread_pairs_.local();
           for (std::size_t chunk = range.begin(); chunk != range.end(); ++chunk) {
             layout_.sweep(kernel_, chunk_starts_[chunk], chunk_starts_[chunk + 1], pairs);
           }
@@ -277,24 +311,45 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
 
   const int last_sweep_axis = sweep_axis_;
-  chooseAxes(sortOutBoxes(objects));                                  // steps 1, 2
-  sortBoxes(objects, sweep_axis_ == last_sweep_axis);                 // 3
-  layout_.layOut(objects, entries_, sweep_axis_, slab_axis_, grid_);  // 4
-  sweep();                                                            // 5
-  testInvertedBoxes(objects);                                         // 6
-
-  // 7: this frame's set against last frame's.
-  batches_.clear();
-  for (std::vector<std::uint64_t>& pairs : thread_pairs_) batches_.push_back(&pairs);
-  batches_.push_back(&inverted_pairs_);
-  current_.assign(slot_count_, batches_);
-  added_.clear();
-  removed_.clear();
-  appendDelta(previous_, current_, added_, removed_, delta_marks_);
-  std::swap(previous_, current_);
+  chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
+  sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
+  layOut(objects);                                     // 4
+  sweep();                                             // 5
+  testInvertedBoxes(objects);                          // 6
+  computeDelta();                                      // 7
 
   last_search_ms_ = watch.ms();
   searched_ = true;
+}
+
+void CpuSapPairFinder::computeDelta() {
+  batches_.clear();
+  for (const PairKeys& pairs : thread_pairs_) batches_.push_back(pairs.keys());
+  batches_.push_back(inverted_pairs_.keys());
+  current_.assign(slot_count_, batches_);
+  // Rows in parts, compared in parallel, then joined in order.
+  const auto threads = static_cast<std::size_t>(arena_.max_concurrency());
+  const std::size_t parts =
+      std::clamp<std::size_t>(slot_count_ / kMinSlotsPerDeltaPart, 1, threads * kChunksPerThread);
+  delta_parts_.resize(std::max(delta_parts_.size(), parts));
+  const auto bound = [&](std::size_t part) {
+    return static_cast<std::uint32_t>(std::uint64_t{slot_count_} * part / parts);
+  };
+  forPieces(parts, 1, [&](std::size_t first, std::size_t end) {
+    for (std::size_t part = first; part < end; ++part) {
+      delta_parts_[part].added.clear();
+      delta_parts_[part].removed.clear();
+      appendDelta(previous_, current_, bound(part), bound(part + 1), delta_parts_[part]);
+    }
+  });
+  added_.clear();
+  removed_.clear();
+  for (std::size_t part = 0; part < parts; ++part) {
+    added_.insert(added_.end(), delta_parts_[part].added.begin(), delta_parts_[part].added.end());
+    removed_.insert(removed_.end(), delta_parts_[part].removed.begin(),
+                    delta_parts_[part].removed.end());
+  }
+  std::swap(previous_, current_);
 }
 
 PairDelta CpuSapPairFinder::finish() {

@@ -76,14 +76,20 @@ class CpuSapPairFinder final : public PairFinder {
   void sortBoxes(std::span<const ObjectBounds> objects, bool same_axis);
   bool insertionSortWithin(std::size_t moves);
   void radixSort();
-  // Steps 5 and 6.
+  // Steps 4 to 7.
+  void layOut(std::span<const ObjectBounds> objects);
   void sweep();
   void testInvertedBoxes(std::span<const ObjectBounds> objects);
+  void computeDelta();
+  // Runs body(first, end) over pieces of [0, count), on the finder's threads
+  // when it has several and there are at least two pieces of `grain`.
+  template <typename Body>
+  void forPieces(std::size_t count, std::size_t grain, const Body& body);
 
   tbb::task_arena arena_;
   sap::SweepKernel kernel_;
-  tbb::enumerable_thread_specific<std::vector<std::uint64_t>> thread_pairs_;
-  std::vector<std::uint64_t> inverted_pairs_;
+  tbb::enumerable_thread_specific<PairKeys> thread_pairs_;
+  PairKeys inverted_pairs_;
 
   std::uint32_t slot_count_ = 0;
   int sweep_axis_ = -1;  // none yet
@@ -92,7 +98,7 @@ class CpuSapPairFinder final : public PairFinder {
   bool sorted_incrementally_ = false;
   std::vector<std::uint32_t> regular_;   // the slots the sweep takes, ascending
   std::vector<std::uint32_t> inverted_;  // the slots step 6 takes
-  std::vector<std::uint8_t> placed_;     // per slot, scratch for step 3
+  std::vector<std::uint8_t> placed_;     // per slot: 1 swept, 2 placed by step 3
   // Sorted boxes as (order-preserving bits of the sweep-axis min) << 32 | slot;
   // kept for the next frame's insertion sort.
   std::vector<std::uint64_t> entries_;
@@ -102,9 +108,9 @@ class CpuSapPairFinder final : public PairFinder {
   sap::SweepLayout layout_;
   std::vector<std::uint32_t> chunk_starts_;  // chunk k is [starts[k], starts[k + 1])
 
-  std::vector<const std::vector<std::uint64_t>*> batches_;  // step 7's input
+  std::vector<std::span<const std::uint64_t>> batches_;  // step 7's input
   PairSet previous_, current_;
-  std::vector<std::uint32_t> delta_marks_;  // appendDelta's scratch
+  std::vector<DeltaPart> delta_parts_;
   std::vector<IndexPair> added_, removed_;
   bool searched_ = false;
   double last_search_ms_ = 0;

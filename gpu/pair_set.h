@@ -4,18 +4,20 @@
 // hash table.
 //
 // The pairs (a, b), a < b, are stored compressed by row: slot a's partners b
-// are partners[offsets[a] .. offsets[a + 1]), in no particular order.
-// Building it from the unordered pairs a search found is a counting sort on
-// a: one pass to count, one to place.  The delta goes row by row: mark the
-// old row's partners, look the new row's up, and what is left marked was
-// removed; only the few changes of a row get sorted, so the added and the
-// removed pairs come out sorted by (a, b).
+// are partners[offsets[a] .. offsets[a + 1]), sorted.  Building it from the
+// unordered pairs a search found is a two-pass radix sort whose digits are
+// whole slots: by b, then (stably) by a; each pass counts, then places.  The
+// delta then goes row by row: a row equal to last frame's (most are) is
+// skipped, the others are merged, so the added and the removed pairs come
+// out sorted by (a, b).  Rows are independent: ranges of them can be
+// compared on several threads.
 //
 // Invariants: no duplicates; every b < slotCount(); a slot at or above
 // slotCount() has no partners (so a set over fewer slots compares with one
 // over more, as when slots are added between frames).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -31,27 +33,60 @@ constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
   return (std::uint64_t{a} << 32) | b;
 }
 
+// The pair keys a search appends, kept from frame to frame so that it
+// allocates only while it grows.  The sweep's AVX2 kernel writes a whole
+// vector of keys at once and then keeps as many as it found.
+class PairKeys {
+ public:
+  void clear() { count_ = 0; }
+  std::size_t size() const { return count_; }
+  // Room for `more` keys from the end: write them there, then commit().
+  std::uint64_t* room(std::size_t more) {
+    if (count_ + more > storage_.size()) {
+      storage_.resize(std::max({2 * storage_.size(), count_ + more, std::size_t{1024}}));
+    }
+    return storage_.data() + count_;
+  }
+  void commit(std::size_t written) { count_ += written; }
+  void push_back(std::uint64_t key) {
+    *room(1) = key;
+    ++count_;
+  }
+  std::span<const std::uint64_t> keys() const { return {storage_.data(), count_}; }
+
+ private:
+  std::vector<std::uint64_t> storage_;  // its size is the capacity
+  std::size_t count_ = 0;
+};
+
 class PairSet {
  public:
   // Replaces the set with the pairs in `batches`: pairKey()s over slots
   // [0, slot_count), each pair in at most one batch, at most once.
-  void assign(std::uint32_t slot_count, std::span<const std::vector<std::uint64_t>* const> batches);
+  void assign(std::uint32_t slot_count, std::span<const std::span<const std::uint64_t>> batches);
 
   std::uint32_t slotCount() const { return static_cast<std::uint32_t>(offsets_.size() - 1); }
   std::size_t size() const { return partners_.size(); }
-  // Slot a's partners b > a, in no particular order; empty for a >= slotCount().
+  // Slot a's partners b > a, sorted; empty for a >= slotCount().
   std::span<const std::uint32_t> partnersOf(std::uint32_t a) const;
 
  private:
   std::vector<std::uint32_t> offsets_ = {0};  // slotCount() + 1 entries
   std::vector<std::uint32_t> partners_;
-  std::vector<std::uint32_t> cursor_;  // scratch for assign()
+  std::vector<std::uint64_t> by_partner_;  // scratch for assign(): the keys sorted by b
+  std::vector<std::uint32_t> cursor_;      // scratch for assign()
 };
 
-// Appends the pairs of `current` missing from `previous` to `added` and those
-// of `previous` missing from `current` to `removed`, both sorted by (a, b).
-// `marks` is scratch, all zero between calls (it is left so).
-void appendDelta(const PairSet& previous, const PairSet& current, std::vector<IndexPair>& added,
-                 std::vector<IndexPair>& removed, std::vector<std::uint32_t>& marks);
+// The delta of a range of rows: one per range when ranges are computed at
+// the same time.
+struct DeltaPart {
+  std::vector<IndexPair> added, removed;
+};
+
+// Appends the pairs (a, b), a in [first, end), of `current` missing from
+// `previous` to part.added and those of `previous` missing from `current` to
+// part.removed, both sorted by (a, b).
+void appendDelta(const PairSet& previous, const PairSet& current, std::uint32_t first,
+                 std::uint32_t end, DeltaPart& part);
 
 }  // namespace overlap::gpu

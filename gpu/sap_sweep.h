@@ -25,11 +25,13 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "gpu/pair_set.h"
 
 namespace overlap::gpu::sap {
 
@@ -65,10 +67,14 @@ struct SlabGrid {
 // a bounds check.
 class SweepLayout {
  public:
-  // `sorted` holds the boxes to sweep (slot in the low 32 bits), sorted by
-  // their min on `sweep_axis`, each with min <= max on every axis.
-  void layOut(std::span<const ObjectBounds> objects, std::span<const std::uint64_t> sorted,
-              int sweep_axis, int slab_axis, const SlabGrid& grid);
+  // Plans the layout of the boxes in `sorted` (slot in the low 32 bits),
+  // sorted by their min on `sweep_axis`, each with min <= max on every axis:
+  // which entry holds which box.  `objects` must outlive gather().
+  void plan(std::span<const ObjectBounds> objects, std::span<const std::uint64_t> sorted,
+            int sweep_axis, int slab_axis, const SlabGrid& grid);
+  // Copies the planned boxes into entries [first, end); ranges that do not
+  // overlap may be gathered at the same time.
+  void gather(std::uint32_t first, std::uint32_t end);
 
   // Entries, padding included; a scan may start at any of them.
   std::uint32_t size() const { return static_cast<std::uint32_t>(slot_.size()); }
@@ -81,8 +87,7 @@ class SweepLayout {
   // Scans the entries [first, end) and appends each pair found, as a
   // pairKey() of the boxes' slots, to `pairs`.  `kernel` must be kScalar or
   // kAvx2 (the latter only where avx2Available()).
-  void sweep(SweepKernel kernel, std::uint32_t first, std::uint32_t end,
-             std::vector<std::uint64_t>& pairs) const;
+  void sweep(SweepKernel kernel, std::uint32_t first, std::uint32_t end, PairKeys& pairs) const;
 
  private:
   std::vector<float> sweep_min_, sweep_max_;
@@ -91,7 +96,10 @@ class SweepLayout {
   // -1 where the entry's box starts in this slab (its first), else 0: a
   // pair is reported in a slab where one of its boxes starts.
   std::vector<std::int32_t> starts_here_;
-  std::vector<std::uint32_t> slot_;
+  std::vector<std::uint32_t> slot_;  // kPaddingSlot for padding
+  static constexpr std::uint32_t kPaddingSlot = 0xFFFFFFFFu;
+  std::span<const ObjectBounds> objects_;
+  std::array<int, 3> axes_{};                             // sweep, slab, third
   std::vector<std::uint32_t> slab_starts_, slab_cursor_;  // scratch
   std::vector<std::uint32_t> first_slab_, last_slab_;     // scratch, per sorted box
 };

@@ -248,17 +248,21 @@ TEST(PairSetTest, DeltaOfTwoSetsIsSortedAndExact) {
   const std::vector<std::uint64_t> after = {pairKey(2, 3),   pairKey(9, 0), pairKey(1, 0),
                                             pairKey(10, 11), pairKey(2, 8), pairKey(3, 0)};
   PairSet previous, current;
-  const std::vector<const std::vector<std::uint64_t>*> old_batches = {&before};
+  const std::vector<std::span<const std::uint64_t>> old_batches = {before};
   previous.assign(10, old_batches);
   const std::vector<std::uint64_t> empty;
-  const std::vector<const std::vector<std::uint64_t>*> new_batches = {&after, &empty};
+  const std::vector<std::span<const std::uint64_t>> new_batches = {after, empty};
   current.assign(12, new_batches);
-  std::vector<IndexPair> added, removed;
-  std::vector<std::uint32_t> marks;
-  appendDelta(previous, current, added, removed, marks);
-  EXPECT_TRUE(testing::samePairs(added, std::vector<IndexPair>{{0, 1}, {0, 3}, {2, 8}, {10, 11}}));
-  EXPECT_TRUE(testing::samePairs(removed, std::vector<IndexPair>{{0, 4}, {1, 5}, {2, 7}}));
-  EXPECT_EQ(std::count(marks.begin(), marks.end(), 0u), static_cast<long>(marks.size()));
+  DeltaPart whole, low, high;
+  appendDelta(previous, current, 0, 12, whole);
+  EXPECT_TRUE(
+      testing::samePairs(whole.added, std::vector<IndexPair>{{0, 1}, {0, 3}, {2, 8}, {10, 11}}));
+  EXPECT_TRUE(testing::samePairs(whole.removed, std::vector<IndexPair>{{0, 4}, {1, 5}, {2, 7}}));
+  // Two ranges of rows give the two halves of it.
+  appendDelta(previous, current, 0, 2, low);
+  appendDelta(previous, current, 2, 12, high);
+  EXPECT_TRUE(testing::samePairs(low.added, std::vector<IndexPair>{{0, 1}, {0, 3}}));
+  EXPECT_TRUE(testing::samePairs(high.removed, std::vector<IndexPair>{{2, 7}}));
 }
 
 }  // namespace
