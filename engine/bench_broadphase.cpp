@@ -468,6 +468,11 @@ int main(int argc, char** argv) {
   using namespace overlap::engine;
   CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams (project issue 3)",
                kProgram};
+  app.footer(
+      "cpusap's results (issue 13, docs/results/broadphase_cpusap.md): "
+      "scripts/cpusap_table.py --streams DIR runs this with --objects "
+      "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
+      "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
   BenchOptions options;
   addOptions(app, options);
   try {
