@@ -55,11 +55,6 @@ std::vector<ObjectBounds> pile(std::uint32_t n, int frame, int flat_axis = 1, fl
   return boxes;
 }
 
-void expectSameDelta(const PairDelta& actual, const PairDelta& expected, const std::string& what) {
-  EXPECT_TRUE(testing::samePairs(actual.added, expected.added)) << what << ": added";
-  EXPECT_TRUE(testing::samePairs(actual.removed, expected.removed)) << what << ": removed";
-}
-
 TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   if (!sap::avx2Available()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
   CpuSapPairFinder scalar(1, SweepKernel::kScalar);
@@ -68,11 +63,8 @@ TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   EXPECT_EQ(avx2.kernel(), SweepKernel::kAvx2);
   for (const BoxSet set : testing::kAllBoxSets) {
     for (int frame = 0; frame < 3; ++frame) {
-      const std::vector<ObjectBounds> boxes = testing::makeBoxes(set, 1025, frame);
-      scalar.launch(boxes);
-      avx2.launch(boxes);
-      expectSameDelta(avx2.finish(), scalar.finish(),
-                      testing::boxSetName(set) + " frame " + std::to_string(frame));
+      EXPECT_TRUE(testing::sameDeltaAs(avx2, scalar, testing::makeBoxes(set, 1025, frame)))
+          << testing::boxSetName(set) << " frame " << frame;
     }
   }
 }
@@ -122,15 +114,12 @@ TEST(CpuSapPairFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
 }
 
 TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
-  CpuSapPairFinder one(1), two(2), four(4);
+  // Every finder must see every frame: one single-thread reference per comparison.
+  CpuSapPairFinder one(1), one_again(1), two(2), four(4);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = pile(5000, frame);
-    one.launch(boxes);
-    two.launch(boxes);
-    four.launch(boxes);
-    const PairDelta reference = one.finish();
-    expectSameDelta(two.finish(), reference, "2 threads, frame " + std::to_string(frame));
-    expectSameDelta(four.finish(), reference, "4 threads, frame " + std::to_string(frame));
+    EXPECT_TRUE(testing::sameDeltaAs(two, one, boxes)) << "2 threads, frame " << frame;
+    EXPECT_TRUE(testing::sameDeltaAs(four, one_again, boxes)) << "4 threads, frame " << frame;
   }
 }
 
@@ -212,10 +201,7 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   std::vector<IndexPair> pairs;
   for (int frame = 0; frame < 3; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
-    sap.launch(boxes);
-    brute_force.launch(boxes);
-    const PairDelta expected = brute_force.finish();
-    expectSameDelta(sap.finish(), expected, "against cpubf");
+    EXPECT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
     testing::expectFrameMatchesOracle(checked, boxes, pairs);
     // The box that pairs with everything leaves, then comes back.
     boxes[7] = frame == 0 ? ObjectBounds{} : box(-kInf, -kInf, -kInf, kInf, kInf, kInf);
@@ -226,13 +212,7 @@ TEST(CpuSapPairFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
   CpuSapPairFinder sap;
   CpuPairFinder brute_force;
   for (int frame = 0; frame < 20; ++frame) {
-    const std::vector<ObjectBounds> boxes = pile(3000, frame);
-    sap.launch(boxes);
-    brute_force.launch(boxes);
-    const PairDelta expected = brute_force.finish();
-    const PairDelta actual = sap.finish();
-    ASSERT_TRUE(testing::samePairs(actual.added, expected.added)) << "frame " << frame;
-    ASSERT_TRUE(testing::samePairs(actual.removed, expected.removed)) << "frame " << frame;
+    ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, pile(3000, frame))) << "frame " << frame;
   }
 }
 

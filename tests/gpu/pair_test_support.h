@@ -224,6 +224,21 @@ inline ::testing::AssertionResult samePairs(std::span<const IndexPair> actual,
   return failure << " at position " << (first_actual - actual.begin());
 }
 
+// Runs one frame of `boxes` through both finders: `finder` must give
+// `reference`'s delta.
+inline ::testing::AssertionResult sameDeltaAs(PairFinder& finder, PairFinder& reference,
+                                              std::span<const ObjectBounds> boxes) {
+  finder.launch(boxes);
+  reference.launch(boxes);
+  const PairDelta expected = reference.finish();
+  const PairDelta actual = finder.finish();
+  if (auto added = samePairs(actual.added, expected.added); !added) return added << " (added)";
+  if (auto removed = samePairs(actual.removed, expected.removed); !removed) {
+    return removed << " (removed)";
+  }
+  return ::testing::AssertionSuccess();
+}
+
 // Runs one frame through `finder` and checks its delta against the oracle;
 // `pairs` holds last frame's oracle answer and is updated.
 inline void expectFrameMatchesOracle(PairFinder& finder, std::span<const ObjectBounds> boxes,
