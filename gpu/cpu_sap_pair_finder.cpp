@@ -47,6 +47,8 @@ constexpr std::size_t kMinEntriesPerChunk = 256;
 // Steps 4 and 7 go parallel in pieces of at least this many entries or slots.
 constexpr std::size_t kMinEntriesPerGather = 2048;
 constexpr std::size_t kMinSlotsPerDeltaPart = 1024;
+// Step 7 counts the threads' pair batches in parallel when each holds this many.
+constexpr std::size_t kMinPairsPerParallelBatch = 8192;
 
 // The float's bits as an unsigned key with the same order: -inf < ... < -0 <
 // +0 < ... < +inf.  Not for NaN, which step 1 keeps out of the sort.
@@ -326,7 +328,18 @@ void CpuSapPairFinder::computeDelta() {
   batches_.clear();
   for (const PairKeys& pairs : thread_pairs_) batches_.push_back(pairs.keys());
   batches_.push_back(inverted_pairs_.keys());
-  current_.assign(slot_count_, batches_);
+  // The batches are the threads' own, so counting them in parallel pays when
+  // there are several of them and enough pairs.
+  const bool parallel = arena_.max_concurrency() > 1 && batches_.size() > 2 &&
+                        thread_pairs_.size() > 1 &&
+                        std::min_element(batches_.begin(), batches_.end() - 1, [](auto x, auto y) {
+                          return x.size() < y.size();
+                        })->size() >= kMinPairsPerParallelBatch;
+  if (parallel) {
+    arena_.execute([&] { current_.assign(slot_count_, batches_, true); });
+  } else {
+    current_.assign(slot_count_, batches_);
+  }
   // Rows in parts, compared in parallel, then joined in order.
   const auto threads = static_cast<std::size_t>(arena_.max_concurrency());
   const std::size_t parts =

@@ -6,7 +6,8 @@
 // The pairs (a, b), a < b, are stored compressed by row: slot a's partners b
 // are partners[offsets[a] .. offsets[a + 1]), sorted.  Building it from the
 // unordered pairs a search found is a two-pass radix sort whose digits are
-// whole slots: by b, then (stably) by a; each pass counts, then places.  The
+// whole slots: by b, then (stably) by a; each pass counts, then places, each
+// batch (then each piece) on its own thread if asked.  The
 // delta then goes row by row: a row equal to last frame's (most are) is
 // skipped, the others are merged, so the added and the removed pairs come
 // out sorted by (a, b).  Rows are independent: ranges of them can be
@@ -62,8 +63,11 @@ class PairKeys {
 class PairSet {
  public:
   // Replaces the set with the pairs in `batches`: pairKey()s over slots
-  // [0, slot_count), each pair in at most one batch, at most once.
-  void assign(std::uint32_t slot_count, std::span<const std::span<const std::uint64_t>> batches);
+  // [0, slot_count), each pair in at most one batch, at most once.  With
+  // `parallel`, the batches are counted and placed on oneTBB's threads (of
+  // the caller's arena); the set is the same either way.
+  void assign(std::uint32_t slot_count, std::span<const std::span<const std::uint64_t>> batches,
+              bool parallel = false);
 
   std::uint32_t slotCount() const { return static_cast<std::uint32_t>(offsets_.size() - 1); }
   std::size_t size() const { return partners_.size(); }
@@ -73,8 +77,11 @@ class PairSet {
  private:
   std::vector<std::uint32_t> offsets_ = {0};  // slotCount() + 1 entries
   std::vector<std::uint32_t> partners_;
-  std::vector<std::uint64_t> by_partner_;  // scratch for assign(): the keys sorted by b
-  std::vector<std::uint32_t> cursor_;      // scratch for assign()
+  // Scratch for assign(): the keys sorted by b, the pieces of a pass, and
+  // each piece's counts.
+  std::vector<std::uint64_t> by_partner_;
+  std::vector<std::span<const std::uint64_t>> parts_;
+  std::vector<std::vector<std::uint32_t>> counts_;
 };
 
 // The delta of a range of rows: one per range when ranges are computed at

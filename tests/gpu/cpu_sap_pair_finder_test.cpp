@@ -265,5 +265,31 @@ TEST(PairSetTest, DeltaOfTwoSetsIsSortedAndExact) {
   EXPECT_TRUE(testing::samePairs(high.removed, std::vector<IndexPair>{{2, 7}}));
 }
 
+TEST(PairSetTest, RowsComeOutSortedWhetherBuiltSeriallyOrInParallel) {
+  std::mt19937 random(11);
+  std::vector<std::uint64_t> keys;
+  for (std::uint32_t a = 0; a < 3000; ++a) {
+    for (std::uint32_t b = a + 1; b < 3000; b += 1 + static_cast<std::uint32_t>(random() % 400))
+      keys.push_back(pairKey(b, a));
+  }
+  std::shuffle(keys.begin(), keys.end(), random);
+  const std::span<const std::uint64_t> all(keys);
+  const std::size_t third = keys.size() / 3;
+  const std::vector<std::span<const std::uint64_t>> batches = {
+      all.first(third), all.subspan(third, third), all.subspan(2 * third)};
+  PairSet serial, parallel;
+  serial.assign(3000, batches);
+  parallel.assign(3000, batches, true);
+  ASSERT_EQ(serial.size(), keys.size());
+  ASSERT_EQ(parallel.size(), keys.size());
+  for (std::uint32_t a = 0; a < 3000; ++a) {
+    const std::span<const std::uint32_t> row = serial.partnersOf(a);
+    ASSERT_TRUE(std::is_sorted(row.begin(), row.end())) << "row " << a;
+    ASSERT_TRUE(std::equal(row.begin(), row.end(), parallel.partnersOf(a).begin(),
+                           parallel.partnersOf(a).end()))
+        << "row " << a;
+  }
+}
+
 }  // namespace
 }  // namespace overlap::gpu
