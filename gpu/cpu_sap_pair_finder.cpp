@@ -325,16 +325,16 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
 }
 
 void CpuSapPairFinder::computeDelta() {
+  // Counting the threads' batches of pairs in parallel pays when there are
+  // several and each is large.
   batches_.clear();
-  for (const PairKeys& pairs : thread_pairs_) batches_.push_back(pairs.keys());
+  std::size_t smallest_batch = std::numeric_limits<std::size_t>::max();
+  for (const PairKeys& pairs : thread_pairs_) {
+    batches_.push_back(pairs.keys());
+    smallest_batch = std::min(smallest_batch, pairs.size());
+  }
+  const bool parallel = batches_.size() > 1 && smallest_batch >= kMinPairsPerParallelBatch;
   batches_.push_back(inverted_pairs_.keys());
-  // The batches are the threads' own, so counting them in parallel pays when
-  // there are several of them and enough pairs.
-  const bool parallel = arena_.max_concurrency() > 1 && batches_.size() > 2 &&
-                        thread_pairs_.size() > 1 &&
-                        std::min_element(batches_.begin(), batches_.end() - 1, [](auto x, auto y) {
-                          return x.size() < y.size();
-                        })->size() >= kMinPairsPerParallelBatch;
   if (parallel) {
     arena_.execute([&] { current_.assign(slot_count_, batches_, true); });
   } else {

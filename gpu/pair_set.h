@@ -7,11 +7,10 @@
 // are partners[offsets[a] .. offsets[a + 1]), sorted.  Building it from the
 // unordered pairs a search found is a two-pass radix sort whose digits are
 // whole slots: by b, then (stably) by a; each pass counts, then places, each
-// batch (then each piece) on its own thread if asked.  The
-// delta then goes row by row: a row equal to last frame's (most are) is
-// skipped, the others are merged, so the added and the removed pairs come
-// out sorted by (a, b).  Rows are independent: ranges of them can be
-// compared on several threads.
+// batch (then each piece) on its own thread if asked.  The delta then goes
+// row by row: a row equal to last frame's (most are) is skipped, the others
+// are merged, so the added and the removed pairs come out sorted by (a, b).
+// Rows are independent: ranges of them can be compared on several threads.
 //
 // Invariants: no duplicates; every b < slotCount(); a slot at or above
 // slotCount() has no partners (so a set over fewer slots compares with one
