@@ -43,7 +43,7 @@ constexpr int kRadixBits[kRadixPasses] = {11, 11, 10};  // the 32 key bits, low 
 // relieved by the others; and entries per chunk at least, so that a chunk's
 // task costs much more than handing it out.
 constexpr std::size_t kChunksPerThread = 8;
-constexpr std::size_t kMinEntriesPerChunk = 256;
+constexpr std::size_t kMinEntriesPerChunk = 512;
 // Steps 4 and 7 go parallel in pieces of at least this many entries or slots.
 constexpr std::size_t kMinEntriesPerGather = 2048;
 constexpr std::size_t kMinSlotsPerDeltaPart = 1024;
