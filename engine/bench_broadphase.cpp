@@ -13,7 +13,8 @@
 // the slowest repeat, and the ratio to bvh (btDbvtBroadphase) at that n.
 //
 // Every frame's pair cache is checked against the exact set, taken from the
-// first exact algorithm run at that n (bf, else cpubf, gpubf, gpubf-paper):
+// first exact algorithm run at that n (bf, else cpubf, cpusap, gpubf,
+// gpubf-paper):
 // an exact algorithm must match it, a conservative one (sap, sap32, bvh) must
 // hold all of it and may hold extra pairs.  A mismatch or a missed pair makes
 // the run fail (exit 1) after it has written its results.
@@ -51,13 +52,14 @@ using PairList = std::vector<std::pair<int, int>>;
 constexpr const char* kProgram = "overlap_bench_broadphase";
 constexpr int kScene = 4;
 // Exact algorithms in the order they are preferred as the reference.
-constexpr std::string_view kExact[] = {"bf", "cpubf", "gpubf", "gpubf-paper"};
+constexpr std::string_view kExact[] = {"bf", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 
 struct BenchOptions {
   std::vector<int> objects{500, 1250, 2000, 2750, 3500};
-  std::vector<std::string> algorithms{"bf", "sap", "bvh", "cpubf", "gpubf", "gpubf-paper"};
+  std::vector<std::string> algorithms{"bf",     "sap",   "bvh",        "cpubf",
+                                      "cpusap", "gpubf", "gpubf-paper"};
   std::vector<int> big_objects{10000, 30000, 100000};
-  std::vector<std::string> big_algorithms{"bvh", "cpubf", "gpubf"};
+  std::vector<std::string> big_algorithms{"bvh", "cpubf", "cpusap", "gpubf"};
   std::filesystem::path streams = "out/streams";
   std::filesystem::path out = "out/broadphase";
   std::uint64_t seed = 42;
@@ -393,7 +395,8 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
       "ratio_vs_bvh = median_us / bvh's median_us at the same n in this run (bvh = "
       "btDbvtBroadphase; below 1 is faster than bvh)",
       "pairs_mean: pairs in the cache per measured frame; extra_pairs_mean: cached pairs not in "
-      "the exact set (bf's, else cpubf's, at that n) per measured frame; missed_pairs: exact "
+      "the exact set (the first of bf, cpubf, cpusap run at that n) per measured frame; "
+      "missed_pairs: exact "
       "pairs missing from the cache, summed over every frame and repeat; both empty for the "
       "reference itself"};
   if (!skipped.empty()) notes.push_back(skipped);
@@ -469,6 +472,11 @@ int main(int argc, char** argv) {
   using namespace overlap::engine;
   CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams (project issue 3)",
                kProgram};
+  app.footer(
+      "cpusap's results (issue 13, docs/results/broadphase_cpusap.md): "
+      "scripts/cpusap_table.py --streams DIR runs this with --objects "
+      "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
+      "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
   BenchOptions options;
   addOptions(app, options);
   try {

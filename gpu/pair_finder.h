@@ -1,4 +1,4 @@
-// Pair finders: the brute-force broadphase cores, free of Bullet.
+// Pair finders: the broadphase cores (brute forces and sort-and-sweep), free of Bullet.
 //
 // A PairFinder owns a set of object slots (index = slot) and, each frame,
 // finds every pair a < b whose AABBs overlap (inclusive: touching counts) and
@@ -69,7 +69,12 @@ class PairFinder {
   virtual double lastSearchDelayMs() const { return 0; }
 };
 
-enum class PairFinderKind { kCpuBruteForce, kGpuBruteForce, kGpuBruteForcePaper };
+enum class PairFinderKind {
+  kCpuBruteForce,       // cpubf
+  kGpuBruteForce,       // gpubf
+  kGpuBruteForcePaper,  // gpubf-paper
+  kCpuSweepAndPrune,    // cpusap
+};
 
 // True when a CUDA device can run the GPU finders; otherwise `why` (if not
 // null) says why not.
@@ -80,7 +85,7 @@ bool cudaDeviceAvailable(std::string* why);
 std::string cudaDeviceName();
 
 // Makes a finder.  The GPU kinds need cudaDeviceAvailable() and throw
-// std::runtime_error with its reason otherwise; cpu_threads = 0 lets the CPU
+// std::runtime_error with its reason otherwise; cpu_threads = 0 lets a CPU
 // finder use every thread of the caller's oneTBB arena.
 std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads = 0);
 

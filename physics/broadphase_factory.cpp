@@ -14,16 +14,19 @@
 namespace overlap::physics {
 namespace {
 
-constexpr std::array<std::string_view, 7> kNames = {"bf",    "sap",   "sap32",      "bvh",
-                                                    "cpubf", "gpubf", "gpubf-paper"};
+constexpr std::array<std::string_view, 8> kNames = {"bf",    "sap",    "sap32", "bvh",
+                                                    "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
 
-// cpubf searches on a worker thread, so the frame's CPU tasks can overlap it
-// as they overlap the GPU's search.
-std::unique_ptr<gpu::PairFinder> cpuFinder() {
-  return std::make_unique<gpu::BackgroundPairFinder>(
-      gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));
+// The fastest exact finder without a GPU: what gpubf and gpubf-paper run
+// where there is no CUDA device.
+constexpr std::string_view kGpuFallback = "cpusap";
+
+// The CPU finders search on a worker thread, so the frame's CPU tasks can
+// overlap them as they overlap the GPU's search.
+std::unique_ptr<gpu::PairFinder> cpuFinder(gpu::PairFinderKind kind) {
+  return std::make_unique<gpu::BackgroundPairFinder>(gpu::makePairFinder(kind));
 }
 
 }  // namespace
@@ -53,7 +56,11 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   } else if (name == "bvh") {
     choice.broadphase = std::make_unique<btDbvtBroadphase>();
   } else if (name == "cpubf") {
-    choice.broadphase = std::make_unique<PairFinderBroadphase>(cpuFinder());
+    choice.broadphase =
+        std::make_unique<PairFinderBroadphase>(cpuFinder(gpu::PairFinderKind::kCpuBruteForce));
+  } else if (name == "cpusap") {
+    choice.broadphase =
+        std::make_unique<PairFinderBroadphase>(cpuFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
   } else if (name == "gpubf" || name == "gpubf-paper") {
     std::string why;
     if (gpu::cudaDeviceAvailable(&why)) {
@@ -61,9 +68,9 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
           gpu::makePairFinder(name == "gpubf" ? gpu::PairFinderKind::kGpuBruteForce
                                               : gpu::PairFinderKind::kGpuBruteForcePaper));
     } else {
-      choice.name = "cpubf";
-      choice.notice = "algo " + std::string(name) + ": " + why + "; running cpubf instead";
-      choice.broadphase = std::make_unique<PairFinderBroadphase>(cpuFinder());
+      choice = makeBroadphase(kGpuFallback, world_min, world_max, max_objects);
+      choice.notice =
+          "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
     }
   } else {
     throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");

@@ -4,12 +4,14 @@
 //   sap          btAxisSweep3           (SAP; 16-bit quantized, < 32767 objects)
 //   sap32        bt32BitAxisSweep3
 //   bvh          btDbvtBroadphase       (BVH)
-//   cpubf        our brute force on CPU threads
+//   cpubf        our brute force on CPU threads (gpubf's twin, the reference)
+//   cpusap       our sort-and-sweep on CPU threads (AVX2), exact
 //   gpubf        our CUDA brute force (bit-packed, changes compacted on the GPU)
 //   gpubf-paper  the paper's CUDA brute force, reproduced as published
 //
-// A GPU name without a CUDA device falls back to cpubf; the returned notice
-// says so in one line, and `name` is what actually runs.
+// A GPU name without a CUDA device falls back to cpusap, the fastest exact
+// CPU finder; the returned notice says so in one line, and `name` is what
+// actually runs.
 #pragma once
 
 #include <btBulletCollisionCommon.h>

@@ -1,5 +1,5 @@
-// PairFinderBroadphase: a Bullet broadphase backed by a brute-force
-// gpu::PairFinder (cpubf, gpubf or gpubf-paper), usable unchanged by any
+// PairFinderBroadphase: a Bullet broadphase backed by a gpu::PairFinder
+// (cpubf, cpusap, gpubf or gpubf-paper), usable unchanged by any
 // btCollisionWorld / btDiscreteDynamicsWorld.
 //
 // Each proxy owns a slot of the finder; its m_uniqueId is its slot index, so

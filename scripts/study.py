@@ -23,8 +23,8 @@ writes the tables, the figures and REPORT.md from whatever results exist:
 Every run keeps its own folder under --out; a run whose result exists is not
 redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
 stable job list, so k machines can share the work on one --out folder.  On a
-machine without a CUDA device the GPU algorithms' runs are skipped (their
-CPU fallback is cpubf, which the study runs anyway) and reported as pending.
+machine without a CUDA device the GPU algorithms' runs are skipped (there
+they would run their CPU fallback, cpusap) and reported as pending.
 
   scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
   scripts/study.py --out out/study --shard 1/2              # half of the full study
@@ -283,7 +283,7 @@ def plan(args) -> list:
     if "timeline" in args.experiments:
         n, frames = args.timeline_objects, args.timeline_frames
         # gpubf with the tasks beside it: on a machine without a GPU it runs
-        # cpubf, and the summary (and so the figure) says so.
+        # cpusap, and the summary (and so the figure) says so.
         jobs.append(RunJob("timeline", "timeline", frames * 8 * n, {}, overlap, out / "timeline",
                            ["--scene", "4", "--objects", str(n), "--algo", "gpubf",
                             "--frames", str(frames), "--seed", seed, *threads]))

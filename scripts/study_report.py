@@ -18,7 +18,7 @@ from overlap_runs import portable
 # The spans whose per-frame totals the timeline section quotes.
 TIMELINE_TOTALS = ("frame", "physics", "search", "join", "sound", "ai", "wait for tasks")
 REPO = pathlib.Path(__file__).resolve().parent.parent
-EXACT_ALGOS = ("bf", "cpubf", "gpubf", "gpubf-paper")
+EXACT_ALGOS = ("bf", "cpubf", "cpusap", "gpubf", "gpubf-paper")
 
 
 def fmt(x: float) -> str:
@@ -40,7 +40,7 @@ def table(headers: list, rows: list) -> list:
 
 
 def algo_order(algos) -> list:
-    known = ["bf", "sap", "sap32", "bvh", "gpubf-paper", "gpubf", "cpubf"]
+    known = ["bf", "sap", "sap32", "bvh", "gpubf-paper", "gpubf", "cpubf", "cpusap"]
     return sorted(algos, key=lambda a: (known.index(a) if a in known else len(known), a))
 
 
@@ -489,7 +489,7 @@ def write_everything(args, jobs: list) -> list:
                 by_name[name] = by_name.get(name, 0.0) + duration
         lines += [f"Scene 4, {timeline_job.labels.get('objects', args.timeline_objects)} boxes, "
                   f"sound and AI tasks on, broadphase {algo} (asked gpubf"
-                  + ("" if algo == "gpubf" else "; no GPU here, so this is the CPU twin") + "). "
+                  + ("" if algo == "gpubf" else "; no GPU here, so this is its CPU fallback") + "). "
                   f"Frame {frame}, the median-length frame: " + ", ".join(
                       f"{name} {fmt(ms)} ms" for name, ms in sorted(by_name.items())) + ".", "",
                   "![timeline](report/fig_timeline.png)", "",

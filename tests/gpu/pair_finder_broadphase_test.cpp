@@ -57,7 +57,7 @@ class PairFinderBroadphaseTest : public ::testing::TestWithParam<PairFinderKind>
  protected:
   void SetUp() override {
     std::string why;
-    if (GetParam() != PairFinderKind::kCpuBruteForce && !gpu::cudaDeviceAvailable(&why)) {
+    if (gpu::testing::isGpuFinder(GetParam()) && !gpu::cudaDeviceAvailable(&why)) {
       GTEST_SKIP() << "no CUDA device: " << why;
     }
     broadphase_ = std::make_unique<PairFinderBroadphase>(gpu::makePairFinder(GetParam()));
@@ -346,6 +346,7 @@ TEST_P(PairFinderBroadphaseTest, RejectsMisuse) {
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
                          ::testing::Values(PairFinderKind::kCpuBruteForce,
+                                           PairFinderKind::kCpuSweepAndPrune,
                                            PairFinderKind::kGpuBruteForce,
                                            PairFinderKind::kGpuBruteForcePaper),
                          gpu::testing::finderTestName);

@@ -1,4 +1,4 @@
-// The three pair finders against the oracle, frame after frame, and the GPU
+// The pair finders against the oracle, frame after frame, and the GPU
 // finders against cpubf.  The GPU cases skip, saying why, without a device.
 #include "gpu/pair_finder.h"
 
@@ -23,7 +23,7 @@ class PairFinderTest : public ::testing::TestWithParam<PairFinderKind> {
  protected:
   void SetUp() override {
     std::string why;
-    if (GetParam() != PairFinderKind::kCpuBruteForce && !cudaDeviceAvailable(&why)) {
+    if (testing::isGpuFinder(GetParam()) && !cudaDeviceAvailable(&why)) {
       GTEST_SKIP() << "no CUDA device: " << why;
     }
     finder_ = makePairFinder(GetParam());
@@ -149,6 +149,7 @@ TEST_P(PairFinderTest, RejectsFinishWithoutLaunch) {
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest,
                          ::testing::Values(PairFinderKind::kCpuBruteForce,
+                                           PairFinderKind::kCpuSweepAndPrune,
                                            PairFinderKind::kGpuBruteForce,
                                            PairFinderKind::kGpuBruteForcePaper),
                          testing::finderTestName);
@@ -227,6 +228,7 @@ TEST(MakePairFinderTest, GpuKindsNeedADevice) {
     EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForcePaper), std::runtime_error);
   }
   EXPECT_EQ(makePairFinder(PairFinderKind::kCpuBruteForce)->name(), "cpubf");
+  EXPECT_EQ(makePairFinder(PairFinderKind::kCpuSweepAndPrune)->name(), "cpusap");
 }
 
 }  // namespace

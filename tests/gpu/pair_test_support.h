@@ -29,6 +29,9 @@ inline void PrintTo(PairFinderKind kind, std::ostream* out) {
     case PairFinderKind::kCpuBruteForce:
       *out << "cpubf";
       return;
+    case PairFinderKind::kCpuSweepAndPrune:
+      *out << "cpusap";
+      return;
     case PairFinderKind::kGpuBruteForce:
       *out << "gpubf";
       return;
@@ -182,12 +185,18 @@ inline std::string finderName(PairFinderKind kind) {
   switch (kind) {
     case PairFinderKind::kCpuBruteForce:
       return "cpubf";
+    case PairFinderKind::kCpuSweepAndPrune:
+      return "cpusap";
     case PairFinderKind::kGpuBruteForce:
       return "gpubf";
     case PairFinderKind::kGpuBruteForcePaper:
       return "gpubf_paper";
   }
   return "unknown";
+}
+
+inline bool isGpuFinder(PairFinderKind kind) {
+  return kind == PairFinderKind::kGpuBruteForce || kind == PairFinderKind::kGpuBruteForcePaper;
 }
 
 // Names parameterized tests after their finder.
@@ -213,6 +222,21 @@ inline ::testing::AssertionResult samePairs(std::span<const IndexPair> actual,
     failure << "; expected " << ::testing::PrintToString(*first_expected);
   }
   return failure << " at position " << (first_actual - actual.begin());
+}
+
+// Runs one frame of `boxes` through both finders: `finder` must give
+// `reference`'s delta.
+inline ::testing::AssertionResult sameDeltaAs(PairFinder& finder, PairFinder& reference,
+                                              std::span<const ObjectBounds> boxes) {
+  finder.launch(boxes);
+  reference.launch(boxes);
+  const PairDelta expected = reference.finish();
+  const PairDelta actual = finder.finish();
+  if (auto added = samePairs(actual.added, expected.added); !added) return added << " (added)";
+  if (auto removed = samePairs(actual.removed, expected.removed); !removed) {
+    return removed << " (removed)";
+  }
+  return ::testing::AssertionSuccess();
 }
 
 // Runs one frame through `finder` and checks its delta against the oracle;

@@ -3,7 +3,7 @@
 // scene 4 (whose bodies never sleep, so Bullet cannot flag them).  Each box must leave the
 // simulation with a message naming it, be counted in FrameReport::removed_from_simulation, and take
 // nothing with it: the run goes on, no other box turns non-finite, and the
-// broadphase's pairs stay exact (bf, cpubf) or miss nothing (sap, bvh).
+// broadphase's pairs stay exact (bf, cpubf, cpusap) or miss nothing (sap, bvh).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -38,7 +38,7 @@ const BadValue kBadValues[] = {
 };
 
 bool isExact(const std::string& algorithm) {
-  return algorithm == "bf" || algorithm == "cpubf";
+  return algorithm == "bf" || algorithm == "cpubf" || algorithm == "cpusap";
 }
 
 class BadValuesMidRun : public ::testing::TestWithParam<std::tuple<int, const char*>> {};
@@ -115,7 +115,8 @@ std::string sceneAndAlgorithm(
 
 INSTANTIATE_TEST_SUITE_P(ScenesAndBroadphases, BadValuesMidRun,
                          ::testing::Combine(::testing::Values(2, 4),
-                                            ::testing::Values("bf", "sap", "bvh", "cpubf")),
+                                            ::testing::Values("bf", "sap", "bvh", "cpubf",
+                                                              "cpusap")),
                          sceneAndAlgorithm);
 
 // Issue 12, item 1: a box made NaN between two scheduled frames is out of

@@ -1,6 +1,6 @@
 // Determinism: the same scene gives the same state, bit for bit, after a
 // full run of 2048 frames (SCENES.md), run after run, whatever the thread
-// count cpubf searches with, and whether the broadphase overlaps the frame's
+// count cpubf or cpusap searches with, and whether the broadphase overlaps the frame's
 // sound and AI tasks or runs after them.
 //
 // Cost: one full run of scene 4 at 60 boxes takes 5 to 10 s on the 2-core
@@ -22,6 +22,7 @@
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
+#include "tests/gpu/pair_test_support.h"
 #include "tests/hard_cases/hard_case_support.h"
 
 namespace overlap::hard_cases {
@@ -59,6 +60,16 @@ TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBrut
     const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(threads));
     EXPECT_EQ(hashAfterRun("cpubf"), bullet_bf) << threads << " thread(s)";
+  }
+}
+
+// cpusap too is exact, whatever its thread count: it must end where bf ends.
+TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce) {
+  const std::uint64_t bullet_bf = hashAfterRun("bf");
+  for (const int threads : {1, 2}) {
+    const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
+                                  static_cast<std::size_t>(threads));
+    EXPECT_EQ(hashAfterRun("cpusap"), bullet_bf) << threads << " thread(s)";
   }
 }
 
@@ -106,9 +117,9 @@ TEST(Determinism, AsyncAndSyncFramesGiveTheSamePairsStateAndSoundFor2048Frames) 
 }
 
 // The pair-finder level, where the thread count is the finder's own: a
-// PairFinderBroadphase over cpubf with 1, 2 and 4 threads (the process allows
-// 4 even on 2 cores) replays a recorded scene-4 pile; the caches must agree
-// frame by frame.
+// PairFinderBroadphase over cpubf (or cpusap) with 1, 2 and 4 threads (the
+// process allows 4 even on 2 cores) replays a recorded scene-4 pile; the
+// caches must agree frame by frame.
 using RecordedFrames = std::vector<std::vector<physics::Aabb>>;
 
 RecordedFrames recordScene4(int objects, int frames) {
@@ -122,11 +133,11 @@ RecordedFrames recordScene4(int objects, int frames) {
   return recorded;
 }
 
-std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int threads) {
+std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int threads,
+                                        gpu::PairFinderKind kind) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);
-  physics::PairFinderBroadphase broadphase(
-      gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce, threads));
+  physics::PairFinderBroadphase broadphase(gpu::makePairFinder(kind, threads));
   auto corner = [](const float(&xyz)[3]) { return btVector3(xyz[0], xyz[1], xyz[2]); };
   std::vector<btBroadphaseProxy*> proxies;
   for (const physics::Aabb& b : frames.front()) {
@@ -154,10 +165,12 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
   return pairs_per_frame;
 }
 
-TEST(Determinism, CpubfFindsTheSamePairsWithOneTwoOrFourThreads) {
+class FinderThreads : public ::testing::TestWithParam<gpu::PairFinderKind> {};
+
+TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
   const tbb::global_control allow_four(tbb::global_control::max_allowed_parallelism, 4);
   const RecordedFrames frames = recordScene4(300, 60);
-  const std::vector<PairList> one = replayWithThreads(frames, 1);
+  const std::vector<PairList> one = replayWithThreads(frames, 1, GetParam());
   std::size_t total = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {
     EXPECT_TRUE(samePairs(one[f], oraclePairs(frames[f]))) << "frame " << f;
@@ -165,12 +178,17 @@ TEST(Determinism, CpubfFindsTheSamePairsWithOneTwoOrFourThreads) {
   }
   EXPECT_GT(total, 1000u) << "the pile should be in contact";
   for (const int threads : {2, 4}) {
-    const std::vector<PairList> many = replayWithThreads(frames, threads);
+    const std::vector<PairList> many = replayWithThreads(frames, threads, GetParam());
     for (std::size_t f = 0; f < frames.size(); ++f) {
       ASSERT_TRUE(samePairs(many[f], one[f])) << threads << " threads, frame " << f;
     }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(CpuFinders, FinderThreads,
+                         ::testing::Values(gpu::PairFinderKind::kCpuBruteForce,
+                                           gpu::PairFinderKind::kCpuSweepAndPrune),
+                         gpu::testing::finderTestName);
 
 }  // namespace
 }  // namespace overlap::hard_cases

@@ -4,7 +4,7 @@
 // from the origin; long thin boxes crossing many.  Each case runs over several
 // frames, so pairs also leave and re-enter the cache.
 //
-// bf and ours (cpubf, gpubf, gpubf-paper) are exact: their cache equals the
+// bf and ours (cpubf, cpusap, gpubf, gpubf-paper) are exact: their cache equals the
 // oracle.  Bullet's sap, sap32 (quantized) and bvh (fattened) are
 // conservative: they must miss nothing; their extra pairs are printed, not
 // asserted.

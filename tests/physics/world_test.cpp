@@ -85,7 +85,7 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
   // marker left on the entry survives; a removed and re-added pair would come
   // back without it).  One substep per frame, so a frame is one search.
   std::string why;
-  if (GetParam() != std::string("cpubf") && !gpu::cudaDeviceAvailable(&why)) {
+  if (!std::string(GetParam()).starts_with("cpu") && !gpu::cudaDeviceAvailable(&why)) {
     GTEST_SKIP() << "no CUDA device: " << why;
   }
   PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
@@ -116,7 +116,7 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Finders, OurBroadphaseTest,
-                         ::testing::Values("cpubf", "gpubf", "gpubf-paper"),
+                         ::testing::Values("cpubf", "cpusap", "gpubf", "gpubf-paper"),
                          [](const ::testing::TestParamInfo<const char*>& info) {
                            return info.param == std::string("gpubf-paper")
                                       ? std::string("gpubf_paper")
