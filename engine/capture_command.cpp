@@ -6,6 +6,7 @@
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "render/capture_options.h"
@@ -19,7 +20,7 @@ struct CaptureOptions {
   std::string keyframes = "0,512,1024,2047";
   std::string size = "800x600";
   std::string colour = "size";
-  int substeps = 0;
+  PhysicsOptions physics;
   std::filesystem::path out = "out/capture";
 };
 
@@ -41,7 +42,7 @@ void capture(const CaptureOptions& options) {
   prepareOutputDirectory(options.out, "--out");
 
   FrameCapture camera(options.out, size.width, size.height, parseColourMode(options.colour));
-  physics::PhysicsWorld world(config, physics::WorldOptions{options.algorithm, options.substeps});
+  physics::PhysicsWorld world(config, options.physics.resolve(options.algorithm, config));
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
@@ -71,8 +72,7 @@ void addCaptureCommand(CLI::App& app) {
       ->check(CLI::IsMember({"size", "contact"}))
       ->capture_default_str();
   addAlgorithmOption(*command, options->algorithm);
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
+  options->physics.addTo(*command);
   command->add_option("--out", options->out, "output folder")->capture_default_str();
   command->callback([options] { capture(*options); });
 }

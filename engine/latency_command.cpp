@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "engine/commands.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "gpu/stopwatch.h"
@@ -53,7 +54,7 @@ struct LatencyOptions {
   std::vector<std::string> algorithms = {"bvh"};
   std::vector<double> growths = {1.0};
   int frames = 2048;
-  int substeps = 0;
+  PhysicsOptions physics;
   int threads = 0;  // 0: every hardware thread
 };
 
@@ -137,7 +138,7 @@ std::vector<physics::Aabb> grown(std::vector<physics::Aabb> boxes, const std::ve
 void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", options.substeps});
+  physics::PhysicsWorld world(config, options.physics.resolve("bvh", config));
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
 
@@ -227,8 +228,7 @@ void addLatencyCommand(CLI::App& app) {
   command->add_option("--frames", options->frames, "frames of 1/30 s")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
+  options->physics.addTo(*command);
   command->add_option("--threads", options->threads, "oneTBB's thread cap for cpubf (0: all)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();

@@ -17,6 +17,7 @@
 #include "engine/frame_capture.h"
 #include "engine/frame_scheduler.h"
 #include "engine/machine_info.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
@@ -31,8 +32,7 @@ struct RunOptions {
   SceneOptions scene;
   std::string algorithm = "gpubf";
   int frames = 2048;
-  int substeps = 0;
-  bool ccd = false;
+  PhysicsOptions physics;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
   SchedulerOptions scheduler;
@@ -76,6 +76,10 @@ const std::vector<Column>& columns() {
       {"removed", [](R r) { return r.frame.physics.removed_from_simulation; }, false},
       {"kinetic_energy", [](R r) { return r.frame.physics.kinetic_energy; }, false},
       {"potential_energy", [](R r) { return r.frame.physics.potential_energy; }, false},
+      {"substeps", [](R r) { return r.frame.physics.substeps; }, false},
+      {"ccd_bodies", [](R r) { return r.frame.physics.ccd_bodies; }, false},
+      {"sleeping", [](R r) { return r.frame.physics.sleeping; }, false},
+      {"fastest_speed", [](R r) { return r.frame.physics.fastest_speed; }, false},
   };
   return kColumns;
 }
@@ -115,7 +119,6 @@ std::string hex(std::uint64_t value) {
 struct RunResult {
   std::vector<FrameRow> rows;
   std::string algorithm;
-  int substeps = 0;
   std::uint64_t state_hash = 0;
   std::uint64_t sound_checksum = 0;
   std::uint64_t ai_checksum = 0;
@@ -130,7 +133,7 @@ RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
   std::unique_ptr<physics::PhysicsWorld> world;
   try {
     world = std::make_unique<physics::PhysicsWorld>(
-        config, physics::WorldOptions{options.algorithm, options.substeps, options.ccd});
+        config, options.physics.resolve(options.algorithm, config));
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string("--") + error.what());
   }
@@ -151,7 +154,6 @@ RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
   progress.finish();
   scheduler.close();
   result.algorithm = world->algorithm();
-  result.substeps = world->substeps();
   result.state_hash = world->stateHash();
   result.sound_checksum = scheduler.soundChecksum();
   result.ai_checksum = scheduler.aiChecksum();
@@ -166,8 +168,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["algorithm_requested"] = options.algorithm;
   parameters["algorithm"] = run.algorithm;
   parameters["frames"] = options.frames;
-  parameters["substeps"] = run.substeps;
-  parameters["ccd"] = options.ccd;
+  parameters.update(toJson(options.physics.resolve(options.algorithm, config)));
   parameters["sync"] = options.scheduler.sync;
   parameters["threads"] = options.threads;
   parameters["tasks"] = options.scheduler.tasks;
@@ -178,6 +179,8 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   nlohmann::json errors = columnStatistics(run.rows, false);
   errors["escaped_final"] = run.rows.back().frame.physics.escaped;
   errors["sunk_final"] = run.rows.back().frame.physics.sunk;
+  const double mean_substeps = errors["substeps"]["mean"];
+  errors["substeps_x_boxes"] = mean_substeps * config.objects;  // a load-free cost proxy
   return {{"command", "run"},
           {"parameters", parameters},
           {"layout",
@@ -194,6 +197,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
 
 void run(const RunOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
+  options.physics.resolve(options.algorithm, config);  // a bad choice fails before any output
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   try {
@@ -264,11 +268,7 @@ void addRunCommand(CLI::App& app) {
   command->add_option("--frames", options->frames, "frames of 1/30 s")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  command
-      ->add_option("--substeps", options->substeps,
-                   "fixed steps per frame (default: 2 for scenes 1-2, 8 for 3-4)")
-      ->check(CLI::Range(1, 1000));
-  command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box");
+  options->physics.addTo(*command);
   command->add_flag("--sync", options->scheduler.sync,
                     "run the sound and AI tasks before the broadphase, not beside it");
   command

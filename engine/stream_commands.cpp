@@ -5,6 +5,7 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/physics_options.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "physics/aabb_stream.h"
@@ -16,7 +17,7 @@ namespace {
 struct RecordOptions {
   SceneOptions scene;
   int frames = 2048;
-  int substeps = 0;
+  PhysicsOptions physics;
   std::filesystem::path out;
 };
 
@@ -29,7 +30,8 @@ void checkWritableFile(const std::filesystem::path& file) {
 void record(const RecordOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   checkWritableFile(options.out);
-  physics::writeAabbStream(options.out, recordStream(config, options.frames, options.substeps));
+  physics::writeAabbStream(
+      options.out, recordStream(config, options.frames, options.physics.resolve("bvh", config)));
 }
 
 struct PairsOptions {
@@ -68,8 +70,7 @@ void addRecordCommand(CLI::App& app) {
   command->add_option("--frames", options->frames, "frames to record (F; F + 1 are stored)")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  command->add_option("--substeps", options->substeps, "fixed steps per frame (default: scene's)")
-      ->check(CLI::Range(1, 1000));
+  options->physics.addTo(*command);
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
   command->callback([options] { record(*options); });
 }

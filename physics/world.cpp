@@ -19,7 +19,6 @@
 namespace overlap::physics {
 namespace {
 
-constexpr double kStrongGravity = 20.0;  // m/s^2: above it a scene is a "50 g" scene
 constexpr int kWallCount = 6;
 // Bullet's default collision margin (0.04 m) would round a 0.1 m box's corners
 // away almost entirely; a tenth of the edge keeps small boxes box-shaped.
@@ -149,10 +148,6 @@ void hashBytes(std::uint64_t& hash, const void* data, std::size_t size) {
 
 }  // namespace
 
-int defaultSubsteps(const SceneConfig& config) {
-  return config.g * config.gravity_scale > kStrongGravity ? 8 : 2;
-}
-
 struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
@@ -163,6 +158,9 @@ struct PhysicsWorld::Bullet {
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
   std::vector<double> edges;                         // per box
   std::vector<bool> removed;                         // per box: out of the simulation
+  std::vector<char> ccd;                             // per box: CCD on this frame
+  double smallest_edge = INFINITY;
+  double typical_edge = 0;  // the median
   NewPairRecorder new_pairs;
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
@@ -175,7 +173,10 @@ struct PhysicsWorld::Bullet {
 PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& options)
     : config_(config),
       layout_(generateScene(config)),
-      substeps_(options.substeps > 0 ? options.substeps : defaultSubsteps(config)),
+      substeps_(options.substeps),
+      automatic_substeps_(options.substeps == kAutoSubsteps),
+      ccd_(options.ccd),
+      sleep_(sleepAllowed(config, options.sleep)),
       bullet_(std::make_unique<Bullet>()) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
   Bullet& b = *bullet_;
@@ -192,6 +193,8 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
   b.world->background_search = dynamic_cast<PairFinderBroadphase*>(b.broadphase.get());
   b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
+  // A sleeping box does not move, so its AABB stays as the broadphase has it.
+  b.world->setForceUpdateAllAabbs(!sleep_);
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.new_pairs);
   b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
   b.world->setGravity(toBullet(b.gravity.gravity()));
@@ -215,19 +218,20 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
                     toBullet(start.position)));
     body->setLinearVelocity(toBullet(start.velocity));
     body->setUserIndex(i);
-    if (config.rotatingGravity()) {
-      // Gravity turns every frame, and a sleeping body would not notice.
-      body->setActivationState(DISABLE_DEACTIVATION);
-    }
-    if (options.ccd) {
-      body->setCcdMotionThreshold(static_cast<btScalar>(start.edge / 2));
-      body->setCcdSweptSphereRadius(static_cast<btScalar>(start.edge * 0.4));
-    }
+    if (!sleep_) body->setActivationState(DISABLE_DEACTIVATION);
     b.world->addRigidBody(body.get());
     b.edges.push_back(start.edge);
+    b.smallest_edge = std::min(b.smallest_edge, start.edge);
     b.removed.push_back(false);
+    b.ccd.push_back(0);
     b.shapes.push_back(std::move(shape));
     b.bodies.push_back(std::move(body));
+  }
+
+  if (n > 0) {
+    std::vector<double> edges = b.edges;
+    std::nth_element(edges.begin(), edges.begin() + n / 2, edges.end());
+    b.typical_edge = edges[static_cast<std::size_t>(n / 2)];
   }
 
   // Six walls just outside the interior, overlapping at the edges.
@@ -284,12 +288,13 @@ FrameReport PhysicsWorld::stepFrame(const FrameWork* work) {
   b.world->pending_work = work;
   b.new_pairs.added.clear();
   applySceneForces();
+  FrameReport report;
+  planFrame(report);
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
   for (int k = 0; k < substeps_; ++k) {
     // maxSubSteps = 0: exactly one step of dt, no accumulator rounding.
     b.world->stepSimulation(dt, 0);
   }
-  FrameReport report;
   report.frame = frame_++;
   report.timings = b.world->timings;
   report.background_search = b.world->first_search;
@@ -297,6 +302,33 @@ FrameReport PhysicsWorld::stepFrame(const FrameWork* work) {
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
   measureContainment(report);
   return report;
+}
+
+// This frame's K and CCD bodies (physics/step_policy.h), from the boxes'
+// speeds after the scene's kicks and with this frame's gravity.
+void PhysicsWorld::planFrame(FrameReport& report) {
+  Bullet& b = *bullet_;
+  const std::vector<float> speeds = boxSpeeds();
+  const double gravity = b.world->getGravity().length();
+  for (const float speed : speeds)
+    report.fastest_speed = std::max<double>(report.fastest_speed, speed);
+  if (automatic_substeps_) {
+    const FrameMotion motion{report.fastest_speed, gravity,        config_.frame_time,
+                             b.smallest_edge,      b.typical_edge, layout_.wall_thickness};
+    substeps_ = chooseSubsteps(motion, ccd_ != CcdMode::kOff);
+  }
+  report.substeps = substeps_;
+  const std::vector<char> ccd =
+      chooseCcdBodies(ccd_, speeds, b.edges, gravity, config_.frame_time, substeps_);
+  for (std::size_t i = 0; i < ccd.size(); ++i) {
+    report.ccd_bodies += ccd[i];
+    if (ccd[i] == b.ccd[i]) continue;
+    b.ccd[i] = ccd[i];
+    // Bullet sweeps a body whose motion in a step exceeds the threshold (0: never).
+    const double edge = b.edges[i];
+    b.bodies[i]->setCcdMotionThreshold(static_cast<btScalar>(ccd[i] ? kCcdShareOfEdge * edge : 0));
+    b.bodies[i]->setCcdSweptSphereRadius(static_cast<btScalar>(kCcdSweptSphereShare * edge));
+  }
 }
 
 void PhysicsWorld::measureContainment(FrameReport& report) const {
@@ -309,6 +341,7 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
       continue;
     }
     const btRigidBody& body = *b.bodies[i];
+    if (body.getActivationState() == ISLAND_SLEEPING) ++report.sleeping;
     const btVector3& c = body.getWorldTransform().getOrigin();
     const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
     if (reach > outer) ++report.escaped;

@@ -1,7 +1,9 @@
 // Determinism: the same scene gives the same state, bit for bit, after a
 // full run of 2048 frames (SCENES.md), run after run, whatever the thread
 // count cpubf searches with, and whether the broadphase overlaps the frame's
-// sound and AI tasks or runs after them.
+// sound and AI tasks or runs after them.  The runs use the automatic
+// substeps and CCD, so the frame-by-frame choices (K, CCD bodies) are
+// compared too.
 //
 // Cost: one full run of scene 4 at 60 boxes takes 5 to 10 s on the 2-core
 // development machine.  Each test below makes two to four of them and is its
@@ -35,35 +37,63 @@ physics::SceneConfig scene4(int objects) {
   return config;
 }
 
-std::uint64_t hashAfterRun(const std::string& algorithm) {
-  physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{algorithm});
-  for (int frame = 0; frame < kFrames; ++frame) world.stepFrame();
+// What the step policy chose each frame: (K, boxes with CCD).
+using Choices = std::vector<std::pair<int, int>>;
+
+void noteChoices(Choices* choices, const physics::FrameReport& report) {
+  if (choices != nullptr) choices->emplace_back(report.substeps, report.ccd_bodies);
+}
+
+std::uint64_t hashAfterRun(const std::string& algorithm, Choices* choices = nullptr,
+                           physics::CcdMode ccd = physics::CcdMode::kAuto) {
+  physics::PhysicsWorld world(scene4(kBoxes),
+                              physics::WorldOptions{algorithm, physics::kAutoSubsteps, ccd});
+  for (int frame = 0; frame < kFrames; ++frame) noteChoices(choices, world.stepFrame());
   return world.stateHash();
 }
 
-TEST(Determinism, ThreeRunsOfScene4EndInTheSameState) {
-  const std::uint64_t first = hashAfterRun("bvh");
-  EXPECT_EQ(hashAfterRun("bvh"), first);
-  EXPECT_EQ(hashAfterRun("bvh"), first);
+// The choices must vary, or comparing them proves nothing.
+void expectVaryingChoices(const Choices& choices) {
+  const auto [fewest, most] = std::minmax_element(choices.begin(), choices.end());
+  EXPECT_LT(fewest->first, most->first) << "K never changed";
+  std::vector<int> ccd;
+  for (const auto& choice : choices) ccd.push_back(choice.second);
+  EXPECT_LT(*std::min_element(ccd.begin(), ccd.end()), *std::max_element(ccd.begin(), ccd.end()))
+      << "the CCD bodies never changed";
+}
+
+TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
+  Choices first_choices;
+  const std::uint64_t first = hashAfterRun("bvh", &first_choices);
+  expectVaryingChoices(first_choices);
+  for (int run = 0; run < 2; ++run) {
+    Choices choices;
+    EXPECT_EQ(hashAfterRun("bvh", &choices), first);
+    EXPECT_EQ(choices, first_choices);
+  }
 }
 
 // PhysicsWorld names a broadphase and nothing more, so cpubf's threads are
 // capped as `overlap run --threads` caps them, for the whole process (a cap
 // above the core count leaves cpubf at one thread per core).  Both bf and
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
-// cpubf must also end where Bullet's own brute force ends.
+// cpubf must also end where Bullet's own brute force ends.  Without CCD:
+// CCD's sweeps query the broadphase's rayTest, which btSimpleBroadphase
+// answers with every proxy and ours with those the sweep's AABB meets, in
+// another order, so a tie between two hits can go either way.
 TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
-  const std::uint64_t bullet_bf = hashAfterRun("bf");
+  const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2, 4}) {
     const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(threads));
-    EXPECT_EQ(hashAfterRun("cpubf"), bullet_bf) << threads << " thread(s)";
+    EXPECT_EQ(hashAfterRun("cpubf", nullptr, physics::CcdMode::kOff), bullet_bf)
+        << threads << " thread(s)";
   }
 }
 
 // The engine's frame: cpubf searches on its worker while the sound and AI
 // tasks run (async), or the tasks run first and the search after (sync).
-std::uint64_t hashAfterScheduledRun(bool sync) {
+std::uint64_t hashAfterScheduledRun(bool sync, Choices& choices) {
   physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
   engine::SchedulerOptions options;
   options.sync = sync;
@@ -72,12 +102,15 @@ std::uint64_t hashAfterScheduledRun(bool sync) {
   options.ai.agents = 16;
   engine::Timeline timeline;
   engine::FrameScheduler scheduler(world, options, timeline);
-  for (int frame = 0; frame < kFrames; ++frame) scheduler.runFrame();
+  for (int frame = 0; frame < kFrames; ++frame) noteChoices(&choices, scheduler.runFrame().physics);
   return world.stateHash();
 }
 
-TEST(Determinism, AsyncAndSyncFramesEndInTheSameState) {
-  EXPECT_EQ(hashAfterScheduledRun(false), hashAfterScheduledRun(true));
+TEST(Determinism, AsyncAndSyncFramesMakeTheSameChoicesAndEndInTheSameState) {
+  Choices async_choices, sync_choices;
+  EXPECT_EQ(hashAfterScheduledRun(false, async_choices), hashAfterScheduledRun(true, sync_choices));
+  EXPECT_EQ(async_choices, sync_choices);
+  expectVaryingChoices(async_choices);
 }
 
 // The pair-finder level, where the thread count is the finder's own: a
