@@ -143,8 +143,9 @@ def broadphase_error(rows: list, folder: pathlib.Path) -> str:
 
 
 def physics(rows: list, folder: pathlib.Path) -> str:
-    """Per scene (columns): each error (rows) against the time per frame, one point per run;
-    fixed K as numbers joined per CCD mode, the automatic setting as a star."""
+    """Per scene (columns): each error (rows) against the cost per frame, one point per run;
+    fixed K as numbers joined per CCD mode, the automatic setting as a star.  The cost is mean
+    K x boxes, which the machine's load does not change (the tables give the times)."""
     scenes = sorted({r["scene"] for r in rows})
     measures = [("penetration_max", "deepest penetration / edge"),
                 ("sunk_max", "sunk (max over frames)"), ("escaped_max", "escaped (max)")]
@@ -155,7 +156,7 @@ def physics(rows: list, folder: pathlib.Path) -> str:
         for row, (key, title) in enumerate(measures):
             axis = axes[row][column]
             for ccd, (tint, style) in styles.items():
-                fixed = sorted((r["total_median"], r[key], r["substeps"]) for r in rows
+                fixed = sorted((r["k_x_boxes"], r[key], r["substeps"]) for r in rows
                                if r["scene"] == scene and r["ccd"] == ccd
                                and r["substeps"] != "auto")
                 if fixed:
@@ -166,7 +167,7 @@ def physics(rows: list, folder: pathlib.Path) -> str:
                                       textcoords="offset points")
                 for r in rows:
                     if r["scene"] == scene and r["ccd"] == ccd and r["substeps"] == "auto":
-                        axis.plot(r["total_median"], r[key], "*", color=tint, markersize=13,
+                        axis.plot(r["k_x_boxes"], r[key], "*", color=tint, markersize=13,
                                   markeredgecolor="black",
                                   label=f"auto, ccd {ccd}" + (", no sleep"
                                                               if r["sleep"] == "off" and scene <= 2
@@ -176,7 +177,7 @@ def physics(rows: list, folder: pathlib.Path) -> str:
                 axis.set_ylabel(title)
             axis.grid(alpha=0.3)
         axes[0][column].set_title(f"scene {scene}")
-        axes[-1][column].set_xlabel("ms per frame (median)")
+        axes[-1][column].set_xlabel("cost: mean K x boxes")
     axes[0][-1].legend(fontsize=7)
     return save(figure, folder, "fig_physics")
 

@@ -512,7 +512,7 @@ def write_everything(args, jobs: list) -> list:
 
     lines += ["## 3. Speed against error", "", "### 3.1 Broadphase: pairs against the exact "
               "oracle (bf)", "", f"Scene 4, {args.pairs_objects} boxes, {args.pairs_frames} "
-              "frames recorded with `overlap record` (bvh, 8 substeps), each algorithm's pair "
+              "frames recorded with `overlap record` (bvh, its default substeps and CCD), each algorithm's pair "
               "cache from `overlap pairs` compared frame by frame with bf's.", ""]
     section, failures = pairs_section(pairs, cells, args.pairs_objects, figures)
     lines += section
