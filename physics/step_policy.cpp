@@ -69,6 +69,14 @@ std::string sleepModeName(SleepMode mode) {
   return "?";
 }
 
+double typicalEdge(std::span<const double> edges) {
+  if (edges.empty()) return 0;
+  std::vector<double> sorted(edges.begin(), edges.end());
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  return *middle;
+}
+
 double speedBound(double speed, double gravity, double frame_time) {
   return speed + gravity * frame_time;
 }

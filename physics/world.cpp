@@ -160,7 +160,7 @@ struct PhysicsWorld::Bullet {
   std::vector<bool> removed;                         // per box: out of the simulation
   std::vector<char> ccd;                             // per box: CCD on this frame
   double smallest_edge = INFINITY;
-  double typical_edge = 0;  // the median
+  double typical_edge = 0;  // typicalEdge()
   NewPairRecorder new_pairs;
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
@@ -228,11 +228,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
     b.bodies.push_back(std::move(body));
   }
 
-  if (n > 0) {
-    std::vector<double> edges = b.edges;
-    std::nth_element(edges.begin(), edges.begin() + n / 2, edges.end());
-    b.typical_edge = edges[static_cast<std::size_t>(n / 2)];
-  }
+  b.typical_edge = typicalEdge(b.edges);
 
   // Six walls just outside the interior, overlapping at the edges.
   const double h = layout_.half_extent;

@@ -74,6 +74,12 @@ TEST(StepPolicy, WithoutCcdTheSmallestEdgeBoundsTheMotionToo) {
   EXPECT_GT(chooseSubsteps(m, false), chooseSubsteps(m, true));
 }
 
+TEST(StepPolicy, TheTypicalEdgeIsTheMedianBoxs) {
+  EXPECT_EQ(typicalEdge(std::vector<double>{}), 0.0);
+  EXPECT_EQ(typicalEdge(std::vector<double>{4.0, 0.1, 1.0}), 1.0);
+  EXPECT_EQ(typicalEdge(std::vector<double>{0.2, 0.1, 3.0, 1.0, 2.0}), 1.0);
+}
+
 TEST(StepPolicy, CcdGoesToTheSmallFastBoxesOnly) {
   const std::vector<double> edges = {0.1, 0.1, 4.0, 4.0, 1.0};
   const std::vector<float> speeds = {200.0f, 0.0f, 200.0f, 0.0f, 10.0f};
