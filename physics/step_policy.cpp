@@ -20,14 +20,14 @@ CcdMode parseCcdMode(const std::string& text) {
   if (text == "off") return CcdMode::kOff;
   if (text == "auto") return CcdMode::kAuto;
   if (text == "all") return CcdMode::kAll;
-  throw std::invalid_argument("ccd: '" + text + "' is not one of off, auto, all");
+  throw std::invalid_argument("'" + text + "' is not one of off, auto, all");
 }
 
 SleepMode parseSleepMode(const std::string& text) {
   if (text == "scene") return SleepMode::kScene;
   if (text == "on") return SleepMode::kOn;
   if (text == "off") return SleepMode::kOff;
-  throw std::invalid_argument("sleep: '" + text + "' is not one of scene, on, off");
+  throw std::invalid_argument("'" + text + "' is not one of scene, on, off");
 }
 
 int parseSubsteps(const std::string& text) {
@@ -40,7 +40,7 @@ int parseSubsteps(const std::string& text) {
     used = 0;
   }
   if (used != text.size() || used == 0 || k < 1 || k > 1000) {
-    throw std::invalid_argument("substeps: '" + text + "' is neither auto nor a K in 1..1000");
+    throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1..1000");
   }
   return k;
 }
