@@ -193,8 +193,6 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
   b.world->background_search = dynamic_cast<PairFinderBroadphase*>(b.broadphase.get());
   b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
-  // A sleeping box does not move, so its AABB stays as the broadphase has it.
-  b.world->setForceUpdateAllAabbs(!sleep_);
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.new_pairs);
   b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
   b.world->setGravity(toBullet(b.gravity.gravity()));
