@@ -7,6 +7,7 @@
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "render/capture_options.h"
@@ -20,7 +21,7 @@ struct CaptureOptions {
   std::string keyframes = "0,512,1024,2047";
   std::string size = "800x600";
   std::string colour = "size";
-  int substeps = 0;
+  PhysicsOptions physics;
   std::filesystem::path out = "out/capture";
 };
 
@@ -42,7 +43,7 @@ void capture(const CaptureOptions& options) {
   const std::unique_ptr<FrameCapture> camera =
       openCapture(options.out, options.size, parseColourMode(options.colour));
   const std::unique_ptr<physics::PhysicsWorld> world =
-      makeWorld(config, physics::WorldOptions{options.algorithm, options.substeps});
+      makeWorld(config, options.physics.resolve(options.algorithm, config));
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
@@ -77,7 +78,7 @@ void addCaptureCommand(CLI::App& app) {
       ->check(CLI::IsMember({"size", "contact"}))
       ->capture_default_str();
   addAlgorithmOption(*command, options->algorithm);
-  addSubstepsOption(*command, options->substeps);
+  options->physics.addTo(*command);
   command->add_option("--out", options->out, "output folder")->capture_default_str();
   command->footer(
       "Example:\n"

@@ -178,8 +178,8 @@ void FrameScheduler::drawFrame(ScheduledFrame& frame, double frame_start,
   const physics::FrameReport& step = frame.physics;
   addSpan("frame", "main", frame_start, microseconds(frame.frame_ms));
   addSpan("physics", "main", physics_start, microseconds(step.timings.total_ms));
-  for (std::size_t k = 0; k < step.substeps.size(); ++k) {
-    const physics::SubstepReport& substep = step.substeps[k];
+  for (std::size_t k = 0; k < step.substep_reports.size(); ++k) {
+    const physics::SubstepReport& substep = step.substep_reports[k];
     const int index = static_cast<int>(k);
     const auto at = [&](Timeline::Clock::time_point t) { return timeline_.microsecondsAt(t); };
     addSpan("substep", "main", at(substep.start), at(substep.end) - at(substep.start), index);

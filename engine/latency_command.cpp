@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "engine/commands.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "gpu/stopwatch.h"
@@ -53,7 +54,7 @@ struct LatencyOptions {
   std::vector<std::string> algorithms = {kDefaultAlgorithm};
   std::vector<double> growths = {1.0};
   int frames = 2048;
-  int substeps = 0;
+  PhysicsOptions physics;
   int threads = 0;  // 0: every hardware thread
 };
 
@@ -138,7 +139,7 @@ void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   const std::unique_ptr<physics::PhysicsWorld> scene =
-      makeWorld(config, physics::WorldOptions{"bvh", options.substeps});
+      makeWorld(config, options.physics.resolve("bvh", config));
   physics::PhysicsWorld& world = *scene;
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
@@ -228,7 +229,7 @@ void addLatencyCommand(CLI::App& app) {
   command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  addSubstepsOption(*command, options->substeps);
+  options->physics.addTo(*command);
   addThreadsOption(*command, options->threads);
   command->footer(
       "Example:\n"

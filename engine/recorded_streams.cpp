@@ -46,8 +46,9 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
           std::to_string(config.objects) + "_f" + std::to_string(frames) + ".aabbs");
 }
 
-physics::AabbStream recordStream(const physics::SceneConfig& config, int frames, int substeps) {
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", substeps});
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
+                                 const physics::WorldOptions& options) {
+  physics::PhysicsWorld world(config, options);
 
   physics::AabbStream stream;
   stream.scene_name = streamSceneName(config);

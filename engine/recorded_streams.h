@@ -20,6 +20,7 @@
 
 #include "physics/aabb_stream.h"
 #include "physics/scene.h"
+#include "physics/world.h"
 
 namespace overlap::engine {
 
@@ -29,11 +30,13 @@ std::string streamSceneName(const physics::SceneConfig& config);
 std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
                                        const physics::SceneConfig& config, int frames);
 
-// Simulates `frames` frames of the scene (bvh; substeps 0: the scene's
-// default) and keeps the boxes' AABBs, a box that has left the simulation as
-// physics::parkedBox(), with progress on stderr for long recordings.  `overlap record` and the
-// benchmark both record through it.
-physics::AabbStream recordStream(const physics::SceneConfig& config, int frames, int substeps = 0);
+// Simulates `frames` frames of the scene (with `options`, by default bvh and
+// the automatic substeps, CCD and sleep) and keeps the boxes' AABBs, a box
+// that has left the simulation as physics::parkedBox(), with progress on
+// stderr for long recordings.  `overlap record` and the benchmark both record
+// through it.
+physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
+                                 const physics::WorldOptions& options = {});
 
 struct CachedStream {
   physics::AabbStream stream;

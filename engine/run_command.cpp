@@ -18,6 +18,7 @@
 #include "engine/frame_capture.h"
 #include "engine/frame_scheduler.h"
 #include "engine/machine_info.h"
+#include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
@@ -43,8 +44,7 @@ struct RunOptions {
   std::string algorithm;
   int frames = kDemoFrames;
   bool paper = false;
-  int substeps = 0;
-  bool ccd = false;
+  PhysicsOptions physics;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
   std::optional<double> task_load;
@@ -94,6 +94,10 @@ const std::vector<Column>& columns() {
       {"removed", [](R r) { return r.frame.physics.removed_from_simulation; }, false},
       {"kinetic_energy", [](R r) { return r.frame.physics.kinetic_energy; }, false},
       {"potential_energy", [](R r) { return r.frame.physics.potential_energy; }, false},
+      {"substeps", [](R r) { return r.frame.physics.substeps; }, false},
+      {"ccd_bodies", [](R r) { return r.frame.physics.ccd_bodies; }, false},
+      {"sleeping", [](R r) { return r.frame.physics.sleeping; }, false},
+      {"fastest_speed", [](R r) { return r.frame.physics.fastest_speed; }, false},
   };
   return kColumns;
 }
@@ -133,7 +137,6 @@ std::string hex(std::uint64_t value) {
 struct RunResult {
   std::vector<FrameRow> rows;
   std::string algorithm;
-  int substeps = 0;
   std::uint64_t state_hash = 0;
   std::uint64_t sound_checksum = 0;
   std::uint64_t ai_checksum = 0;
@@ -141,15 +144,16 @@ struct RunResult {
   physics::SceneLayout layout;
 };
 
-physics::WorldOptions worldOptions(const RunOptions& options) {
-  return physics::WorldOptions{options.algorithm, options.substeps, options.ccd};
+physics::WorldOptions worldOptions(const RunOptions& options, const physics::SceneConfig& config) {
+  return options.physics.resolve(options.algorithm, config);
 }
 
 // One whole run; `camera` and `timeline` may be null (the sync half of --compare-sync).
 RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
                   const SchedulerOptions& scheduler_options, FrameCapture* camera,
                   Timeline& timeline, const char* label) {
-  const std::unique_ptr<physics::PhysicsWorld> world = makeWorld(config, worldOptions(options));
+  const std::unique_ptr<physics::PhysicsWorld> world =
+      makeWorld(config, worldOptions(options, config));
   FrameScheduler scheduler(*world, scheduler_options, timeline);
   RunResult result;
   Progress progress(label, options.frames);
@@ -164,7 +168,6 @@ RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
   progress.finish();
   scheduler.close();
   result.algorithm = world->algorithm();
-  result.substeps = world->substeps();
   result.state_hash = world->stateHash();
   result.sound_checksum = scheduler.soundChecksum();
   result.ai_checksum = scheduler.aiChecksum();
@@ -180,8 +183,7 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   parameters["algorithm_requested"] = options.algorithm;
   parameters["algorithm"] = run.algorithm;
   parameters["frames"] = options.frames;
-  parameters["substeps"] = run.substeps;
-  parameters["ccd"] = options.ccd;
+  parameters.update(toJson(options.physics.resolve(options.algorithm, config)));
   parameters["sync"] = options.scheduler.sync;
   parameters["threads"] = options.threads;
   parameters["tasks"] = options.scheduler.tasks;
@@ -195,6 +197,8 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
   nlohmann::json errors = columnStatistics(run.rows, false);
   errors["escaped_final"] = run.rows.back().frame.physics.escaped;
   errors["sunk_final"] = run.rows.back().frame.physics.sunk;
+  const double mean_substeps = errors["substeps"]["mean"];
+  errors["substeps_x_boxes"] = mean_substeps * config.objects;  // a load-free cost proxy
   return {{"command", "run"},
           {"parameters", parameters},
           {"layout",
@@ -248,6 +252,7 @@ std::string writtenLine(const std::filesystem::path& out,
 void run(const RunOptions& given) {
   physics::SceneConfig config = given.scene.resolve();
   RunOptions options = resolveDefaults(given, config);
+  options.physics.resolve(options.algorithm, config);  // a bad choice fails before any output
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   try {
@@ -261,7 +266,7 @@ void run(const RunOptions& given) {
   std::optional<TaskLoadCalibration> calibration;
   if (options.task_load && options.scheduler.tasks) {
     calibration =
-        calibrateTaskLoad(*options.task_load, options.frames, config, worldOptions(options),
+        calibrateTaskLoad(*options.task_load, options.frames, config, worldOptions(options, config),
                           options.scheduler.sound, options.scheduler.ai);
     std::fprintf(stderr,
                  "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
@@ -350,9 +355,7 @@ void addRunCommand(CLI::App& app) {
                      " (about half an hour on two cores without a GPU); either given "
                      "explicitly wins")
       ->default_str("off");
-  addSubstepsOption(*command, options->substeps);
-  command->add_flag("--ccd", options->ccd, "Bullet's continuous collision detection on every box")
-      ->default_str("off");
+  options->physics.addTo(*command);
   command
       ->add_flag("--sync", options->scheduler.sync,
                  "run the frame's jobs one after another: the sound and AI tasks, then the "

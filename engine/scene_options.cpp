@@ -144,12 +144,6 @@ std::string broadphaseNameList() {
   return list;
 }
 
-void addSubstepsOption(CLI::App& command, int& substeps) {
-  command.add_option("--substeps", substeps, "fixed Bullet steps per frame")
-      ->check(CLI::Range(1, 1000))
-      ->default_str("the scene's: 8 at gravity above 20 m/s^2 (scenes 3-4), else 2");
-}
-
 void addThreadsOption(CLI::App& command, int& threads) {
   command
       .add_option("--threads", threads,

@@ -54,9 +54,9 @@ nlohmann::json toJson(const physics::SceneConfig& config);
 // broadphases' names.
 void addAlgorithmOption(CLI::App& command, std::string& algorithm);
 
-// Registers --substeps (fixed Bullet steps per frame; 0, the default, is the
-// scene's: physics::defaultSubsteps) and --threads (oneTBB's cap; 0: all).
-void addSubstepsOption(CLI::App& command, int& substeps);
+// Registers --threads: every thread the run uses, the main thread included
+// (0: one per hardware thread).  --substeps, --ccd and --sleep are
+// engine/physics_options.h's.
 void addThreadsOption(CLI::App& command, int& threads);
 
 // The check for any option that names broadphases (--algo, --algos).

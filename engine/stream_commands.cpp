@@ -5,6 +5,7 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/physics_options.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "physics/aabb_stream.h"
@@ -16,7 +17,7 @@ namespace {
 struct RecordOptions {
   SceneOptions scene;
   int frames = 2048;
-  int substeps = 0;
+  PhysicsOptions physics;
   std::filesystem::path out;
 };
 
@@ -25,7 +26,7 @@ void record(const RecordOptions& options) {
   prepareOutputFile(options.out, "--out");
   physics::AabbStream stream;
   try {
-    stream = recordStream(config, options.frames, options.substeps);
+    stream = recordStream(config, options.frames, options.physics.resolve("bvh", config));
   } catch (const std::invalid_argument& error) {  // a scene the options cannot build
     throw UsageError(std::string("--") + error.what());
   }
@@ -72,7 +73,7 @@ void addRecordCommand(CLI::App& app) {
                    "frames to record, each --frame-time long (F; F + 1 are stored)")
       ->check(CLI::Range(1, 1'000'000))
       ->capture_default_str();
-  addSubstepsOption(*command, options->substeps);
+  options->physics.addTo(*command);
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
   command->footer(
       "Example:\n"

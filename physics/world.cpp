@@ -22,7 +22,6 @@
 namespace overlap::physics {
 namespace {
 
-constexpr double kStrongGravity = 20.0;  // m/s^2: above it a scene is a "50 g" scene
 constexpr int kWallCount = 6;
 // Room in the broadphase for objects a user adds to bulletWorld() (ghosts,
 // sensors): btSimpleBroadphase and btAxisSweep3 have fixed capacities.
@@ -119,10 +118,6 @@ void hashBytes(std::uint64_t& hash, const void* data, std::size_t size) {
 
 }  // namespace
 
-int defaultSubsteps(const SceneConfig& config) {
-  return config.g * config.gravity_scale > kStrongGravity ? 8 : 2;
-}
-
 struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
@@ -136,6 +131,9 @@ struct PhysicsWorld::Bullet {
   btGhostPairCallback ghost_pairs;                   // the pair cache's slot, for ghost objects
   std::vector<std::pair<int, int>> touching;         // pairs whose manifold has points, sorted
   std::vector<NewContact> new_contacts;              // this frame's
+  std::vector<char> ccd;                             // per box: CCD on this frame
+  double smallest_edge = INFINITY;
+  double typical_edge = 0;  // typicalEdge()
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
 
@@ -154,7 +152,10 @@ struct PhysicsWorld::Bullet {
 PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& options)
     : config_(config),
       layout_(generateScene(config)),
-      substeps_(options.substeps > 0 ? options.substeps : defaultSubsteps(config)),
+      substeps_(options.substeps),
+      automatic_substeps_(options.substeps == kAutoSubsteps),
+      ccd_(options.ccd),
+      sleep_(sleepAllowed(config, options.sleep)),
       bullet_(std::make_unique<Bullet>()) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
   Bullet& b = *bullet_;
@@ -198,20 +199,17 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
                     toBullet(start.position)));
     body->setLinearVelocity(toBullet(start.velocity));
     body->setUserIndex(i);
-    if (config.rotatingGravity()) {
-      // Gravity turns every frame, and a sleeping body would not notice.
-      body->setActivationState(DISABLE_DEACTIVATION);
-    }
-    if (options.ccd) {
-      body->setCcdMotionThreshold(static_cast<btScalar>(start.edge / 2));
-      body->setCcdSweptSphereRadius(static_cast<btScalar>(start.edge * 0.4));
-    }
+    if (!sleep_) body->setActivationState(DISABLE_DEACTIVATION);
     b.world->addRigidBody(body.get());
     b.edges.push_back(start.edge);
+    b.smallest_edge = std::min(b.smallest_edge, start.edge);
     b.removed.push_back(false);
+    b.ccd.push_back(0);
     b.shapes.push_back(std::move(shape));
     b.bodies.push_back(std::move(body));
   }
+
+  b.typical_edge = typicalEdge(b.edges);
 
   // Six walls just outside the interior, overlapping at the edges.
   const double h = layout_.half_extent;
@@ -266,6 +264,8 @@ FrameReport PhysicsWorld::stepFrame() {
   b.world->substeps.clear();
   b.new_contacts.clear();
   applySceneForces();
+  FrameReport report;
+  planFrame(report);
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
   for (int k = 0; k < substeps_; ++k) {
     b.world->substeps.push_back(SubstepReport{std::chrono::steady_clock::now(), {}, {}, {}, {}});
@@ -276,14 +276,40 @@ FrameReport PhysicsWorld::stepFrame() {
   // The last substep's solver and integration may have broken a box: out now,
   // so that nothing reads it between frames (the next update would be late).
   removeBrokenBoxes();
-  FrameReport report;
   report.frame = frame_++;
   report.timings = b.world->timings;
-  report.substeps = std::exchange(b.world->substeps, {});
+  report.substep_reports = std::exchange(b.world->substeps, {});
   report.timings.total_ms = frame_watch.ms();
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
   measureContainment(report);
   return report;
+}
+
+// This frame's K and CCD bodies (physics/step_policy.h), from the boxes'
+// speeds after the scene's kicks and with this frame's gravity.
+void PhysicsWorld::planFrame(FrameReport& report) {
+  Bullet& b = *bullet_;
+  const std::vector<float> speeds = boxSpeeds();
+  const double gravity = b.world->getGravity().length();
+  for (const float speed : speeds)
+    report.fastest_speed = std::max<double>(report.fastest_speed, speed);
+  if (automatic_substeps_) {
+    const FrameMotion motion{report.fastest_speed, gravity,        config_.frame_time,
+                             b.smallest_edge,      b.typical_edge, layout_.wall_thickness};
+    substeps_ = chooseSubsteps(motion, ccd_ != CcdMode::kOff);
+  }
+  report.substeps = substeps_;
+  const std::vector<char> ccd =
+      chooseCcdBodies(ccd_, speeds, b.edges, gravity, config_.frame_time, substeps_);
+  for (std::size_t i = 0; i < ccd.size(); ++i) {
+    report.ccd_bodies += ccd[i];
+    if (ccd[i] == b.ccd[i]) continue;
+    b.ccd[i] = ccd[i];
+    // Bullet sweeps a body whose motion in a step exceeds the threshold (0: never).
+    const double edge = b.edges[i];
+    b.bodies[i]->setCcdMotionThreshold(static_cast<btScalar>(ccd[i] ? kCcdShareOfEdge * edge : 0));
+    b.bodies[i]->setCcdSweptSphereRadius(static_cast<btScalar>(kCcdSweptSphereShare * edge));
+  }
 }
 
 void PhysicsWorld::measureContainment(FrameReport& report) const {
@@ -296,6 +322,7 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
       continue;
     }
     const btRigidBody& body = *b.bodies[i];
+    if (body.getActivationState() == ISLAND_SLEEPING) ++report.sleeping;
     const btVector3& c = body.getWorldTransform().getOrigin();
     const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
     if (reach > outer) ++report.escaped;

@@ -1,7 +1,8 @@
 // The Bullet adapter: a scene living in a btDiscreteDynamicsWorld.
 //
 // PhysicsWorld builds the scene (boxes and six static walls, nothing else),
-// steps it one frame at a time (K fixed substeps of frame_time / K), and
+// steps it one frame at a time (K substeps of frame_time / K, K fixed or
+// chosen each frame with the CCD bodies by physics/step_policy.h), and
 // reports what the frame cost and what it got wrong.  Times are taken inside
 // Bullet's step: AABB update, broadphase (pair search and pair-cache update),
 // narrowphase, solver and integration are each summed over the substeps, and
@@ -24,6 +25,7 @@
 
 #include "physics/scene.h"
 #include "physics/search_times.h"
+#include "physics/step_policy.h"
 
 class btBroadphaseInterface;
 class btDiscreteDynamicsWorld;
@@ -32,12 +34,10 @@ namespace overlap::physics {
 
 struct WorldOptions {
   std::string algorithm = "bvh";
-  int substeps = 0;  // 0: the scene's default, defaultSubsteps()
-  bool ccd = false;  // Bullet's continuous collision detection for every box
+  int substeps = kAutoSubsteps;  // kAutoSubsteps: chooseSubsteps() each frame; else fixed K
+  CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
+  SleepMode sleep = SleepMode::kScene;  // Bullet's deactivation, sleepAllowed()
 };
-
-// Substeps that keep every box inside the container in 2048 frames (README).
-int defaultSubsteps(const SceneConfig& config);
 
 struct FrameTimings {
   double update_ms = 0;       // AABBs written into the broadphase
@@ -64,14 +64,18 @@ struct SubstepReport {
 struct FrameReport {
   int frame = 0;
   FrameTimings timings;
-  std::vector<SubstepReport> substeps;
-  int pairs = 0;                    // overlapping pairs in the cache after the frame
-  int escaped = 0;                  // boxes whose centre is beyond a wall's outer face
-  int sunk = 0;                     // boxes whose centre is outside the interior
-  double max_penetration = 0;       // deepest contact overlap / that box's edge
-  int removed_from_simulation = 0;  // boxes taken out: non-finite, huge or far away
-  double kinetic_energy = 0;        // J, linear and rotational, boxes in the simulation
-  double potential_energy = 0;      // J, -sum m (g . x) for the gravity of this frame
+  std::vector<SubstepReport> substep_reports;  // one per substep, in order
+  int pairs = 0;                               // overlapping pairs in the cache after the frame
+  int escaped = 0;                             // boxes whose centre is beyond a wall's outer face
+  int sunk = 0;                                // boxes whose centre is outside the interior
+  double max_penetration = 0;                  // deepest contact overlap / that box's edge
+  int removed_from_simulation = 0;             // boxes taken out: non-finite, huge or far away
+  double kinetic_energy = 0;                   // J, linear and rotational, boxes in the simulation
+  double potential_energy = 0;                 // J, -sum m (g . x) for the gravity of this frame
+  int substeps = 0;                            // K this frame used
+  int ccd_bodies = 0;                          // boxes with CCD this frame
+  int sleeping = 0;                            // boxes asleep after the frame
+  double fastest_speed = 0;  // m/s, the fastest box at the frame's start (K's input)
 };
 
 struct BoxPose {
@@ -114,7 +118,10 @@ class PhysicsWorld {
 
   const SceneConfig& config() const { return config_; }
   const SceneLayout& layout() const { return layout_; }
+  // The fixed K, or with automatic substeps the K of the last frame (0 before the first).
   int substeps() const { return substeps_; }
+  bool automaticSubsteps() const { return automatic_substeps_; }
+  bool sleepEnabled() const { return sleep_; }
   int framesDone() const { return frame_; }
   const std::string& algorithm() const { return algorithm_; }
   const std::string& algorithmNotice() const { return algorithm_notice_; }
@@ -152,6 +159,7 @@ class PhysicsWorld {
  private:
   struct Bullet;
   void applySceneForces();
+  void planFrame(FrameReport& report);
   void measureContainment(FrameReport& report) const;
   void removeBrokenBoxes();
   void noteContactsStarted();
@@ -159,6 +167,9 @@ class PhysicsWorld {
   SceneConfig config_;
   SceneLayout layout_;
   int substeps_;
+  bool automatic_substeps_;
+  CcdMode ccd_;
+  bool sleep_;
   int frame_ = 0;
   std::string algorithm_;
   std::string algorithm_notice_;

@@ -10,8 +10,10 @@ writes the tables, the figures and REPORT.md from whatever results exist:
             and averages; only the timings differ between repetitions)
   pairs     a recorded scene-4 stream through `overlap pairs` for every
             algorithm, compared with bf's exact pairs: missed pairs must be 0
-  physics   substeps K and --ccd against escapes, penetration (and energy
-            drift, where frames.csv has energy columns), scenes 3 and 4
+  physics   issue 14's speed against error: fixed K x --ccd off|auto|all and
+            --substeps auto x --ccd off|auto, every scene, against escapes,
+            sinking, penetration and energy drift; where a scene sleeps, the
+            same run without sleep and the largest position error sleep caused
   latency   `overlap latency`: a broadphase one frame late on AABBs grown by
             growth * |v| * dt, against the pairs it misses and adds
   timeline  one run with the sound and AI tasks, for the async loop's timeline
@@ -43,6 +45,7 @@ import time
 
 from overlap_runs import run_summary
 import study_report
+import study_results
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 GPU_ALGOS = ("gpubf", "gpubf-paper")
@@ -54,8 +57,8 @@ FULL = {
     "figure_objects": 1250,
     "pairs_objects": 3500, "pairs_frames": 256,
     "pairs_algos": "bf,sap,sap32,bvh,cpubf,gpubf,gpubf-paper",
-    "physics_scenes": "3,4", "physics_objects": 3500, "physics_frames": 2048,
-    "physics_substeps": "1,2,4,8", "physics_algo": "bvh",
+    "physics_scenes": "1,2,3,4", "physics_objects": 3500, "physics_frames": 2048,
+    "physics_substeps": "1,2,4,8,16,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
     "latency_scenes": "1,2,3,4", "latency_objects": 3500, "latency_frames": 2048,
     "latency_algos": "bf,sap,bvh,cpubf,gpubf", "latency_growths": "0,1,2",
     "timeline_objects": 1250, "timeline_frames": 64,
@@ -66,8 +69,8 @@ QUICK = {
     "scenes": "1,2,3,4", "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1,
     "frames": 90, "figure_objects": 400,
     "pairs_objects": 400, "pairs_frames": 90, "pairs_algos": "bf,sap,sap32,bvh,cpubf",
-    "physics_scenes": "3,4", "physics_objects": 400, "physics_frames": 90,
-    "physics_substeps": "1,2,4,8", "physics_algo": "bvh",
+    "physics_scenes": "1,3,4", "physics_objects": 400, "physics_frames": 90,
+    "physics_substeps": "1,2,4,8,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
     "latency_scenes": "1,2,3,4", "latency_objects": 400, "latency_frames": 90,
     "latency_algos": "bvh,cpubf", "latency_growths": "0,1,2",
     "timeline_objects": 400, "timeline_frames": 16,
@@ -82,7 +85,8 @@ HELP = {
     "pairs_objects": "pairs: boxes in the scene-4 stream", "pairs_frames": "pairs: frames recorded",
     "pairs_algos": "pairs: broadphases compared with bf", "physics_scenes": "physics: scenes",
     "physics_objects": "physics: boxes", "physics_frames": "physics: frames per run",
-    "physics_substeps": "physics: substeps K, each with and without --ccd",
+    "physics_substeps": "physics: fixed substeps K and/or auto",
+    "physics_ccd": "physics: --ccd modes (auto substeps: never all)",
     "physics_algo": "physics: broadphase", "latency_scenes": "latency: scenes",
     "latency_objects": "latency: boxes", "latency_frames": "latency: frames per run",
     "latency_algos": "latency: broadphases, one process each",
@@ -104,8 +108,23 @@ def names(text: str) -> list:
 
 
 def default_substeps(scene: int) -> int:
-    """The scene's default substeps (physics/world.cpp defaultSubsteps), for the ETA only."""
-    return 8 if scene >= 3 else 2
+    """About the mean K --substeps auto chooses (physics/step_policy.h), for the ETA only."""
+    return 5 if scene >= 3 else 1
+
+
+def physics_cells(args) -> list:
+    """(scene, substeps text, ccd, sleep) of every physics run: fixed K x each --ccd mode,
+    auto x each but all, and where the scene sleeps (1, 2) auto with its default CCD once
+    more without sleep."""
+    cells = []
+    for scene in ints(args.physics_scenes):
+        for substeps in names(args.physics_substeps):
+            for ccd in names(args.physics_ccd):
+                if not (substeps == "auto" and ccd == "all"):
+                    cells.append((scene, substeps, ccd, "scene"))
+        if scene <= 2 and "auto" in names(args.physics_substeps):
+            cells.append((scene, "auto", "auto", "off"))
+    return cells
 
 
 class Job:
@@ -221,6 +240,32 @@ class PairsJob(Job):
         write_atomically(self.path, "\n".join(rows) + "\n")
 
 
+class SleepErrorJob(Job):
+    """Where sleep moved the boxes: `overlap record` with --sleep on and off, the box
+    centres (the AABBs' centres) compared frame by frame; writes sleep_error.json."""
+
+    def __init__(self, key, weight, labels, overlap, folder, record_options):
+        super().__init__("physics_sleep", key, weight, labels)
+        self.overlap, self.folder, self.record_options = overlap, folder, record_options
+        self.path = folder / "sleep_error.json"
+
+    def done(self):
+        return self.path.exists()
+
+    def commands(self):
+        return [[self.overlap, "record", *self.record_options, "--sleep", sleep, "--out",
+                 str(self.folder / f"sleep_{sleep}.aabbs")] for sleep in ("on", "off")]
+
+    def run(self):
+        self.folder.mkdir(parents=True, exist_ok=True)
+        for command in self.commands():
+            check_output(command)
+        on, off = (study_results.box_centres(self.folder / f"sleep_{s}.aabbs") for s in ("on", "off"))
+        write_atomically(self.path, json.dumps(study_results.position_error(on, off), indent=2))
+        for sleep in ("on", "off"):  # large, and only these numbers were wanted
+            (self.folder / f"sleep_{sleep}.aabbs").unlink()
+
+
 def pairs_by_frame(csv_text: str) -> dict:
     """`overlap pairs` CSV (frame,a,b) as {frame: {(a, b)}}; frames without pairs are absent."""
     frames = {}
@@ -257,17 +302,22 @@ def plan(args) -> list:
                                  record, frames, algo, algo if algo in GPU_ALGOS else None))
     if "physics" in args.experiments:
         n, frames = args.physics_objects, args.physics_frames
-        for scene in ints(args.physics_scenes):
-            for substeps in ints(args.physics_substeps):
-                for ccd in (False, True):
-                    key = f"s{scene}_n{n}_k{substeps}" + ("_ccd" if ccd else "")
-                    jobs.append(RunJob(
-                        "physics", key, frames * substeps * n * (2 if ccd else 1),
-                        {"scene": scene, "objects": n, "substeps": substeps, "ccd": ccd}, overlap,
-                        out / "physics" / key,
-                        ["--scene", str(scene), "--objects", str(n), "--algo", args.physics_algo,
-                         "--frames", str(frames), "--seed", seed, "--substeps", str(substeps),
-                         "--no-tasks", *threads] + (["--ccd"] if ccd else [])))
+        for scene, substeps, ccd, sleep in physics_cells(args):
+            key = f"s{scene}_n{n}_k{substeps}_ccd-{ccd}" + ("" if sleep == "scene" else "_nosleep")
+            k = default_substeps(scene) if substeps == "auto" else int(substeps)
+            jobs.append(RunJob(
+                "physics", key, frames * k * n * (1 if ccd == "off" else 2),
+                {"scene": scene, "objects": n, "substeps": substeps, "ccd": ccd}, overlap,
+                out / "physics" / key,
+                ["--scene", str(scene), "--objects", str(n), "--algo", args.physics_algo,
+                 "--frames", str(frames), "--seed", seed, "--substeps", substeps, "--ccd", ccd,
+                 "--sleep", sleep, "--no-tasks", *threads]))
+            if sleep == "off":  # where the positions of the runs with and without sleep differ
+                record = ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
+                          "--seed", seed, "--substeps", substeps, "--ccd", ccd]
+                jobs.append(SleepErrorJob(f"s{scene}_n{n}_sleep_error", 2 * frames * k * n,
+                                          {"scene": scene, "objects": n}, overlap,
+                                          out / "physics" / f"s{scene}_n{n}_sleep_error", record))
     if "latency" in args.experiments:
         n, frames = args.latency_objects, args.latency_frames
         for scene in ints(args.latency_scenes):

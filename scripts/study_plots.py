@@ -149,32 +149,42 @@ def broadphase_error(rows: list, folder: pathlib.Path) -> str:
 
 
 def physics(rows: list, folder: pathlib.Path) -> str:
-    """Per scene (columns): time, escapes, deepest penetration (and energy drift) against K."""
+    """Per scene (columns): each error (rows) against the cost per frame, one point per run;
+    fixed K as numbers joined per CCD mode, the automatic setting as a star.  The cost is mean
+    K x boxes, which the machine's load does not change (the tables give the times)."""
     scenes = sorted({r["scene"] for r in rows})
-    measures = [("total_mean", "total ms / frame"), ("escaped_max", "escaped (max over frames)"),
-                ("penetration_max", "deepest penetration / box edge")]
-    if any("energy_drift" in r for r in rows):
-        measures.append(("energy_drift", "energy drift (end - start) / start"))
-    figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False, sharex=True,
-                                figsize=(4.5 * len(scenes), 2.6 * len(measures)))
-    substeps = sorted({r["substeps"] for r in rows})
+    measures = [("penetration_max", "deepest penetration / edge"),
+                ("sunk_max", "sunk (max over frames)"), ("escaped_max", "escaped (max)")]
+    figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False,
+                                figsize=(4.5 * len(scenes), 2.8 * len(measures)))
+    styles = {"off": ("#1f77b4", "o-"), "auto": ("#2ca02c", "s-"), "all": ("#d62728", "^-")}
     for column, scene in enumerate(scenes):
         for row, (key, title) in enumerate(measures):
             axis = axes[row][column]
-            for ccd, style in ((False, "o-"), (True, "s--")):
-                points = sorted((r["substeps"], r.get(key, float("nan")))
-                                for r in rows if r["scene"] == scene and r["ccd"] == ccd)
-                if points:
-                    axis.plot(*zip(*points), style, label="CCD" if ccd else "no CCD")
-            axis.set_xscale("log", base=2)
-            axis.set_xticks(substeps)
-            axis.set_xticklabels([str(k) for k in substeps])
+            for ccd, (tint, style) in styles.items():
+                fixed = sorted((r["k_x_boxes"], r[key], r["substeps"]) for r in rows
+                               if r["scene"] == scene and r["ccd"] == ccd
+                               and r["substeps"] != "auto")
+                if fixed:
+                    axis.plot([f[0] for f in fixed], [f[1] for f in fixed], style, color=tint,
+                              label=f"fixed K, ccd {ccd}", markersize=4)
+                    for x, y, k in fixed:
+                        axis.annotate(str(k), (x, y), fontsize=7, xytext=(2, 2),
+                                      textcoords="offset points")
+                for r in rows:
+                    if r["scene"] == scene and r["ccd"] == ccd and r["substeps"] == "auto":
+                        axis.plot(r["k_x_boxes"], r[key], "*", color=tint, markersize=13,
+                                  markeredgecolor="black",
+                                  label=f"auto, ccd {ccd}" + (", no sleep"
+                                                              if r["sleep"] == "off" and scene <= 2
+                                                              else ""))
+            axis.set_xscale("log")
             if column == 0:
                 axis.set_ylabel(title)
             axis.grid(alpha=0.3)
         axes[0][column].set_title(f"scene {scene}")
-        axes[-1][column].set_xlabel("substeps per frame (K)")
-    axes[0][0].legend(fontsize=8)
+        axes[-1][column].set_xlabel("cost: mean K x boxes")
+    axes[0][-1].legend(fontsize=7)
     return save(figure, folder, "fig_physics")
 
 

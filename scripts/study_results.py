@@ -61,7 +61,9 @@ def sweep_runs(jobs: list) -> list:
         p, t, c = s["parameters"], s["timings_ms"], s["counts"]
         row = {"scene": p["scene"], "objects": p["objects"], "algo_requested":
                p["algorithm_requested"], "algorithm": p["algorithm"], "rep": job.labels["rep"],
-               "frames": p["frames"], "substeps": p["substeps"], "seed": p["seed"]}
+               "frames": p["frames"], "seed": p["seed"],
+               # the mean K the run used (--substeps auto), or its fixed K
+               "substeps": c["substeps"]["mean"] if "substeps" in c else p["substeps"]}
         for column in TIMES:
             row[column.replace("_ms", "_mean")] = t[column]["mean"]
             row[column.replace("_ms", "_median")] = t[column]["median"]
@@ -143,14 +145,44 @@ def pair_errors(jobs: list) -> list:
     return rows
 
 
+def box_centres(path: pathlib.Path):
+    """An `overlap record` stream (SCENES.md's .aabbs layout) as box centres, (frames, n, 3)."""
+    import numpy  # matplotlib's own dependency, so present wherever the figures are drawn
+    data = path.read_bytes()
+    objects = int(numpy.frombuffer(data, dtype="<i4", count=1, offset=256)[0])
+    offset = 256 + 16 + 32  # names, four int32, the world AABB; then the start and F frames
+    boxes = numpy.frombuffer(data, dtype="<f4", offset=offset).reshape(-1, objects, 2, 4)
+    return (boxes[:, :, 0, :3] + boxes[:, :, 1, :3]) / 2
+
+
+def position_error(on, off) -> dict:
+    """How far each box is from where the run without sleep put it (m): the largest over
+    every frame and box, where, and the median and largest box's at the end."""
+    import numpy
+    distance = numpy.linalg.norm(on - off, axis=2)
+    frame, box = numpy.unravel_index(numpy.argmax(distance), distance.shape)
+    return {"max_m": float(distance.max()), "max_frame": int(frame) - 1, "max_box": int(box),
+            "end_median_m": float(numpy.median(distance[-1])), "end_max_m": float(distance[-1].max()),
+            "first_frame_apart": int(numpy.argmax(distance.max(axis=1) > 0)) - 1}
+
+
 def physics_runs(jobs: list) -> list:
-    """One row per (scene, substeps, ccd): cost against escapes, sinking, penetration, energy."""
+    """One row per physics run: cost (ms, mean K) against escapes, sinking, penetration,
+    energy drift, and where a run slept, the position error sleep caused."""
     rows = []
+    errors = {job.labels["scene"]: json.loads(job.path.read_text()) for job in jobs
+              if job.experiment == "physics_sleep" and job.done()}
     for job, s in summaries(jobs, "physics"):
         p, t, c = s["parameters"], s["timings_ms"], s["counts"]
+        ccd = p["ccd"] if isinstance(p["ccd"], str) else ("all" if p["ccd"] else "off")
+        sleep = "off" if p.get("sleep", "off") == "off" or p["scene"] >= 3 else "on"
+        mean_k = c["substeps"]["mean"] if "substeps" in c else float(p["substeps"])
         row = {"scene": p["scene"], "objects": p["objects"], "algorithm": p["algorithm"],
-               "substeps": p["substeps"], "ccd": p["ccd"], "frames": p["frames"],
+               "substeps": p["substeps"], "ccd": ccd, "sleep": sleep, "frames": p["frames"],
                "total_mean": t["total_ms"]["mean"], "total_median": t["total_ms"]["median"],
+               "total_max": t["total_ms"]["max"], "mean_k": mean_k,
+               "k_x_boxes": mean_k * p["objects"],
+               "ccd_bodies_mean": c["ccd_bodies"]["mean"] if "ccd_bodies" in c else float("nan"),
                "escaped_max": int(c["escaped"]["max"]), "escaped_final": c["escaped_final"],
                "sunk_max": int(c["sunk"]["max"]), "sunk_final": c["sunk_final"],
                "penetration_max": c["max_penetration"]["max"],
@@ -162,8 +194,14 @@ def physics_runs(jobs: list) -> list:
             scale = abs(energy[0]) or 1.0
             row["energy_drift"] = (energy[-1] - energy[0]) / scale
             row["energy_max_deviation"] = max(abs(e - energy[0]) for e in energy) / scale
+        error = errors.get(p["scene"])
+        sleeping_default = sleep == "on" and p["substeps"] == "auto" and ccd == "auto"
+        row["sleep_error_max_m"] = error["max_m"] if error and sleeping_default else float("nan")
+        row["sleep_error_end_median_m"] = (error["end_median_m"] if error and sleeping_default
+                                           else float("nan"))
         rows.append(row)
-    rows.sort(key=lambda r: (r["scene"], r["ccd"], r["substeps"]))
+    rows.sort(key=lambda r: (r["scene"], r["substeps"] == "auto", str(r["substeps"]).zfill(3),
+                             ("off", "auto", "all").index(r["ccd"]), r["sleep"]))
     return rows
 
 

@@ -56,10 +56,12 @@ class CliTest : public ::testing::Test {
 };
 
 TEST_F(CliTest, BadOptionsPrintOneLineAndExitWith2) {
-  const std::array<std::string, 9> bad = {
-      "run --objects -5", "run --objects lots", "run --algo octree",
-      "run --scene 7",    "run --frames 0",     "run --substeps 0",
-      "run --fill 0.9",   "run --no-such-flag", "run --small-sizes 0.5 0.2"};
+  const std::array<std::string, 13> bad = {
+      "run --objects -5",        "run --objects lots", "run --algo octree",
+      "run --scene 7",           "run --frames 0",     "run --substeps 0",
+      "run --fill 0.9",          "run --no-such-flag", "run --small-sizes 0.5 0.2",
+      "run --substeps fast",     "run --ccd some",     "run --sleep maybe",
+      "run --scene 3 --sleep on"};
   for (const std::string& args : bad) {
     const Result result = runOverlap(args + " --out " + out_.string());
     EXPECT_EQ(result.exit_code, 2) << args << ": " << result.stderr_text;
@@ -102,8 +104,9 @@ TEST_F(CliTest, RunWritesFramesAndSummary) {
   std::ifstream csv(out_ / "frames.csv");
   std::string header;
   std::getline(csv, header);
-  for (const char* column : {"frame", "update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms",
-                             "total_ms", "pairs", "escaped", "sunk", "max_penetration"}) {
+  for (const char* column :
+       {"frame", "update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "total_ms", "pairs",
+        "escaped", "sunk", "max_penetration", "substeps", "ccd_bodies", "sleeping"}) {
     EXPECT_NE(header.find(column), std::string::npos) << column;
   }
   int rows = 0;
@@ -116,7 +119,10 @@ TEST_F(CliTest, RunWritesFramesAndSummary) {
   EXPECT_EQ(summary["parameters"]["objects"], 100);
   EXPECT_EQ(summary["parameters"]["seed"], 5);
   EXPECT_EQ(summary["parameters"]["algorithm"], "bf");
-  EXPECT_EQ(summary["parameters"]["substeps"], 2);
+  EXPECT_EQ(summary["parameters"]["substeps"], "auto");
+  EXPECT_EQ(summary["parameters"]["ccd"], "auto");
+  EXPECT_EQ(summary["parameters"]["sleep"], "scene");
+  EXPECT_GE(summary["counts"]["substeps"]["mean"].get<double>(), 1.0);
   EXPECT_EQ(summary["parameters"]["gravity_scale"], 1.0);
   for (const char* column : {"update_ms", "broadphase_ms", "total_ms"}) {
     EXPECT_TRUE(summary["timings_ms"][column].contains("median")) << column;
@@ -126,6 +132,20 @@ TEST_F(CliTest, RunWritesFramesAndSummary) {
     EXPECT_TRUE(summary["machine"].contains(key)) << key;
   }
   EXPECT_FALSE(std::filesystem::exists(out_ / "frames.csv.partial"));
+}
+
+TEST_F(CliTest, FixedSubstepsAndTheOldCcdFlagStillWork) {
+  const Result result = runOverlap(
+      "run --scene 3 --objects 100 --frames 3 --algo bvh --substeps 3 "
+      "--ccd --no-tasks --out " +
+      out_.string());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  std::ifstream summary_file(out_ / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(summary_file);
+  EXPECT_EQ(summary["parameters"]["substeps"], 3);
+  EXPECT_EQ(summary["parameters"]["ccd"], "all");
+  EXPECT_EQ(summary["counts"]["substeps"]["mean"].get<double>(), 3.0);
+  EXPECT_EQ(summary["counts"]["ccd_bodies"]["max"].get<double>(), 100.0);
 }
 
 TEST_F(CliTest, SameSeedGivesTheSameStateHash) {

@@ -1,7 +1,9 @@
 // Determinism: the same scene gives the same state, bit for bit, after a
 // full run of 2048 frames (SCENES.md), run after run, whatever the thread
 // count cpubf or cpusap searches with, and whether the broadphase overlaps the frame's
-// sound and AI tasks or runs after them.
+// sound and AI tasks or runs after them.  The runs use the automatic
+// substeps and CCD, so the frame-by-frame choices (K, CCD bodies) are
+// compared too.
 //
 // Cost: one full run of scene 4 at 60 boxes takes 5 to 10 s on the 2-core
 // development machine.  Each test below makes two to four of them and is its
@@ -37,29 +39,57 @@ physics::SceneConfig scene4(int objects) {
   return config;
 }
 
-std::uint64_t hashAfterRun(const std::string& algorithm) {
-  physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{algorithm});
-  for (int frame = 0; frame < kFrames; ++frame) world.stepFrame();
+// What the step policy chose each frame: (K, boxes with CCD).
+using Choices = std::vector<std::pair<int, int>>;
+
+void noteChoices(Choices* choices, const physics::FrameReport& report) {
+  if (choices != nullptr) choices->emplace_back(report.substeps, report.ccd_bodies);
+}
+
+std::uint64_t hashAfterRun(const std::string& algorithm, Choices* choices = nullptr,
+                           physics::CcdMode ccd = physics::CcdMode::kAuto) {
+  physics::PhysicsWorld world(scene4(kBoxes),
+                              physics::WorldOptions{algorithm, physics::kAutoSubsteps, ccd});
+  for (int frame = 0; frame < kFrames; ++frame) noteChoices(choices, world.stepFrame());
   return world.stateHash();
 }
 
-TEST(Determinism, ThreeRunsOfScene4EndInTheSameState) {
-  const std::uint64_t first = hashAfterRun("bvh");
-  EXPECT_EQ(hashAfterRun("bvh"), first);
-  EXPECT_EQ(hashAfterRun("bvh"), first);
+// The choices must vary, or comparing them proves nothing.
+void expectVaryingChoices(const Choices& choices) {
+  const auto [fewest, most] = std::minmax_element(choices.begin(), choices.end());
+  EXPECT_LT(fewest->first, most->first) << "K never changed";
+  std::vector<int> ccd;
+  for (const auto& choice : choices) ccd.push_back(choice.second);
+  EXPECT_LT(*std::min_element(ccd.begin(), ccd.end()), *std::max_element(ccd.begin(), ccd.end()))
+      << "the CCD bodies never changed";
+}
+
+TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
+  Choices first_choices;
+  const std::uint64_t first = hashAfterRun("bvh", &first_choices);
+  expectVaryingChoices(first_choices);
+  for (int run = 0; run < 2; ++run) {
+    Choices choices;
+    EXPECT_EQ(hashAfterRun("bvh", &choices), first);
+    EXPECT_EQ(choices, first_choices);
+  }
 }
 
 // PhysicsWorld names a broadphase and nothing more, so cpubf's threads are
 // capped as `overlap run --threads` caps them, for the whole process (a cap
 // above the core count leaves cpubf at one thread per core).  Both bf and
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
-// cpubf must also end where Bullet's own brute force ends.
+// cpubf must also end where Bullet's own brute force ends.  Without CCD:
+// CCD's sweeps query the broadphase's rayTest, which btSimpleBroadphase
+// answers with every proxy and ours with those the sweep's AABB meets, in
+// another order, so a tie between two hits can go either way.
 TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
-  const std::uint64_t bullet_bf = hashAfterRun("bf");
+  const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2, 4}) {
     const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(threads));
-    EXPECT_EQ(hashAfterRun("cpubf"), bullet_bf) << threads << " thread(s)";
+    EXPECT_EQ(hashAfterRun("cpubf", nullptr, physics::CcdMode::kOff), bullet_bf)
+        << threads << " thread(s)";
   }
 }
 
@@ -83,6 +113,7 @@ struct ScheduledRun {
   std::uint64_t sound_checksum = 0;
   std::uint64_t ai_checksum = 0;
   std::uint64_t impacts = 0;
+  Choices choices;  // K and CCD bodies, frame by frame
 };
 
 ScheduledRun scheduledRun(bool sync) {
@@ -91,7 +122,7 @@ ScheduledRun scheduledRun(bool sync) {
   engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
   ScheduledRun run;
   for (int frame = 0; frame < kFrames; ++frame) {
-    scheduler.runFrame();
+    noteChoices(&run.choices, scheduler.runFrame().physics);
     for (const auto& [a, b] : world.cachedPairs()) {
       for (const int index : {a, b})
         run.pairs_digest =
@@ -114,6 +145,8 @@ TEST(Determinism, AsyncAndSyncFramesGiveTheSamePairsStateAndSoundFor2048Frames) 
   EXPECT_EQ(async_run.sound_checksum, sync_run.sound_checksum);
   EXPECT_EQ(async_run.ai_checksum, sync_run.ai_checksum);
   EXPECT_GT(async_run.impacts, 0u) << "the sound should have heard contacts";
+  EXPECT_EQ(async_run.choices, sync_run.choices);
+  expectVaryingChoices(async_run.choices);
 }
 
 // The pair-finder level, where the thread count is the finder's own: a

@@ -1,7 +1,8 @@
 // The simulation at its limits: scenes 3 and 4 (50 g) at the largest box
-// count the suite can afford, and the fastest, smallest box against a thin
-// wall, which tunnels with one step per frame and is held by the default
-// substeps.
+// count the suite can afford and over a whole run of 2048 frames at a small
+// one, and the fastest, smallest box against a thin wall, which tunnels with
+// one step per frame and no CCD and is held by the automatic substeps and CCD
+// (the default) as by 8 fixed substeps.
 #include <btBulletDynamicsCommon.h>
 #include <gtest/gtest.h>
 
@@ -28,7 +29,6 @@ TEST_P(FiftyGScenes, NoBoxEscapesAndTheStateStaysFinite) {
   physics::SceneConfig config = physics::SceneConfig::forScene(GetParam());
   config.objects = kBoxes;
   physics::PhysicsWorld world(config, physics::WorldOptions{"bvh"});
-  ASSERT_EQ(world.substeps(), 8);
   int most_sunk = 0;
   for (int frame = 0; frame < kFrames; ++frame) {
     const physics::FrameReport report = world.stepFrame();
@@ -47,6 +47,20 @@ TEST_P(FiftyGScenes, NoBoxEscapesAndTheStateStaysFinite) {
   // Sinking into a wall is an error to report, not a failure (SCENES.md).
   std::printf("[ sunk     ] scene %d: at most %d of %d box centres outside the interior\n",
               GetParam(), most_sunk, kBoxes);
+}
+
+// A whole run, 2048 frames, at 100 boxes: gravity turns through every
+// direction many times, with the automatic substeps and CCD.
+TEST_P(FiftyGScenes, AWholeRunAtSmallNKeepsEveryBoxInside) {
+  physics::SceneConfig config = physics::SceneConfig::forScene(GetParam());
+  config.objects = 100;
+  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh"});
+  for (int frame = 0; frame < 2048; ++frame) {
+    const physics::FrameReport report = world.stepFrame();
+    ASSERT_EQ(report.escaped, 0) << "frame " << frame;
+    ASSERT_EQ(report.removed_from_simulation, 0) << "frame " << frame;
+  }
+  ASSERT_TRUE(everyBodyIsFinite(world));
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes3And4, FiftyGScenes, ::testing::Values(3, 4),
@@ -71,15 +85,15 @@ constexpr double kThinWall = 2.5;  // m
 constexpr int kFastBoxes = 300;
 
 struct ThinWallRun {
-  int substeps;
-  int most_escaped;  // boxes beyond a wall's outer face, the most in any frame
+  int most_substeps;  // the largest K of any frame
+  int most_escaped;   // boxes beyond a wall's outer face, the most in any frame
 };
 
 // 0.1 m boxes (the smallest any scene has) shot at kHighestSceneSpeed
 // straight at the walls, each along an axis, either way; the scene places
 // them, so each meets its wall at another phase of the step.  Scene 4's
-// gravity stays on: it is what sets the default of 8 substeps.
-ThinWallRun shootAtThinWalls(int substeps) {
+// gravity stays on.
+ThinWallRun shootAtThinWalls(int substeps, physics::CcdMode ccd) {
   physics::SceneConfig config = physics::SceneConfig::forScene(4);
   config.objects = kFastBoxes;
   config.small = config.average = config.large = physics::SizeRange{0.1, 0.1};
@@ -87,7 +101,7 @@ ThinWallRun shootAtThinWalls(int substeps) {
   config.wall_min_thickness = kThinWall;
   config.wall_fraction = 0;
   config.fill_fraction = 1e-4;  // an interior of 14 m: every box meets its wall in frame 0 or 1
-  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", substeps, false});
+  physics::PhysicsWorld world(config, physics::WorldOptions{"bvh", substeps, ccd});
   // The scene draws velocities in random directions; these need aiming, so
   // they are set on the bodies directly (box i is rigid body i).
   const btCollisionObjectArray& bodies = world.bulletWorld().getCollisionObjectArray();
@@ -97,23 +111,31 @@ ThinWallRun shootAtThinWalls(int substeps) {
         static_cast<btScalar>((i / 3) % 2 == 0 ? kHighestSceneSpeed : -kHighestSceneSpeed);
     btRigidBody::upcast(bodies[i])->setLinearVelocity(velocity);
   }
-  int most_escaped = 0;
+  ThinWallRun run{0, 0};
   for (int frame = 0; frame < 30; ++frame) {
-    most_escaped = std::max(most_escaped, world.stepFrame().escaped);
+    const physics::FrameReport report = world.stepFrame();
+    run.most_escaped = std::max(run.most_escaped, report.escaped);
+    run.most_substeps = std::max(run.most_substeps, report.substeps);
   }
-  return {world.substeps(), most_escaped};
+  return run;
 }
 
-TEST(ThinWall, FastestSmallestBoxTunnelsWithOneStepPerFrame) {
-  const ThinWallRun run = shootAtThinWalls(1);
-  ASSERT_EQ(run.substeps, 1);
+TEST(ThinWall, FastestSmallestBoxTunnelsWithOneStepPerFrameAndNoCcd) {
+  const ThinWallRun run = shootAtThinWalls(1, physics::CcdMode::kOff);
+  ASSERT_EQ(run.most_substeps, 1);
   EXPECT_GT(run.most_escaped, 0) << "the negative control must tunnel";
 }
 
-TEST(ThinWall, DefaultSubstepsHoldTheFastestSmallestBox) {
-  const ThinWallRun run = shootAtThinWalls(0);  // 0: the scene's default
-  ASSERT_EQ(run.substeps, 8);
-  EXPECT_EQ(run.most_escaped, 0);
+TEST(ThinWall, EightFixedSubstepsHoldTheFastestSmallestBox) {
+  EXPECT_EQ(shootAtThinWalls(8, physics::CcdMode::kOff).most_escaped, 0);
+}
+
+TEST(ThinWall, AutomaticSubstepsHoldTheFastestSmallestBoxWithOrWithoutCcd) {
+  for (const physics::CcdMode ccd : {physics::CcdMode::kAuto, physics::CcdMode::kOff}) {
+    const ThinWallRun run = shootAtThinWalls(physics::kAutoSubsteps, ccd);
+    EXPECT_EQ(run.most_escaped, 0)
+        << physics::ccdModeName(ccd) << ", K up to " << run.most_substeps;
+  }
 }
 
 }  // namespace

@@ -48,9 +48,11 @@ TEST(PhysicsWorld, BuildsBoxesAndSixWalls) {
   PhysicsWorld world(smallScene(4, 120), WorldOptions{"bvh"});
   EXPECT_EQ(world.bulletWorld().getNumCollisionObjects(), 126);
   EXPECT_EQ(world.aabbs().size(), 126u);
-  EXPECT_EQ(world.substeps(), defaultSubsteps(world.config()));
+  EXPECT_TRUE(world.automaticSubsteps());
   const FrameReport report = world.stepFrame();
   EXPECT_EQ(report.frame, 0);
+  EXPECT_EQ(report.substeps, world.substeps());
+  EXPECT_GE(report.substeps, 1);
   EXPECT_EQ(report.escaped, 0);
   EXPECT_GT(report.timings.total_ms, 0.0);
   EXPECT_GE(report.timings.total_ms, report.timings.broadphase_ms + report.timings.solver_ms);
@@ -153,9 +155,9 @@ TEST(PhysicsWorld, NoBoxPassesThroughAWallAt50g) {
 }
 
 TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
-  // The negative control for the test above: without substeps they tunnel.
+  // The negative control for the test above: without substeps or CCD they tunnel.
   // The count is recorded (--gtest_output=json: most_escaped) for README.md.
-  PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1});
+  PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1, CcdMode::kOff});
   int most_escaped = 0;
   for (int frame = 0; frame < 300; ++frame) {
     most_escaped = std::max(most_escaped, world.stepFrame().escaped);
@@ -163,6 +165,62 @@ TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
   RecordProperty("most_escaped", most_escaped);
   std::printf("scene 3, 300 boxes, 1 step per frame: %d escaped within 300 frames\n", most_escaped);
   EXPECT_GT(most_escaped, 0);
+}
+
+TEST(PhysicsWorld, FixedSubstepsAreKeptEveryFrame) {
+  PhysicsWorld world(smallScene(3, 100), WorldOptions{"bvh", 3});
+  for (int frame = 0; frame < 20; ++frame) EXPECT_EQ(world.stepFrame().substeps, 3);
+  EXPECT_FALSE(world.automaticSubsteps());
+}
+
+TEST(PhysicsWorld, CcdModesFlagNoneSomeOrEveryBox) {
+  // Scene 4's first fall at 50 g: by frame 5 the small boxes are fast for their size.
+  int flagged[3] = {};
+  const CcdMode modes[3] = {CcdMode::kOff, CcdMode::kAuto, CcdMode::kAll};
+  for (int m = 0; m < 3; ++m) {
+    PhysicsWorld world(smallScene(4, 150), WorldOptions{"bvh", kAutoSubsteps, modes[m]});
+    for (int frame = 0; frame < 6; ++frame) flagged[m] = world.stepFrame().ccd_bodies;
+  }
+  EXPECT_EQ(flagged[0], 0);
+  EXPECT_GT(flagged[1], 0);
+  EXPECT_LT(flagged[1], 150);
+  EXPECT_EQ(flagged[2], 150);
+}
+
+// Scene 1 at 150 boxes, 4 substeps: the pile is one island, quiet by frame
+// 130, and asleep after Bullet's 2 s at rest; none sleeps without sleep.
+constexpr int kQuietPileSubsteps = 4;
+
+int sleepingAfterTheFall(SleepMode sleep) {
+  PhysicsWorld world(smallScene(1, 150),
+                     WorldOptions{"bvh", kQuietPileSubsteps, CcdMode::kAuto, sleep});
+  int sleeping = 0;
+  for (int frame = 0; frame < 240; ++frame) sleeping = world.stepFrame().sleeping;
+  return sleeping;
+}
+
+TEST(PhysicsWorld, BoxesAtRestSleepInScene1UnlessSleepIsOff) {
+  EXPECT_GT(sleepingAfterTheFall(SleepMode::kScene), 140);
+  EXPECT_EQ(sleepingAfterTheFall(SleepMode::kOff), 0);
+  EXPECT_THROW(
+      PhysicsWorld(smallScene(3, 100), WorldOptions{"bvh", 0, CcdMode::kAuto, SleepMode::kOn}),
+      std::invalid_argument);
+}
+
+TEST(PhysicsWorld, ASleepingPileWakesWhenABoxLandsOnIt) {
+  PhysicsWorld world(smallScene(1, 150), WorldOptions{"bvh", kQuietPileSubsteps});
+  FrameReport report;
+  for (int frame = 0; frame < 240; ++frame) report = world.stepFrame();
+  ASSERT_EQ(report.sleeping, 150);
+  // Box 0 dropped from just above box 1: it wakes whatever it lands on.
+  const BoxPose target = world.boxPoses()[1];
+  world.injectBoxPosition(
+      0, Eigen::Vector3d(target.centre[0], target.centre[1] + 2.0, target.centre[2]));
+  int fewest_sleeping = 150;
+  for (int frame = 0; frame < 15; ++frame) {
+    fewest_sleeping = std::min(fewest_sleeping, world.stepFrame().sleeping);
+  }
+  EXPECT_LT(fewest_sleeping, 149) << "box 0 and at least the box it hit are awake";
 }
 
 TEST(PhysicsWorld, UnknownBroadphaseAndTooManyForSapAreRejected) {

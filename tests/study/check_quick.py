@@ -19,13 +19,13 @@ import sys
 
 STUDY = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "study.py"
 SCENES, OBJECTS, ALGOS = [1, 4], [80, 120], ["bf", "bvh", "cpubf", "gpubf"]
-SUBSTEPS = [1, 8]
+SUBSTEPS = ["1", "auto"]  # fixed K x --ccd off|auto|all, auto x --ccd off|auto
 TINY = ["--quick", "--threads", "1", "--scenes", ",".join(map(str, SCENES)),
         "--objects", ",".join(map(str, OBJECTS)), "--algos", ",".join(ALGOS),
         "--frames", "4", "--figure-objects", "120",
         "--pairs-objects", "120", "--pairs-frames", "4",
-        "--physics-objects", "120", "--physics-frames", "4",
-        "--physics-substeps", ",".join(map(str, SUBSTEPS)),
+        "--physics-scenes", "1,4", "--physics-objects", "120", "--physics-frames", "4",
+        "--physics-substeps", ",".join(SUBSTEPS),
         "--latency-scenes", "1,4", "--latency-objects", "120", "--latency-frames", "4",
         "--latency-algos", "bvh,cpubf", "--timeline-objects", "120", "--timeline-frames", "4",
         "--overlap-objects", "80", "--overlap-loads", "0,1", "--overlap-frames", "3"]
@@ -90,8 +90,11 @@ def main() -> int:
     check({p["algo"] for p in pairs} == {"bf", "sap", "sap32", "bvh", "cpubf"},
           f"pairs.csv holds {sorted(p['algo'] for p in pairs)}")
     check(all(p["missed"] == "0" for p in pairs), "an algorithm missed exact pairs")
-    check(len(rows(args.out / "physics.csv")) == 2 * len(SUBSTEPS) * 2,
-          "physics.csv lacks runs")
+    physics = rows(args.out / "physics.csv")
+    # Per scene 3 fixed-K runs and 2 automatic ones; scene 1 (it sleeps) once more without sleep.
+    check(len(physics) == 2 * 5 + 1, f"physics.csv has {len(physics)} runs, expected 11")
+    check(any(r["scene"] == "1" and r["sleep_error_max_m"] not in ("", "nan") for r in physics),
+          "physics.csv lacks scene 1's sleep error")
     latency = rows(args.out / "latency.csv")
     check({(r["scene"], r["algo"], r["growth"]) for r in latency} ==
           {(s, a, g) for s in ("1", "4") for a in ("bvh", "cpubf") for g in ("0", "1", "2")},

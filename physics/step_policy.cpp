@@ -1,0 +1,122 @@
+#include "physics/step_policy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace overlap::physics {
+namespace {
+
+// The least K with length_per_frame / K <= allowed (1 when nothing moves).
+int substepsFor(double length_per_frame, double allowed) {
+  if (!(allowed > 0)) return 1;
+  const double k = std::ceil(length_per_frame / allowed);
+  return std::isfinite(k) ? static_cast<int>(std::clamp(k, 1.0, 1e6)) : 1'000'000;
+}
+
+}  // namespace
+
+CcdMode parseCcdMode(const std::string& text) {
+  if (text == "off") return CcdMode::kOff;
+  if (text == "auto") return CcdMode::kAuto;
+  if (text == "all") return CcdMode::kAll;
+  throw std::invalid_argument("'" + text + "' is not one of off, auto, all");
+}
+
+SleepMode parseSleepMode(const std::string& text) {
+  if (text == "scene") return SleepMode::kScene;
+  if (text == "on") return SleepMode::kOn;
+  if (text == "off") return SleepMode::kOff;
+  throw std::invalid_argument("'" + text + "' is not one of scene, on, off");
+}
+
+int parseSubsteps(const std::string& text) {
+  if (text == "auto") return kAutoSubsteps;
+  std::size_t used = 0;
+  int k = 0;
+  try {
+    k = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || used == 0 || k < 1 || k > 1000) {
+    throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1..1000");
+  }
+  return k;
+}
+
+std::string ccdModeName(CcdMode mode) {
+  switch (mode) {
+    case CcdMode::kOff:
+      return "off";
+    case CcdMode::kAuto:
+      return "auto";
+    case CcdMode::kAll:
+      return "all";
+  }
+  return "?";
+}
+
+std::string sleepModeName(SleepMode mode) {
+  switch (mode) {
+    case SleepMode::kScene:
+      return "scene";
+    case SleepMode::kOn:
+      return "on";
+    case SleepMode::kOff:
+      return "off";
+  }
+  return "?";
+}
+
+double typicalEdge(std::span<const double> edges) {
+  if (edges.empty()) return 0;
+  std::vector<double> sorted(edges.begin(), edges.end());
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  return *middle;
+}
+
+double speedBound(double speed, double gravity, double frame_time) {
+  return speed + gravity * frame_time;
+}
+
+int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule) {
+  const double travel =
+      speedBound(motion.fastest_speed, motion.gravity, motion.frame_time) * motion.frame_time;
+  int k = std::max(substepsFor(travel, rule.wall_share * motion.wall_thickness),
+                   substepsFor(travel, rule.motion_share * motion.typical_edge));
+  if (!ccd_on) k = std::max(k, substepsFor(travel, rule.edge_share * motion.smallest_edge));
+  // g (T/K)^2 <= share x edge  <=>  K >= T sqrt(g / (share x edge)).
+  const double fall = motion.gravity * motion.frame_time * motion.frame_time;
+  k = std::max(k, static_cast<int>(std::ceil(
+                      std::sqrt(fall / (rule.resting_share * motion.typical_edge)) - 1e-9)));
+  return std::clamp(k, 1, rule.max_substeps);
+}
+
+std::vector<char> chooseCcdBodies(CcdMode mode, std::span<const float> speeds,
+                                  std::span<const double> edges, double gravity, double frame_time,
+                                  int substeps) {
+  std::vector<char> flags(edges.size(), mode == CcdMode::kAll ? 1 : 0);
+  if (mode != CcdMode::kAuto) return flags;
+  const double substep_time = frame_time / substeps;
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const double motion = speedBound(speeds[i], gravity, frame_time) * substep_time;
+    flags[i] = motion > kCcdShareOfEdge * edges[i] ? 1 : 0;
+  }
+  return flags;
+}
+
+bool sleepAllowed(const SceneConfig& config, SleepMode mode) {
+  if (mode == SleepMode::kOff) return false;
+  if (config.rotatingGravity()) {
+    if (mode == SleepMode::kOn) {
+      throw std::invalid_argument(
+          "sleep: scenes 3 and 4 turn gravity every frame; a sleeping box would not notice");
+    }
+    return false;
+  }
+  return true;
+}
+
+}  // namespace overlap::physics
