@@ -22,10 +22,6 @@ CLI::Validator parsedBy(Parse parse, const std::string& description) {
       description);
 }
 
-std::string orAll(const std::string& ccd) {
-  return ccd.empty() ? "all" : ccd;  // the old flag, `--ccd` alone
-}
-
 }  // namespace
 
 void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
@@ -39,10 +35,9 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
   command
       .add_option("--ccd", ccd_,
                   "Bullet's continuous collision detection: off, auto (the boxes fast for "
-                  "their size this frame; the default), all (also a bare --ccd)")
-      ->expected(0, 1)  // no default string: a bare --ccd must read as "", i.e. all
-      ->check(parsedBy([](const std::string& text) { physics::parseCcdMode(orAll(text)); },
-                       "off|auto|all"));
+                  "their size this frame), all")
+      ->check(parsedBy(physics::parseCcdMode, "off|auto|all"))
+      ->capture_default_str();
   command
       .add_option("--sleep", sleep_,
                   "Bullet's deactivation of boxes at rest: scene (on in scenes 1-2), on, off")
@@ -53,8 +48,7 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
 physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
                                               const physics::SceneConfig& config) const {
   const physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
-                                      physics::parseCcdMode(orAll(ccd_)),
-                                      physics::parseSleepMode(sleep_)};
+                                      physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_)};
   try {
     physics::sleepAllowed(config, options.sleep);
   } catch (const std::invalid_argument& error) {

@@ -1,7 +1,7 @@
 // What a run models, the options every scene-stepping subcommand shares:
 //   --substeps auto|K     K chosen each frame (physics/step_policy.h) or fixed
 //   --ccd off|auto|all    Bullet's swept-sphere CCD: none, the boxes that need
-//                         it this frame, every box (a bare --ccd means all)
+//                         it this frame, every box
 //   --sleep scene|on|off  Bullet's deactivation (scene: on for scenes 1-2)
 // Kept apart from scene_options.* so the scene's numbers and the model's
 // choices can change independently.

@@ -137,7 +137,7 @@ TEST_F(CliTest, RunWritesFramesAndSummary) {
 TEST_F(CliTest, FixedSubstepsAndTheOldCcdFlagStillWork) {
   const Result result = runOverlap(
       "run --scene 3 --objects 100 --frames 3 --algo bvh --substeps 3 "
-      "--ccd --no-tasks --out " +
+      "--ccd all --no-tasks --out " +
       out_.string());
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
   std::ifstream summary_file(out_ / "summary.json");
@@ -281,7 +281,7 @@ TEST_F(CliTest, RecordWritesBoxesThatLeftTheSimulationSoPairsReadsThem) {
   std::filesystem::create_directories(out_);
   const std::filesystem::path stream = out_ / "lost.aabbs";
   const Result record = runOverlap(
-      "record --scene 3 --objects 100 --frames 70 --substeps 1 --gravity-scale 50000 "
+      "record --scene 3 --objects 100 --frames 70 --substeps 1 --ccd off --gravity-scale 50000 "
       "--wall-min 0.5 --wall-fraction 0 --out " +
       stream.string());
   ASSERT_EQ(record.exit_code, 0) << record.stderr_text;

@@ -93,13 +93,15 @@ TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBrut
   }
 }
 
-// cpusap too is exact, whatever its thread count: it must end where bf ends.
+// cpusap too is exact, whatever its thread count: it must end where bf ends
+// (without CCD, as above).
 TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce) {
-  const std::uint64_t bullet_bf = hashAfterRun("bf");
+  const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2}) {
     const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
                                   static_cast<std::size_t>(threads));
-    EXPECT_EQ(hashAfterRun("cpusap"), bullet_bf) << threads << " thread(s)";
+    EXPECT_EQ(hashAfterRun("cpusap", nullptr, physics::CcdMode::kOff), bullet_bf)
+        << threads << " thread(s)";
   }
 }
 
