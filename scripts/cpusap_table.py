@@ -14,13 +14,15 @@ the issue quotes.  Take it in a quiet window: the load average is in OUT.md.
   scripts/cpusap_table.py --stub                    # OUT.md before any run
 """
 import argparse
+import csv
 import json
 import os
 import pathlib
+import statistics
 import subprocess
 import sys
 
-from overlap_runs import results_header
+from overlap_runs import portable
 
 TARGETS_MS = {3500: 0.6, 10000: 2.5, 30000: 10.5}
 SHOWN = ["cpusap", "cpubf", "sap", "bvh"]
@@ -80,7 +82,10 @@ def result_lines(results: dict) -> list:
     rows = {(r["n"], r["algorithm"]): r for r in results["rows"]}
     sizes = sorted({r["n"] for r in results["rows"]})
     shown = [a for a in SHOWN if any((n, a) in rows for n in sizes)]
-    lines = [f"Benchmark command: `{results['command']}` ({results['run_seconds']:.0f} s).", "",
+    streams = {stream["path"].rsplit("/", 1)[0] for stream in results["streams"]}
+    command = portable(results["command"], {folder: "$STREAMS" for folder in streams})
+    lines = [f"Benchmark command: `{command}` ({results['run_seconds']:.0f} s; $STREAMS: "
+             "the folder of the recorded streams).", "",
              f"Load average (1, 5, 15 min) before the run: {results.get('load_average_before', '?')}"
              f"; after: {results.get('load_average_after', '?')}.", "",
              "Median ms per frame over the repeats (fastest-slowest repeat), each repeat the "
@@ -100,6 +105,11 @@ def result_lines(results: dict) -> list:
                                               for a in shown) +
                      f" | {ratio('sap')} | {ratio('cpubf')} | "
                      f"{'%.1f' % target if target else '-'} | {met} | {pairs} |")
+    if 100000 not in sizes:
+        lines += ["", "n = 100000 is not in this run: recording its 64-frame stream takes more "
+                  "than an hour here (25 frames took 47 minutes while the machine was shared), "
+                  "longer than the session that took this table; the default `--big-objects "
+                  "100000` records and runs it."]
     exact = [r for r in results["rows"] if r["algorithm"] == "cpusap"]
     lines += ["", "Exactness, every frame of every repeat: " + "; ".join(
         f"n = {r['n']}: " + ("the reference itself" if r["reference"] == "cpusap" else
@@ -108,11 +118,60 @@ def result_lines(results: dict) -> list:
     return lines
 
 
+LIVE_FRAMES, LIVE_WARMUP = 24, 8
+
+
+def live_run_dir(runs: pathlib.Path, scene: int, algorithm: str) -> pathlib.Path:
+    return runs / f"scene{scene}_{algorithm}"
+
+
+def measure_live(runs: pathlib.Path) -> dict:
+    """The live loop, issue 13's second target: `overlap run` at n = 3500 in scenes 1-4 with
+    sap and cpusap (physics only), the median of update_ms + broadphase_ms per frame after
+    the warm-up frames."""
+    before = load_average()
+    medians = {}
+    for scene in (1, 2, 3, 4):
+        for algorithm in ("sap", "cpusap"):
+            out = live_run_dir(runs, scene, algorithm)
+            subprocess.run(["build/overlap", "run", "--scene", str(scene), "--objects", "3500",
+                            "--frames", str(LIVE_FRAMES), "--algo", algorithm, "--no-tasks",
+                            "--capture-every", "0", "--no-wav", "--out", str(out)], check=True)
+            with open(out / "frames.csv") as frames:
+                rows = list(csv.DictReader(frames))[LIVE_WARMUP:]
+            medians[f"{scene}/{algorithm}"] = statistics.median(
+                float(row["update_ms"]) + float(row["broadphase_ms"]) for row in rows)
+    return {"medians_ms": medians, "load_average_before": before,
+            "load_average_after": load_average(),
+            "command": f"build/overlap run --scene S --objects 3500 --frames {LIVE_FRAMES} "
+                       "--algo A --no-tasks --capture-every 0 --no-wav --out OUT "
+                       "(S = 1..4, A = sap, cpusap)"}
+
+
+def live_lines(live) -> list:
+    if not live:
+        return ["The live loop (`overlap run`, scenes 1-4, n = 3500): not measured yet "
+                "(`scripts/cpusap_table.py --no-run --live RUNS`).", ""]
+    medians = live["medians_ms"]
+    lines = ["## The live loop", "",
+             f"`{live['command']}`: the median of `update_ms + broadphase_ms` over frames "
+             f"{LIVE_WARMUP}-{LIVE_FRAMES - 1}, physics only, the default substeps and CCD. "
+             f"Load average before: {live['load_average_before']}; after: "
+             f"{live['load_average_after']}.", "",
+             "| scene | `sap` ms | `cpusap` ms | cpusap / sap |", "|---:|---:|---:|---:|"]
+    for scene in (1, 2, 3, 4):
+        sap, ours = medians[f"{scene}/sap"], medians[f"{scene}/cpusap"]
+        lines.append(f"| {scene} | {sap:.2f} | {ours:.2f} | {ours / sap:.2f} |")
+    return lines + [""]
+
+
 def write_markdown(args, results) -> None:
     machine = results["machine"] if results else None
-    lines = (results_header("cpusap: exact sort-and-sweep on recorded scene-4 streams (issue 13)",
-                            machine) if machine else
-             ["# cpusap: exact sort-and-sweep on recorded scene-4 streams (issue 13)", ""])
+    lines = ["# cpusap: exact sort-and-sweep on recorded scene-4 streams (issue 13)", ""]
+    if machine:
+        lines += [f"Machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
+                  f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}, "
+                  f"commit {machine['git_commit']}.", ""]
     lines += ["Targets (issue 13), cpusap on this 2-core machine, search, deltas and Bullet's "
               "pair-cache update included: at most 0.6 ms per frame at n = 3500, 2.5 ms at "
               "10000, 10.5 ms at 30000.", ""]
@@ -127,11 +186,7 @@ def write_markdown(args, results) -> None:
                   "scripts/cpusap_table.py --streams STREAMS",
                   "```", "",
                   "which runs `" + " ".join(bench_command(args)) + "`."]
-    lines += ["", PEERS,
-              "The live loop (`overlap run`, scenes 1-4, n = 3500): `update_ms + broadphase_ms` "
-              "in each run's `frames.csv`, cpusap against sap, e.g. "
-              "`overlap run --scene 4 --objects 3500 --frames 64 --algo cpusap --out out/cpusap`.",
-              ""]
+    lines += ["", PEERS] + live_lines(results.get("live") if results else None)
     pathlib.Path(args.out + ".md").write_text("\n".join(lines))
     print(f"cpusap_table: wrote {args.out}.md", file=sys.stderr)
 
@@ -151,13 +206,21 @@ def main() -> int:
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--no-run", action="store_true", help="OUT.md from an existing OUT.json")
     mode.add_argument("--stub", action="store_true", help="OUT.md with no results yet")
+    parser.add_argument("--live", metavar="RUNS",
+                        help="also run the live loop (scenes 1-4, n = 3500, sap and cpusap) into "
+                             "the folder RUNS and add it to OUT.json and OUT.md")
     args = parser.parse_args()
     if args.stub:
         write_markdown(args, None)
         return 0
     if not args.no_run:
         run_bench(args)
-    write_markdown(args, json.loads(pathlib.Path(args.out + ".json").read_text()))
+    json_path = pathlib.Path(args.out + ".json")
+    results = json.loads(json_path.read_text())
+    if args.live:
+        results["live"] = measure_live(pathlib.Path(args.live))
+        json_path.write_text(json.dumps(results, indent=2) + "\n")
+    write_markdown(args, results)
     return 0
 
 
