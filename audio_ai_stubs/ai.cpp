@@ -135,9 +135,9 @@ void AgentCrowd::runFrame(std::span<const Obstacle> boxes) {
 }
 
 std::uint64_t AgentCrowd::checksum() const {
-  const std::span<const float> positions(positions_.data()->data(), 3 * positions_.size());
-  const std::span<const float> velocities(velocities_.data()->data(), 3 * velocities_.size());
-  return fnv1a(velocities, fnv1a(positions));
+  // Object bytes of the vectors (no padding, see the static_assert); with no
+  // agents the spans are empty, never a dereferenced null.
+  return fnv1a(std::as_bytes(std::span(velocities_)), fnv1a(std::as_bytes(std::span(positions_))));
 }
 
 Eigen::Vector3f AgentCrowd::seek(std::size_t agent) {

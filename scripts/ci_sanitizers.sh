@@ -33,7 +33,7 @@ cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_
 cmake --build "$ASAN_DIR" -j "$JOBS"
 section "ASan + UBSan: the whole suite, the GPU tests on the CUDA emulation"
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
-LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" \
+LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" \
 UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
   ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" | tee "$ASAN_DIR/ctest.log"
 if grep -q "(Skipped)" "$ASAN_DIR/ctest.log"; then

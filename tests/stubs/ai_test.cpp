@@ -129,6 +129,14 @@ TEST(AgentCrowd, SameSeedGivesTheSameAgents) {
   EXPECT_NE(simulate(1), simulate(2));
 }
 
+// --task-load 0 makes a crowd of no agents: it runs frames and hashes to the
+// empty hash (it once read through the empty vector's null data pointer).
+TEST(AgentCrowd, NoAgentsRunAndHashToTheEmptyHash) {
+  AgentCrowd crowd(smallCrowd(0), kHalfExtent);
+  crowd.runFrame(randomBoxes(9, 40));
+  EXPECT_EQ(crowd.checksum(), kFnv1aOffsetBasis);
+}
+
 // The engine runs sound and AI as concurrent TBB tasks: each must give
 // exactly what it gives on the main thread, with the other running beside it.
 TEST(AgentCrowd, TbbTaskGivesTheSameResultAsTheMainThread) {
