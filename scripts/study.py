@@ -25,8 +25,11 @@ writes the tables, the figures and REPORT.md from whatever results exist:
 Every run keeps its own folder under --out; a run whose result exists is not
 redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
 stable job list, so k machines can share the work on one --out folder.  On a
-machine without a CUDA device the GPU algorithms' runs are skipped (there
-they would run their CPU fallback, cpusap) and reported as pending.
+machine without a CUDA device the GPU algorithms' timing runs are skipped
+(there they would run their CPU fallback, cpusap) and listed in the report as
+needing a GPU; their pairs (the exactness experiment) run through the CUDA
+emulation build (--emulation, default build-emulation/overlap) when it is
+built: the same .cu files on the CPU, checked pair for pair, never timed.
 
   scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
   scripts/study.py --out out/study --shard 1/2              # half of the full study
@@ -52,15 +55,15 @@ GPU_ALGOS = ("gpubf", "gpubf-paper")
 
 # Each profile's values; any option given on the command line wins.
 FULL = {
-    "scenes": "1,2,3,4", "algos": "bf,sap,bvh,gpubf-paper,gpubf,cpubf",
+    "scenes": "1,2,3,4", "algos": "bf,sap,bvh,gpubf-paper,gpubf,cpubf,cpusap",
     "objects": "500,1250,2000,2750,3500", "repetitions": 5, "frames": 2048,
     "figure_objects": 1250,
     "pairs_objects": 3500, "pairs_frames": 256,
-    "pairs_algos": "bf,sap,sap32,bvh,cpubf,gpubf,gpubf-paper",
+    "pairs_algos": "bf,sap,sap32,bvh,cpubf,cpusap,gpubf,gpubf-paper",
     "physics_scenes": "1,2,3,4", "physics_objects": 3500, "physics_frames": 2048,
     "physics_substeps": "1,2,4,8,16,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
     "latency_scenes": "1,2,3,4", "latency_objects": 3500, "latency_frames": 2048,
-    "latency_algos": "bf,sap,bvh,cpubf,gpubf", "latency_growths": "0,1,2",
+    "latency_algos": "bf,sap,bvh,cpubf,cpusap,gpubf", "latency_growths": "0,1,2",
     "timeline_objects": 1250, "timeline_frames": 64,
     "overlap_scenes": "1,4", "overlap_objects": "500,1250,3500",
     "overlap_loads": "0,0.5,1,1.5,2", "overlap_frames": 48, "overlap_algo": "gpubf",
@@ -95,7 +98,7 @@ HELP = {
     "overlap_scenes": "overlap: scenes", "overlap_objects": "overlap: box counts",
     "overlap_loads": "overlap: --task-load values (tasks' cost / the physics step)",
     "overlap_frames": "overlap: frames per run (each run is a sync and an async run)",
-    "overlap_algo": "overlap: broadphase (gpubf runs cpubf without a GPU, and says so)",
+    "overlap_algo": "overlap: broadphase (gpubf runs cpusap without a GPU, and says so)",
 }
 
 
@@ -208,6 +211,7 @@ class PairsJob(Job):
         super().__init__("pairs", key, weight, {"algo": algo}, gpu_algo)
         self.overlap, self.folder, self.stream, self.frames = overlap, folder, stream, frames
         self.record_options, self.algo = record_options, algo
+        self.finder = overlap  # the binary that runs `pairs --algo algo`: see use_emulation()
         self.path = folder / f"{algo}.csv"
         self.exact_path = folder / "bf_pairs.csv"
 
@@ -217,7 +221,17 @@ class PairsJob(Job):
     def commands(self):
         record = [self.overlap, "record", *self.record_options, "--out", str(self.stream)]
         return [record, [self.overlap, "pairs", "--algo", "bf", "--input", str(self.stream)],
-                [self.overlap, "pairs", "--algo", self.algo, "--input", str(self.stream)]]
+                [self.finder, "pairs", "--algo", self.algo, "--input", str(self.stream)]]
+
+    def use_emulation(self, emulation: str, device: str) -> None:
+        """Runs this GPU algorithm's pairs through the CUDA emulation build: the kernels'
+        pairs are checked; the emulation's time is never a result."""
+        self.finder = emulation
+        self.device_path().parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(self.device_path(), json.dumps({"device": device}) + "\n")
+
+    def device_path(self) -> pathlib.Path:
+        return self.folder / f"{self.algo}.device.json"
 
     def run(self):
         record, exact, mine = self.commands()
@@ -400,20 +414,37 @@ def format_seconds(seconds: float) -> str:
     return f"{seconds // 60}m{seconds % 60:02d}s" if seconds >= 60 else f"{seconds}s"
 
 
+def without_a_gpu(pending: list, args) -> tuple:
+    """On a machine whose `overlap` has no CUDA device: (the jobs to run, the GPU jobs left
+    for a GPU machine).  The GPU algorithms' pairs run through the CUDA emulation build when
+    it is built; their timings would be the CPU fallback's and are left."""
+    gpu_jobs = [job for job in pending if job.gpu_algo]
+    runnable = [job for job in pending if not job.gpu_algo]
+    exactness = [job for job in gpu_jobs if isinstance(job, PairsJob)]
+    if exactness and os.access(args.emulation, os.X_OK):
+        emulated, device = gpu_present(args.emulation, args.out)
+        if emulated and "emulation" in device:
+            for job in exactness:
+                job.use_emulation(args.emulation, device)
+            runnable += exactness
+            print(f"study: {', '.join(j.algo for j in exactness)}: pairs through {device} "
+                  f"({args.emulation}), checked, not timed", file=sys.stderr)
+    left = [job for job in gpu_jobs if job not in runnable]
+    return runnable, left
+
+
 def run_jobs(jobs: list, args) -> list:
     """Runs this shard's pending jobs one after another; returns the GPU jobs left pending."""
     shard, shards = args.shard
     mine = [job for index, job in enumerate(jobs) if index % shards == shard - 1]
     pending = [job for job in mine if not job.done()]
-    gpu_pending = [job for job in pending if job.gpu_algo]
-    if gpu_pending:
+    gpu_pending = []
+    if any(job.gpu_algo for job in pending):
         present, gpu = gpu_present(args.overlap, args.out)
         if not present:
-            print(f"study: no CUDA device ({gpu}); {len(gpu_pending)} GPU jobs left pending",
-                  file=sys.stderr)
-            pending = [job for job in pending if not job.gpu_algo]
-        else:
-            gpu_pending = []
+            pending, gpu_pending = without_a_gpu(pending, args)
+            print(f"study: no CUDA device ({gpu}); {len(gpu_pending)} GPU jobs left for a "
+                  "machine with one", file=sys.stderr)
     print(f"study: shard {shard}/{shards}: {len(mine)} of {len(jobs)} jobs, "
           f"{len(mine) - len(pending) - len(gpu_pending)} already done, {len(pending)} to run",
           file=sys.stderr)
@@ -446,6 +477,10 @@ def parse_args(argv: list) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--overlap", default=str(REPO / "build" / "overlap"),
                         help="the overlap binary (default: build/overlap)")
+    parser.add_argument("--emulation", default=str(REPO / "build-emulation" / "overlap"),
+                        help="without a GPU, the CUDA emulation build's overlap that checks "
+                        "gpubf's and gpubf-paper's pairs (default: build-emulation/overlap, "
+                        "used when built)")
     parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("out/study"),
                         help="folder for every run, table and figure (default out/study)")
     parser.add_argument("--quick", action="store_true",
@@ -480,6 +515,7 @@ def parse_args(argv: list) -> argparse.Namespace:
     if unknown:
         parser.error(f"--experiments: unknown {','.join(sorted(unknown))}")
     args.overlap = str(pathlib.Path(args.overlap).resolve())
+    args.emulation = str(pathlib.Path(args.emulation).resolve())
     if not args.no_runs and not os.access(args.overlap, os.X_OK):
         parser.error(f"--overlap {args.overlap}: not an executable (build it first)")
     return args

@@ -41,7 +41,9 @@ def table(headers: list, rows: list) -> list:
 
 def algo_order(algos) -> list:
     known = ["bf", "sap", "sap32", "bvh", "gpubf-paper", "gpubf", "cpubf", "cpusap"]
-    return sorted(algos, key=lambda a: (known.index(a) if a in known else len(known), a))
+    def base(a):  # "gpubf (CUDA emulation)" sorts as gpubf
+        return a.split(" ")[0]
+    return sorted(algos, key=lambda a: (known.index(base(a)) if base(a) in known else len(known), a))
 
 
 # --- the sweep ---------------------------------------------------------------
@@ -110,10 +112,10 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
         return text
 
     gpu_algos = [a for a in ("gpubf", "gpubf-paper") if any(k[2] == a for k in by_key)]
-    pending = (f" ({gpu_pending} GPU jobs not done yet)" if gpu_pending else "")
+    pending = " (see *What needs a real GPU*)" if gpu_pending else ""
     lines.append("1. *GPU-BF beats BF everywhere.*")
     if not gpu_algos:
-        lines.append(f"   - GPU: pending a GPU run{pending}; no GPU figure is in this report.")
+        lines.append(f"   - GPU: needs a real GPU{pending}; no GPU figure is in this report.")
     for algo in gpu_algos + ["cpubf"]:
         prefix = "our CPU twin, not the GPU: " if algo == "cpubf" else ""
         for name, value in measures:
@@ -122,7 +124,7 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
                 lines.append(f"   - {prefix}{text}.")
     lines.append("2. *GPU-BF is near SAP and BVH.*")
     if not gpu_algos:
-        lines.append(f"   - GPU: pending a GPU run{pending}.")
+        lines.append(f"   - GPU: needs a real GPU{pending}.")
     for algo in gpu_algos + ["cpubf"]:
         prefix = "our CPU twin: " if algo == "cpubf" else ""
         for other in ("sap", "bvh"):
@@ -132,7 +134,7 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
     lines.append("3. *GPU-BF does best in scene 4 (mixed sizes).*")
     scene4 = sorted({k[1] for k in by_key if k[0] == 4})
     if not gpu_algos:
-        lines.append(f"   - GPU: pending a GPU run{pending}.")
+        lines.append(f"   - GPU: needs a real GPU{pending}.")
     for name, value in measures:
         if scene4:
             winners = [f"n={n}: {fastest(honest, 4, n, value)[0]}" for n in scene4]
@@ -442,6 +444,36 @@ def keyframe_figure(args, figures: dict) -> list:
             "![keyframes](report/fig1_keyframes.png)", ""]
 
 
+def gpu_lines(jobs: list, pairs: list) -> list:
+    """What this report leaves out for want of a GPU, by experiment, and what the CUDA
+    emulation checked instead."""
+    left = {}
+    for job in jobs:
+        if job.gpu_algo and not job.done():
+            left.setdefault(job.experiment, []).append(job)
+    emulated = [r["algo"] for r in pairs if r["algo"].endswith("(CUDA emulation)")]
+    if not left and not emulated:
+        return []
+    lines = ["### What needs a real GPU", ""]
+    if left:
+        lines += ["No machine of this project has a GPU, so these figures are not in this "
+                  "report: " + "; ".join(
+                      f"{experiment}: {len(group)} runs of "
+                      f"{', '.join(sorted({j.gpu_algo for j in group}))}"
+                      for experiment, group in sorted(left.items())) +
+                  ". They are the GPU algorithms' timings (on this machine `--algo gpubf` "
+                  "runs its CPU fallback, and the CUDA emulation's times are the CPU's). "
+                  "On a machine with a CUDA device, `scripts/study.py` with this report's "
+                  "options (and `--shard i/k` to share them) runs exactly these jobs into the "
+                  "same --out folder; `--no-runs --report` then adds them.", ""]
+    if emulated:
+        lines += ["Exactness does not need a GPU: " + ", ".join(emulated) + " ran the `.cu` "
+                  "kernels through the CUDA emulation build (`cmake --preset cuda-emulation`, "
+                  "every CUDA thread on the CPU) in section 3.1, pair for pair against bf; "
+                  "those runs are not timed.", ""]
+    return lines
+
+
 def write_everything(args, jobs: list) -> list:
     out = args.out
     figures = {"folder": out / "report"}
@@ -466,8 +498,9 @@ def write_everything(args, jobs: list) -> list:
               f"Scenes {args.scenes}, algorithms {args.algos}, n in {args.objects}, "
               f"{args.repetitions} repetition(s) of {args.frames} frames, seed {args.seed} "
               f"every time, physics only (`--no-tasks`). Runs present: {len(runs)} of "
-              f"{len(sweep_jobs)}" + (f"; {gpu_pending} jobs of the whole study need a CUDA "
-                                      "device and are not done yet." if gpu_pending else "."), ""]
+              f"{len(sweep_jobs)}" + ("; the GPU algorithms' runs need a real GPU (see below)."
+                                      if gpu_pending else "."), ""]
+    lines += gpu_lines(jobs, pairs)
     lines += keyframe_figure(args, figures)
     if cells:
         study_results.write_csv(out / "sweep_runs.csv",
