@@ -47,7 +47,7 @@ namespace overlap::engine {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using PairList = std::vector<std::pair<int, int>>;
+using physics::PairList;
 
 constexpr const char* kProgram = "overlap_bench_broadphase";
 constexpr int kScene = 4;
@@ -103,13 +103,6 @@ bool isGpu(std::string_view algorithm) {
   return algorithm == "gpubf" || algorithm == "gpubf-paper";
 }
 
-std::size_t countMissingFrom(const PairList& wanted, const PairList& held) {
-  PairList missing;
-  std::set_difference(wanted.begin(), wanted.end(), held.begin(), held.end(),
-                      std::back_inserter(missing));
-  return missing.size();
-}
-
 // Replays the whole stream once in a fresh broadphase and adds one repeat to
 // `row`.  With `reference` empty it fills it (this algorithm is the
 // reference); otherwise every frame is checked against it.
@@ -146,8 +139,8 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::vector<PairL
       reference.push_back(std::move(pairs));
     } else if (has_reference) {
       const PairList& exact = reference[static_cast<std::size_t>(frame)];
-      const std::size_t extra = countMissingFrom(pairs, exact);
-      const std::size_t missed = countMissingFrom(exact, pairs);
+      const std::size_t extra = physics::countMissing(pairs, exact);
+      const std::size_t missed = physics::countMissing(exact, pairs);
       if (measured) row.extra_sum += static_cast<double>(extra);
       row.missed += static_cast<long long>(missed);
       if (extra + missed > 0) ++row.mismatched_frames;

@@ -4,7 +4,7 @@
 #include <exception>
 #include <stdexcept>
 
-#include "audio_ai_stubs/checksum.h"
+#include "physics/checksum.h"
 
 namespace overlap::engine {
 namespace {
@@ -59,7 +59,7 @@ FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOpti
     : world_(world),
       options_(options),
       timeline_(timeline),
-      sound_checksum_(stubs::kFnv1aOffsetBasis) {
+      sound_checksum_(physics::kFnv1aOffsetBasis) {
   if (!options_.tasks) return;
   options_.sound.frame_seconds = world.config().frame_time;
   options_.ai.frame_seconds = world.config().frame_time;
@@ -104,7 +104,7 @@ void FrameScheduler::snapshot() {
 void FrameScheduler::runSound() {
   sound_->runFrame(impacts_);
   if (wav_) sound_->appendMixTo(*wav_);
-  sound_checksum_ = stubs::fnv1a(sound_->mix(), sound_checksum_);
+  sound_checksum_ = physics::fnv1a(sound_->mix(), sound_checksum_);
 }
 
 void FrameScheduler::runAi() {

@@ -47,7 +47,7 @@
 namespace overlap::engine {
 namespace {
 
-using Pairs = std::vector<std::pair<int, int>>;
+using Pairs = physics::PairList;
 
 struct LatencyOptions {
   SceneOptions scene;
@@ -99,13 +99,6 @@ FrameSearches searchAll(Studied& studied, const std::vector<physics::Aabb>& now,
     }
   }
   return result;
-}
-
-// Pairs in `a` and not in `b`; both sorted.
-int countMissing(const Pairs& a, const Pairs& b) {
-  Pairs missing;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(missing));
-  return static_cast<int>(missing.size());
 }
 
 // The boxes' AABBs (walls dropped); fails if a box has left the simulation,
@@ -184,7 +177,8 @@ void measureLatency(const LatencyOptions& options) {
     }
     for (std::size_t s = 0; s < studied.size(); ++s) {
       const FrameSearches searches = searchAll(studied[s], now, late_boxes, frame);
-      if (const int missed = countMissing(exact, searches.on_time.pairs); missed > 0) {
+      if (const std::size_t missed = physics::countMissing(exact, searches.on_time.pairs);
+          missed > 0) {
         throw std::runtime_error("latency: " + names[s] + " missed " + std::to_string(missed) +
                                  " exact pairs on time at frame " + std::to_string(frame));
       }
@@ -192,8 +186,9 @@ void measureLatency(const LatencyOptions& options) {
         const SearchResult& late = searches.late[g];
         csv << frame << ',' << names[s] << ',' << options.growths[g] << ',' << exact.size() << ','
             << searches.on_time.pairs.size() << ',' << late.pairs.size() << ','
-            << countMissing(exact, late.pairs) << ',' << countMissing(late.pairs, exact) << ','
-            << searches.on_time.ms << ',' << late.ms << '\n';
+            << physics::countMissing(exact, late.pairs) << ','
+            << physics::countMissing(late.pairs, exact) << ',' << searches.on_time.ms << ','
+            << late.ms << '\n';
       }
     }
     last = now;

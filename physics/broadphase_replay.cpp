@@ -74,7 +74,7 @@ void BroadphaseReplay::findPairs() {
   bullet_->broadphase->calculateOverlappingPairs(&bullet_->dispatcher);
 }
 
-std::vector<std::pair<int, int>> BroadphaseReplay::pairs() const {
+PairList BroadphaseReplay::pairs() const {
   const btBroadphasePairArray& array =
       bullet_->broadphase->getOverlappingPairCache()->getOverlappingPairArray();
   std::vector<std::pair<int, int>> result;

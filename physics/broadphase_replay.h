@@ -9,6 +9,8 @@
 // pair cache the simulation uses.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <memory>
 #include <span>
 #include <string>
@@ -19,6 +21,21 @@
 #include "physics/world.h"
 
 namespace overlap::physics {
+
+// Object-index pairs (a < b), sorted, as pairs() and PhysicsWorld::cachedPairs() give them.
+using PairList = std::vector<std::pair<int, int>>;
+
+// How many pairs of `wanted` are not in `held`, both sorted: a broadphase's
+// missed pairs against the exact ones, or with the arguments swapped its extra ones.
+inline std::size_t countMissing(const PairList& wanted, const PairList& held) {
+  std::size_t missing = 0;
+  auto h = held.begin();
+  for (const auto& pair : wanted) {
+    h = std::lower_bound(h, held.end(), pair);
+    if (h == held.end() || *h != pair) ++missing;
+  }
+  return missing;
+}
 
 class BroadphaseReplay {
  public:
@@ -37,7 +54,7 @@ class BroadphaseReplay {
   // Finds the pairs and updates the persistent pair cache.
   void findPairs();
   // The cache's pairs as object indices (a < b), sorted.
-  std::vector<std::pair<int, int>> pairs() const;
+  PairList pairs() const;
 
  private:
   struct Bullet;

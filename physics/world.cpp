@@ -11,11 +11,13 @@
 #include <functional>
 #include <iterator>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <utility>
 
 #include "gpu/stopwatch.h"
 #include "physics/broadphase_factory.h"
+#include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/random.h"
 
@@ -109,11 +111,9 @@ btVector3 toBullet(const Eigen::Vector3d& v) {
   return {static_cast<btScalar>(v.x()), static_cast<btScalar>(v.y()), static_cast<btScalar>(v.z())};
 }
 
-void hashBytes(std::uint64_t& hash, const void* data, std::size_t size) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < size; ++i) {
-    hash = (hash ^ bytes[i]) * 0x100000001b3ULL;
-  }
+// A vector's three components (not its fourth, unused float).
+std::uint64_t hashVector(const btVector3& v, std::uint64_t hash) {
+  return fnv1a(std::span<const btScalar>(v.m_floats, 3), hash);
 }
 
 }  // namespace
@@ -353,14 +353,14 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
 }
 
 std::uint64_t PhysicsWorld::stateHash() const {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  std::uint64_t hash = kFnv1aOffsetBasis;
   for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
     const btRigidBody& body = *bullet_->bodies[i];
     const btTransform& t = body.getWorldTransform();
-    hashBytes(hash, &t.getOrigin(), sizeof(btScalar) * 3);
-    for (int r = 0; r < 3; ++r) hashBytes(hash, &t.getBasis()[r], sizeof(btScalar) * 3);
-    hashBytes(hash, &body.getLinearVelocity(), sizeof(btScalar) * 3);
-    hashBytes(hash, &body.getAngularVelocity(), sizeof(btScalar) * 3);
+    hash = hashVector(t.getOrigin(), hash);
+    for (int r = 0; r < 3; ++r) hash = hashVector(t.getBasis()[r], hash);
+    hash = hashVector(body.getLinearVelocity(), hash);
+    hash = hashVector(body.getAngularVelocity(), hash);
   }
   return hash;
 }

@@ -13,14 +13,17 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "engine/frame_scheduler.h"
 #include "gpu/pair_finder.h"
+#include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
@@ -110,7 +113,7 @@ TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce
 // one after another (sync).  Every frame's pairs, the final state, the sound
 // and the AI must be bit-identical over the full 2048 frames.
 struct ScheduledRun {
-  std::uint64_t pairs_digest = 0xcbf29ce484222325ULL;  // FNV-1a over every frame's pairs
+  std::uint64_t pairs_digest = physics::kFnv1aOffsetBasis;  // FNV-1a over every frame's pairs
   std::uint64_t state_hash = 0;
   std::uint64_t sound_checksum = 0;
   std::uint64_t ai_checksum = 0;
@@ -126,11 +129,11 @@ ScheduledRun scheduledRun(bool sync) {
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
     for (const auto& [a, b] : world.cachedPairs()) {
-      for (const int index : {a, b})
-        run.pairs_digest =
-            (run.pairs_digest ^ static_cast<std::uint64_t>(index)) * 0x100000001b3ULL;
+      const std::array<int, 2> pair{a, b};
+      run.pairs_digest = physics::fnv1a(std::span<const int>(pair), run.pairs_digest);
     }
-    run.pairs_digest = (run.pairs_digest ^ 0xffu) * 0x100000001b3ULL;  // frame separator
+    const std::array<int, 1> frame_separator{-1};
+    run.pairs_digest = physics::fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
   run.state_hash = world.stateHash();
   run.sound_checksum = scheduler.soundChecksum();

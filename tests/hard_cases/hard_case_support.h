@@ -1,6 +1,5 @@
-// Test support for the hard cases: an exact pair oracle over physics::Aabb,
-// written from the definition (inclusive on every axis, so touching counts)
-// and independent of every broadphase; set comparisons that say what
+// Test support for the hard cases: the exact pair oracle over physics::Aabb
+// (tests/physics/aabb_oracle.h); set comparisons that say what
 // differs without printing thousands of pairs; a check that a world's state
 // is finite.
 #pragma once
@@ -18,37 +17,12 @@
 #include <vector>
 
 #include "physics/world.h"
+#include "tests/physics/aabb_oracle.h"
 
 namespace overlap::hard_cases {
 
-using PairList = std::vector<std::pair<int, int>>;
-
-inline bool aabbsOverlap(const physics::Aabb& x, const physics::Aabb& y) {
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!(x.min[axis] <= y.max[axis] && y.min[axis] <= x.max[axis])) return false;
-  }
-  return true;
-}
-
-// Every overlapping pair (a, b), a < b, sorted.  Objects from `first_static`
-// on are static: Bullet's filters never pair two of them.
-inline PairList oraclePairs(std::span<const physics::Aabb> boxes, int first_static) {
-  PairList pairs;
-  const auto n = static_cast<int>(boxes.size());
-  for (int a = 0; a < n; ++a) {
-    for (int b = a + 1; b < n; ++b) {
-      if (a >= first_static && b >= first_static) continue;
-      if (aabbsOverlap(boxes[static_cast<std::size_t>(a)], boxes[static_cast<std::size_t>(b)])) {
-        pairs.emplace_back(a, b);
-      }
-    }
-  }
-  return pairs;
-}
-
-inline PairList oraclePairs(std::span<const physics::Aabb> boxes) {
-  return oraclePairs(boxes, static_cast<int>(boxes.size()));
-}
+using physics::testing::oraclePairs;
+using PairList = physics::testing::PairList;
 
 // The pairs of `set` that are not in `minus`; both sorted.
 inline PairList pairsMissingFrom(const PairList& set, const PairList& minus) {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "gpu/pair_finder.h"
+#include "tests/physics/aabb_oracle.h"
 
 namespace overlap::physics {
 namespace {
@@ -27,22 +28,7 @@ std::uint64_t hashAfter(const SceneConfig& config, const std::string& algorithm,
   return world.stateHash();
 }
 
-// Every pair of AABBs that overlaps (touching included), but static-static.
-std::vector<std::pair<int, int>> oraclePairs(const std::vector<Aabb>& boxes, int dynamic_count) {
-  std::vector<std::pair<int, int>> pairs;
-  for (int a = 0; a < static_cast<int>(boxes.size()); ++a) {
-    for (int b = a + 1; b < static_cast<int>(boxes.size()); ++b) {
-      if (a >= dynamic_count && b >= dynamic_count) continue;
-      bool overlap = true;
-      for (int axis = 0; axis < 3; ++axis) {
-        overlap = overlap && boxes[a].min[axis] <= boxes[b].max[axis] &&
-                  boxes[b].min[axis] <= boxes[a].max[axis];
-      }
-      if (overlap) pairs.emplace_back(a, b);
-    }
-  }
-  return pairs;
-}
+using physics::testing::oraclePairs;
 
 TEST(PhysicsWorld, BuildsBoxesAndSixWalls) {
   PhysicsWorld world(smallScene(4, 120), WorldOptions{"bvh"});
@@ -119,10 +105,10 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
 
 INSTANTIATE_TEST_SUITE_P(Finders, OurBroadphaseTest,
                          ::testing::Values("cpubf", "cpusap", "gpubf", "gpubf-paper"),
-                         [](const ::testing::TestParamInfo<const char*>& info) {
-                           return info.param == std::string("gpubf-paper")
+                         [](const ::testing::TestParamInfo<const char*>& param_info) {
+                           return param_info.param == std::string("gpubf-paper")
                                       ? std::string("gpubf_paper")
-                                      : std::string(info.param);
+                                      : std::string(param_info.param);
                          });
 
 TEST(PhysicsWorld, BulletsConservativeBroadphasesMissNoPair) {

@@ -1,11 +1,11 @@
-#include "audio_ai_stubs/checksum.h"
+#include "physics/checksum.h"
 
 #include <gtest/gtest.h>
 
 #include <array>
 #include <string_view>
 
-namespace overlap::stubs {
+namespace overlap::physics {
 namespace {
 
 TEST(Fnv1a, MatchesTheReferenceValues) {
@@ -23,4 +23,4 @@ TEST(Fnv1a, ChainingEqualsHashingTheConcatenation) {
 }
 
 }  // namespace
-}  // namespace overlap::stubs
+}  // namespace overlap::physics
