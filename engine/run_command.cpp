@@ -148,33 +148,36 @@ physics::WorldOptions worldOptions(const RunOptions& options, const physics::Sce
   return options.physics.resolve(options.algorithm, config);
 }
 
-// One whole run; `camera` and `timeline` may be null (the sync half of --compare-sync).
-RunResult runOnce(const RunOptions& options, const physics::SceneConfig& config,
-                  const SchedulerOptions& scheduler_options, FrameCapture* camera,
-                  Timeline& timeline, const char* label) {
-  const std::unique_ptr<physics::PhysicsWorld> world =
-      makeWorld(config, worldOptions(options, config));
-  FrameScheduler scheduler(*world, scheduler_options, timeline);
-  RunResult result;
-  Progress progress(label, options.frames);
-  for (int frame = 0; frame < options.frames; ++frame) {
-    FrameRow row{scheduler.runFrame()};
-    if (camera != nullptr && frame % *options.capture_every == 0) {
-      row.render_ms = camera->capture(*world, frame);
-    }
-    result.rows.push_back(row);
-    progress.update(frame + 1);
+// A run in progress: one world and its scheduler, stepped a frame at a time.
+// --compare-sync steps a sync and an async run in turn, frame by frame, so a
+// change in the machine's load or clock during the run reaches both alike.
+class SteppedRun {
+ public:
+  SteppedRun(const RunOptions& options, const physics::SceneConfig& config,
+             const SchedulerOptions& scheduler_options, Timeline& timeline)
+      : world_(makeWorld(config, worldOptions(options, config))),
+        scheduler_(*world_, scheduler_options, timeline) {}
+
+  const physics::PhysicsWorld& world() const { return *world_; }
+
+  FrameRow& step() {
+    rows_.push_back(FrameRow{scheduler_.runFrame()});
+    return rows_.back();
   }
-  progress.finish();
-  scheduler.close();
-  result.algorithm = world->algorithm();
-  result.state_hash = world->stateHash();
-  result.sound_checksum = scheduler.soundChecksum();
-  result.ai_checksum = scheduler.aiChecksum();
-  result.seconds = progress.seconds();
-  result.layout = world->layout();
-  return result;
-}
+
+  RunResult finish(double seconds) {
+    scheduler_.close();
+    return {std::move(rows_),        world_->algorithm(),
+            world_->stateHash(),     scheduler_.soundChecksum(),
+            scheduler_.aiChecksum(), seconds,
+            world_->layout()};
+  }
+
+ private:
+  std::unique_ptr<physics::PhysicsWorld> world_;
+  FrameScheduler scheduler_;
+  std::vector<FrameRow> rows_;
+};
 
 nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& config,
                          const RunResult& run,
@@ -286,17 +289,30 @@ void run(const RunOptions& given) {
         openCapture(options.out / "frames", options.capture_size, render::ColourMode::kSizeClass);
   }
 
-  std::optional<RunResult> sync_run;
+  std::optional<SteppedRun> sync_stepper;
+  Timeline sync_timeline;  // not written: timeline.json is the async run's
   if (options.compare_sync) {
     SchedulerOptions sync_options = options.scheduler;
     sync_options.sync = true;
     sync_options.wav.reset();
-    Timeline unused;
-    sync_run = runOnce(options, config, sync_options, nullptr, unused, "overlap run (sync)");
+    sync_stepper.emplace(options, config, sync_options, sync_timeline);
   }
   Timeline timeline;
-  const RunResult result =
-      runOnce(options, config, options.scheduler, camera.get(), timeline, "overlap run");
+  SteppedRun stepper(options, config, options.scheduler, timeline);
+  Progress progress(options.compare_sync ? "overlap run (sync and async)" : "overlap run",
+                    options.frames);
+  for (int frame = 0; frame < options.frames; ++frame) {
+    if (sync_stepper) sync_stepper->step();
+    FrameRow& row = stepper.step();
+    if (camera != nullptr && frame % *options.capture_every == 0) {
+      row.render_ms = camera->capture(stepper.world(), frame);
+    }
+    progress.update(frame + 1);
+  }
+  progress.finish();
+  std::optional<RunResult> sync_run;
+  if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
+  const RunResult result = stepper.finish(progress.seconds());
 
   nlohmann::json summary = summarize(options, config, result, calibration);
   if (sync_run) {
@@ -364,7 +380,8 @@ void addRunCommand(CLI::App& app) {
   addThreadsOption(*command, options->threads);
   command
       ->add_flag("--compare-sync", options->compare_sync,
-                 "run --sync first, then the async loop, and report the speed-up")
+                 "step a --sync run and the async run in turn, frame by frame, in one process, "
+                 "and report the speed-up")
       ->default_str("off");
   CLI::Option* task_load =
       command

@@ -67,6 +67,7 @@ FULL = {
     "timeline_objects": 1250, "timeline_frames": 64,
     "overlap_scenes": "1,4", "overlap_objects": "500,1250,3500",
     "overlap_loads": "0,0.5,1,1.5,2", "overlap_frames": 48, "overlap_algo": "gpubf",
+    "overlap_repetitions": 5,
 }
 QUICK = {
     "scenes": "1,2,3,4", "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1,
@@ -79,6 +80,7 @@ QUICK = {
     "timeline_objects": 400, "timeline_frames": 16,
     "overlap_scenes": "1,4", "overlap_objects": "150,300",
     "overlap_loads": "0,1,2", "overlap_frames": 10, "overlap_algo": "gpubf",
+    "overlap_repetitions": 1,
 }
 EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline", "overlap")
 HELP = {
@@ -99,6 +101,7 @@ HELP = {
     "overlap_loads": "overlap: --task-load values (tasks' cost / the physics step)",
     "overlap_frames": "overlap: frames per run (each run is a sync and an async run)",
     "overlap_algo": "overlap: broadphase (gpubf runs cpusap without a GPU, and says so)",
+    "overlap_repetitions": "overlap: processes per point (the speed-up's spread between them)",
 }
 
 
@@ -356,16 +359,18 @@ def plan(args) -> list:
         for scene in ints(args.overlap_scenes):
             for n in ints(args.overlap_objects):
                 for load in names(args.overlap_loads):
-                    key = f"s{scene}_n{n}_load{load}"
-                    # The sync run, the async run and the calibration's frames.
-                    weight = (2 * frames + 6) * default_substeps(scene) * n * (1 + float(load))
-                    jobs.append(RunJob(
-                        "overlap", key, weight,
-                        {"scene": scene, "objects": n, "load": float(load)}, overlap,
-                        out / "overlap" / key,
-                        ["--scene", str(scene), "--objects", str(n), "--algo", args.overlap_algo,
-                         "--frames", str(frames), "--seed", seed, "--task-load", load,
-                         "--compare-sync", *threads]))
+                    for rep in range(args.overlap_repetitions):
+                        key = f"s{scene}_n{n}_load{load}_r{rep}"
+                        # The sync run, the async run and the calibration's frames.
+                        weight = ((2 * frames + 6) * default_substeps(scene) * n
+                                  * (1 + float(load)))
+                        jobs.append(RunJob(
+                            "overlap", key, weight,
+                            {"scene": scene, "objects": n, "load": float(load), "rep": rep},
+                            overlap, out / "overlap" / key,
+                            ["--scene", str(scene), "--objects", str(n), "--algo",
+                             args.overlap_algo, "--frames", str(frames), "--seed", seed,
+                             "--task-load", load, "--compare-sync", *threads]))
     if args.capture:
         for scene in ints(args.scenes):
             jobs.append(CaptureJob(scene, overlap, out / "keyframes", args.capture_objects,

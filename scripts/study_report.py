@@ -325,9 +325,9 @@ def late_search_verdict(best: dict, cells: list) -> str:
             f"cached pair per frame (scene {cell['scene']}, {cell['objects']} boxes, bvh), so "
             f"the {fmt(best['late_pairs_mean'] - best['exact_mean'])} pairs beyond the exact "
             f"ones would add about {fmt(added_ms)} ms a frame, against {fmt(saved_ms)} ms of "
-            f"on-time search ({cell['substeps']} a frame) taken off the critical path (a "
-            "pair that does not touch costs less than the sweep's average pair, so the "
-            "verdict asks for a margin of 5).")
+            f"on-time search ({fmt(cell['substeps'])} searches a frame, the sweep's mean K) "
+            "taken off the critical path (a pair that does not touch costs less than the "
+            "sweep's average pair, so the verdict asks for a margin of 5).")
 
 
 def latency_section(rows: list, figures: dict, cells: list) -> list:
