@@ -535,15 +535,23 @@ def main(argv: list) -> int:
     write_atomically(args.out / "commands.txt",
                      "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
     started = time.time()
-    load = os.getloadavg()[0]
-    gpu_pending = [] if args.no_runs else run_jobs(jobs, args)
+    # Logged before the runs and again after them: a stopped study still names its runs.
     invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
-        "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": round(time.time() - started, 1),
-        "load_average_at_start": round(load, 2), "gpu_jobs_pending": len(gpu_pending)}
-    if not args.no_runs:
-        log_path = args.out / "study_invocations.json"
-        log = json.loads(log_path.read_text()) if log_path.exists() else []
+        "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": None,
+        "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False}
+    log_path = args.out / "study_invocations.json"
+    log = json.loads(log_path.read_text()) if log_path.exists() else []
+
+    def log_invocation():
         write_atomically(log_path, json.dumps(log + [invocation], indent=1) + "\n")
+
+    if not args.no_runs:
+        log_invocation()
+    gpu_pending = [] if args.no_runs else run_jobs(jobs, args)
+    if not args.no_runs:
+        invocation.update(seconds=round(time.time() - started, 1), finished=True,
+                          gpu_jobs_pending=len(gpu_pending))
+        log_invocation()
     failures = study_report.write_everything(args, jobs)
     for failure in failures:
         print(f"study: FAILED: {failure}", file=sys.stderr)

@@ -273,7 +273,7 @@ def physics_section(rows: list, figures: dict) -> list:
         return ["No physics runs yet.", ""]
     headers = ["K", "ccd", "sleep", "ms median", "ms max", "mean K", "K x boxes", "escaped max",
                "escaped end", "sunk max", "sunk end", "deepest pen. / edge", "energy drift",
-               "sleep error max (m)"]
+               "asleep max", "sleep error max (m)"]
     lines = [f"{rows[0]['objects']} boxes, {rows[0]['frames']} frames, broadphase "
              f"{rows[0]['algorithm']}, `--no-tasks`. K: fixed substeps or `--substeps auto` "
              "(its mean over the frames); ccd: `--ccd off|auto|all`; sleep: Bullet's "
@@ -285,7 +285,8 @@ def physics_section(rows: list, figures: dict) -> list:
         body = [[r["substeps"], r["ccd"], r["sleep"], fmt(r["total_median"]), fmt(r["total_max"]),
                  fmt(r["mean_k"]), fmt(r["k_x_boxes"]), r["escaped_max"], r["escaped_final"],
                  r["sunk_max"], r["sunk_final"], fmt(r["penetration_max"]),
-                 fmt(r.get("energy_drift", float("nan"))), fmt(r["sleep_error_max_m"])]
+                 fmt(r.get("energy_drift", float("nan"))), r["asleep_max"],
+                 fmt(r["sleep_error_max_m"])]
                 for r in mine]
         lines += [f"Scene {scene}:", ""] + table(headers, body)
         safe = [r for r in mine if r["escaped_max"] == 0 and r["sunk_final"] == 0]
@@ -295,6 +296,12 @@ def physics_section(rows: list, figures: dict) -> list:
                          f"end: **{setting(best)}** ({fmt(best['total_median'])} ms/frame, "
                          f"sunk at most {best['sunk_max']}, deepest penetration "
                          f"{fmt(best['penetration_max'])} edges).")
+        slept = [r for r in mine if r["sleep"] == "on"]
+        if slept and max(r["asleep_max"] for r in slept) == 0:
+            lines.append(f"- No box fell asleep in these {rows[0]['frames']} frames (asleep max "
+                         "0: every box kept moving faster than Bullet's sleeping thresholds for "
+                         "its deactivation time), so sleep cost nothing and changed nothing here; "
+                         "its error is only measured where boxes sleep.")
         lines += target_lines(scene, mine) + [""]
     study_plots.physics(rows, figures["folder"])
     return lines + ["![physics speed against error](report/fig_physics.png)", ""]
@@ -406,6 +413,17 @@ def machine_lines(jobs: list) -> list:
             for m in machines.values()] + [""]
 
 
+def fewer_repetitions(cells: list, args) -> str:
+    """The sweep cells run fewer times than asked (a long cell cut to fit the session)."""
+    short = {}
+    for c in cells:
+        if c["repetitions"] < args.repetitions:
+            short.setdefault(c["repetitions"], []).append(
+                f"s{c['scene']} n{c['objects']} {c['algo']}")
+    return "".join(f" Run {k} time(s) only, so without a spread: {', '.join(v)}."
+                   for k, v in sorted(short.items()))
+
+
 def command_lines(args, jobs: list) -> list:
     """The study's invocations that ran jobs, this report's, and one command per experiment,
     with paths relative to the repository and the study's --out folder shown as $OUT."""
@@ -416,11 +434,16 @@ def command_lines(args, jobs: list) -> list:
              "kept):", ""]
     log = args.out / "study_invocations.json"
     for run in json.loads(log.read_text()) if log.exists() else []:
-        lines.append(f"- `{shown(run['argv'])}`, started {run['started']}, its jobs took "
-                     f"{run['seconds']:.0f} s; the machine's load average at its start was "
-                     f"{run['load_average_at_start']}" + (
-                         " (other jobs were running: their noise is in its timings)."
-                         if run["load_average_at_start"] >= 0.5 else " (a quiet machine)."))
+        load = run["load_average_at_start"]
+        command = (f"`{shown(run['argv'])}`" if run["argv"] else
+                   "a study invocation whose command line was not recorded")
+        lines.append(f"- {command}, started {run['started']}, " + (
+            f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
+            "stopped before its end (its finished runs are used, the others were run again by "
+            "a later invocation)") + "; the machine's load average at its start was " + (
+            "not recorded." if load is None else f"{load}" + (
+                " (other jobs were running: their noise is in its timings)." if load >= 0.5
+                else " (a quiet machine).")) + (f" {run['note']}" if run.get("note") else ""))
     lines += ["", f"This report: `scripts/study.py {shown(args.argv)}`.", "",
               "One command per experiment (every command is in `commands.txt`):", "", "```"]
     seen = set()
@@ -499,7 +522,8 @@ def write_everything(args, jobs: list) -> list:
               f"{args.repetitions} repetition(s) of {args.frames} frames, seed {args.seed} "
               f"every time, physics only (`--no-tasks`). Runs present: {len(runs)} of "
               f"{len(sweep_jobs)}" + ("; the GPU algorithms' runs need a real GPU (see below)."
-                                      if gpu_pending else "."), ""]
+                                      if gpu_pending else ".") + fewer_repetitions(cells, args),
+              ""]
     lines += gpu_lines(jobs, pairs)
     lines += keyframe_figure(args, figures)
     if cells:

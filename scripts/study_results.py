@@ -192,7 +192,8 @@ def physics_runs(jobs: list) -> list:
                "sunk_max": int(c["sunk"]["max"]), "sunk_final": c["sunk_final"],
                "penetration_max": c["max_penetration"]["max"],
                "penetration_median": c["max_penetration"]["median"],
-               "removed_max": int(c["removed"]["max"])}
+               "removed_max": int(c["removed"]["max"]),
+               "asleep_max": int(c["sleeping"]["max"]) if "sleeping" in c else 0}
         frames = read_frames(job.folder)
         if all(column in frames for column in ENERGY):
             energy = [k + u for k, u in zip(*(frames[column] for column in ENERGY))]
