@@ -9,7 +9,7 @@ the load average before and after the run added) and OUT.md: the table, the
 ratios measured in this one run, the issue's targets, and the peers' figures
 the issue quotes.  Take it in a quiet window: the load average is in OUT.md.
 
-  scripts/cpusap_table.py --streams /work/streams   # about 10 minutes on 2 cores
+  scripts/cpusap_table.py --streams STREAMS         # about 10 minutes on 2 cores
   scripts/cpusap_table.py --no-run                  # OUT.md again from OUT.json
   scripts/cpusap_table.py --stub                    # OUT.md before any run
 """
@@ -70,6 +70,9 @@ def run_bench(args) -> None:
     lines = csv_path.read_text().splitlines(keepends=True)
     lines.insert(1, f"# load average (1, 5, 15 min) before the run: {before}; after: {after}\n")
     csv_path.write_text("".join(lines))
+    # The committed files name the streams' folder $STREAMS, not this machine's path.
+    for path in (json_path, csv_path):
+        path.write_text(portable(path.read_text(), {args.streams: "$STREAMS"}))
     if failed:
         raise SystemExit(f"cpusap_table: the benchmark failed (exit {failed}); see its FAIL lines")
 
