@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "tests/scratch_path.h"
+
 namespace {
 
 struct Result {
@@ -26,16 +28,15 @@ struct Result {
 // Runs the overlap binary with `args`, capturing stderr.
 Result runOverlap(const std::string& args) {
   // One stderr file per test: ctest runs the tests in parallel processes.
-  const std::filesystem::path err =
-      std::filesystem::temp_directory_path() /
-      ("overlap_cli_err_" +
-       std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + ".txt");
+  const std::filesystem::path err = overlap::testing::scratchPath(
+      "cli_err_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+      ".txt");
   const std::string command =
       std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err.string();
   const int status = std::system(command.c_str());
-  std::ifstream in(err);
   std::stringstream text;
-  text << in.rdbuf();
+  text << std::ifstream(err).rdbuf();
+  std::filesystem::remove(err);
   return {WEXITSTATUS(status), text.str()};
 }
 
@@ -46,9 +47,8 @@ int lineCount(const std::string& text) {
 class CliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    out_ = std::filesystem::temp_directory_path() /
-           ("overlap_cli_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    out_ = overlap::testing::scratchPath(
+        "cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(out_);
   }
   void TearDown() override { std::filesystem::remove_all(out_); }

@@ -16,6 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include "tests/scratch_path.h"
+
 extern char** environ;
 
 namespace {
@@ -52,8 +54,7 @@ std::pair<int, std::size_t> runCountingThreads(std::vector<std::string> args) {
 }
 
 TEST(ThreadCap, RunWithThreadsNeverHasMoreThreadsThanThat) {
-  const std::filesystem::path out =
-      std::filesystem::temp_directory_path() / "overlap_thread_cap_test";
+  const std::filesystem::path out = overlap::testing::scratchPath("thread_cap_test");
   for (const int threads : {1, 2}) {
     std::filesystem::remove_all(out);
     // cpubf searching, the tasks beside the step, and pictures (OSMesa).
@@ -69,8 +70,7 @@ TEST(ThreadCap, RunWithThreadsNeverHasMoreThreadsThanThat) {
 }
 
 TEST(TaskLoad, SizesTheTasksFromTheSceneAndRecordsIt) {
-  const std::filesystem::path out =
-      std::filesystem::temp_directory_path() / "overlap_task_load_test";
+  const std::filesystem::path out = overlap::testing::scratchPath("task_load_test");
   std::filesystem::remove_all(out);
   for (const char* load : {"0", "1"}) {
     const auto [status, threads] =

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "physics/broadphase_replay.h"
+#include "tests/scratch_path.h"
 
 namespace overlap::physics {
 namespace {
@@ -17,7 +18,7 @@ namespace {
 constexpr std::size_t kHeaderBytes = 304;
 
 std::filesystem::path tempFile(const std::string& name) {
-  return std::filesystem::temp_directory_path() / ("overlap_stream_" + name + ".aabbs");
+  return overlap::testing::scratchPath("stream_" + name + ".aabbs");
 }
 
 // Three boxes over two frames: 0 and 1 touch in frame 0, 1 and 2 overlap in frame 1.
@@ -148,7 +149,7 @@ TEST(AabbStream, WriterRefusesWhatTheReaderWouldNamingFrameAndObject) {
 }
 
 TEST(AabbStream, ReadingADirectoryNamesIt) {
-  const auto folder = std::filesystem::temp_directory_path() / "overlap_stream_folder.aabbs";
+  const auto folder = overlap::testing::scratchPath("stream_folder.aabbs");
   std::filesystem::create_directories(folder);
   EXPECT_NE(readError(folder).find(folder.string() + ": is a directory"), std::string::npos)
       << readError(folder);

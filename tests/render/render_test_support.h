@@ -3,7 +3,6 @@
 #pragma once
 
 #include <png.h>
-#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "render/renderer.h"
+#include "tests/scratch_path.h"
 
 namespace overlap::render::test_support {
 
@@ -110,8 +110,7 @@ inline std::string fileBytes(const std::filesystem::path& path) {
 class ScratchDirectory {
  public:
   explicit ScratchDirectory(const std::string& name)
-      : path_(std::filesystem::temp_directory_path() /
-              ("overlap_render_" + name + "_" + std::to_string(::getpid()))) {
+      : path_(overlap::testing::scratchPath("render_" + name)) {
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }

@@ -10,14 +10,14 @@
 #include <vector>
 
 #include "audio_ai_stubs/sound.h"
+#include "tests/scratch_path.h"
 
 namespace overlap::stubs {
 namespace {
 
 std::filesystem::path scratchFile(const std::string& tag) {
   const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-  return std::filesystem::temp_directory_path() /
-         ("overlap_stubs_" + std::string(test->name()) + "_" + tag + ".wav");
+  return overlap::testing::scratchPath("stubs_" + std::string(test->name()) + "_" + tag + ".wav");
 }
 
 std::vector<unsigned char> readBytes(const std::filesystem::path& path) {
