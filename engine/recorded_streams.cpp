@@ -20,10 +20,13 @@ void checkHeader(const physics::AabbStream& stream, const std::filesystem::path&
   auto mismatch = [&](const std::string& field, const std::string& found,
                       const std::string& expected) {
     throw std::runtime_error(path.string() + ": cached stream's " + field + " is " + found +
-                             ", its name says " + expected + "; delete it to record it again");
+                             ", expected " + expected + "; delete it to record it again");
   };
-  if (stream.scene_name != streamSceneName(config)) {
-    mismatch("scene name", '"' + stream.scene_name + '"', '"' + streamSceneName(config) + '"');
+  // The name says how the stream was simulated: a stream cached under other
+  // defaults (older substeps, say) is an error, not a silent replay.
+  const std::string expected = streamSceneName(config, physics::WorldOptions{});
+  if (stream.scene_name != expected) {
+    mismatch("scene name", '"' + stream.scene_name + '"', '"' + expected + '"');
   }
   if (stream.objects != config.objects) {
     mismatch("object count", std::to_string(stream.objects), std::to_string(config.objects));
@@ -35,8 +38,13 @@ void checkHeader(const physics::AabbStream& stream, const std::filesystem::path&
 
 }  // namespace
 
-std::string streamSceneName(const physics::SceneConfig& config) {
-  return "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed);
+std::string streamSceneName(const physics::SceneConfig& config,
+                            const physics::WorldOptions& options) {
+  const std::string substeps =
+      options.substeps == physics::kAutoSubsteps ? "auto" : std::to_string(options.substeps);
+  return "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed) +
+         ", " + options.algorithm + ", substeps " + substeps + ", ccd " +
+         physics::ccdModeName(options.ccd) + ", sleep " + physics::sleepModeName(options.sleep);
 }
 
 std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
@@ -51,7 +59,7 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
   physics::PhysicsWorld world(config, options);
 
   physics::AabbStream stream;
-  stream.scene_name = streamSceneName(config);
+  stream.scene_name = streamSceneName(config, options);
   stream.object_type = "box";
   stream.objects = config.objects;
   stream.stored_frames = frames + 1;

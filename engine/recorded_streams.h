@@ -2,7 +2,7 @@
 // benchmark replays them from a cache on disk.
 //
 // A stream is what `overlap record` writes: a scene simulated with bvh and
-// the scene's default substeps, the boxes' AABBs (walls left out) at the start
+// the default substeps, CCD and sleep, the boxes' AABBs (walls left out) at the start
 // and after each of F frames, in Broadmark's `.aabbs` layout.  Recording big
 // scenes takes minutes (Bullet, one thread), so each stream is kept in a
 // folder under a name that says what it holds,
@@ -24,8 +24,11 @@
 
 namespace overlap::engine {
 
-// "overlap scene S seed X", the scene name `overlap record` writes.
-std::string streamSceneName(const physics::SceneConfig& config);
+// "overlap scene S seed X, bvh, substeps auto, ccd auto, sleep scene": the
+// scene name `overlap record` writes, naming the scene and how it was simulated
+// (at most 127 characters, Broadmark's header field).
+std::string streamSceneName(const physics::SceneConfig& config,
+                            const physics::WorldOptions& options);
 
 std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
                                        const physics::SceneConfig& config, int frames);
