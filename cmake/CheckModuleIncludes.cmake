@@ -1,0 +1,45 @@
+# The modules' layering, the link graph's own: a file of a module may include
+# the headers of the modules its library links, and no others.
+#   gpu             gpu                     (the pair finders, free of Bullet)
+#   physics         physics, gpu            (knows nothing of the engine)
+#   render          render
+#   audio_ai_stubs  audio_ai_stubs, physics
+#   engine          everything
+# Run with
+#   cmake -DMODULE=<name> [-DDIR=<folder>] [-DSTAMP=<file>] -P cmake/CheckModuleIncludes.cmake
+# (DIR defaults to the module's folder).  It fails naming every offending
+# line; the build runs it before each module's library, and ctest runs it.
+cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in script mode
+set(allowed_gpu gpu)
+set(allowed_physics physics gpu)
+set(allowed_render render)
+set(allowed_audio_ai_stubs audio_ai_stubs physics)
+set(modules gpu physics render audio_ai_stubs engine)
+
+if(NOT DEFINED MODULE OR NOT DEFINED allowed_${MODULE})
+  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu, physics, render, "
+                      "audio_ai_stubs (got '${MODULE}')")
+endif()
+if(NOT DEFINED DIR)
+  get_filename_component(DIR "${CMAKE_CURRENT_LIST_DIR}/../${MODULE}" ABSOLUTE)
+endif()
+file(GLOB_RECURSE sources "${DIR}/*.h" "${DIR}/*.cpp" "${DIR}/*.cuh" "${DIR}/*.cu")
+list(JOIN modules "|" any_module)
+set(offences "")
+foreach(source IN LISTS sources)
+  file(STRINGS "${source}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[\"<](${any_module})/")
+  foreach(line IN LISTS lines)
+    string(REGEX MATCH "[\"<](${any_module})/" included "${line}")
+    string(REGEX REPLACE "^[\"<]|/$" "" included "${included}")
+    if(NOT included IN_LIST allowed_${MODULE})
+      string(APPEND offences "\n  ${source}: ${line}")
+    endif()
+  endforeach()
+endforeach()
+if(offences)
+  list(JOIN allowed_${MODULE} ", " allowed)
+  message(FATAL_ERROR "${MODULE}/ may include only headers of ${allowed}:${offences}")
+endif()
+if(DEFINED STAMP)
+  file(TOUCH "${STAMP}")
+endif()
