@@ -171,40 +171,42 @@ ScheduledFrame FrameScheduler::runFrame() {
 
 void FrameScheduler::drawFrame(ScheduledFrame& frame, double frame_start,
                                std::pair<double, double> tasks_job, double physics_start) {
-  auto addSpan = [&](const char* name, const char* lane, double start, double duration_us,
+  auto addSpan = [&](const char* name, const char* lane, double start, double end,
                      int substep = -1) {
-    timeline_.add(Span{name, lane, start, duration_us, frame_, substep});
+    timeline_.add(Span{name, lane, start, end, frame_, substep});
   };
   const physics::FrameReport& step = frame.physics;
-  addSpan("frame", "main", frame_start, microseconds(frame.frame_ms));
-  addSpan("physics", "main", physics_start, microseconds(step.timings.total_ms));
+  const double physics_end = physics_start + microseconds(step.timings.total_ms);
+  addSpan("frame", "main", frame_start, frame_start + microseconds(frame.frame_ms));
+  addSpan("physics", "main", physics_start, physics_end);
   for (std::size_t k = 0; k < step.substep_reports.size(); ++k) {
     const physics::SubstepReport& substep = step.substep_reports[k];
     const int index = static_cast<int>(k);
     const auto at = [&](Timeline::Clock::time_point t) { return timeline_.microsecondsAt(t); };
-    addSpan("substep", "main", at(substep.start), at(substep.end) - at(substep.start), index);
+    addSpan("substep", "main", at(substep.start), at(substep.end), index);
     if (const auto& search = substep.search) {
-      addSpan("search", "broadphase", at(search->launched) + microseconds(search->start_delay_ms),
-              microseconds(search->search_ms), index);
-      addSpan("join", "main", at(search->joined), microseconds(search->join_ms), index);
+      const double search_start = at(search->launched) + microseconds(search->start_delay_ms);
+      addSpan("search", "broadphase", search_start, search_start + microseconds(search->search_ms),
+              index);
+      addSpan("join", "main", at(search->joined),
+              at(search->joined) + microseconds(search->join_ms), index);
     }
-    addSpan("narrowphase", "main", at(substep.narrowphase_start),
-            at(substep.narrowphase_end) - at(substep.narrowphase_start), index);
+    addSpan("narrowphase", "main", at(substep.narrowphase_start), at(substep.narrowphase_end),
+            index);
   }
   if (tasks_.empty()) return;
-  addSpan("tasks", "tasks", tasks_job.first, tasks_job.second - tasks_job.first);
-  const double physics_end = physics_start + microseconds(step.timings.total_ms);
+  addSpan("tasks", "tasks", tasks_job.first, tasks_job.second);
   double task_time = 0;
   double hidden = 0;
   for (const Task& task : tasks_) {
     const double duration = task.span.second - task.span.first;
-    addSpan(task.name.c_str(), task.name.c_str(), task.span.first, duration);
+    addSpan(task.name.c_str(), task.name.c_str(), task.span.first, task.span.second);
     task_time += duration;
     hidden += duration * coveredShare(task.span.first, duration, {{physics_start, physics_end}});
   }
   if (!options_.sync) {
     const double wait = microseconds(frame.tasks_wait_ms);
-    addSpan("wait for tasks", "main", tasks_job.second - wait, wait);
+    addSpan("wait for tasks", "main", tasks_job.second - wait, tasks_job.second);
   }
   if (sound_) {  // then tasks_ opens with sound and AI
     frame.sound_ms = (tasks_[0].span.second - tasks_[0].span.first) / 1e3;

@@ -28,7 +28,7 @@ void Timeline::write(const std::filesystem::path& path) const {
                       {"pid", 1},
                       {"tid", it->second},
                       {"ts", span.start_us},
-                      {"dur", span.duration_us},
+                      {"dur", span.durationUs()},
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};

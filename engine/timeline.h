@@ -12,13 +12,18 @@
 
 namespace overlap::engine {
 
+// A span keeps its end, not its length: two jobs that end at one instant
+// (the last task and the tasks' job, say) then end at the same number, which
+// start + duration, rounded twice, would not promise.
 struct Span {
   std::string name;
   std::string lane;
   double start_us;
-  double duration_us;
+  double end_us;
   int frame;
   int substep = -1;  // the physics substep it belongs to; -1: the whole frame's
+
+  double durationUs() const { return end_us - start_us; }
 };
 
 class Timeline {

@@ -59,10 +59,6 @@ std::map<std::string, std::vector<Span>> spansOfFrame(const Timeline& timeline, 
   return spans;
 }
 
-double endOf(const Span& span) {
-  return span.start_us + span.duration_us;
-}
-
 TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowphase) {
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
@@ -113,23 +109,23 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
       for (const char* task : {"sound", "ai"}) {
         const Span& span = spans[task].front();
         EXPECT_GE(span.start_us, tasks.start_us) << task << ", frame " << frame;
-        EXPECT_LE(endOf(span), endOf(tasks)) << task << ", frame " << frame;
+        EXPECT_LE(span.end_us, tasks.end_us) << task << ", frame " << frame;
         if (sync) {
-          EXPECT_LE(endOf(span), physics.start_us) << task << ", frame " << frame;
+          EXPECT_LE(span.end_us, physics.start_us) << task << ", frame " << frame;
         }
       }
       if (!sync) {
         EXPECT_LE(tasks.start_us, substeps.front().start_us) << "frame " << frame;
-        EXPECT_GE(endOf(tasks), endOf(substeps.back())) << "frame " << frame;
+        EXPECT_GE(tasks.end_us, substeps.back().end_us) << "frame " << frame;
       }
       for (std::size_t k = 0; k < substeps.size(); ++k) {
         const Span& search = spans["search"][k];
         const Span& join = spans["join"][k];
         const Span& narrowphase = spans["narrowphase"][k];
         EXPECT_GE(search.start_us, substeps[k].start_us) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(endOf(search), endOf(join)) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(endOf(join), narrowphase.start_us) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(endOf(narrowphase), endOf(substeps[k])) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.end_us, join.end_us) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(join.end_us, narrowphase.start_us) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(narrowphase.end_us, substeps[k].end_us) << "frame " << frame << ", substep " << k;
       }
     }
   }
@@ -147,7 +143,7 @@ TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
     int joins = 0;
     auto spans = spansOfFrame(timeline, frame);  // a named map: the loop reads into it
     for (const Span& span : spans["join"]) {
-      drawn_us += span.duration_us;
+      drawn_us += span.durationUs();
       ++joins;
     }
     EXPECT_EQ(joins, scheduled.physics.substeps);
