@@ -43,12 +43,20 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
                   "Bullet's deactivation of boxes at rest: scene (on in scenes 1-2), on, off")
       ->check(parsedBy(physics::parseSleepMode, "scene|on|off"))
       ->capture_default_str();
+  command
+      .add_option(
+          "--solver", solver_,
+          "Bullet's contact solver: pile (full warm start, overlaps corrected in the "
+          "velocity solve: holds a 50 g pile at fewer substeps) or bullet (Bullet's defaults)")
+      ->check(parsedBy(physics::parseSolverMode, "pile|bullet"))
+      ->capture_default_str();
 }
 
 physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
                                               const physics::SceneConfig& config) const {
   const physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
-                                      physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_)};
+                                      physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
+                                      physics::parseSolverMode(solver_)};
   try {
     physics::sleepAllowed(config, options.sleep);
   } catch (const std::invalid_argument& error) {
@@ -62,7 +70,8 @@ nlohmann::json toJson(const physics::WorldOptions& options) {
       {"substeps", options.substeps == physics::kAutoSubsteps ? nlohmann::json("auto")
                                                               : nlohmann::json(options.substeps)},
       {"ccd", physics::ccdModeName(options.ccd)},
-      {"sleep", physics::sleepModeName(options.sleep)}};
+      {"sleep", physics::sleepModeName(options.sleep)},
+      {"solver", physics::solverModeName(options.solver)}};
 }
 
 }  // namespace overlap::engine

@@ -3,6 +3,7 @@
 //   --ccd off|auto|all    Bullet's swept-sphere CCD: none, the boxes that need
 //                         it this frame, every box
 //   --sleep scene|on|off  Bullet's deactivation (scene: on for scenes 1-2)
+//   --solver pile|bullet  Bullet's contact solver settings (physics/step_policy.h)
 // Kept apart from scene_options.* so the scene's numbers and the model's
 // choices can change independently.
 #pragma once
@@ -17,7 +18,7 @@ namespace overlap::engine {
 
 class PhysicsOptions {
  public:
-  // Registers --substeps, and unless `substeps_only` also --ccd and --sleep.
+  // Registers --substeps, and unless `substeps_only` also --ccd, --sleep and --solver.
   void addTo(CLI::App& command, bool substeps_only = false);
   // The world options the parsed text describes; throws UsageError when the
   // scene does not allow them (--sleep on where gravity turns).
@@ -28,6 +29,7 @@ class PhysicsOptions {
   std::string substeps_ = "auto";
   std::string ccd_ = "auto";
   std::string sleep_ = "scene";
+  std::string solver_ = "pile";
 };
 
 // summary.json's record of what the run modelled.

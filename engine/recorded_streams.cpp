@@ -44,7 +44,8 @@ std::string streamSceneName(const physics::SceneConfig& config,
       options.substeps == physics::kAutoSubsteps ? "auto" : std::to_string(options.substeps);
   return "overlap scene " + std::to_string(config.scene) + " seed " + std::to_string(config.seed) +
          ", " + options.algorithm + ", substeps " + substeps + ", ccd " +
-         physics::ccdModeName(options.ccd) + ", sleep " + physics::sleepModeName(options.sleep);
+         physics::ccdModeName(options.ccd) + ", sleep " + physics::sleepModeName(options.sleep) +
+         ", solver " + physics::solverModeName(options.solver);
 }
 
 std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,

@@ -30,6 +30,12 @@ SleepMode parseSleepMode(const std::string& text) {
   throw std::invalid_argument("'" + text + "' is not one of scene, on, off");
 }
 
+SolverMode parseSolverMode(const std::string& text) {
+  if (text == "pile") return SolverMode::kPile;
+  if (text == "bullet") return SolverMode::kBullet;
+  throw std::invalid_argument("'" + text + "' is not one of pile, bullet");
+}
+
 int parseSubsteps(const std::string& text) {
   if (text == "auto") return kAutoSubsteps;
   std::size_t used = 0;
@@ -69,6 +75,10 @@ std::string sleepModeName(SleepMode mode) {
   return "?";
 }
 
+std::string solverModeName(SolverMode mode) {
+  return mode == SolverMode::kPile ? "pile" : "bullet";
+}
+
 double typicalEdge(std::span<const double> edges) {
   if (edges.empty()) return 0;
   std::vector<double> sorted(edges.begin(), edges.end());
@@ -81,16 +91,34 @@ double speedBound(double speed, double gravity, double frame_time) {
   return speed + gravity * frame_time;
 }
 
+void TopSpeeds::add(double speed) {
+  if (speed > fastest) {
+    second = fastest;
+    fastest = speed;
+  } else {
+    second = std::max(second, speed);
+  }
+}
+
 int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule) {
-  const double travel =
-      speedBound(motion.fastest_speed, motion.gravity, motion.frame_time) * motion.frame_time;
-  int k = std::max(substepsFor(travel, rule.wall_share * motion.wall_thickness),
-                   substepsFor(travel, rule.motion_share * motion.typical_edge));
-  if (!ccd_on) k = std::max(k, substepsFor(travel, rule.edge_share * motion.smallest_edge));
+  const double t = motion.frame_time;
+  // How far bodies moving at `speeds` may close in a frame: a box on a wall
+  // at its speed plus gravity's gain, two boxes at their speeds' sum.
+  const auto closing = [&](const TopSpeeds& speeds) {
+    return std::max(speedBound(speeds.fastest, motion.gravity, t), speeds.fastest + speeds.second) *
+           t;
+  };
+  int k = std::max(substepsFor(speedBound(motion.all.fastest, motion.gravity, t) * t,
+                               rule.wall_share * motion.wall_thickness),
+                   substepsFor(closing(ccd_on ? motion.typical : motion.all),
+                               rule.motion_share * motion.typical_edge));
+  if (!ccd_on) {
+    k = std::max(k, substepsFor(closing(motion.all), rule.edge_share * motion.smallest_edge));
+  }
   // g (T/K)^2 <= share x edge  <=>  K >= T sqrt(g / (share x edge)).
-  const double fall = motion.gravity * motion.frame_time * motion.frame_time;
-  k = std::max(k, static_cast<int>(std::ceil(
-                      std::sqrt(fall / (rule.resting_share * motion.typical_edge)) - 1e-9)));
+  const double fall = motion.gravity * t * t;
+  k = std::max(k, static_cast<int>(
+                      std::ceil(std::sqrt(fall / (rule.fall_share * motion.typical_edge)) - 1e-9)));
   return std::clamp(k, 1, rule.max_substeps);
 }
 
@@ -105,6 +133,11 @@ std::vector<char> chooseCcdBodies(CcdMode mode, std::span<const float> speeds,
     flags[i] = motion > kCcdShareOfEdge * edges[i] ? 1 : 0;
   }
   return flags;
+}
+
+SolverSettings solverSettings(SolverMode mode) {
+  if (mode == SolverMode::kBullet) return {10, 0.85, true};
+  return {8, 1.0, false};
 }
 
 bool sleepAllowed(const SceneConfig& config, SleepMode mode) {

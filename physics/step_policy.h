@@ -1,5 +1,6 @@
-// What a frame needs modelled: substeps, continuous collision detection and
-// sleep, each chosen by one small function whose rule is stated beside it.
+// What a frame needs modelled: substeps, continuous collision detection,
+// sleep and the contact solver's settings, each chosen by one small function
+// whose rule is stated beside it.
 //
 // The functions read plain numbers (speeds, edges, gravity, times) and never
 // touch Bullet, so they are deterministic by construction: the same state
@@ -23,14 +24,17 @@ constexpr int kAutoSubsteps = 0;
 
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default
+enum class SolverMode { kPile, kBullet };    // solverSettings()
 
-// Parses "off|auto|all" and "scene|on|off"; throws std::invalid_argument.
+// Parses "off|auto|all", "scene|on|off" and "pile|bullet"; throws std::invalid_argument.
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
+SolverMode parseSolverMode(const std::string& text);
 // Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
+std::string solverModeName(SolverMode mode);
 
 // The numbers of the automatic rule.  Each bound is a share of a length a box
 // must not cross in one substep; K is the least that keeps all of them.
@@ -38,27 +42,43 @@ struct SubstepRule {
   // Box against wall: a box tunnels once one substep carries its centre past
   // a wall's middle (measured: 1.05 m a step through 2.0 m walls, not 2.2 m).
   double wall_share = 0.35;
-  // Box against box without CCD: the fastest box against the smallest edge.
-  // With CCD on, the small boxes that could pass through others are swept
-  // instead (chooseCcdBodies), so this bound is left to CCD.
+  // Box against box without CCD: the closing motion against the smallest
+  // edge.  With CCD on, the small boxes that could pass through others are
+  // swept instead (chooseCcdBodies), so this bound is left to CCD.
   double edge_share = 0.5;
-  // How far any box may move in one substep, as a share of the typical
-  // (median) edge: a box meets a wall or a pile up to one substep's motion
-  // deep before a contact holds it, so this bounds the penetration on impact
-  // (measured in scene 3's first fall: 0.58 edges at 0.56 m a substep).
+  // How far two bodies may close in one substep, as a share of the typical
+  // (median) edge: a box meets a wall, a pile or another box up to one
+  // substep's closing motion deep before a contact holds it, so this bounds
+  // the penetration on impact (measured: scene 3's first fall, 0.58 edges
+  // at 0.56 m a substep; scene 2's kicked boxes, 0.60 edges at K = 1 and
+  // 0.28 at K = 2, where two of them close at up to 0.58 m a frame).
   double motion_share = 0.5;
-  // Resting contact under strong gravity, the solver's limit: one substep's
-  // free fall, g dt^2, stays under this share of the typical edge, or a
-  // deep pile compresses into itself faster than the solver's 10 iterations
-  // push it back out (scene 3's pile crept to 1.1 edges deep at 2 substeps,
-  // 0.6 at 4, 0.16 at 6 within 90 frames).
-  double resting_share = 0.03;
+  // A pile under strong gravity, the solver's limit: one substep's free
+  // fall, g (T/K)^2, stays under this share of the typical edge, or the
+  // pile's bottom layer gives way: boxes squeezed into the corner gravity
+  // points at merge into each other, and the deepest overlap grows towards a
+  // whole edge.  Measured in scene 3 with SolverMode::kPile over 240 frames
+  // (deepest overlap in the last 100): 1000 boxes held at K = 4 (0.52 edges,
+  // g (T/K)^2 = 0.034 m) and gave way at K = 3 (0.92, 0.060 m); 3500 boxes,
+  // a pile half again as deep, the same (0.56 at K = 4, 0.91 at K = 3).
+  // Bullet's own settings (SolverMode::kBullet) need more: 1000 boxes gave
+  // way at K = 6 and held at 7; 3500 gave way even at K = 8 (0.95 edges).
+  double fall_share = 0.04;
   int max_substeps = 16;
+};
+
+// The two fastest boxes' speeds (m/s) of a set: no two boxes of it close
+// faster than their sum.
+struct TopSpeeds {
+  double fastest = 0;
+  double second = 0;
+  void add(double speed);
 };
 
 // What chooseSubsteps() reads from the frame's start.
 struct FrameMotion {
-  double fastest_speed;   // m/s, the fastest box in the simulation
+  TopSpeeds all;          // every box in the simulation
+  TopSpeeds typical;      // the boxes at least typical_edge
   double gravity;         // |g| this frame, m/s^2
   double frame_time;      // s
   double smallest_edge;   // m, of the boxes in the scene
@@ -66,7 +86,7 @@ struct FrameMotion {
   double wall_thickness;  // m
 };
 
-// The edge the motion and resting rules measure against: the median box's.
+// The edge the motion and pile rules measure against: the median box's.
 // Not the volume-weighted median (3.4 m in scene 4, where the large boxes
 // hold most of the volume): its K = 3 floor let small boxes sink into the
 // walls under the resting pile, up to 4 at once and more as it settled.
@@ -77,13 +97,22 @@ double typicalEdge(std::span<const double> edges);
 // acts on it; the bound the substep and CCD rules plan against.
 double speedBound(double speed, double gravity, double frame_time);
 
-// K: the least number of equal substeps such that
-//   (a) the fastest box (speedBound) moves at most wall_share of a wall's
-//       thickness and motion_share of the typical edge per substep;
-//   (b) without CCD, it also moves at most edge_share of the smallest edge;
-//   (c) a resting pile is stable: g (T/K)^2 <= resting_share x typical edge;
-// capped at max_substeps (the cap wins over (a)-(c): the frame's cost is
-// bounded, and CCD covers what a capped K leaves).
+// K: the least number of equal substeps such that, per substep,
+//   (a) no box crosses more than wall_share of a wall's thickness, at its
+//       speedBound (its speed plus what gravity adds in the frame);
+//   (b) no two bodies close by more than motion_share of the typical edge:
+//       a box on a wall at its speedBound, two boxes at the sum of the two
+//       fastest speeds (gravity pulls both alike, so it adds nothing
+//       between them);
+//   (c) without CCD, neither do they by more than edge_share of the
+//       smallest edge;
+//   (d) the pile holds: g (T/K)^2 <= fall_share x typical edge.
+// With CCD on, (b) reads the boxes at least the typical edge: a smaller box
+// that is fast for its size is swept this frame (chooseCcdBodies) instead of
+// every box being substepped for it (in scene 4 the fastest box is a
+// 0.1-0.4 m one squeezed out of the pile at 35-100 m/s); (a) still reads
+// every box.  Capped at max_substeps (the cap wins over (a)-(d): the frame's
+// cost is bounded, and CCD covers what a capped K leaves).
 int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule = {});
 
 // The share of its own edge a box may move in one substep before Bullet's
@@ -107,5 +136,28 @@ std::vector<char> chooseCcdBodies(CcdMode mode, std::span<const float> speeds,
 // box would not notice, so asking for sleep there throws
 // std::invalid_argument.
 bool sleepAllowed(const SceneConfig& config, SleepMode mode);
+
+// Bullet's sequential-impulse contact solver, as PhysicsWorld sets it up.
+struct SolverSettings {
+  int iterations;              // Gauss-Seidel sweeps over the contacts per substep
+  double warmstarting_factor;  // share of last substep's impulse each contact starts from
+  bool split_impulse;          // overlap pushed out by a separate position pass, not by velocity
+};
+
+// kBullet: Bullet 3.24's defaults: 10 iterations, warm start 0.85, overlaps
+// deeper than 4 cm pushed out by a separate position pass (split impulse),
+// shallower ones in the velocity solve, both at 20% (m_erp2) a substep.
+// kPile, the default: 8 iterations, warm start 1, every overlap pushed out
+// inside the velocity solve.  A pile under 50 g keeps almost the same
+// contact impulses from one substep to the next, so starting from all of
+// last substep's impulse leaves the iterations less to do; and pushing
+// overlaps out in the velocity solve solves the pile's weight and its
+// push-out together, where the split pass undid part of what the velocity
+// pass did.  Measured in scene 3 at K = 4 (1000 boxes, 240 frames, seeds
+// 42, 7, 123; the deepest overlap in the last 100 frames): kBullet's pile
+// gave way (1.0 edges); kPile with 10 iterations held (0.52, 0.59, 0.60),
+// with 8 held as well for 7% less time (0.44, 0.54, 0.51), with 6 less well
+// (0.60, 0.78, 0.66); a stiffer push-out (m_erp2 0.35, 0.5) did worse.
+SolverSettings solverSettings(SolverMode mode);
 
 }  // namespace overlap::physics

@@ -171,6 +171,11 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
                                                  &b.collision_config);
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
+  const SolverSettings solver = solverSettings(options.solver);
+  btContactSolverInfo& solver_info = b.world->getSolverInfo();
+  solver_info.m_numIterations = solver.iterations;
+  solver_info.m_warmstartingFactor = static_cast<btScalar>(solver.warmstarting_factor);
+  solver_info.m_splitImpulse = solver.split_impulse ? 1 : 0;
   // Bullet's ghost objects (btGhostObject, character controllers) need the
   // pair cache's one ghost-pair slot; the world itself does not use it.
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.ghost_pairs);
@@ -291,11 +296,21 @@ void PhysicsWorld::planFrame(FrameReport& report) {
   Bullet& b = *bullet_;
   const std::vector<float> speeds = boxSpeeds();
   const double gravity = b.world->getGravity().length();
-  for (const float speed : speeds)
-    report.fastest_speed = std::max<double>(report.fastest_speed, speed);
+  TopSpeeds all;
+  TopSpeeds typical;
+  for (std::size_t i = 0; i < speeds.size(); ++i) {
+    all.add(speeds[i]);
+    if (b.edges[i] >= b.typical_edge) typical.add(speeds[i]);
+  }
+  report.fastest_speed = all.fastest;
   if (automatic_substeps_) {
-    const FrameMotion motion{report.fastest_speed, gravity,        config_.frame_time,
-                             b.smallest_edge,      b.typical_edge, layout_.wall_thickness};
+    const FrameMotion motion{all,
+                             typical,
+                             gravity,
+                             config_.frame_time,
+                             b.smallest_edge,
+                             b.typical_edge,
+                             layout_.wall_thickness};
     substeps_ = chooseSubsteps(motion, ccd_ != CcdMode::kOff);
   }
   report.substeps = substeps_;

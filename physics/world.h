@@ -2,7 +2,8 @@
 //
 // PhysicsWorld builds the scene (boxes and six static walls, nothing else),
 // steps it one frame at a time (K substeps of frame_time / K, K fixed or
-// chosen each frame with the CCD bodies by physics/step_policy.h), and
+// chosen each frame with the CCD bodies by physics/step_policy.h, which also
+// sets up Bullet's contact solver: solverSettings()), and
 // reports what the frame cost and what it got wrong.  Times are taken inside
 // Bullet's step: AABB update, broadphase (pair search and pair-cache update),
 // narrowphase, solver and integration are each summed over the substeps, and
@@ -36,7 +37,8 @@ struct WorldOptions {
   std::string algorithm = "bvh";
   int substeps = kAutoSubsteps;  // kAutoSubsteps: chooseSubsteps() each frame; else fixed K
   CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
-  SleepMode sleep = SleepMode::kScene;  // Bullet's deactivation, sleepAllowed()
+  SleepMode sleep = SleepMode::kScene;    // Bullet's deactivation, sleepAllowed()
+  SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
 };
 
 struct FrameTimings {

@@ -47,6 +47,7 @@ import sys
 import time
 
 from overlap_runs import run_summary
+import study_physics
 import study_report
 import study_results
 
@@ -62,6 +63,7 @@ FULL = {
     "pairs_algos": "bf,sap,sap32,bvh,cpubf,cpusap,gpubf,gpubf-paper",
     "physics_scenes": "1,2,3,4", "physics_objects": 3500, "physics_frames": 2048,
     "physics_substeps": "1,2,4,8,16,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
+    "physics_seeds": "7,123", "physics_compare_objects": "", "physics_compare_frames": 2048,
     "latency_scenes": "1,2,3,4", "latency_objects": 3500, "latency_frames": 2048,
     "latency_algos": "bf,sap,bvh,cpubf,cpusap,gpubf", "latency_growths": "0,1,2",
     "timeline_objects": 1250, "timeline_frames": 64,
@@ -75,6 +77,7 @@ QUICK = {
     "pairs_objects": 400, "pairs_frames": 90, "pairs_algos": "bf,sap,sap32,bvh,cpubf",
     "physics_scenes": "1,3,4", "physics_objects": 400, "physics_frames": 90,
     "physics_substeps": "1,2,4,8,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
+    "physics_seeds": "7", "physics_compare_objects": "", "physics_compare_frames": 90,
     "latency_scenes": "1,2,3,4", "latency_objects": 400, "latency_frames": 90,
     "latency_algos": "bvh,cpubf", "latency_growths": "0,1,2",
     "timeline_objects": 400, "timeline_frames": 16,
@@ -92,7 +95,11 @@ HELP = {
     "physics_objects": "physics: boxes", "physics_frames": "physics: frames per run",
     "physics_substeps": "physics: fixed substeps K and/or auto",
     "physics_ccd": "physics: --ccd modes (auto substeps: never all)",
-    "physics_algo": "physics: broadphase", "latency_scenes": "latency: scenes",
+    "physics_algo": "physics: broadphase",
+    "physics_seeds": "physics: more seeds for the comparison cells (auto against the old K)",
+    "physics_compare_objects": "physics: more box counts for the comparison cells",
+    "physics_compare_frames": "physics: frames per run at --physics-compare-objects",
+    "latency_scenes": "latency: scenes",
     "latency_objects": "latency: boxes", "latency_frames": "latency: frames per run",
     "latency_algos": "latency: broadphases, one process each",
     "latency_growths": "latency: growth factors of the late AABBs (x |v| dt)",
@@ -119,17 +126,31 @@ def default_substeps(scene: int) -> int:
 
 
 def physics_cells(args) -> list:
-    """(scene, substeps text, ccd, sleep) of every physics run: fixed K x each --ccd mode,
-    auto x each but all, and where the scene sleeps (1, 2) auto with its default CCD once
-    more without sleep."""
+    """Every physics run as (scene, substeps text, ccd, sleep, solver, objects, frames, seed).
+    The main grid (--physics-objects, --seed): fixed K x each --ccd mode and auto x each but
+    all, with the default solver; where the scene sleeps (1, 2) auto with its default CCD once
+    more without sleep.  The comparison cells, auto against the K the project fixed before
+    (study_physics.old_default_k) with the default solver and Bullet's: at the main size and
+    seed, at each --physics-seeds and at each --physics-compare-objects."""
+    n, frames, seed = args.physics_objects, args.physics_frames, args.seed
     cells = []
     for scene in ints(args.physics_scenes):
         for substeps in names(args.physics_substeps):
             for ccd in names(args.physics_ccd):
                 if not (substeps == "auto" and ccd == "all"):
-                    cells.append((scene, substeps, ccd, "scene"))
+                    cells.append((scene, substeps, ccd, "scene", "pile", n, frames, seed))
         if scene <= 2 and "auto" in names(args.physics_substeps):
-            cells.append((scene, "auto", "auto", "off"))
+            cells.append((scene, "auto", "auto", "off", "pile", n, frames, seed))
+    groups = [(n, frames, s) for s in [seed] + ints(args.physics_seeds)]
+    groups += [(m, args.physics_compare_frames, seed) for m in ints(args.physics_compare_objects)]
+    for scene in ints(args.physics_scenes):
+        k = str(study_physics.old_default_k(scene))
+        for objects, count, s in groups:
+            for cell in [("auto", ccd, "pile") for ccd in ("off", "auto")] + [
+                    (k, ccd, solver) for ccd in ("off", "auto") for solver in ("pile", "bullet")]:
+                run = (scene, cell[0], cell[1], "scene", cell[2], objects, count, s)
+                if run not in cells:
+                    cells.append(run)
     return cells
 
 
@@ -318,17 +339,20 @@ def plan(args) -> list:
             jobs.append(PairsJob(f"pairs_{algo}", frames * n, overlap, out / "pairs", stream,
                                  record, frames, algo, algo if algo in GPU_ALGOS else None))
     if "physics" in args.experiments:
-        n, frames = args.physics_objects, args.physics_frames
-        for scene, substeps, ccd, sleep in physics_cells(args):
-            key = f"s{scene}_n{n}_k{substeps}_ccd-{ccd}" + ("" if sleep == "scene" else "_nosleep")
+        for scene, substeps, ccd, sleep, solver, n, frames, cell_seed in physics_cells(args):
+            key = (f"s{scene}_n{n}_k{substeps}_ccd-{ccd}" + ("" if sleep == "scene" else "_nosleep")
+                   + ("" if solver == "pile" else f"_{solver}")
+                   + ("" if cell_seed == args.seed else f"_seed{cell_seed}"))
             k = default_substeps(scene) if substeps == "auto" else int(substeps)
+            main = n == args.physics_objects and cell_seed == args.seed
             jobs.append(RunJob(
                 "physics", key, frames * k * n * (1 if ccd == "off" else 2),
-                {"scene": scene, "objects": n, "substeps": substeps, "ccd": ccd}, overlap,
+                {"scene": scene, "objects": n, "substeps": substeps, "ccd": ccd, "solver": solver,
+                 "seed": cell_seed, "sleep_error_cell": main and sleep == "scene"}, overlap,
                 out / "physics" / key,
                 ["--scene", str(scene), "--objects", str(n), "--algo", args.physics_algo,
-                 "--frames", str(frames), "--seed", seed, "--substeps", substeps, "--ccd", ccd,
-                 "--sleep", sleep, "--no-tasks", *threads]))
+                 "--frames", str(frames), "--seed", str(cell_seed), "--substeps", substeps,
+                 "--ccd", ccd, "--sleep", sleep, "--solver", solver, "--no-tasks", *threads]))
             if sleep == "off":  # where the positions of the runs with and without sleep differ
                 record = ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
                           "--seed", seed, "--substeps", substeps, "--ccd", ccd]

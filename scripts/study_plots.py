@@ -150,7 +150,8 @@ def broadphase_error(rows: list, folder: pathlib.Path) -> str:
 
 def physics(rows: list, folder: pathlib.Path) -> str:
     """Per scene (columns): each error (rows) against the cost per frame, one point per run;
-    fixed K as numbers joined per CCD mode, the automatic setting as a star.  The cost is mean
+    fixed K as numbers joined per CCD mode, the automatic setting as a star, the old fixed K
+    with Bullet's own solver settings as a cross.  The cost is mean
     K x boxes, which the machine's load does not change (the tables give the times)."""
     scenes = sorted({r["scene"] for r in rows})
     measures = [("penetration_max", "deepest penetration / edge"),
@@ -164,7 +165,7 @@ def physics(rows: list, folder: pathlib.Path) -> str:
             for ccd, (tint, style) in styles.items():
                 fixed = sorted((r["k_x_boxes"], r[key], r["substeps"]) for r in rows
                                if r["scene"] == scene and r["ccd"] == ccd
-                               and r["substeps"] != "auto")
+                               and r["substeps"] != "auto" and r["solver"] == "pile")
                 if fixed:
                     axis.plot([f[0] for f in fixed], [f[1] for f in fixed], style, color=tint,
                               label=f"fixed K, ccd {ccd}", markersize=4)
@@ -172,6 +173,11 @@ def physics(rows: list, folder: pathlib.Path) -> str:
                         axis.annotate(str(k), (x, y), fontsize=7, xytext=(2, 2),
                                       textcoords="offset points")
                 for r in rows:
+                    if (r["scene"] == scene and r["ccd"] == ccd and r["substeps"] != "auto"
+                            and r["solver"] == "bullet"):
+                        axis.plot(r["k_x_boxes"], r[key], "X", color=tint, markersize=9,
+                                  markeredgecolor="black",
+                                  label=f"K={r['substeps']}, ccd {ccd}, Bullet's solver")
                     if r["scene"] == scene and r["ccd"] == ccd and r["substeps"] == "auto":
                         axis.plot(r["k_x_boxes"], r[key], "*", color=tint, markersize=13,
                                   markeredgecolor="black",

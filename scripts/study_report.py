@@ -11,6 +11,7 @@ import pathlib
 import shutil
 
 import study_overlap
+import study_physics
 import study_plots
 import study_results
 from overlap_runs import portable
@@ -227,84 +228,6 @@ def best_broadphase_lines(cells: list) -> list:
                      f"({fmt(total[1])} ms), fastest update + broadphase **{search[0]}** "
                      f"({fmt(search[1])} ms).")
     return lines + [""]
-
-
-def setting(row: dict) -> str:
-    """A physics run's options as a user types them."""
-    return (f"K={row['substeps']}, ccd {row['ccd']}"
-            + (", no sleep" if row["scene"] <= 2 and row["sleep"] == "off" else ""))
-
-
-def target_lines(scene: int, rows: list) -> list:
-    """Issue 14's target for the automatic setting against fixed K (8 at 50 g, 2 at 1 g):
-    no escape, no more sunk, no deeper penetration, at most 0.6 (50 g) or 1.0 (1 g) of its
-    time.  Each auto row against the fixed row with the same CCD and against the old default
-    (the fixed K without CCD).  Mean K x boxes is the load-free cost beside the time."""
-    fixed_k, share = (8, 0.6) if scene >= 3 else (2, 1.0)
-    by_setting = {(str(r["substeps"]), r["ccd"]): r for r in rows if r["sleep"] != "off"
-                  or scene >= 3}
-    lines = []
-    for ccd in ("off", "auto"):
-        auto = by_setting.get(("auto", ccd))
-        for against in dict.fromkeys((ccd, "off")):
-            base = by_setting.get((str(fixed_k), against))
-            if auto is None or base is None:
-                continue
-            time = auto["total_median"] / base["total_median"]
-            cost = auto["k_x_boxes"] / base["k_x_boxes"]
-            misses = [name for name, mine, theirs in (
-                ("escaped", auto["escaped_max"], 0 if scene >= 3 else base["escaped_max"]),
-                ("sunk", auto["sunk_max"], base["sunk_max"]),
-                ("penetration", auto["penetration_max"], base["penetration_max"])) if mine > theirs]
-            if time > share:
-                misses.append(f"time ({time:.2f} > {share})")
-            lines.append(
-                f"  - auto, ccd {ccd} against K={fixed_k}, ccd {against}: time x{time:.2f}, mean K x "
-                f"boxes x{cost:.2f}; escaped {auto['escaped_max']} vs {base['escaped_max']}, sunk "
-                f"{auto['sunk_max']} vs {base['sunk_max']}, penetration "
-                f"{fmt(auto['penetration_max'])} vs {fmt(base['penetration_max'])}: "
-                + ("**meets the target**." if not misses else "misses on " + ", ".join(misses)
-                   + "."))
-    return lines
-
-
-def physics_section(rows: list, figures: dict) -> list:
-    if not rows:
-        return ["No physics runs yet.", ""]
-    headers = ["K", "ccd", "sleep", "ms median", "ms max", "mean K", "K x boxes", "escaped max",
-               "escaped end", "sunk max", "sunk end", "deepest pen. / edge", "energy drift",
-               "asleep max", "sleep error max (m)"]
-    lines = [f"{rows[0]['objects']} boxes, {rows[0]['frames']} frames, broadphase "
-             f"{rows[0]['algorithm']}, `--no-tasks`. K: fixed substeps or `--substeps auto` "
-             "(its mean over the frames); ccd: `--ccd off|auto|all`; sleep: Bullet's "
-             "deactivation (scenes 1 and 2 by default). Mean K x boxes is the cost without the "
-             "machine's load; the sleep error is the largest distance, over every frame and box, "
-             "between a box with sleep and the same box in the run without it.", ""]
-    for scene in sorted({r["scene"] for r in rows}):
-        mine = [r for r in rows if r["scene"] == scene]
-        body = [[r["substeps"], r["ccd"], r["sleep"], fmt(r["total_median"]), fmt(r["total_max"]),
-                 fmt(r["mean_k"]), fmt(r["k_x_boxes"]), r["escaped_max"], r["escaped_final"],
-                 r["sunk_max"], r["sunk_final"], fmt(r["penetration_max"]),
-                 fmt(r.get("energy_drift", float("nan"))), r["asleep_max"],
-                 fmt(r["sleep_error_max_m"])]
-                for r in mine]
-        lines += [f"Scene {scene}:", ""] + table(headers, body)
-        safe = [r for r in mine if r["escaped_max"] == 0 and r["sunk_final"] == 0]
-        if safe:
-            best = min(safe, key=lambda r: (r["total_median"], r["penetration_max"]))
-            lines.append(f"- Cheapest run with no box escaping and none left inside a wall at the "
-                         f"end: **{setting(best)}** ({fmt(best['total_median'])} ms/frame, "
-                         f"sunk at most {best['sunk_max']}, deepest penetration "
-                         f"{fmt(best['penetration_max'])} edges).")
-        slept = [r for r in mine if r["sleep"] == "on"]
-        if slept and max(r["asleep_max"] for r in slept) == 0:
-            lines.append(f"- No box fell asleep in these {rows[0]['frames']} frames (asleep max "
-                         "0: every box kept moving faster than Bullet's sleeping thresholds for "
-                         "its deactivation time), so sleep cost nothing and changed nothing here; "
-                         "its error is only measured where boxes sleep.")
-        lines += target_lines(scene, mine) + [""]
-    study_plots.physics(rows, figures["folder"])
-    return lines + ["![physics speed against error](report/fig_physics.png)", ""]
 
 
 def late_search_verdict(best: dict, cells: list) -> str:
@@ -591,7 +514,9 @@ def write_everything(args, jobs: list) -> list:
     lines += section
     if pairs:
         study_results.write_csv(out / "pairs.csv", pairs)
-    lines += ["### 3.2 Physics: substeps and CCD", ""] + physics_section(physics, figures)
+    lines += ["### 3.2 Physics: substeps, CCD, sleep and the solver", ""]
+    lines += study_physics.physics_section(physics, figures, fmt, table, args.physics_objects,
+                                           args.seed)
     study_results.write_csv(out / "physics.csv", physics)
     lines += ["### 3.3 A broadphase one frame late", ""] + latency_section(latency, figures, cells)
     study_results.write_csv(out / "latency.csv", latency)

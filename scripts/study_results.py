@@ -183,7 +183,9 @@ def physics_runs(jobs: list) -> list:
         sleep = "off" if p.get("sleep", "off") == "off" or p["scene"] >= 3 else "on"
         mean_k = c["substeps"]["mean"] if "substeps" in c else float(p["substeps"])
         row = {"scene": p["scene"], "objects": p["objects"], "algorithm": p["algorithm"],
-               "substeps": p["substeps"], "ccd": ccd, "sleep": sleep, "frames": p["frames"],
+               "substeps": p["substeps"], "ccd": ccd, "sleep": sleep,
+               # runs from before --solver ran Bullet's own settings
+               "solver": p.get("solver", "bullet"), "seed": p["seed"], "frames": p["frames"],
                "total_mean": t["total_ms"]["mean"], "total_median": t["total_ms"]["median"],
                "total_max": t["total_ms"]["max"], "mean_k": mean_k,
                "k_x_boxes": mean_k * p["objects"],
@@ -201,12 +203,14 @@ def physics_runs(jobs: list) -> list:
             row["energy_drift"] = (energy[-1] - energy[0]) / scale
             row["energy_max_deviation"] = max(abs(e - energy[0]) for e in energy) / scale
         error = errors.get(p["scene"])
-        sleeping_default = sleep == "on" and p["substeps"] == "auto" and ccd == "auto"
+        sleeping_default = (sleep == "on" and p["substeps"] == "auto" and ccd == "auto"
+                            and job.labels.get("sleep_error_cell", False))
         row["sleep_error_max_m"] = error["max_m"] if error and sleeping_default else float("nan")
         row["sleep_error_end_median_m"] = (error["end_median_m"] if error and sleeping_default
                                            else float("nan"))
         rows.append(row)
-    rows.sort(key=lambda r: (r["scene"], r["substeps"] == "auto", str(r["substeps"]).zfill(3),
+    rows.sort(key=lambda r: (r["scene"], r["objects"], r["seed"], r["substeps"] == "auto",
+                             str(r["substeps"]).zfill(3), r["solver"] == "bullet",
                              ("off", "auto", "all").index(r["ccd"]), r["sleep"]))
     return rows
 

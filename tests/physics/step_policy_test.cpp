@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -12,9 +13,10 @@ namespace {
 constexpr double kFrame = 1.0 / 30.0;
 constexpr double k50g = 50 * 9.798;
 
-// Boxes of one size, `edge`, in walls `wall` thick.
+// Boxes of one size, `edge`, in walls `wall` thick, the two fastest at `speed`.
 FrameMotion motion(double speed, double gravity, double edge, double wall) {
-  return FrameMotion{speed, gravity, kFrame, edge, edge, wall};
+  const TopSpeeds speeds{speed, speed};
+  return FrameMotion{speeds, speeds, gravity, kFrame, edge, edge, wall};
 }
 
 TEST(StepPolicy, ParsesTheOptionsAndRejectsTheRest) {
@@ -32,16 +34,69 @@ TEST(StepPolicy, ParsesTheOptionsAndRejectsTheRest) {
   for (const CcdMode mode : {CcdMode::kOff, CcdMode::kAuto, CcdMode::kAll}) {
     EXPECT_EQ(parseCcdMode(ccdModeName(mode)), mode);
   }
+  for (const SolverMode mode : {SolverMode::kPile, SolverMode::kBullet}) {
+    EXPECT_EQ(parseSolverMode(solverModeName(mode)), mode);
+  }
+  EXPECT_THROW(parseSolverMode("fast"), std::invalid_argument);
 }
 
 TEST(StepPolicy, A50gPileAtRestKeepsTheStabilityFloor) {
-  // g (T/K)^2 <= 0.03 x typical edge: a pile of 1 m boxes needs 5 substeps
-  // at 50 g, whatever its smallest box (CCD on); at 1 g one step is stable.
-  EXPECT_EQ(chooseSubsteps(motion(0, k50g, 1.0, 4.0), true), 5);
-  EXPECT_EQ(chooseSubsteps(FrameMotion{0, k50g, kFrame, 0.1, 1.0, 8.0}, true), 5);
+  // g (T/K)^2 <= 0.04 x typical edge: a pile of 1 m boxes needs 4 substeps
+  // at 50 g (the measured threshold: it held at 4 and gave way at 3),
+  // whatever its smallest box (CCD on); at 1 g one step holds.
+  EXPECT_EQ(chooseSubsteps(motion(0, k50g, 1.0, 4.0), true), 4);
+  EXPECT_EQ(chooseSubsteps(FrameMotion{{}, {}, k50g, kFrame, 0.1, 1.0, 8.0}, true), 4);
   EXPECT_EQ(chooseSubsteps(motion(0, 9.798, 1.0, 2.0), true), 1);
   // Larger boxes, the same gravity: a lower floor.
-  EXPECT_LT(chooseSubsteps(motion(0, k50g, 4.0, 8.0), true), 5);
+  EXPECT_LT(chooseSubsteps(motion(0, k50g, 4.0, 8.0), true), 4);
+}
+
+TEST(StepPolicy, TwoBoxesCloseAtTwiceTheFastestSpeedAndGravityAddsNothingBetweenThem) {
+  // Scene 2's kicks at 1 g: a 7.6 m/s box may meet another coming the other
+  // way, 0.51 m of closing in a frame: more than half a 1 m edge, so K = 2,
+  // though the box alone moves 0.26 m (K = 1 against a wall).
+  EXPECT_EQ(chooseSubsteps(motion(7.6, 9.798, 1.0, 2.69), true), 2);
+  EXPECT_EQ(chooseSubsteps(motion(7.4, 9.798, 1.0, 2.69), true), 1);
+  // Gravity adds g T to how fast a box closes on a wall, not on another box
+  // (the pile floor switched off, to see the two bounds alone): at 50 g a
+  // 5 m/s box closes 0.71 m a frame on a wall (K = 2) and at most 0.33 m
+  // on a box; at 1 g a 12 m/s box 0.41 m on a wall, 0.80 m on a box (K = 2).
+  SubstepRule no_floor;
+  no_floor.fall_share = 1e9;
+  EXPECT_EQ(chooseSubsteps(motion(5, k50g, 1.0, 100.0), true, no_floor), 2);
+  EXPECT_EQ(chooseSubsteps(motion(5, 0.0, 1.0, 100.0), true, no_floor), 1);
+  EXPECT_EQ(chooseSubsteps(motion(12, 9.798, 1.0, 100.0), true, no_floor), 2);
+}
+
+TEST(StepPolicy, TwoBoxesCloseAtMostAtTheirTwoFastestSpeedsSum) {
+  // One box at 12 m/s among boxes at 2: they close at 14 m/s, 0.47 m a
+  // frame (K = 1); two boxes at 12: 0.80 m (K = 2).
+  SubstepRule no_floor;
+  no_floor.fall_share = 1e9;
+  const TopSpeeds one_fast{12, 2};
+  const TopSpeeds two_fast{12, 12};
+  EXPECT_EQ(chooseSubsteps({one_fast, one_fast, 9.798, kFrame, 1.0, 1.0, 100.0}, true, no_floor),
+            1);
+  EXPECT_EQ(chooseSubsteps({two_fast, two_fast, 9.798, kFrame, 1.0, 1.0, 100.0}, true, no_floor),
+            2);
+  TopSpeeds speeds;
+  for (const double v : {3.0, 9.0, 1.0, 7.0, 9.0, 2.0}) speeds.add(v);
+  EXPECT_EQ(speeds.fastest, 9.0);
+  EXPECT_EQ(speeds.second, 9.0);
+}
+
+TEST(StepPolicy, WithCcdTheSmallFastBoxesAreSweptNotSubstepped) {
+  // Scene 4: 0.1 m boxes squeezed out of the pile at 60 m/s while the boxes
+  // of the typical edge move at 10.  With CCD their sweep bounds them;
+  // without, every box is substepped for them.
+  const TopSpeeds all{60, 60};
+  const TopSpeeds typical{10, 10};
+  const FrameMotion m{all, typical, 9.798, kFrame, 0.1, 1.0, 8.0};
+  EXPECT_EQ(chooseSubsteps(m, true), 2);  // 2 x 10 m/s closing: 0.67 m a frame
+  EXPECT_EQ(chooseSubsteps(m, false), SubstepRule{}.max_substeps);
+  // The wall's bound still reads every box: 60 m/s through a 0.3 m wall.
+  const FrameMotion thin{all, typical, 9.798, kFrame, 0.1, 1.0, 0.3};
+  EXPECT_GT(chooseSubsteps(thin, true), 2);
 }
 
 TEST(StepPolicy, FasterBoxesAndThinnerWallsNeedMoreSubstepsUpToTheCap) {
@@ -57,20 +112,44 @@ TEST(StepPolicy, FasterBoxesAndThinnerWallsNeedMoreSubstepsUpToTheCap) {
             chooseSubsteps(motion(150, k50g, 4.0, 8.0), true));
 }
 
-TEST(StepPolicy, EachSubstepMovesTheFastestBoxAtMostTheRulesShares) {
+TEST(StepPolicy, EachSubstepClosesAtMostTheRulesShares) {
   const SubstepRule rule;
-  for (const double speed : {5.0, 40.0, 120.0, 250.0}) {
-    const FrameMotion m = motion(speed, k50g, 1.0, 6.0);
-    const int k = chooseSubsteps(m, true, rule);
-    if (k == rule.max_substeps) continue;
-    const double per_substep = speedBound(speed, k50g, kFrame) * kFrame / k;
-    EXPECT_LE(per_substep, rule.wall_share * m.wall_thickness + 1e-12) << speed;
-    EXPECT_LE(per_substep, rule.motion_share * m.typical_edge + 1e-12) << speed;
+  for (const double gravity : {9.798, k50g}) {
+    for (const double speed : {5.0, 40.0, 120.0, 250.0}) {
+      const FrameMotion m = motion(speed, gravity, 1.0, 6.0);
+      const int k = chooseSubsteps(m, true, rule);
+      if (k == rule.max_substeps) continue;
+      const double wall_closing = speedBound(speed, gravity, kFrame) * kFrame / k;
+      const double box_closing = 2 * speed * kFrame / k;
+      EXPECT_LE(wall_closing, rule.wall_share * m.wall_thickness + 1e-12) << speed;
+      EXPECT_LE(wall_closing, rule.motion_share * m.typical_edge + 1e-12) << speed;
+      EXPECT_LE(box_closing, rule.motion_share * m.typical_edge + 1e-12) << speed;
+      // And K is the least that does: one fewer breaks a bound (or the floor).
+      if (k > 1) {
+        const bool floor =
+            gravity * (kFrame / (k - 1)) * (kFrame / (k - 1)) > rule.fall_share * m.typical_edge;
+        EXPECT_TRUE(floor || 2 * speed * kFrame / (k - 1) > rule.motion_share * m.typical_edge ||
+                    speedBound(speed, gravity, kFrame) * kFrame / (k - 1) >
+                        rule.motion_share * m.typical_edge)
+            << speed;
+      }
+    }
   }
 }
 
+TEST(StepPolicy, ThePileSolverWarmStartsFullyAndCorrectsOverlapInTheVelocitySolve) {
+  const SolverSettings pile = solverSettings(SolverMode::kPile);
+  const SolverSettings bullet = solverSettings(SolverMode::kBullet);
+  EXPECT_EQ(pile.iterations, 8);
+  EXPECT_EQ(bullet.iterations, 10);
+  EXPECT_EQ(pile.warmstarting_factor, 1.0);
+  EXPECT_FALSE(pile.split_impulse);
+  EXPECT_EQ(bullet.warmstarting_factor, 0.85);  // Bullet 3.24's btContactSolverInfo
+  EXPECT_TRUE(bullet.split_impulse);
+}
+
 TEST(StepPolicy, WithoutCcdTheSmallestEdgeBoundsTheMotionToo) {
-  const FrameMotion m{30, 9.798, kFrame, 0.1, 1.0, 8.0};
+  const FrameMotion m{{30, 30}, {30, 30}, 9.798, kFrame, 0.1, 1.0, 8.0};
   EXPECT_GT(chooseSubsteps(m, false), chooseSubsteps(m, true));
 }
 

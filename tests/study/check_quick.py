@@ -96,8 +96,16 @@ def main() -> int:
           f"pairs.csv holds {sorted(p['algo'] for p in pairs)}")
     check(all(p["missed"] == "0" for p in pairs), "an algorithm missed exact pairs")
     physics = rows(args.out / "physics.csv")
-    # Per scene 3 fixed-K runs and 2 automatic ones; scene 1 (it sleeps) once more without sleep.
-    check(len(physics) == 2 * 5 + 1, f"physics.csv has {len(physics)} runs, expected 11")
+    # Per scene 3 fixed-K runs and 2 automatic ones, scene 1 (it sleeps) once more without
+    # sleep; the old fixed K (2 and 8) x ccd off|auto x solver pile|bullet; at seed 7 those
+    # 4 and the 2 automatic ones again.
+    check(len(physics) == 2 * 5 + 1 + 2 * 4 + 2 * 6,
+          f"physics.csv has {len(physics)} runs, expected 31")
+    check({(r["scene"], r["substeps"], r["solver"]) for r in physics if r["solver"] == "bullet"}
+          == {("1", "2", "bullet"), ("4", "8", "bullet")}, "physics.csv lacks the old default")
+    check(sum(r["seed"] == "7" for r in physics) == 12, "physics.csv lacks seed 7's runs")
+    check("at every seed and size the comparison ran" in report,
+          "the report lacks the comparison across seeds")
     check(any(r["scene"] == "1" and r["sleep_error_max_m"] not in ("", "nan") for r in physics),
           "physics.csv lacks scene 1's sleep error")
     latency = rows(args.out / "latency.csv")
