@@ -51,6 +51,11 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::function<void()> after_aabb_update;
   std::function<void()> after_narrowphase;
 
+  // Bullet hands the last substep's CCD contacts (its predictive manifolds)
+  // back only when the next step starts; a world that is not stepped again
+  // must do it, or those the dispatcher's pool could not hold leak.
+  ~TimedDynamicsWorld() override { releasePredictiveContacts(); }
+
   void updateAabbs() override {
     const gpu::HostStopwatch watch;
     btDiscreteDynamicsWorld::updateAabbs();
