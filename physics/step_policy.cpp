@@ -87,6 +87,10 @@ double typicalEdge(std::span<const double> edges) {
   return *middle;
 }
 
+double inTypicalEdges(double speed, double edge, double typical_edge) {
+  return edge > 0 ? speed * typical_edge / edge : speed;
+}
+
 double speedBound(double speed, double gravity, double frame_time) {
   return speed + gravity * frame_time;
 }

@@ -20,6 +20,7 @@
 #include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/random.h"
+#include "physics/timed_world.h"
 
 namespace overlap::physics {
 namespace {
@@ -37,80 +38,6 @@ constexpr btScalar kContactDistance = 0.01f;
 // Past this distance from the origin a float has under 7 cm of resolution, no
 // container reaches it, and a box there is a broken state, not a physical one.
 constexpr double kFarAway = 1e6;
-
-// btDiscreteDynamicsWorld with each stage of a substep timed from inside.
-// A background broadphase (PairFinderBroadphase) launches and joins its own
-// search inside computeOverlappingPairs(); this world only reads its times.
-class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
- public:
-  using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
-
-  FrameTimings timings;
-  std::vector<SubstepReport> substeps;                // this frame's, the last one running
-  PairFinderBroadphase* background_search = nullptr;  // set when the broadphase searches off-thread
-  std::function<void()> after_aabb_update;
-  std::function<void()> after_narrowphase;
-
-  // Bullet hands the last substep's CCD contacts (its predictive manifolds)
-  // back only when the next step starts; a world that is not stepped again
-  // must do it, or those the dispatcher's pool could not hold leak.
-  ~TimedDynamicsWorld() override { releasePredictiveContacts(); }
-
-  void updateAabbs() override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::updateAabbs();
-    if (after_aabb_update) after_aabb_update();
-    timings.update_ms += watch.ms();
-  }
-  void computeOverlappingPairs() override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::computeOverlappingPairs();
-    timings.broadphase_ms += watch.ms();
-    if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
-    SubstepReport& substep = substeps.back();
-    if (background_search != nullptr) {
-      substep.search = background_search->lastSearch();
-      timings.search_ms += substep.search->search_ms;
-      timings.join_ms += substep.search->join_ms;
-    }
-    substep.narrowphase_start = std::chrono::steady_clock::now();
-  }
-  // update + broadphase + narrowphase; the narrowphase is what remains.
-  void performDiscreteCollisionDetection() override {
-    const double before = timings.update_ms + timings.broadphase_ms;
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
-    const double after = timings.update_ms + timings.broadphase_ms;
-    timings.narrowphase_ms += watch.ms() - (after - before);
-    if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
-    if (after_narrowphase) after_narrowphase();
-  }
-  void createPredictiveContacts(btScalar dt) override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::createPredictiveContacts(dt);
-    timings.narrowphase_ms += watch.ms();
-  }
-  void calculateSimulationIslands() override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::calculateSimulationIslands();
-    timings.solver_ms += watch.ms();
-  }
-  void solveConstraints(btContactSolverInfo& info) override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::solveConstraints(info);
-    timings.solver_ms += watch.ms();
-  }
-  void predictUnconstraintMotion(btScalar dt) override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
-    timings.integrate_ms += watch.ms();
-  }
-  void integrateTransforms(btScalar dt) override {
-    const gpu::HostStopwatch watch;
-    btDiscreteDynamicsWorld::integrateTransforms(dt);
-    timings.integrate_ms += watch.ms();
-  }
-};
 
 btVector3 toBullet(const Eigen::Vector3d& v) {
   return {static_cast<btScalar>(v.x()), static_cast<btScalar>(v.y()), static_cast<btScalar>(v.z())};
@@ -305,7 +232,8 @@ void PhysicsWorld::planFrame(FrameReport& report) {
   TopSpeeds typical;
   for (std::size_t i = 0; i < speeds.size(); ++i) {
     all.add(speeds[i]);
-    if (b.edges[i] >= b.typical_edge) typical.add(speeds[i]);
+    if (b.edges[i] >= b.typical_edge)
+      typical.add(inTypicalEdges(speeds[i], b.edges[i], b.typical_edge));
   }
   report.fastest_speed = all.fastest;
   if (automatic_substeps_) {

@@ -153,6 +153,23 @@ TEST(StepPolicy, WithoutCcdTheSmallestEdgeBoundsTheMotionToo) {
   EXPECT_GT(chooseSubsteps(m, false), chooseSubsteps(m, true));
 }
 
+TEST(StepPolicy, ALargeBoxMovesInItsOwnEdges) {
+  // A 4 m box at 100 m/s closes by as many of its edges per substep as a
+  // typical 1 m box at 25; a typical box is read as it is.
+  EXPECT_DOUBLE_EQ(inTypicalEdges(100, 4.0, 1.0), 25.0);
+  EXPECT_DOUBLE_EQ(inTypicalEdges(30, 1.0, 1.0), 30.0);
+  // So a frame whose fastest typical-or-larger box is a 4 m one at 100 m/s
+  // (scene 4) needs the K of 25 m/s boxes, not of 100 m/s ones.
+  TopSpeeds large;
+  large.add(inTypicalEdges(100, 4.0, 1.0));
+  large.add(inTypicalEdges(90, 3.5, 1.0));
+  const TopSpeeds all{100, 90};
+  const FrameMotion m{all, large, k50g, kFrame, 0.1, 1.0, 8.0};
+  const FrameMotion as_typical{all, all, k50g, kFrame, 0.1, 1.0, 8.0};
+  EXPECT_EQ(chooseSubsteps(m, true), 4);  // the pile's floor
+  EXPECT_GT(chooseSubsteps(as_typical, true), 8);
+}
+
 TEST(StepPolicy, TheTypicalEdgeIsTheMedianBoxs) {
   EXPECT_EQ(typicalEdge(std::vector<double>{}), 0.0);
   EXPECT_EQ(typicalEdge(std::vector<double>{4.0, 0.1, 1.0}), 1.0);

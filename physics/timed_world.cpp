@@ -1,0 +1,142 @@
+#include "physics/timed_world.h"
+
+#include <chrono>
+
+#include "gpu/stopwatch.h"
+#include "physics/pair_finder_broadphase.h"
+
+namespace overlap::physics {
+namespace {
+
+// The nearest wall a body's swept sphere meets while moving towards it:
+// Bullet's CCD sweep (not the body itself, only what the collision filters
+// and the dispatcher let it collide with and respond to, no hit it moves
+// away from or grazes within the allowed penetration), narrowed to static
+// bodies.
+class WallSweep final : public btCollisionWorld::ClosestConvexResultCallback {
+ public:
+  WallSweep(const btRigidBody& body, const btVector3& to, btDispatcher& dispatcher,
+            btScalar allowed_penetration)
+      : ClosestConvexResultCallback(body.getWorldTransform().getOrigin(), to),
+        body_(body),
+        dispatcher_(dispatcher),
+        allowed_penetration_(allowed_penetration) {
+    m_collisionFilterGroup = body.getBroadphaseProxy()->m_collisionFilterGroup;
+    m_collisionFilterMask = body.getBroadphaseProxy()->m_collisionFilterMask;
+  }
+
+  bool needsCollision(btBroadphaseProxy* proxy) const override {
+    const auto* other = static_cast<const btCollisionObject*>(proxy->m_clientObject);
+    if (other == &body_ || !other->isStaticOrKinematicObject()) return false;
+    return ClosestConvexResultCallback::needsCollision(proxy) &&
+           dispatcher_.needsCollision(&body_, other) && dispatcher_.needsResponse(&body_, other);
+  }
+
+  btScalar addSingleResult(btCollisionWorld::LocalConvexResult& hit,
+                           bool normal_in_world) override {
+    if (!hit.m_hitCollisionObject->hasContactResponse()) return 1;
+    const btVector3 motion = m_convexToWorld - m_convexFromWorld;
+    if (hit.m_hitNormalLocal.dot(motion) >= -allowed_penetration_) return 1;
+    return ClosestConvexResultCallback::addSingleResult(hit, normal_in_world);
+  }
+
+ private:
+  const btRigidBody& body_;
+  btDispatcher& dispatcher_;
+  btScalar allowed_penetration_;
+};
+
+}  // namespace
+
+TimedDynamicsWorld::~TimedDynamicsWorld() {
+  releasePredictiveContacts();
+}
+
+void TimedDynamicsWorld::updateAabbs() {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::updateAabbs();
+  if (after_aabb_update) after_aabb_update();
+  timings.update_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::computeOverlappingPairs() {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::computeOverlappingPairs();
+  timings.broadphase_ms += watch.ms();
+  if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
+  SubstepReport& substep = substeps.back();
+  if (background_search != nullptr) {
+    substep.search = background_search->lastSearch();
+    timings.search_ms += substep.search->search_ms;
+    timings.join_ms += substep.search->join_ms;
+  }
+  substep.narrowphase_start = std::chrono::steady_clock::now();
+}
+
+void TimedDynamicsWorld::performDiscreteCollisionDetection() {
+  const double before = timings.update_ms + timings.broadphase_ms;
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
+  const double after = timings.update_ms + timings.broadphase_ms;
+  timings.narrowphase_ms += watch.ms() - (after - before);
+  if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
+  if (after_narrowphase) after_narrowphase();
+}
+
+void TimedDynamicsWorld::createPredictiveContacts(btScalar dt) {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::createPredictiveContacts(dt);
+  timings.narrowphase_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::calculateSimulationIslands() {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::calculateSimulationIslands();
+  timings.solver_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::solveConstraints(btContactSolverInfo& info) {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::solveConstraints(info);
+  timings.solver_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::predictUnconstraintMotion(btScalar dt) {
+  const gpu::HostStopwatch watch;
+  btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
+  timings.integrate_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
+  const gpu::HostStopwatch watch;
+  for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
+    integrateBody(*m_nonStaticRigidBodies[i], dt);
+  // Bullet's speculative restitution pass is left out with the rest of its
+  // integrateTransforms: it is off unless asked for, and nothing asks.
+  timings.integrate_ms += watch.ms();
+}
+
+void TimedDynamicsWorld::integrateBody(btRigidBody& body, btScalar dt) {
+  body.setHitFraction(1);
+  if (!body.isActive() || body.isStaticOrKinematicObject()) return;
+  btTransform predicted;
+  body.predictIntegratedTransform(dt, predicted);
+  const btScalar motion2 = (predicted.getOrigin() - body.getWorldTransform().getOrigin()).length2();
+  const btScalar threshold2 = body.getCcdSquareMotionThreshold();
+  if (getDispatchInfo().m_useContinuous && threshold2 != 0 && threshold2 < motion2 &&
+      body.getCollisionShape()->isConvex()) {
+    WallSweep sweep(body, predicted.getOrigin(), *getDispatcher(),
+                    getDispatchInfo().m_allowedCcdPenetration);
+    const btSphereShape sphere(body.getCcdSweptSphereRadius());
+    const btTransform to(body.getWorldTransform().getBasis(), predicted.getOrigin());
+    convexSweepTest(&sphere, body.getWorldTransform(), to, sweep);
+    if (sweep.hasHit() && sweep.m_closestHitFraction < 1) {
+      // Up to the hit; the contact there answers in the next substep.
+      body.predictIntegratedTransform(dt * sweep.m_closestHitFraction, predicted);
+      body.setHitFraction(0);
+    }
+  }
+  body.proceedToTransform(predicted);
+}
+
+}  // namespace overlap::physics

@@ -1,0 +1,67 @@
+// The btDiscreteDynamicsWorld PhysicsWorld steps: Bullet's own, with each
+// stage of a substep timed from inside, and one repair to its CCD.
+//
+// Timing: update, broadphase, narrowphase, solver and integration add into
+// `timings` over the frame's substeps; each substep started by the caller
+// (an entry pushed on `substeps`) gets its narrowphase's start and end and,
+// for a broadphase that searches off the main thread (PairFinderBroadphase),
+// that search's times.  A step from outside stepFrame() (no entry pushed)
+// is timed but not reported per substep.
+//
+// CCD: Bullet's motion clamp sweeps a fast body's sphere against every body
+// and stops it at the first hit as if what it hit stood still.  Two CCD
+// boxes moving side by side then stop each other every substep while gravity
+// keeps adding speed: in scene 3 at 3500 boxes (K = 8, --ccd auto) a pair
+// froze in mid-air at frame 7 and reached 3462 m/s by frame 240, and the
+// substep rule read that speed as real.  Here the clamp sweeps against static
+// bodies (the walls) only, Bullet's own USE_STATIC_ONLY variant, compiled out
+// of Debian's build.  Against moving boxes Bullet's predictive contacts
+// (createPredictiveContacts) stay, and the solver applies them with both
+// bodies' velocities.
+//
+// Bullet is not thread-safe here: one world, one thread.
+#pragma once
+
+#include <btBulletDynamicsCommon.h>
+
+#include <functional>
+#include <vector>
+
+#include "physics/world.h"
+
+namespace overlap::physics {
+
+class PairFinderBroadphase;
+
+class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
+ public:
+  using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
+  // Bullet hands the last substep's CCD contacts (its predictive manifolds)
+  // back only when the next step starts; a world that is not stepped again
+  // must do it, or those the dispatcher's pool could not hold leak.
+  ~TimedDynamicsWorld() override;
+
+  FrameTimings timings;
+  std::vector<SubstepReport> substeps;                // this frame's, the last one running
+  PairFinderBroadphase* background_search = nullptr;  // set when the broadphase searches off-thread
+  std::function<void()> after_aabb_update;
+  std::function<void()> after_narrowphase;
+
+  void updateAabbs() override;
+  void computeOverlappingPairs() override;
+  // update + broadphase + narrowphase; the narrowphase is what remains.
+  void performDiscreteCollisionDetection() override;
+  void createPredictiveContacts(btScalar dt) override;
+  void calculateSimulationIslands() override;
+  void solveConstraints(btContactSolverInfo& info) override;
+  void predictUnconstraintMotion(btScalar dt) override;
+  // Bullet's integrateTransforms with the static-only CCD clamp.
+  void integrateTransforms(btScalar dt) override;
+
+ private:
+  // Moves `body` by its velocities over dt, stopped where its swept sphere
+  // first meets a wall when its motion exceeds its CCD threshold.
+  void integrateBody(btRigidBody& body, btScalar dt);
+};
+
+}  // namespace overlap::physics
