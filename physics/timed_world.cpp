@@ -8,26 +8,28 @@
 namespace overlap::physics {
 namespace {
 
-// The nearest wall a body's swept sphere meets while moving towards it:
+// The nearest body a fast body's swept sphere meets while closing on it:
 // Bullet's CCD sweep (not the body itself, only what the collision filters
 // and the dispatcher let it collide with and respond to, no hit it moves
-// away from or grazes within the allowed penetration), narrowed to static
-// bodies.
-class WallSweep final : public btCollisionWorld::ClosestConvexResultCallback {
+// away from or grazes within the allowed penetration), with one change: a
+// hit counts only when the body closes on what it hit by their relative
+// motion over the substep, not by its own motion alone.
+class ClosingSweep final : public btCollisionWorld::ClosestConvexResultCallback {
  public:
-  WallSweep(const btRigidBody& body, const btVector3& to, btDispatcher& dispatcher,
-            btScalar allowed_penetration)
+  ClosingSweep(const btRigidBody& body, const btVector3& to, btDispatcher& dispatcher,
+               btScalar allowed_penetration, btScalar dt)
       : ClosestConvexResultCallback(body.getWorldTransform().getOrigin(), to),
         body_(body),
         dispatcher_(dispatcher),
-        allowed_penetration_(allowed_penetration) {
+        allowed_penetration_(allowed_penetration),
+        dt_(dt) {
     m_collisionFilterGroup = body.getBroadphaseProxy()->m_collisionFilterGroup;
     m_collisionFilterMask = body.getBroadphaseProxy()->m_collisionFilterMask;
   }
 
   bool needsCollision(btBroadphaseProxy* proxy) const override {
     const auto* other = static_cast<const btCollisionObject*>(proxy->m_clientObject);
-    if (other == &body_ || !other->isStaticOrKinematicObject()) return false;
+    if (other == &body_) return false;
     return ClosestConvexResultCallback::needsCollision(proxy) &&
            dispatcher_.needsCollision(&body_, other) && dispatcher_.needsResponse(&body_, other);
   }
@@ -35,8 +37,11 @@ class WallSweep final : public btCollisionWorld::ClosestConvexResultCallback {
   btScalar addSingleResult(btCollisionWorld::LocalConvexResult& hit,
                            bool normal_in_world) override {
     if (!hit.m_hitCollisionObject->hasContactResponse()) return 1;
-    const btVector3 motion = m_convexToWorld - m_convexFromWorld;
-    if (hit.m_hitNormalLocal.dot(motion) >= -allowed_penetration_) return 1;
+    btVector3 closing = m_convexToWorld - m_convexFromWorld;
+    if (const btRigidBody* other = btRigidBody::upcast(hit.m_hitCollisionObject)) {
+      closing -= other->getLinearVelocity() * dt_;  // a wall's is zero
+    }
+    if (hit.m_hitNormalLocal.dot(closing) >= -allowed_penetration_) return 1;
     return ClosestConvexResultCallback::addSingleResult(hit, normal_in_world);
   }
 
@@ -44,6 +49,7 @@ class WallSweep final : public btCollisionWorld::ClosestConvexResultCallback {
   const btRigidBody& body_;
   btDispatcher& dispatcher_;
   btScalar allowed_penetration_;
+  btScalar dt_;
 };
 
 }  // namespace
@@ -125,8 +131,8 @@ void TimedDynamicsWorld::integrateBody(btRigidBody& body, btScalar dt) {
   const btScalar threshold2 = body.getCcdSquareMotionThreshold();
   if (getDispatchInfo().m_useContinuous && threshold2 != 0 && threshold2 < motion2 &&
       body.getCollisionShape()->isConvex()) {
-    WallSweep sweep(body, predicted.getOrigin(), *getDispatcher(),
-                    getDispatchInfo().m_allowedCcdPenetration);
+    ClosingSweep sweep(body, predicted.getOrigin(), *getDispatcher(),
+                       getDispatchInfo().m_allowedCcdPenetration, dt);
     const btSphereShape sphere(body.getCcdSweptSphereRadius());
     const btTransform to(body.getWorldTransform().getBasis(), predicted.getOrigin());
     convexSweepTest(&sphere, body.getWorldTransform(), to, sweep);

@@ -86,8 +86,8 @@ TEST(TimedDynamicsWorld, BulletsCcdClampFreezesTwoBoxesFallingSideBySide) {
 }
 
 TEST(TimedDynamicsWorld, CcdBoxesFallingSideBySideKeepFalling) {
-  // The repaired clamp sweeps against walls only: each box falls freely, its
-  // speed times the frame and up to g T^2 more.
+  // The repaired clamp stops a box only where it closes on what it hits:
+  // each box falls freely, its speed times the frame and up to g T^2 more.
   FallingPair pair(std::type_identity<TimedDynamicsWorld>{});
   const std::vector<double> fall = pair.fallInOneFrame();
   const double speeds[] = {160.767609, 170.063507};
