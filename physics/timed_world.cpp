@@ -54,6 +54,13 @@ class ClosingSweep final : public btCollisionWorld::ClosestConvexResultCallback 
 
 }  // namespace
 
+void applySolverSettings(btContactSolverInfo& info, SolverMode mode) {
+  const SolverSettings solver = solverSettings(mode);
+  info.m_numIterations = solver.iterations;
+  info.m_warmstartingFactor = static_cast<btScalar>(solver.warmstarting_factor);
+  info.m_splitImpulse = solver.split_impulse ? 1 : 0;
+}
+
 TimedDynamicsWorld::~TimedDynamicsWorld() {
   releasePredictiveContacts();
 }

@@ -31,6 +31,7 @@
 #include <functional>
 #include <vector>
 
+#include "physics/step_policy.h"
 #include "physics/world.h"
 
 namespace overlap::physics {
@@ -68,5 +69,9 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   // threshold.
   void integrateBody(btRigidBody& body, btScalar dt);
 };
+
+// Sets Bullet's contact solver up as solverSettings(mode) says: the one
+// place those numbers reach Bullet (PhysicsWorld and the tests share it).
+void applySolverSettings(btContactSolverInfo& info, SolverMode mode);
 
 }  // namespace overlap::physics

@@ -102,11 +102,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
                                                  &b.collision_config);
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
-  const SolverSettings solver = solverSettings(options.solver);
-  btContactSolverInfo& solver_info = b.world->getSolverInfo();
-  solver_info.m_numIterations = solver.iterations;
-  solver_info.m_warmstartingFactor = static_cast<btScalar>(solver.warmstarting_factor);
-  solver_info.m_splitImpulse = solver.split_impulse ? 1 : 0;
+  applySolverSettings(b.world->getSolverInfo(), options.solver);
   // Bullet's ghost objects (btGhostObject, character controllers) need the
   // pair cache's one ghost-pair slot; the world itself does not use it.
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.ghost_pairs);

@@ -6,8 +6,6 @@
 #include <memory>
 #include <vector>
 
-#include "physics/step_policy.h"
-
 namespace overlap::physics {
 namespace {
 
@@ -29,10 +27,7 @@ struct FallingPair {
       : world(std::make_unique<World>(&dispatcher, &broadphase, &solver, &config)) {
     world->setGravity(btVector3(0, -50 * 9.798f, 0));
     shape.setMargin(0.04f);
-    const SolverSettings pile = solverSettings(SolverMode::kPile);
-    world->getSolverInfo().m_numIterations = pile.iterations;
-    world->getSolverInfo().m_warmstartingFactor = static_cast<btScalar>(pile.warmstarting_factor);
-    world->getSolverInfo().m_splitImpulse = pile.split_impulse ? 1 : 0;
+    applySolverSettings(world->getSolverInfo(), SolverMode::kPile);
     add({-8.15285683f, -7.18443775f, 0.355216444f},
         {0.267163128f, -0.681353688f, 0.222343713f, 0.644161582f},
         {-0.38555333f, -160.767609f, 1.95906401f}, {9.69750977f, 0.957460165f, 5.94018126f});
