@@ -128,6 +128,11 @@ double speedBound(double speed, double gravity, double frame_time);
 // 0.1-0.4 m one squeezed out of the pile at 35-100 m/s); (a) still reads
 // every box.  Capped at max_substeps (the cap wins over (a)-(d): the frame's
 // cost is bounded, and CCD covers what a capped K leaves).
+// (b) reads the centres' speeds, not the corners': a spinning box's corners
+// close faster (scene 2's deepest overlaps, 0.3-0.37 edges, are spinning
+// boxes in K = 1 frames), but adding |w| x half-diagonal to every speed
+// cost scene 4 at 3500 boxes 39% more time for the same penetration
+// (mean K 6.1 -> 8.7), past the 50 g time target; docs/REPORT.md 3.2.
 int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule = {});
 
 // The share of its own edge a box may move in one substep before Bullet's
@@ -172,7 +177,10 @@ struct SolverSettings {
 // 42, 7, 123; the deepest overlap in the last 100 frames): kBullet's pile
 // gave way (1.0 edges); kPile with 10 iterations held (0.52, 0.59, 0.60),
 // with 8 held as well for 7% less time (0.44, 0.54, 0.51), with 6 less well
-// (0.60, 0.78, 0.66); a stiffer push-out (m_erp2 0.35, 0.5) did worse.
+// (0.60, 0.78, 0.66); a stiffer push-out (m_erp2 0.35, 0.5) did worse, and
+// m_erp2 0.25 or 0.3 moved the deepest overlap both ways seed by seed under
+// --substeps auto (seeds 2, 3, 4, 7, 123); 12 iterations lowered it at
+// seeds 3 and 4 (0.65, 0.64 -> 0.40, 0.47) for 9-14% more time.
 SolverSettings solverSettings(SolverMode mode);
 
 }  // namespace overlap::physics

@@ -106,6 +106,8 @@ def main() -> int:
     check(sum(r["seed"] == "7" for r in physics) == 12, "physics.csv lacks seed 7's runs")
     check("at every seed and size the comparison ran" in report,
           "the report lacks the comparison across seeds")
+    check("Summed over the seeds of each size" in report,
+          "the report lacks the comparison summed over seeds")
     check(any(r["scene"] == "1" and r["sleep_error_max_m"] not in ("", "nan") for r in physics),
           "physics.csv lacks scene 1's sleep error")
     latency = rows(args.out / "latency.csv")
