@@ -73,17 +73,26 @@ def target_lines(scene: int, rows: list, fmt) -> list:
     return lines
 
 
-def robustness_lines(rows: list, fmt, table) -> list:
-    """--substeps auto --ccd auto (the default) against the old default (K fixed, no CCD,
-    Bullet's solver) at every seed and size the comparison cells ran."""
-    groups = sorted({(r["scene"], r["objects"], r["seed"]) for r in rows})
-    body = []
-    for scene, n, seed in groups:
+def default_against_old(rows: list) -> list:
+    """(scene, boxes, seed, auto, old) for every seed and size where both the default
+    (--substeps auto --ccd auto, solver pile) and the old default (K fixed, no CCD,
+    Bullet's solver) ran, in (scene, boxes, seed) order."""
+    cells = []
+    for scene, n, seed in sorted({(r["scene"], r["objects"], r["seed"]) for r in rows}):
         mine = [r for r in rows if (r["scene"], r["objects"], r["seed"]) == (scene, n, seed)]
         auto = find(mine, "auto", "auto", "pile")
         base = find(mine, old_default_k(scene), "off", "bullet")
-        if auto is None or base is None:
-            continue
+        if auto is not None and base is not None:
+            cells.append((scene, n, seed, auto, base))
+    return cells
+
+
+def robustness_lines(rows: list, fmt, table) -> list:
+    """--substeps auto --ccd auto (the default) against the old default (K fixed, no CCD,
+    Bullet's solver) at every seed and size the comparison cells ran."""
+    cells = default_against_old(rows)
+    body = []
+    for scene, n, seed, auto, base in cells:
         time, _, misses = compare(auto, base)
         body.append([scene, n, seed, auto["frames"], f"x{time:.2f}", fmt(auto["mean_k"]),
                      f"{auto['escaped_max']} / {base['escaped_max']}",
@@ -97,37 +106,26 @@ def robustness_lines(rows: list, fmt, table) -> list:
              "comparison ran; each error is auto / old:", ""]
             + table(["scene", "boxes", "seed", "frames", "time", "mean K", "escaped max",
                      "sunk max", "deepest pen. / edge", "target"], body)
-            + seed_summary_lines(rows, fmt, table))
+            + seed_summary_lines(cells, fmt, table))
 
 
-def median(values) -> float:
-    return statistics.median(list(values))
-
-
-def seed_summary_lines(rows: list, fmt, table) -> list:
-    """The same comparison summed over the seeds of each (scene, size) that ran at more than
-    one: a chaotic pile's deepest overlap over a run is one draw, so a cell met or missed at
-    one seed says little; how often and by how much it is met says more."""
+def seed_summary_lines(cells: list, fmt, table) -> list:
+    """default_against_old's cells summed over the seeds of each (scene, size) that ran at
+    more than one: a chaotic pile's deepest overlap over a run is one draw, so a cell met or
+    missed at one seed says little; how often and by how much it is met says more."""
     body = []
-    for scene, n in sorted({(r["scene"], r["objects"]) for r in rows}):
-        pairs = []
-        for seed in sorted({r["seed"] for r in rows if (r["scene"], r["objects"]) == (scene, n)}):
-            mine = [r for r in rows if (r["scene"], r["objects"], r["seed"]) == (scene, n, seed)]
-            auto = find(mine, "auto", "auto", "pile")
-            base = find(mine, old_default_k(scene), "off", "bullet")
-            if auto is not None and base is not None:
-                pairs.append((auto, base, compare(auto, base)))
+    for scene, n in sorted({(scene, n) for scene, n, _, _, _ in cells}):
+        pairs = [(auto, base, compare(auto, base))
+                 for s, m, _, auto, base in cells if (s, m) == (scene, n)]
         if len(pairs) < 2:
             continue
         times = sorted(time for _, _, (time, _, _) in pairs)
-        deeper = sum(a["penetration_max"] > b["penetration_max"] for a, b, _ in pairs)
-        more_sunk = sum(a["sunk_max"] > b["sunk_max"] for a, b, _ in pairs)
-
         body.append([scene, n, len(pairs), sum(not misses for _, _, (_, _, misses) in pairs),
-                     f"x{median(times):.2f} (x{times[0]:.2f}-x{times[-1]:.2f})",
-                     f"{fmt(median(a['penetration_max'] for a, _, _ in pairs))} / "
-                     f"{fmt(median(b['penetration_max'] for _, b, _ in pairs))}",
-                     deeper, more_sunk,
+                     f"x{statistics.median(times):.2f} (x{times[0]:.2f}-x{times[-1]:.2f})",
+                     f"{fmt(statistics.median(a['penetration_max'] for a, _, _ in pairs))} / "
+                     f"{fmt(statistics.median(b['penetration_max'] for _, b, _ in pairs))}",
+                     sum(a["penetration_max"] > b["penetration_max"] for a, b, _ in pairs),
+                     sum(a["sunk_max"] > b["sunk_max"] for a, b, _ in pairs),
                      sum(a["escaped_max"] > 0 for a, _, _ in pairs)])
     if not body:
         return []
