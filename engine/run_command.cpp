@@ -78,6 +78,7 @@ const std::vector<Column>& columns() {
       {"narrowphase_ms", [](R r) { return r.frame.physics.timings.narrowphase_ms; }, true},
       {"solver_ms", [](R r) { return r.frame.physics.timings.solver_ms; }, true},
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
+      {"ccd_query_ms", [](R r) { return r.frame.physics.timings.ccd_query_ms; }, true},
       {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
       {"total_ms", [](R r) { return r.frame.frame_ms; }, true},
       {"sound_ms", [](R r) { return r.frame.sound_ms; }, true},

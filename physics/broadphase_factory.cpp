@@ -47,7 +47,8 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
                                   std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
                                   std::to_string(max_objects) + "; use sap32");
     }
-    // No ray-test DBVT: CCD's ray tests are rare here and it would double the update cost.
+    // No ray-test tree of its own: PhysicsWorld answers every broadphase's
+    // ray and sweep queries through one shared tree (ccd_query_broadphase.h).
     choice.broadphase = std::make_unique<btAxisSweep3>(
         world_min, world_max, static_cast<unsigned short>(max_objects + 1), nullptr, true);
   } else if (name == "sap32") {

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "gpu/stopwatch.h"
+#include "physics/ccd_query_broadphase.h"
 #include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
@@ -98,8 +99,11 @@ void TimedDynamicsWorld::performDiscreteCollisionDetection() {
 
 void TimedDynamicsWorld::createPredictiveContacts(btScalar dt) {
   const gpu::HostStopwatch watch;
+  const double queries_before = ccdQueryMs();
   btDiscreteDynamicsWorld::createPredictiveContacts(dt);
-  timings.narrowphase_ms += watch.ms();
+  const double queries = ccdQueryMs() - queries_before;
+  timings.ccd_query_ms += queries;
+  timings.narrowphase_ms += watch.ms() - queries;
 }
 
 void TimedDynamicsWorld::calculateSimulationIslands() {
@@ -122,11 +126,18 @@ void TimedDynamicsWorld::predictUnconstraintMotion(btScalar dt) {
 
 void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
   const gpu::HostStopwatch watch;
+  const double queries_before = ccdQueryMs();
   for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
     integrateBody(*m_nonStaticRigidBodies[i], dt);
   // Bullet's speculative restitution pass is left out with the rest of its
   // integrateTransforms: it is off unless asked for, and nothing asks.
-  timings.integrate_ms += watch.ms();
+  const double queries = ccdQueryMs() - queries_before;
+  timings.ccd_query_ms += queries;
+  timings.integrate_ms += watch.ms() - queries;
+}
+
+double TimedDynamicsWorld::ccdQueryMs() const {
+  return ccd_queries != nullptr ? ccd_queries->queryMs() : 0;
 }
 
 void TimedDynamicsWorld::integrateBody(btRigidBody& body, btScalar dt) {

@@ -1,8 +1,9 @@
 // The btDiscreteDynamicsWorld PhysicsWorld steps: Bullet's own, with each
 // stage of a substep timed from inside, and one repair to its CCD.
 //
-// Timing: update, broadphase, narrowphase, solver and integration add into
-// `timings` over the frame's substeps; each substep started by the caller
+// Timing: update, broadphase, narrowphase, solver, integration and CCD's
+// sweep queries add into `timings` over the frame's substeps (a sweep's
+// query is taken out of the stage that asked for it); each substep started by the caller
 // (an entry pushed on `substeps`) gets its narrowphase's start and end and,
 // for a broadphase that searches off the main thread (PairFinderBroadphase),
 // that search's times.  A step from outside stepFrame() (no entry pushed)
@@ -36,6 +37,7 @@
 
 namespace overlap::physics {
 
+class CcdQueryBroadphase;
 class PairFinderBroadphase;
 
 class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
@@ -49,6 +51,7 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   FrameTimings timings;
   std::vector<SubstepReport> substeps;                // this frame's, the last one running
   PairFinderBroadphase* background_search = nullptr;  // set when the broadphase searches off-thread
+  CcdQueryBroadphase* ccd_queries = nullptr;          // set when CCD's sweeps are to be timed apart
   std::function<void()> after_aabb_update;
   std::function<void()> after_narrowphase;
 
@@ -68,6 +71,7 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   // first meets a body it closes on, when its motion exceeds its CCD
   // threshold.
   void integrateBody(btRigidBody& body, btScalar dt);
+  double ccdQueryMs() const;
 };
 
 // Sets Bullet's contact solver up as solverSettings(mode) says: the one

@@ -16,6 +16,7 @@
 
 #include "gpu/stopwatch.h"
 #include "physics/broadphase_factory.h"
+#include "physics/ccd_query_broadphase.h"
 #include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/random.h"
@@ -52,7 +53,8 @@ std::uint64_t hashVector(const btVector3& v, std::uint64_t hash) {
 struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
-  std::unique_ptr<btBroadphaseInterface> broadphase;
+  std::unique_ptr<btBroadphaseInterface> broadphase;  // a CcdQueryBroadphase
+  CcdQueryBroadphase* ccd_queries = nullptr;          // the same, as what it is
   btSequentialImpulseConstraintSolver solver;
   std::unique_ptr<TimedDynamicsWorld> world;
   std::vector<std::unique_ptr<btBoxShape>> shapes;
@@ -95,7 +97,11 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
   BroadphaseChoice choice =
       makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
-  b.broadphase = std::move(choice.broadphase);
+  // Every broadphase answers CCD's sweeps through one shared tree: the same
+  // queries for all (physics/ccd_query_broadphase.h).
+  auto queries = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
+  b.ccd_queries = queries.get();
+  b.broadphase = std::move(queries);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 
@@ -106,7 +112,8 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   // Bullet's ghost objects (btGhostObject, character controllers) need the
   // pair cache's one ghost-pair slot; the world itself does not use it.
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.ghost_pairs);
-  b.world->background_search = dynamic_cast<PairFinderBroadphase*>(b.broadphase.get());
+  b.world->background_search = dynamic_cast<PairFinderBroadphase*>(&b.ccd_queries->pairSearch());
+  b.world->ccd_queries = b.ccd_queries;
   b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
   b.world->after_narrowphase = [this] { noteContactsStarted(); };
   b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
@@ -475,7 +482,7 @@ btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {
   return *bullet_->world;
 }
 btBroadphaseInterface& PhysicsWorld::broadphase() {
-  return *bullet_->broadphase;
+  return bullet_->ccd_queries->pairSearch();
 }
 
 }  // namespace overlap::physics

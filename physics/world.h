@@ -49,6 +49,7 @@ struct FrameTimings {
   double narrowphase_ms = 0;  // contact generation for the cached pairs
   double solver_ms = 0;       // constraint solver
   double integrate_ms = 0;    // motion prediction and integration
+  double ccd_query_ms = 0;    // CCD's sweeps finding what they may hit (CcdQueryBroadphase)
   double total_ms = 0;        // the whole step
 };
 
@@ -156,6 +157,8 @@ class PhysicsWorld {
   // replace the pair cache's ghost-pair callback: the world's forwards to
   // Bullet's btGhostPairCallback already.
   btDiscreteDynamicsWorld& bulletWorld();
+  // The broadphase asked for, which finds the pairs (CCD's sweeps go
+  // through a tree shared by every broadphase: CcdQueryBroadphase).
   btBroadphaseInterface& broadphase();
 
  private:

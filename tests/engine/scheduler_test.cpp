@@ -238,8 +238,8 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSamePairsStateAndTasks) {
 // broadphase gives the same sound where it gives the same physics.
 TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
   // The sound can only be compared where the physics is the same.  Bullet's
-  // physics may differ by broadphase: CCD's sweeps ask the broadphase's
-  // rayTest (answered in different orders), and sap's quantized boxes can
+  // physics may differ by broadphase: with CCD the states part (see
+  // tests/hard_cases/determinism_test.cpp), and sap's quantized boxes can
   // pair two boxes a hair apart, which the narrowphase then gives a
   // speculative contact.  Fixed K = 8 without CCD keeps all four identical
   // on this scene (checked below).

@@ -82,10 +82,10 @@ TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
 // capped as `overlap run --threads` caps them, for the whole process (a cap
 // above the core count leaves cpubf at one thread per core).  Both bf and
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
-// cpubf must also end where Bullet's own brute force ends.  Without CCD:
-// CCD's sweeps query the broadphase's rayTest, which btSimpleBroadphase
-// answers with every proxy and ours with those the sweep's AABB meets, in
-// another order, so a tie between two hits can go either way.
+// cpubf must also end where Bullet's own brute force ends.  Without CCD: with
+// it the two part after a few frames of scene 4 although every broadphase's
+// sweeps go through the same query tree (physics/ccd_query_broadphase.h);
+// what else CCD's contacts make order-dependent is not pinned down.
 TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
   const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2, 4}) {

@@ -1,0 +1,142 @@
+#include "physics/ccd_query_broadphase.h"
+
+#include "gpu/stopwatch.h"
+
+namespace overlap::physics {
+
+class CcdQueryBroadphase::ForwardRay final : public btBroadphaseRayCallback {
+ public:
+  explicit ForwardRay(btBroadphaseRayCallback& outer) : outer_(outer) {
+    m_rayDirectionInverse = outer.m_rayDirectionInverse;
+    m_signs[0] = outer.m_signs[0];
+    m_signs[1] = outer.m_signs[1];
+    m_signs[2] = outer.m_signs[2];
+    m_lambda_max = outer.m_lambda_max;
+  }
+  bool process(const btBroadphaseProxy* node) override {
+    return outer_.process(static_cast<const btBroadphaseProxy*>(node->m_clientObject));
+  }
+
+ private:
+  btBroadphaseRayCallback& outer_;
+};
+
+class CcdQueryBroadphase::ForwardAabb final : public btBroadphaseAabbCallback {
+ public:
+  explicit ForwardAabb(btBroadphaseAabbCallback& outer) : outer_(outer) {}
+  bool process(const btBroadphaseProxy* node) override {
+    return outer_.process(static_cast<const btBroadphaseProxy*>(node->m_clientObject));
+  }
+
+ private:
+  btBroadphaseAabbCallback& outer_;
+};
+
+CcdQueryBroadphase::CcdQueryBroadphase(std::unique_ptr<btBroadphaseInterface> pairs)
+    : pairs_(std::move(pairs)) {
+  tree_.m_deferedcollide = true;  // a tree only: never look for pairs
+}
+
+CcdQueryBroadphase::~CcdQueryBroadphase() = default;
+
+btBroadphaseProxy* CcdQueryBroadphase::createProxy(const btVector3& aabbMin,
+                                                   const btVector3& aabbMax, int shapeType,
+                                                   void* userPtr, int collisionFilterGroup,
+                                                   int collisionFilterMask,
+                                                   btDispatcher* dispatcher) {
+  btBroadphaseProxy* proxy = pairs_->createProxy(
+      aabbMin, aabbMax, shapeType, userPtr, collisionFilterGroup, collisionFilterMask, dispatcher);
+  btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
+                                              collisionFilterGroup, collisionFilterMask, nullptr);
+  leaf_of_[proxy] = leaves_.size();
+  leaves_.push_back(Leaf{proxy, node, aabbMin, aabbMax, false});
+  return proxy;
+}
+
+void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+  const auto found = leaf_of_.find(proxy);
+  const std::size_t index = found->second;
+  leaf_of_.erase(found);
+  tree_.destroyProxy(leaves_[index].node, nullptr);
+  // Swap-remove, keeping the moved leaf's lookup and any stale mark valid.
+  if (index + 1 != leaves_.size()) {
+    leaves_[index] = leaves_.back();
+    leaf_of_[leaves_[index].proxy] = index;
+    for (std::size_t& stale : stale_)
+      if (stale == leaves_.size() - 1) stale = index;
+  }
+  leaves_.pop_back();
+  std::erase(stale_, leaves_.size());
+  pairs_->destroyProxy(proxy, dispatcher);
+}
+
+void CcdQueryBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin,
+                                 const btVector3& aabbMax, btDispatcher* dispatcher) {
+  pairs_->setAabb(proxy, aabbMin, aabbMax, dispatcher);
+  const std::size_t index = leaf_of_.at(proxy);
+  Leaf& leaf = leaves_[index];
+  if (leaf.min == aabbMin && leaf.max == aabbMax) return;
+  leaf.min = aabbMin;
+  leaf.max = aabbMax;
+  if (!leaf.stale) stale_.push_back(index);
+  leaf.stale = true;
+}
+
+void CcdQueryBroadphase::refresh() {
+  for (const std::size_t index : stale_) {
+    Leaf& leaf = leaves_[index];
+    tree_.setAabb(leaf.node, leaf.min, leaf.max, nullptr);
+    leaf.stale = false;
+  }
+  stale_.clear();
+}
+
+void CcdQueryBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
+                                 btVector3& aabbMax) const {
+  pairs_->getAabb(proxy, aabbMin, aabbMax);
+}
+
+void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayTo,
+                                 btBroadphaseRayCallback& callback, const btVector3& aabbMin,
+                                 const btVector3& aabbMax) {
+  const gpu::HostStopwatch watch;
+  refresh();
+  ForwardRay forward(callback);
+  tree_.rayTest(rayFrom, rayTo, forward, aabbMin, aabbMax);
+  query_ms_ += watch.ms();
+}
+
+void CcdQueryBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
+                                  btBroadphaseAabbCallback& callback) {
+  const gpu::HostStopwatch watch;
+  refresh();
+  ForwardAabb forward(callback);
+  tree_.aabbTest(aabbMin, aabbMax, forward);
+  query_ms_ += watch.ms();
+}
+
+void CcdQueryBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
+  pairs_->calculateOverlappingPairs(dispatcher);
+}
+
+btOverlappingPairCache* CcdQueryBroadphase::getOverlappingPairCache() {
+  return pairs_->getOverlappingPairCache();
+}
+
+const btOverlappingPairCache* CcdQueryBroadphase::getOverlappingPairCache() const {
+  return pairs_->getOverlappingPairCache();
+}
+
+void CcdQueryBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
+  pairs_->getBroadphaseAabb(aabbMin, aabbMax);
+}
+
+void CcdQueryBroadphase::resetPool(btDispatcher* dispatcher) {
+  pairs_->resetPool(dispatcher);
+}
+
+void CcdQueryBroadphase::printStats() {
+  pairs_->printStats();
+}
+
+}  // namespace overlap::physics

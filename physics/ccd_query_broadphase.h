@@ -1,0 +1,81 @@
+// A broadphase whose ray and sweep queries go through one tree shared by
+// every broadphase: the pairs come from the broadphase asked for, the
+// queries from Bullet's dynamic AABB tree (btDbvtBroadphase, used as a tree
+// only: no pairs of its own).
+//
+// Why: Bullet's CCD (its predictive contacts and the motion clamp) sweeps
+// each fast body through rayTest.  btSimpleBroadphase answers that by
+// visiting every proxy, btAxisSweep3 through an optional tree of its own,
+// btDbvtBroadphase through its tree and ours by a scan, so with CCD on a
+// run's time measured the query path as much as the pair search.  With one
+// query tree for all, every broadphase meets the same queries in the same
+// order (the same physics), and the queries' time is a column of its own.
+//
+// Invariants: every call but rayTest and aabbTest goes to the wrapped
+// broadphase unchanged, with its own proxies (what the world holds); the
+// tree holds one leaf per proxy, refreshed from the latest setAabb at the
+// first query after it (a run without CCD never builds it); a query visits
+// proxies of the wrapped broadphase, in an order fixed by the calls alone.
+// Bullet is not thread-safe here: one thread.
+#pragma once
+
+#include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
+#include <btBulletCollisionCommon.h>
+
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+namespace overlap::physics {
+
+class CcdQueryBroadphase final : public btBroadphaseInterface {
+ public:
+  explicit CcdQueryBroadphase(std::unique_ptr<btBroadphaseInterface> pairs);
+  ~CcdQueryBroadphase() override;
+
+  // The broadphase that finds the pairs.
+  btBroadphaseInterface& pairSearch() { return *pairs_; }
+  // Time spent in rayTest and aabbTest (tree refresh included) since construction, ms.
+  double queryMs() const { return query_ms_; }
+
+  btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
+                                 void* userPtr, int collisionFilterGroup, int collisionFilterMask,
+                                 btDispatcher* dispatcher) override;
+  void destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) override;
+  void setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
+               btDispatcher* dispatcher) override;
+  void getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin, btVector3& aabbMax) const override;
+  void rayTest(const btVector3& rayFrom, const btVector3& rayTo, btBroadphaseRayCallback& callback,
+               const btVector3& aabbMin, const btVector3& aabbMax) override;
+  void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
+                btBroadphaseAabbCallback& callback) override;
+  void calculateOverlappingPairs(btDispatcher* dispatcher) override;
+  btOverlappingPairCache* getOverlappingPairCache() override;
+  const btOverlappingPairCache* getOverlappingPairCache() const override;
+  void getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const override;
+  void resetPool(btDispatcher* dispatcher) override;
+  void printStats() override;
+
+ private:
+  struct Leaf {
+    btBroadphaseProxy* proxy;  // the wrapped broadphase's
+    btBroadphaseProxy* node;   // the tree's, whose client object is the proxy's
+    btVector3 min, max;        // the latest setAabb
+    bool stale;                // min/max not yet in the tree
+  };
+  // Brings every stale leaf into the tree, in the order setAabb saw them.
+  void refresh();
+  // Passes the tree's answers on as the wrapped broadphase's proxies.
+  class ForwardRay;
+  class ForwardAabb;
+
+  std::unique_ptr<btBroadphaseInterface> pairs_;
+  btNullPairCache no_pairs_;
+  btDbvtBroadphase tree_{&no_pairs_};
+  std::vector<Leaf> leaves_;
+  std::unordered_map<const btBroadphaseProxy*, std::size_t> leaf_of_;  // lookup only
+  std::vector<std::size_t> stale_;                                     // in setAabb order
+  double query_ms_ = 0;
+};
+
+}  // namespace overlap::physics
