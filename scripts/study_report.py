@@ -94,7 +94,7 @@ def stage_tables(cells: list) -> list:
         rows = [[c["algo"]] + [fmt(c[f"{stage}_mean"]) for stage in stages]
                 + [fmt(c["substeps"])]
                 for c in sorted((c for c in honest if c["scene"] == scene and c["objects"] == n),
-                                key=lambda c: algo_order([c["algo"]])[0])]
+                                key=lambda c: algo_order(a["algo"] for a in honest).index(c["algo"]))]
         lines += [f"Scene {scene}, {n} boxes, ms per frame by stage (mean over repetitions):", ""]
         lines += table(["algo", "update", "broadphase", "narrowphase", "solver", "integration",
                         "CCD queries", "total", "mean K"], rows)
