@@ -1,19 +1,18 @@
-// Progress on stderr for anything that can take more than two seconds: a
-// reporter thread stays silent for the first second, then prints at most one
-// line a second: the frames done, the time elapsed and the time left at the
-// pace so far (its first line says how long the whole will take), or, for
-// a step without frames (placing ten million boxes), the time elapsed.  A
-// line is printed even while one long frame runs.  finish() closes with one
-// line if any was printed; short runs print nothing.
+// Progress on stderr for anything that can take more than two seconds:
+// silent for the first second, then at most one line a second: the frames
+// done, the time elapsed and the time left at the pace so far (the first
+// line says how long the whole will take), or, for a step without frames
+// (placing ten million boxes), the time elapsed.  A line is printed even
+// while one long frame or step runs: a one-second interval timer (SIGALRM,
+// SA_RESTART) prints it from its handler, so no thread is added beyond the
+// --threads the run may use.  finish() closes with one line if any was
+// printed; short runs print nothing.  One Progress reports at a time (a
+// newer one pauses the older until it finishes).
 #pragma once
 
 #include <atomic>
-#include <chrono>
-#include <condition_variable>
-#include <mutex>
-#include <stop_token>
+#include <ctime>
 #include <string>
-#include <thread>
 
 namespace overlap::engine {
 
@@ -29,17 +28,17 @@ class Progress {
   void finish();
   double seconds() const;
 
- private:
-  void report(bool first);
+  // The timer's work: one line; async-signal-safe.
+  void report();
 
+ private:
   std::string label_;
   int total_;
   std::atomic<int> done_{0};
-  bool reported_ = false;  // the reporter's own, read after it stopped
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-  std::mutex mutex_;
-  std::condition_variable_any wake_;
-  std::jthread reporter_;  // last: stopped and joined first
+  std::atomic<int> lines_{0};
+  timespec start_{};
+  Progress* paused_ = nullptr;  // the one this replaced, resumed by finish()
+  bool finished_ = false;
 };
 
 // "42 s", "3 min 05 s", "2 h 07 min": a duration a user reads at a glance.

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -62,8 +63,10 @@ std::string decodeAabb(const char* bytes, Aabb& box) {
   box = Aabb{{corners[0], corners[1], corners[2]}, {corners[4], corners[5], corners[6]}};
   for (const int w : {3, 7}) {
     if (!(corners[w] == 0.0f)) {
-      return std::string("the fourth float of ") + (w == 3 ? "min" : "max") + " is " +
-             std::to_string(corners[w]) + ", not 0";
+      char shown[32];
+      std::snprintf(shown, sizeof(shown), "%g", static_cast<double>(corners[w]));
+      return std::string("the fourth float of ") + (w == 3 ? "min" : "max") + " is " + shown +
+             ", not 0";
     }
   }
   return aabbProblem(box);

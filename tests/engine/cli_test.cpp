@@ -407,23 +407,27 @@ TEST_F(CliTest, WavAndTasksAreDeterministicAndCompareSyncMatches) {
   const std::string args =
       "run --objects 100 --frames 10 --voices 8 --background-voices 2 "
       "--agents 16 --compare-sync ";
+  // Outside the run's folder: a second run into it would remove the first's
+  // outputs there (a folder never mixes runs).
   ASSERT_EQ(
-      runOverlap(args + "--wav " + (out_ / "a.wav").string() + " --out " + out_.string()).exit_code,
+      runOverlap(args + "--wav " + (out_ / "a.wav").string() + " --out " + (out_ / "run").string())
+          .exit_code,
       0);
   ASSERT_EQ(
-      runOverlap(args + "--wav " + (out_ / "b.wav").string() + " --out " + out_.string()).exit_code,
+      runOverlap(args + "--wav " + (out_ / "b.wav").string() + " --out " + (out_ / "run").string())
+          .exit_code,
       0);
   const std::string a = fileText(out_ / "a.wav");
   EXPECT_EQ(a.substr(0, 4), "RIFF");
   EXPECT_EQ(a.size(), 44u + 10u * 1600u * 4u);
   EXPECT_EQ(a, fileText(out_ / "b.wav"));
 
-  std::ifstream summary_file(out_ / "summary.json");
+  std::ifstream summary_file(out_ / "run" / "summary.json");
   const nlohmann::json summary = nlohmann::json::parse(summary_file);
   EXPECT_TRUE(summary["compare_sync"]["identical_state"].get<bool>());
   EXPECT_TRUE(summary["compare_sync"]["identical_tasks"].get<bool>());
   EXPECT_GT(summary["compare_sync"]["speedup"].get<double>(), 0.0);
-  const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "timeline.json"));
+  const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "run" / "timeline.json"));
   EXPECT_GT(timeline["traceEvents"].size(), 10u * 4u);
 }
 
