@@ -188,8 +188,10 @@ class GpuPairFinder final : public PairFinder {
     CUDA_CHECK(cudaEventCreate(&lists_ready_));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_block_ = PinnedBuffer<ResultBlock>(1);
-    // Once: from here on each counting kernel zeroes the pair the next one uses.
-    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock::counts), stream_));
+    // Once: from here on each counting kernel zeroes the count pair the next
+    // one uses.  The whole block, as every frame copies all of it back
+    // (compute-sanitizer's initcheck reports a copy of unwritten memory).
+    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock), stream_));
     growTails(kInitialListCapacity - kHeadEntries);
   }
 
@@ -290,17 +292,17 @@ class GpuPairFinder final : public PairFinder {
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
-  // A list of `count` entries in `host`: the head from the block, the rest
-  // copied from the device tail (queued; the caller waits).
-  IndexPair* joinHeadAndTail(const IndexPair* head, const DeviceBuffer<IndexPair>& tail,
+  // The list of `count` entries whose head is `head` (in the block): the
+  // head itself when it holds them all, else `host`, filled with the head and
+  // (queued; the caller waits) the device tail.
+  IndexPair* joinHeadAndTail(IndexPair* head, const DeviceBuffer<IndexPair>& tail,
                              PinnedBuffer<IndexPair>& host, std::size_t count) {
+    if (count <= kHeadEntries) return head;
     reserveDiscarding(host, count);
-    std::memcpy(host.data(), head, std::min(count, kHeadEntries) * sizeof(IndexPair));
-    if (count > kHeadEntries) {
-      CUDA_CHECK(cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(),
-                                 (count - kHeadEntries) * sizeof(IndexPair), cudaMemcpyDeviceToHost,
-                                 stream_));
-    }
+    std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
+    CUDA_CHECK(cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(),
+                               (count - kHeadEntries) * sizeof(IndexPair), cudaMemcpyDeviceToHost,
+                               stream_));
     return host.data();
   }
 
