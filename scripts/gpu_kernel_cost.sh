@@ -70,7 +70,7 @@ if [[ -n "$rev" ]]; then
   source_root="$work/tree"
 fi
 
-echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "$rev" && -n "$(git status --porcelain gpu)" ]] && echo ' + uncommitted gpu/ changes'), $("$nvcc" --version | tail -1), sm_90, -O3"
+echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "$rev" && -n "$(git status --porcelain gpu)" ]] && echo ' + uncommitted gpu/ changes'), nvcc $("$nvcc" --version | sed -n 's/.*release \([0-9.]*\), V\([0-9.]*\).*/\2/p'), sm_90, -O3"
 for source in gpu_pair_finder gpu_pair_finder_paper; do
   "$nvcc" -std=c++20 -O3 -arch=sm_90 -cubin -I"$source_root" \
     "$source_root/gpu/$source.cu" -o "$work/$source.cubin" ||
@@ -292,7 +292,9 @@ def report(name, code):
             if os.environ.get("GPU_KERNEL_COST_DEBUG"):
                 print(f"  load {'uniform' if uniform else 'per lane'}: {text}")
             loads.append(per_lane / 32 if uniform else per_lane)
-    short = re.sub(r"_GLOBAL__N__\w+?_\d+_", "", name)
+    kernel = re.search(r"([a-z][A-Za-z]*Kernel)E", name)
+    source = re.search(r"(gpu_pair_finder\w*?)_cu", name)
+    short = (f"{source.group(1)}.cu {kernel.group(1)}" if kernel and source else name)
     if words:
         # One ballot is one word of 32 pairs, each lane one pair.
         per32 = len(path) / words
@@ -327,7 +329,9 @@ grep -v '^gpubf instructions per 32 pairs' <<<"$kernels"
 
 echo "# per steady frame, counted by the CUDA emulation (requests, the same on a GPU)"
 frame_cost="$emulation_dir/tests/gpu/overlap_gpu_frame_cost"
-if [[ -x "$frame_cost" ]]; then
+if [[ -n "$rev" ]]; then
+  echo "(not counted for --rev: $emulation_dir is built from the work tree)"
+elif [[ -x "$frame_cost" ]]; then
   "$frame_cost" 3500 || fail "$frame_cost failed"
 else
   echo "(not built: cmake --preset cuda-emulation && cmake --build $emulation_dir --target overlap_gpu_frame_cost)"
