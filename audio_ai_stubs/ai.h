@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "audio_ai_stubs/uniform_grid.h"
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 
@@ -93,7 +93,7 @@ class AgentCrowd {
   AiConfig config_;
   float half_extent_;
   float largest_box_radius_ = 0.0f;  // this frame's, widens box queries
-  physics::SeededRandom random_;
+  SeededRandom random_;
   std::vector<Eigen::Vector3f> positions_;
   std::vector<Eigen::Vector3f> velocities_;
   std::vector<Eigen::Vector3f> targets_;

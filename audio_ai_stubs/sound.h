@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "audio_ai_stubs/biquad.h"
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 
@@ -118,7 +118,7 @@ class SoundMixer {
   std::vector<float> mix_;
   float limiter_gain_ = 1.0f;  // at the end of the last frame
   float limiter_release_per_frame_ = 0.0f;
-  physics::SeededRandom random_;  // drawn from in a fixed order: determinism
+  SeededRandom random_;  // drawn from in a fixed order: determinism
   std::uint64_t next_serial_ = 0;
   SoundWork work_;
 };

@@ -4,7 +4,7 @@
 #include <exception>
 #include <stdexcept>
 
-#include "physics/checksum.h"
+#include "gpu/base/checksum.h"
 
 namespace overlap::engine {
 namespace {
@@ -56,10 +56,7 @@ class FrameScheduler::TasksBeside {
 
 FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOptions& options,
                                Timeline& timeline)
-    : world_(world),
-      options_(options),
-      timeline_(timeline),
-      sound_checksum_(physics::kFnv1aOffsetBasis) {
+    : world_(world), options_(options), timeline_(timeline), sound_checksum_(kFnv1aOffsetBasis) {
   if (!options_.tasks) return;
   options_.sound.frame_seconds = world.config().frame_time;
   options_.ai.frame_seconds = world.config().frame_time;
@@ -104,7 +101,7 @@ void FrameScheduler::snapshot() {
 void FrameScheduler::runSound() {
   sound_->runFrame(impacts_);
   if (wav_) sound_->appendMixTo(*wav_);
-  sound_checksum_ = physics::fnv1a(sound_->mix(), sound_checksum_);
+  sound_checksum_ = fnv1a(sound_->mix(), sound_checksum_);
 }
 
 void FrameScheduler::runAi() {

@@ -40,7 +40,7 @@
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/broadphase_replay.h"
 #include "physics/world.h"
 
@@ -70,7 +70,7 @@ struct SearchResult {
 };
 
 SearchResult search(physics::BroadphaseReplay& replay, const std::vector<physics::Aabb>& boxes) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   replay.update(boxes);
   replay.findPairs();
   const double ms = watch.ms();

@@ -2,7 +2,7 @@
 
 #include <chrono>
 
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/ccd_query_broadphase.h"
 #include "physics/pair_finder_broadphase.h"
 
@@ -67,14 +67,14 @@ TimedDynamicsWorld::~TimedDynamicsWorld() {
 }
 
 void TimedDynamicsWorld::updateAabbs() {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::updateAabbs();
   if (after_aabb_update) after_aabb_update();
   timings.update_ms += watch.ms();
 }
 
 void TimedDynamicsWorld::computeOverlappingPairs() {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::computeOverlappingPairs();
   timings.broadphase_ms += watch.ms();
   if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
@@ -89,7 +89,7 @@ void TimedDynamicsWorld::computeOverlappingPairs() {
 
 void TimedDynamicsWorld::performDiscreteCollisionDetection() {
   const double before = timings.update_ms + timings.broadphase_ms;
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
   const double after = timings.update_ms + timings.broadphase_ms;
   timings.narrowphase_ms += watch.ms() - (after - before);
@@ -98,7 +98,7 @@ void TimedDynamicsWorld::performDiscreteCollisionDetection() {
 }
 
 void TimedDynamicsWorld::createPredictiveContacts(btScalar dt) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   const double queries_before = ccdQueryMs();
   btDiscreteDynamicsWorld::createPredictiveContacts(dt);
   const double queries = ccdQueryMs() - queries_before;
@@ -107,25 +107,25 @@ void TimedDynamicsWorld::createPredictiveContacts(btScalar dt) {
 }
 
 void TimedDynamicsWorld::calculateSimulationIslands() {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::calculateSimulationIslands();
   timings.solver_ms += watch.ms();
 }
 
 void TimedDynamicsWorld::solveConstraints(btContactSolverInfo& info) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::solveConstraints(info);
   timings.solver_ms += watch.ms();
 }
 
 void TimedDynamicsWorld::predictUnconstraintMotion(btScalar dt) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
   timings.integrate_ms += watch.ms();
 }
 
 void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   const double queries_before = ccdQueryMs();
   for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
     integrateBody(*m_nonStaticRigidBodies[i], dt);

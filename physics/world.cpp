@@ -14,12 +14,12 @@
 #include <stdexcept>
 #include <utility>
 
-#include "gpu/stopwatch.h"
+#include "gpu/base/checksum.h"
+#include "gpu/base/random.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/broadphase_factory.h"
 #include "physics/ccd_query_broadphase.h"
-#include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
-#include "physics/random.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -198,7 +198,7 @@ void PhysicsWorld::applySceneForces() {
 
 FrameReport PhysicsWorld::stepFrame() {
   Bullet& b = *bullet_;
-  const gpu::HostStopwatch frame_watch;
+  const HostStopwatch frame_watch;
   b.world->timings = {};
   b.world->substeps.clear();
   b.new_contacts.clear();
