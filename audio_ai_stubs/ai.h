@@ -3,7 +3,7 @@
 // behaviours: seek a wandering target, keep apart from each other, and turn
 // away from the boxes ahead.  It reads last frame's box positions (the engine
 // copies them out of Bullet before the frame starts), so it can run on a
-// worker thread while the broadphase works on this frame.
+// worker thread while the physics steps this frame.
 //
 // Each frame rebuilds a uniform grid over the boxes and one over the agents,
 // so neighbour queries cost about O(K * local density), not O(K * n).  All

@@ -9,9 +9,14 @@
 namespace overlap::engine {
 namespace {
 
-// Box sizes map to impact pitch: a 1 m box rings at the base pitch.
-float pitchHint(float edge) {
-  return std::isfinite(edge) && edge > 0 ? 1.0f / edge : 1.0f;
+// A new contact as the sound hears it: panned by where the box was across the
+// container (-1 left .. 1 right), pitched by its size (a 1 m box rings at the
+// base pitch).
+stubs::ImpactEvent impactOf(const physics::NewContact& contact, double half_extent) {
+  const float pan = static_cast<float>(std::clamp(contact.centre[0] / half_extent, -1.0, 1.0));
+  const float edge = contact.edge;
+  const float pitch_hint = std::isfinite(edge) && edge > 0 ? 1.0f / edge : 1.0f;
+  return {contact.closing_speed, pan, pitch_hint};
 }
 
 double microseconds(double ms) {
@@ -89,7 +94,7 @@ std::uint64_t FrameScheduler::aiChecksum() const {
 void FrameScheduler::snapshot() {
   impacts_.clear();
   for (const physics::NewContact& contact : world_.newContacts()) {
-    impacts_.push_back({contact.closing_speed, contact.pan, pitchHint(contact.edge)});
+    impacts_.push_back(impactOf(contact, world_.layout().half_extent));
   }
   obstacles_.clear();
   for (const physics::BoxPose& pose : world_.boxPoses()) {

@@ -405,7 +405,7 @@ void PhysicsWorld::removeBrokenBoxes() {
         !(std::isfinite(c.x()) && std::isfinite(c.y()) && std::isfinite(c.z())) ? "not finite"
         : disabled ? "inside an AABB too large for Bullet"
                    : "too far from the origin");
-    // Nor may a contact it began this frame reach the sound.
+    // Nor may a contact it began this frame be reported.
     const int box = static_cast<int>(i);
     std::erase_if(b.new_contacts, [box](const NewContact& contact) {
       return contact.a == box || contact.b == box;
@@ -434,7 +434,6 @@ void PhysicsWorld::noteContactsStarted() {
   b.touching = std::move(touching);
 
   const auto n = static_cast<int>(layout_.boxes.size());
-  const double h = layout_.half_extent;
   const auto edgeOf = [&](int index) {
     return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
   };
@@ -454,8 +453,10 @@ void PhysicsWorld::noteContactsStarted() {
     const btScalar length = line.length();
     const btScalar closing =
         length > 0 ? (body0.getLinearVelocity() - body1.getLinearVelocity()).dot(line) / length : 0;
-    b.new_contacts.push_back(NewContact{index0, index1, std::max(0.0f, closing),
-                                        static_cast<float>(std::clamp(c0.x() / h, -1.0, 1.0)),
+    b.new_contacts.push_back(NewContact{index0,
+                                        index1,
+                                        std::max(0.0f, closing),
+                                        {c0.x(), c0.y(), c0.z()},
                                         std::min(edgeOf(index0), edgeOf(index1))});
   }
 }

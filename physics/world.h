@@ -92,13 +92,14 @@ struct BoxPose {
 // Two bodies that began touching during the last frame: their contact
 // manifold gained its first point in some substep's narrowphase.  It follows
 // the physics, not the broadphase (a fattened AABB pair is no contact), so
-// every broadphase hears the same contacts.  Walls are numbered after the boxes.
+// every broadphase reports the same contacts.  Walls are numbered after the
+// boxes, and two walls never touch, so `a` is always a box.
 struct NewContact {
   int a;  // a < b
   int b;
   float closing_speed;  // m/s, before that substep's solver, along the line
                         // between the centres (walls: their normal)
-  float pan;            // the contact's x in the container, -1 left .. 1 right
+  float centre[3];      // box a's centre at that narrowphase
   float edge;           // the smaller box's edge
 };
 
@@ -153,7 +154,7 @@ class PhysicsWorld {
   // Bullet's world, for what this class does not wrap.  Up to 64 objects of
   // your own may be added (a btPairCachingGhostObject sees the boxes that
   // enter it under every broadphase; give such objects a user index of -1, the
-  // default, and they are left out of the error counts and the sound).  Do not
+  // default, and they are left out of the error counts and the new contacts).  Do not
   // replace the pair cache's ghost-pair callback: the world's forwards to
   // Bullet's btGhostPairCallback already.
   btDiscreteDynamicsWorld& bulletWorld();
