@@ -4,13 +4,13 @@
 // steps it one frame at a time (K substeps of frame_time / K, K fixed or
 // chosen each frame with the CCD bodies by physics/step_policy.h, which also
 // sets up Bullet's contact solver: solverSettings()), and
-// reports what the frame cost and what it got wrong.  Times are taken inside
-// Bullet's step: AABB update, broadphase (pair search and pair-cache update),
-// narrowphase, solver and integration are each summed over the substeps, and
-// each substep reports when it ran, when its narrowphase ran and, for a
-// broadphase that searches off the main thread, when its search ran and how
-// long the step waited for it.  Bullet is not thread-safe here: one
-// PhysicsWorld is used from one thread; it starts no task of its own.
+// reports what the frame cost and what it got wrong.  Each substep runs its
+// phases in the order physics/timed_world.h lists them; each phase's time is
+// summed over the substeps, and each substep reports when it ran, when its
+// narrowphase ran and, for a broadphase that searches off the main thread,
+// when its search ran and how long the step waited for it.  Bullet is not
+// thread-safe here: one PhysicsWorld is used from one thread; it starts no
+// task of its own.
 //
 // Invariants: box i of the layout is rigid body i; the walls come after the
 // boxes; the same config and options give bit-identical runs (stateHash()).
