@@ -189,7 +189,6 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
     throw std::runtime_error("PairFinderBroadphase: finishPairSearch() without launchPairSearch()");
   }
   last_search_.joined = std::chrono::steady_clock::now();
-  const HostStopwatch join_watch;
   search_in_flight_ = false;
   const gpu::PairDelta delta = finder_->finish();
   // A pair with a destroyed proxy already left the cache with it, and one it
@@ -213,9 +212,9 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
     free_slots_.push_back(slot);
   }
   draining_.clear();
-  last_search_.join_ms = join_watch.ms();
-  last_search_.search_ms = finder_->lastSearchMs();
-  last_search_.start_delay_ms = finder_->lastSearchDelayMs();
+  last_search_.finished = std::chrono::steady_clock::now();
+  last_search_.started = last_search_.launched + fromMilliseconds(finder_->lastSearchDelayMs());
+  last_search_.searched = fromMilliseconds(finder_->lastSearchMs());
 }
 
 void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {

@@ -131,9 +131,9 @@ void TimedDynamicsWorld::searchPairs() {
   if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
   SubstepReport& substep = substeps.back();
   if (background_search != nullptr) {
-    substep.search = background_search->lastSearch();
-    timings.search_ms += substep.search->search_ms;
-    timings.join_ms += substep.search->join_ms;
+    const SearchTimes& search = substep.search.emplace(background_search->lastSearch());
+    timings.search_ms += toMilliseconds(search.searched);
+    timings.join_ms += toMilliseconds(search.finished - search.joined);
   }
   substep.narrowphase_start = std::chrono::steady_clock::now();
 }
