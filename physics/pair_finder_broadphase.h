@@ -78,7 +78,6 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // Waits for the search and brings the pair cache up to date.
   void finishPairSearch(btDispatcher* dispatcher);
 
-  const gpu::PairFinder& finder() const { return *finder_; }
   // The last finished search's times.
   const SearchTimes& lastSearch() const { return last_search_; }
   bool searchInFlight() const { return search_in_flight_; }

@@ -88,10 +88,10 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
       substeps_(options.substeps),
       automatic_substeps_(options.substeps == kAutoSubsteps),
       ccd_(options.ccd),
-      sleep_(sleepAllowed(config, options.sleep)),
       bullet_(std::make_unique<Bullet>()) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
   Bullet& b = *bullet_;
+  const bool sleep = sleepAllowed(config, options.sleep);
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
@@ -138,7 +138,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
                     toBullet(start.position)));
     body->setLinearVelocity(toBullet(start.velocity));
     body->setUserIndex(i);
-    if (!sleep_) body->setActivationState(DISABLE_DEACTIVATION);
+    if (!sleep) body->setActivationState(DISABLE_DEACTIVATION);
     b.world->addRigidBody(body.get());
     b.edges.push_back(start.edge);
     b.smallest_edge = std::min(b.smallest_edge, start.edge);

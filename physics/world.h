@@ -125,7 +125,6 @@ class PhysicsWorld {
   // The fixed K, or with automatic substeps the K of the last frame (0 before the first).
   int substeps() const { return substeps_; }
   bool automaticSubsteps() const { return automatic_substeps_; }
-  bool sleepEnabled() const { return sleep_; }
   int framesDone() const { return frame_; }
   const std::string& algorithm() const { return algorithm_; }
   const std::string& algorithmNotice() const { return algorithm_notice_; }
@@ -175,7 +174,6 @@ class PhysicsWorld {
   int substeps_;
   bool automatic_substeps_;
   CcdMode ccd_;
-  bool sleep_;
   int frame_ = 0;
   std::string algorithm_;
   std::string algorithm_notice_;
