@@ -62,7 +62,7 @@ struct PhysicsWorld::Bullet {
   std::vector<double> edges;                         // per box
   std::vector<bool> removed;                         // per box: out of the simulation
   btGhostPairCallback ghost_pairs;                   // the pair cache's slot, for ghost objects
-  std::vector<std::pair<int, int>> touching;         // pairs whose manifold has points, sorted
+  PairList touching;                                 // pairs whose manifold has points
   std::vector<NewContact> new_contacts;              // this frame's
   std::vector<char> ccd;                             // per box: CCD on this frame
   double smallest_edge = INFINITY;
@@ -371,16 +371,16 @@ std::vector<Aabb> PhysicsWorld::aabbs() const {
   return result;
 }
 
-std::vector<std::pair<int, int>> PhysicsWorld::cachedPairs() const {
+PairList PhysicsWorld::cachedPairs() const {
   btOverlappingPairCache& cache = *bullet_->broadphase->getOverlappingPairCache();
-  std::vector<std::pair<int, int>> pairs;
+  PairList pairs;
   pairs.reserve(static_cast<std::size_t>(cache.getNumOverlappingPairs()));
   const btBroadphasePairArray& array = cache.getOverlappingPairArray();
   for (int i = 0; i < array.size(); ++i) {
     const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
     const auto* c = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
-    pairs.emplace_back(std::min(a->getUserIndex(), c->getUserIndex()),
-                       std::max(a->getUserIndex(), c->getUserIndex()));
+    if (!bullet_->owns(a) || !bullet_->owns(c)) continue;  // a ghost's
+    pairs.push_back(orderedPair(a->getUserIndex(), c->getUserIndex()));
   }
   std::sort(pairs.begin(), pairs.end());
   return pairs;
@@ -418,17 +418,17 @@ void PhysicsWorld::removeBrokenBoxes() {
 // solver, at impact.
 void PhysicsWorld::noteContactsStarted() {
   Bullet& b = *bullet_;
-  std::vector<std::pair<int, int>> touching;
+  PairList touching;
   for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
     const btPersistentManifold* manifold = b.dispatcher.getManifoldByIndexInternal(m);
     if (manifold->getNumContacts() == 0) continue;
     if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
     touching.push_back(
-        std::minmax(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
+        orderedPair(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
   }
   std::sort(touching.begin(), touching.end());
   touching.erase(std::unique(touching.begin(), touching.end()), touching.end());
-  std::vector<std::pair<int, int>> began;
+  PairList began;
   std::set_difference(touching.begin(), touching.end(), b.touching.begin(), b.touching.end(),
                       std::back_inserter(began));
   b.touching = std::move(touching);
@@ -437,9 +437,11 @@ void PhysicsWorld::noteContactsStarted() {
   const auto edgeOf = [&](int index) {
     return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
   };
-  for (const auto& [index0, index1] : began) {
-    const btRigidBody& body0 = *b.bodies[static_cast<std::size_t>(index0)];
-    const btRigidBody& body1 = *b.bodies[static_cast<std::size_t>(index1)];
+  for (const gpu::IndexPair& pair : began) {
+    const auto index0 = static_cast<int>(pair.a);
+    const auto index1 = static_cast<int>(pair.b);
+    const btRigidBody& body0 = *b.bodies[pair.a];
+    const btRigidBody& body1 = *b.bodies[pair.b];
     const btVector3& c0 = body0.getWorldTransform().getOrigin();
     const btVector3& c1 = body1.getWorldTransform().getOrigin();
     // Boxes close along the line between their centres; a box closes on a

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/pair_finder.h"
 #include "physics/scene.h"
 #include "physics/search_times.h"
 #include "physics/step_policy.h"
@@ -108,6 +109,14 @@ struct Aabb {
   float max[3];
 };
 
+// Object-index pairs (a < b), sorted: the world's cached pairs, a replay's.
+using PairList = std::vector<gpu::IndexPair>;
+
+// The pair of two object indices (>= 0) given in either order.
+inline gpu::IndexPair orderedPair(int x, int y) {
+  return {static_cast<std::uint32_t>(x < y ? x : y), static_cast<std::uint32_t>(x < y ? y : x)};
+}
+
 class PhysicsWorld {
  public:
   PhysicsWorld(const SceneConfig& config, const WorldOptions& options);
@@ -136,9 +145,10 @@ class PhysicsWorld {
   std::vector<float> boxSpeeds() const;
   // The broadphase's current AABBs, boxes then walls.
   std::vector<Aabb> aabbs() const;
-  // Overlapping pairs in the cache as (min index, max index), sorted; walls
-  // are numbered after the boxes.
-  std::vector<std::pair<int, int>> cachedPairs() const;
+  // Overlapping pairs of the world's own bodies in the cache, sorted; walls
+  // are numbered after the boxes (objects added through bulletWorld() are
+  // left out).
+  PairList cachedPairs() const;
 
   // Contacts that began during the last frame, by substep, then by (a, b).
   const std::vector<NewContact>& newContacts() const;

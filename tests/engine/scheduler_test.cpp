@@ -27,7 +27,7 @@ physics::SceneConfig smallScene() {
 }
 
 struct Outcome {
-  std::vector<std::vector<std::pair<int, int>>> pairs;  // per frame
+  std::vector<physics::PairList> pairs;  // per frame
   std::uint64_t state_hash;
   std::uint64_t sound_checksum;
   std::uint64_t ai_checksum;

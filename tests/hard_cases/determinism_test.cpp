@@ -128,10 +128,8 @@ ScheduledRun scheduledRun(bool sync) {
   ScheduledRun run;
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
-    for (const auto& [a, b] : world.cachedPairs()) {
-      const std::array<int, 2> pair{a, b};
-      run.pairs_digest = fnv1a(std::span<const int>(pair), run.pairs_digest);
-    }
+    const physics::PairList pairs = world.cachedPairs();
+    run.pairs_digest = fnv1a(std::span<const gpu::IndexPair>(pairs), run.pairs_digest);
     const std::array<int, 1> frame_separator{-1};
     run.pairs_digest = fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
@@ -193,8 +191,8 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
         broadphase.getOverlappingPairCache()->getOverlappingPairArray();
     PairList pairs;
     for (int p = 0; p < array.size(); ++p) {
-      pairs.emplace_back(
-          std::minmax(array[p].m_pProxy0->m_uniqueId, array[p].m_pProxy1->m_uniqueId));
+      pairs.push_back(
+          physics::orderedPair(array[p].m_pProxy0->m_uniqueId, array[p].m_pProxy1->m_uniqueId));
     }
     std::sort(pairs.begin(), pairs.end());
     pairs_per_frame.push_back(std::move(pairs));
