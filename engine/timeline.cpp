@@ -4,8 +4,6 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "physics/atomic_file.h"
-
 namespace overlap::engine {
 namespace {
 
@@ -15,7 +13,7 @@ double microseconds(Clock::duration duration) {
 
 }  // namespace
 
-void Timeline::write(const std::filesystem::path& path) const {
+std::string Timeline::json() const {
   // Lanes become threads of one process, numbered in order of appearance.
   std::map<std::string, int> lane_ids;
   nlohmann::json events = nlohmann::json::array();
@@ -39,7 +37,7 @@ void Timeline::write(const std::filesystem::path& path) const {
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
-  physics::writeFileAtomically(path, trace.dump());
+  return trace.dump();
 }
 
 Clock::duration overlapOf(const Interval& a, const Interval& b) {
