@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 

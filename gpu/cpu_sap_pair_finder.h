@@ -38,7 +38,7 @@
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
 #include "gpu/sap_sweep.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 

@@ -35,7 +35,7 @@
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/row_words.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {
