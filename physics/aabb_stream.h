@@ -1,5 +1,5 @@
-// Recorded AABB streams in Broadmark's `.aabbs` layout (SCENES.md,
-// "Interchange"), little-endian:
+// Recorded AABB streams in Broadmark's `.aabbs` layout (docs/SCENES.md, "The
+// .aabbs layout"), little-endian:
 //   char[128] scene name, char[128] object type (NUL-padded, printable),
 //   int32 N > 0, int32 F > 0, int32 0, int32 0, world AABB,
 //   then F + 1 frames of N AABBs; an AABB is min then max, each float32 x, y, z, 0.

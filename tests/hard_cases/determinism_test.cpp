@@ -1,5 +1,5 @@
 // Determinism: the same scene gives the same state, bit for bit, after a
-// full run of 2048 frames (SCENES.md), run after run, whatever the thread
+// full run of 2048 frames (docs/SCENES.md), run after run, whatever the thread
 // count cpubf or cpusap searches with, and whether the broadphase overlaps the frame's
 // sound and AI tasks or runs after them.  The runs use the automatic
 // substeps and CCD, so the frame-by-frame choices (K, CCD bodies) are

@@ -141,7 +141,7 @@ TEST(PhysicsWorld, NoBoxPassesThroughAWallAt50g) {
 
 TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
   // The negative control for the test above: without substeps or CCD they tunnel.
-  // The count is recorded (--gtest_output=json: most_escaped) for README.md.
+  // The count is recorded (--gtest_output=json: most_escaped).
   PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1, CcdMode::kOff});
   int most_escaped = 0;
   for (int frame = 0; frame < 300; ++frame) {
