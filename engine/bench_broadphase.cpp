@@ -34,13 +34,14 @@
 
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
+#include "engine/number_options.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "gpu/pair_finder.h"
-#include "physics/atomic_file.h"
 #include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
+#include "physics/output_file.h"
 
 namespace overlap::engine {
 namespace {
@@ -329,7 +330,7 @@ std::string quotedCommand(int argc, char** argv) {
 void addOptions(CLI::App& app, BenchOptions& options) {
   app.add_option("--objects,-n", options.objects, "box counts for --algos (0: none)")
       ->delimiter(',')
-      ->check(CLI::Range(0, 10'000'000))
+      ->check(wholeNumberIn(0, kMostObjects))
       ->capture_default_str();
   app.add_option("--algos", options.algorithms, "broadphases run at each of --objects")
       ->delimiter(',')
@@ -337,7 +338,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
       ->capture_default_str();
   app.add_option("--big-objects", options.big_objects, "box counts for --big-algos (0: none)")
       ->delimiter(',')
-      ->check(CLI::Range(0, 10'000'000))
+      ->check(wholeNumberIn(0, kMostObjects))
       ->capture_default_str();
   app.add_option("--big-algos", options.big_algorithms, "broadphases run at each of --big-objects")
       ->delimiter(',')
@@ -346,20 +347,22 @@ void addOptions(CLI::App& app, BenchOptions& options) {
   app.add_option("--streams", options.streams, "folder of cached .aabbs streams")
       ->capture_default_str();
   app.add_option("--out", options.out, "results: OUT.csv and OUT.json")->capture_default_str();
-  app.add_option("--seed", options.seed, "scene 4's seed")->capture_default_str();
+  app.add_option("--seed", options.seed, "scene 4's seed")
+      ->check(seedNumber())
+      ->capture_default_str();
   app.add_option("--record-frames", options.record_frames,
                  "frames of each --objects stream (F; F + 1 are replayed)")
-      ->check(CLI::Range(1, 100'000))
+      ->check(wholeNumberIn(1, 100'000))
       ->capture_default_str();
   app.add_option("--big-record-frames", options.big_record_frames,
                  "frames of each --big-objects stream")
-      ->check(CLI::Range(1, 100'000))
+      ->check(wholeNumberIn(1, 100'000))
       ->capture_default_str();
   app.add_option("--warmup", options.warmup, "first replayed frames left out of the figures")
-      ->check(CLI::Range(0, 100'000))
+      ->check(wholeNumberIn(0, 100'000))
       ->capture_default_str();
   app.add_option("--repeats", options.repeats, "replays of each stream per algorithm")
-      ->check(CLI::Range(1, 1000))
+      ->check(wholeNumberIn(1, 1000))
       ->capture_default_str();
   app.add_flag("--record-only", options.record_only,
                "record the missing streams and stop (to record several n in parallel)");
@@ -474,6 +477,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const UsageError& error) {
     std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
+    return 2;
+  } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
+    std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
     return 2;
   } catch (const std::exception& error) {
     std::fprintf(stderr, "%s: error: %s\n", kProgram, error.what());

@@ -67,7 +67,7 @@ FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOpti
   ai_ = std::make_unique<stubs::AgentCrowd>(options_.ai,
                                             static_cast<float>(world.layout().half_extent));
   if (options_.wav) {
-    wav_ = std::make_unique<stubs::WavWriter>(options_.wav->string(), options_.sound.sample_rate);
+    wav_ = std::make_unique<stubs::WavWriter>(*options_.wav, options_.sound.sample_rate);
   }
   addTask("sound", [this] { runSound(); });
   addTask("ai", [this] { runAi(); });

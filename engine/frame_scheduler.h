@@ -56,7 +56,8 @@ struct SchedulerOptions {
   bool tasks = true;  // false: physics only (the paper's measurements)
   stubs::SoundConfig sound;
   stubs::AiConfig ai;
-  std::optional<std::filesystem::path> wav;  // the whole run's mix
+  physics::OutputFile* wav =
+      nullptr;  // the whole run's mix, finished by close(); the caller publishes it
 };
 
 struct ScheduledFrame {

@@ -24,6 +24,11 @@ namespace overlap::engine {
 // fastest exact CPU finder instead and says so (physics/broadphase_factory.h).
 inline constexpr const char* kDefaultAlgorithm = "gpubf";
 
+// The documented upper bounds of the counts (docs/CLI.md, "Bounds").
+inline constexpr int kMostObjects = 10'000'000;
+inline constexpr int kMostFrames = 1'000'000;
+inline constexpr int kMostThreads = 1024;
+
 class SceneOptions {
  public:
   // Registers --scene, --objects, --seed and the scene's numbers on `command`;

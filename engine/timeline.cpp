@@ -4,11 +4,9 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "physics/atomic_file.h"
-
 namespace overlap::engine {
 
-void Timeline::write(const std::filesystem::path& path) const {
+std::string Timeline::json() const {
   // Lanes become threads of one process, numbered in order of appearance.
   std::map<std::string, int> lane_ids;
   nlohmann::json events = nlohmann::json::array();
@@ -32,7 +30,7 @@ void Timeline::write(const std::filesystem::path& path) const {
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
-  physics::writeFileAtomically(path, trace.dump());
+  return trace.dump();
 }
 
 double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy) {

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <chrono>
-#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -36,8 +35,8 @@ class Timeline {
   }
   void add(Span span) { spans_.push_back(std::move(span)); }
   const std::vector<Span>& spans() const { return spans_; }
-  // Writes the whole run as one JSON trace, through a temporary file.
-  void write(const std::filesystem::path& path) const;
+  // The whole run as one JSON trace (timeline.json's contents).
+  std::string json() const;
 
  private:
   Clock::time_point origin_;
