@@ -309,7 +309,7 @@ void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) 
 
 void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
   if (searched_) throw std::runtime_error("cpusap: launch() called twice without finish()");
-  const HostStopwatch watch;
+  launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
 
   const int last_sweep_axis = sweep_axis_;
@@ -320,7 +320,7 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
   testInvertedBoxes(objects);                          // 6
   computeDelta();                                      // 7
 
-  last_search_ms_ = watch.ms();
+  last_search_ms_ = launch_watch_.ms();
   searched_ = true;
 }
 
@@ -368,6 +368,7 @@ void CpuSapPairFinder::computeDelta() {
 PairDelta CpuSapPairFinder::finish() {
   if (!searched_) throw std::runtime_error("cpusap: finish() called without launch()");
   searched_ = false;
+  last_launch_to_finish_ms_ = launch_watch_.ms();
   return PairDelta{added_, removed_};
 }
 

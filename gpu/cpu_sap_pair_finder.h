@@ -38,6 +38,7 @@
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
 #include "gpu/sap_sweep.h"
+#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 
@@ -51,6 +52,7 @@ class CpuSapPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return last_search_ms_; }
+  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
 
   // kScalar or kAvx2: the kernel that sweeps.
   sap::SweepKernel kernel() const { return kernel_; }
@@ -114,6 +116,8 @@ class CpuSapPairFinder final : public PairFinder {
   std::vector<IndexPair> added_, removed_;
   bool searched_ = false;
   double last_search_ms_ = 0;
+  HostStopwatch launch_watch_;
+  double last_launch_to_finish_ms_ = 0;
 };
 
 }  // namespace overlap::gpu

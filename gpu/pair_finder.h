@@ -60,9 +60,19 @@ class PairFinder {
   virtual void launch(std::span<const ObjectBounds> objects) = 0;
   // Waits for the search started by launch() and returns what changed.
   virtual PairDelta finish() = 0;
-  // How long the last finished search took by its own clock: CUDA events on
-  // the GPU (upload to last copy back), the searching thread's on the CPU.
+  // How long the last finished search took by its own clock: on both GPU
+  // finders CUDA events from before the upload to after the last copy back
+  // (device time: the host's staging, XOR and sort are not in it), on the CPU
+  // the searching thread's clock.
   virtual double lastSearchMs() const = 0;
+  // How long the last finished search took on the host's clock, from
+  // launch()'s entry to finish()'s return, whatever the caller did between.
+  virtual double lastLaunchToFinishMs() const = 0;
+  // Room for `count` boxes that the caller may fill and then pass to
+  // launch(), which then copies nothing on the host (gpubf: its pinned
+  // staging).  Empty where the finder has none.  Write all `count` boxes each
+  // frame, and only between finish() (or construction) and launch().
+  virtual std::span<ObjectBounds> stagingFor(std::size_t /*count*/) { return {}; }
   // How long after launch() the last finished search began.  A GPU stream
   // starts at once; a CPU worker that has to wake up (or wait for a core) may
   // not, and a measure of what overlapped the search must start it there.
