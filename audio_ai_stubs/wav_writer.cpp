@@ -42,8 +42,7 @@ std::vector<unsigned char> header(int sample_rate, std::uint32_t data_bytes) {
 
 }  // namespace
 
-WavWriter::WavWriter(physics::OutputFile& file, int sample_rate)
-    : file_(file), sample_rate_(sample_rate) {
+WavWriter::WavWriter(OutputFile& file, int sample_rate) : file_(file), sample_rate_(sample_rate) {
   if (sample_rate_ <= 0) fail("sample rate " + std::to_string(sample_rate_) + " must be positive");
   // A stream that cannot be patched says "until it ends" (0xFFFFFFFF).
   const std::vector<unsigned char> placeholder =

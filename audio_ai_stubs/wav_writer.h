@@ -1,7 +1,7 @@
 // WavWriter: streams interleaved stereo float samples to a 16-bit PCM RIFF/WAVE
 // file, so a run's sound can be listened to and compared byte for byte.
 //
-// It writes into a physics::OutputFile the caller owns and publishes.  The
+// It writes into a OutputFile the caller owns and publishes.  The
 // header is written first with zero sizes and patched by close(), which
 // finishes the file (still under its temporary name until published).  An
 // output written through (a FIFO, a device) cannot be patched: its header
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
 
 namespace overlap::stubs {
 
@@ -26,8 +26,8 @@ class WavWriter {
   static constexpr int kBitsPerSample = 16;
   static constexpr std::uint32_t kHeaderBytes = 44;
 
-  // Writes the header into `file`; throws physics::OutputError if it cannot.
-  explicit WavWriter(physics::OutputFile& file, int sample_rate = 48000);
+  // Writes the header into `file`; throws OutputError if it cannot.
+  explicit WavWriter(OutputFile& file, int sample_rate = 48000);
   WavWriter(const WavWriter&) = delete;
   WavWriter& operator=(const WavWriter&) = delete;
 
@@ -43,7 +43,7 @@ class WavWriter {
  private:
   void fail(const std::string& what) const;
 
-  physics::OutputFile& file_;
+  OutputFile& file_;
   int sample_rate_;
   bool closed_ = false;
   std::uint64_t data_bytes_ = 0;

@@ -6,7 +6,7 @@
 #                                         (catalogue, factory, Bullet adapter) and
 #                                         Overlap::pair_finders (the Bullet-free finders)
 # A build without nvcc installs the CPU finders only (Overlap_WITH_CUDA OFF);
-# the CUDA emulation build installs nothing (its runtime is for tests only).
+# the emulation, sanitizer and fuzz builds install nothing (CMakeLists.txt).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 

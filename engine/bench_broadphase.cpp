@@ -38,10 +38,10 @@
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
+#include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
-#include "physics/output_file.h"
 
 namespace overlap::engine {
 namespace {
@@ -442,8 +442,8 @@ int run(const BenchOptions& options, const std::string& command) {
   std::filesystem::path csv_path = options.out, json_path = options.out;
   csv_path += ".csv";
   json_path += ".json";
-  physics::writeFileAtomically(csv_path, csvText(rows, command, notes));
-  physics::writeFileAtomically(json_path, json.dump(2) + '\n');
+  writeFileAtomically(csv_path, csvText(rows, command, notes));
+  writeFileAtomically(json_path, json.dump(2) + '\n');
   std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
 
   const std::vector<std::string> failed = failures(rows);

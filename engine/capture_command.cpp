@@ -49,7 +49,7 @@ void capture(const CaptureOptions& options) {
   for (const int frame : keyframes)
     prepareOutputFile(options.out / pngName(config.scene, frame), "--out");
 
-  physics::OutputFolder outputs(options.out);
+  OutputFolder outputs(options.out);
   const std::unique_ptr<FrameCapture> camera =
       openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
   const std::unique_ptr<physics::PhysicsWorld> world =

@@ -1,6 +1,6 @@
 #include "engine/cli_errors.h"
 
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
 
 namespace overlap::engine {
 namespace {
@@ -12,13 +12,13 @@ std::string shownPath(const std::filesystem::path& path) {
 }  // namespace
 
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option) {
-  if (const std::string problem = physics::outputFolderProblem(dir); !problem.empty()) {
+  if (const std::string problem = outputFolderProblem(dir); !problem.empty()) {
     throw UsageError(std::string(option) + " " + shownPath(dir) + ": " + problem);
   }
 }
 
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option) {
-  if (const std::string problem = physics::outputFileProblem(file); !problem.empty()) {
+  if (const std::string problem = outputFileProblem(file); !problem.empty()) {
     throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
   }
 }

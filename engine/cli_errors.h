@@ -3,10 +3,10 @@
 // A UsageError is the user's input being wrong (an option, a value, a file):
 // main() prints it as one line and exits with code 2, before any work starts.
 // Anything else thrown is a failure while working and exits with code 1
-// (physics::OutputError: an output that could not be written, named).
+// (OutputError: an output that could not be written, named).
 // engine/interrupt.h's Interrupted exits 128 + the signal.  Either way
 // nothing half-written is left behind: outputs go through
-// physics/output_file.h.
+// gpu/base/output_file.h.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -25,7 +25,7 @@ struct UsageError : std::runtime_error {
 // the option and the path if it is not.
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option);
 
-// The same for a file to be written (physics::outputFileProblem): an empty
+// The same for a file to be written (outputFileProblem): an empty
 // name, a folder, an unwritable folder are UsageErrors.
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option);
 

@@ -25,8 +25,8 @@ int renderSizeClass(physics::SizeClass size_class) {
 
 }  // namespace
 
-FrameCapture::FrameCapture(physics::OutputFolder& outputs, const std::filesystem::path& folder,
-                           int width, int height, render::ColourMode mode)
+FrameCapture::FrameCapture(OutputFolder& outputs, const std::filesystem::path& folder, int width,
+                           int height, render::ColourMode mode)
     : outputs_(outputs), folder_(folder), renderer_(width, height, mode) {}
 
 std::string pngName(int scene, int frame) {
@@ -35,7 +35,7 @@ std::string pngName(int scene, int frame) {
   return name;
 }
 
-std::unique_ptr<FrameCapture> openCapture(physics::OutputFolder& outputs,
+std::unique_ptr<FrameCapture> openCapture(OutputFolder& outputs,
                                           const std::filesystem::path& folder,
                                           const std::string& size_text, render::ColourMode mode) {
   try {
@@ -62,7 +62,7 @@ double FrameCapture::capture(const physics::PhysicsWorld& world, int frame) {
   }
   const render::SceneView view{static_cast<float>(world.layout().half_extent), boxes};
   const std::filesystem::path path = folder_ / pngName(world.config().scene, frame);
-  physics::OutputFile& png = outputs_.open(path);
+  OutputFile& png = outputs_.open(path);
   png.write(render::encodePng(renderer_.render(view)));
   png.finish();  // closed now: a long run keeps no descriptor per picture
   written_.push_back(path);

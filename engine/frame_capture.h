@@ -1,6 +1,6 @@
 // Frame capture: pictures of a running scene, written as PNG files named
 // with the scene and the frame (scene4_frame0512.png), as outputs of the
-// run's physics::OutputFolder (published with the rest of the run).  Rendering happens on
+// run's OutputFolder (published with the rest of the run).  Rendering happens on
 // the main thread after the frame's physics and is timed on its own, never
 // inside the physics timings.
 #pragma once
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
 #include "physics/world.h"
 #include "render/renderer.h"
 
@@ -19,8 +19,8 @@ namespace overlap::engine {
 class FrameCapture {
  public:
   // Throws render::RenderError if no OSMesa context of that size can be made.
-  FrameCapture(physics::OutputFolder& outputs, const std::filesystem::path& folder, int width,
-               int height, render::ColourMode mode);
+  FrameCapture(OutputFolder& outputs, const std::filesystem::path& folder, int width, int height,
+               render::ColourMode mode);
 
   // Renders the world as it is now and writes it as `frame`; returns the
   // milliseconds the render and the PNG took.
@@ -30,7 +30,7 @@ class FrameCapture {
   const std::vector<std::filesystem::path>& written() const { return written_; }
 
  private:
-  physics::OutputFolder& outputs_;
+  OutputFolder& outputs_;
   std::filesystem::path folder_;
   render::OffscreenRenderer renderer_;
   std::vector<std::filesystem::path> written_;
@@ -42,7 +42,7 @@ std::string pngName(int scene, int frame);
 // Parses a --capture-size text (WIDTHxHEIGHT) and opens a camera writing into
 // `folder`, through `outputs`.  A malformed size, or one this OpenGL cannot render, is a
 // UsageError naming the option and the value; OSMesa failing is not.
-std::unique_ptr<FrameCapture> openCapture(physics::OutputFolder& outputs,
+std::unique_ptr<FrameCapture> openCapture(OutputFolder& outputs,
                                           const std::filesystem::path& folder,
                                           const std::string& size_text, render::ColourMode mode);
 

@@ -1,6 +1,6 @@
 // The one signal path.  SIGINT and SIGTERM only set a flag; every loop over
 // frames calls stopIfInterrupted() at each frame boundary, which throws
-// Interrupted.  Unwinding removes every temporary (physics/output_file.h)
+// Interrupted.  Unwinding removes every temporary (gpu/base/output_file.h)
 // and publishes nothing, so the outputs hold what they held before;
 // runCommandLine() says so in one line and exits 128 + the signal (130 for
 // SIGINT, 143 for SIGTERM).  A second signal before that ends the process at

@@ -42,9 +42,9 @@
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/output_file.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/broadphase_replay.h"
-#include "physics/output_file.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -76,7 +76,7 @@ struct SearchResult {
 };
 
 SearchResult search(physics::BroadphaseReplay& replay, const std::vector<physics::Aabb>& boxes) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   replay.update(boxes);
   replay.findPairs();
   const double ms = watch.ms();
@@ -203,7 +203,7 @@ void measureLatency(const LatencyOptions& options) {
     progress.update(frame + 1);
   }
   progress.finish();
-  physics::writeStandardOutput(csv.str());
+  writeStandardOutput(csv.str());
 }
 
 }  // namespace

@@ -25,7 +25,8 @@
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/task_load.h"
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -98,10 +99,10 @@ const std::vector<Column>& columns() {
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
       {"ccd_query_ms", [](R r) { return r.frame.physics.timings.ccd_query_ms; }, true},
       {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
-      {"total_ms", [](R r) { return r.frame.frame_ms; }, true},
-      {"sound_ms", [](R r) { return r.frame.sound_ms; }, true},
-      {"ai_ms", [](R r) { return r.frame.ai_ms; }, true},
-      {"tasks_wait_ms", [](R r) { return r.frame.tasks_wait_ms; }, true},
+      {"total_ms", [](R r) { return toMilliseconds(r.frame.whole.length()); }, true},
+      {"sound_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kSoundTask)); }, true},
+      {"ai_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kAiTask)); }, true},
+      {"tasks_wait_ms", [](R r) { return toMilliseconds(r.frame.waitTime()); }, true},
       {"tasks_hidden", [](R r) { return r.frame.tasks_hidden; }, true},
       {"search_ms", [](R r) { return r.frame.physics.timings.search_ms; }, true},
       {"join_ms", [](R r) { return r.frame.physics.timings.join_ms; }, true},
@@ -327,7 +328,7 @@ void run(const RunOptions& given) {
   }
   checkOutputs(options, config);
   // Everything goes to temporaries, published together at the end.
-  physics::OutputFolder outputs(options.out);
+  OutputFolder outputs(options.out);
   if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
   std::optional<TaskLoadCalibration> calibration;
   if (options.task_load && options.scheduler.tasks) {
@@ -384,9 +385,11 @@ void run(const RunOptions& given) {
       for (const FrameRow& row : rows) values.push_back(value(row.frame));
       return median(values);
     };
-    const auto frameMs = [](const ScheduledFrame& f) { return f.frame_ms; };
+    const auto frameMs = [](const ScheduledFrame& f) { return toMilliseconds(f.whole.length()); };
     const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
-    const auto tasksMs = [](const ScheduledFrame& f) { return f.sound_ms + f.ai_ms; };
+    const auto tasksMs = [](const ScheduledFrame& f) {
+      return toMilliseconds(f.taskTime(kSoundTask) + f.taskTime(kAiTask));
+    };
     const double sync_ms = medianOf(sync_run->rows, frameMs);
     const double async_ms = medianOf(result.rows, frameMs);
     summary["compare_sync"] = {

@@ -12,9 +12,9 @@
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
+#include "gpu/base/output_file.h"
 #include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
-#include "physics/output_file.h"
 
 namespace overlap::engine {
 namespace {
@@ -74,12 +74,12 @@ void printPairs(const PairsOptions& options) {
         csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
       }
       if (csv.size() > (1 << 20)) {
-        physics::writeStandardOutput(csv);
+        writeStandardOutput(csv);
         csv.clear();
       }
       ++frame;
     } while (reader.next(boxes));
-    physics::writeStandardOutput(csv);
+    writeStandardOutput(csv);
   } catch (const physics::AabbStreamError& error) {
     throw UsageError(error.what());
   }

@@ -5,6 +5,13 @@
 #include <nlohmann/json.hpp>
 
 namespace overlap::engine {
+namespace {
+
+double microseconds(Clock::duration duration) {
+  return std::chrono::duration<double, std::micro>(duration).count();
+}
+
+}  // namespace
 
 std::string Timeline::json() const {
   // Lanes become threads of one process, numbered in order of appearance.
@@ -25,29 +32,18 @@ std::string Timeline::json() const {
                       {"ph", "X"},
                       {"pid", 1},
                       {"tid", it->second},
-                      {"ts", span.start_us},
-                      {"dur", span.durationUs()},
+                      {"ts", microseconds(span.at.start - origin_)},
+                      {"dur", microseconds(span.at.length())},
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
   return trace.dump();
 }
 
-double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy) {
-  if (duration <= 0) return 0.0;
-  const double end = start + duration;
-  std::sort(busy.begin(), busy.end());
-  double covered = 0.0;
-  double reached = start;  // everything before this is counted already
-  for (const auto& [from, to] : busy) {
-    const double lo = std::max(from, reached);
-    const double hi = std::min(to, end);
-    if (hi > lo) {
-      covered += hi - lo;
-      reached = hi;
-    }
-  }
-  return covered / duration;
+Clock::duration overlapOf(const Interval& a, const Interval& b) {
+  const Clock::time_point start = std::max(a.start, b.start);
+  const Clock::time_point end = std::min(a.end, b.end);
+  return end > start ? end - start : Clock::duration::zero();
 }
 
 }  // namespace overlap::engine

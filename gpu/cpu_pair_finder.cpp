@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {

@@ -13,8 +13,8 @@
 #include <string>
 #include <utility>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {

@@ -31,10 +31,10 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {

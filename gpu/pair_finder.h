@@ -39,12 +39,23 @@ struct alignas(16) ObjectBounds {
   std::int32_t mask;
 };
 
+// Two slots (or objects, or bodies) that overlap: the project's one pair
+// type.  Lists of them are sorted by (a, b).
 struct IndexPair {
   std::uint32_t a;  // a < b
   std::uint32_t b;
   friend bool operator==(const IndexPair&, const IndexPair&) = default;
   friend auto operator<=>(const IndexPair&, const IndexPair&) = default;
 };
+
+// The IndexPair of slots x and y (in either order) as one 64-bit key, lower
+// slot in the high half, so keys sort as the pairs do: the form a sweep
+// collects pairs in (gpu/pair_set.h).
+constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
+  const std::uint32_t a = x < y ? x : y;
+  const std::uint32_t b = x < y ? y : x;
+  return (std::uint64_t{a} << 32) | b;
+}
 
 // What changed since the previous frame; valid until the next launch().
 struct PairDelta {

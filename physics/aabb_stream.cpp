@@ -13,7 +13,7 @@
 #include <cstring>
 #include <limits>
 
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
 
 namespace overlap::physics {
 namespace {

@@ -93,7 +93,7 @@ class AabbStreamReader {
 // The whole stream in memory, through AabbStreamReader.
 AabbStream readAabbStream(const std::filesystem::path& path);
 
-// Writes through physics/output_file.h; throws AabbStreamError for an
+// Writes through gpu/base/output_file.h; throws AabbStreamError for an
 // inconsistent stream or a box the reader would refuse (naming its frame and
 // object), std::runtime_error when the file cannot be written.
 void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream);

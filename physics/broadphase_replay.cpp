@@ -77,12 +77,12 @@ void BroadphaseReplay::findPairs() {
 PairList BroadphaseReplay::pairs() const {
   const btBroadphasePairArray& array =
       bullet_->broadphase->getOverlappingPairCache()->getOverlappingPairArray();
-  std::vector<std::pair<int, int>> result;
+  PairList result;
   result.reserve(static_cast<std::size_t>(array.size()));
   for (int i = 0; i < array.size(); ++i) {
     const int a = *static_cast<const int*>(array[i].m_pProxy0->m_clientObject);
     const int b = *static_cast<const int*>(array[i].m_pProxy1->m_clientObject);
-    result.emplace_back(std::min(a, b), std::max(a, b));
+    result.push_back(orderedPair(a, b));
   }
   std::sort(result.begin(), result.end());
   return result;

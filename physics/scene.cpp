@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::physics {
 namespace {

@@ -82,7 +82,7 @@ class OffscreenRenderer {
 };
 
 // An 8-bit RGBA PNG file's bytes, with no time stamp, so equal images give
-// equal files; the caller writes them (engine/: physics/output_file.h).
+// equal files; the caller writes them (engine/: gpu/base/output_file.h).
 // Throws RenderError for a malformed image.
 std::string encodePng(const Image& image);
 

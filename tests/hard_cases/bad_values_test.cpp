@@ -89,11 +89,10 @@ TEST_P(BadValuesMidRun, TheBoxLeavesWithAMessageAndNothingElseBreaks) {
       } else {
         ASSERT_TRUE(missesNoPair(cached, exact)) << "frame " << later.frame;
       }
-      for (const auto& [a, b] : cached) {
+      for (const gpu::IndexPair& pair : cached) {
         for (int i = 0; i <= static_cast<int>(v); ++i) {
-          ASSERT_TRUE(a != victims[static_cast<std::size_t>(i)] &&
-                      b != victims[static_cast<std::size_t>(i)])
-              << "a removed box is still paired";
+          const auto gone = static_cast<std::uint32_t>(victims[static_cast<std::size_t>(i)]);
+          ASSERT_TRUE(pair.a != gone && pair.b != gone) << "a removed box is still paired";
         }
       }
     }

@@ -49,7 +49,7 @@ std::vector<unsigned char> renderWav(const std::filesystem::path& path, std::uin
   config.seed = seed;
   SoundMixer mixer(config);
   {
-    physics::OutputFile file(path);
+    OutputFile file(path);
     WavWriter writer(file);
     for (int frame = 0; frame < frames; ++frame) {
       const ImpactEvent impact{closing_speed, -0.3f, 1.0f};
@@ -87,7 +87,7 @@ TEST(WavWriter, HeaderFieldsDescribeTheSamples) {
 TEST(WavWriter, CountsFramesAndClampsAndRoundsSamples) {
   const std::filesystem::path path = scratchFile("clamp");
   {
-    physics::OutputFile file(path);
+    OutputFile file(path);
     WavWriter writer(file);
     const std::vector<float> samples = {0.0f, 1.0f, -1.0f, 0.5f, 2.0f, -2.0f};
     writer.appendStereo(samples);
@@ -120,7 +120,7 @@ TEST(WavWriter, DifferentSeedOrImpactsGiveDifferentBytes) {
 TEST(WavWriter, UnwritablePathThrowsNamingThePath) {
   const std::string path = "/nonexistent-overlap-dir/sound.wav";
   try {
-    physics::OutputFile file(path);
+    OutputFile file(path);
     WavWriter writer(file);
     FAIL() << "opened " << path;
   } catch (const std::runtime_error& error) {
@@ -130,7 +130,7 @@ TEST(WavWriter, UnwritablePathThrowsNamingThePath) {
 
 TEST(WavWriter, OddSampleCountThrowsNamingThePath) {
   const std::filesystem::path path = scratchFile("odd");
-  physics::OutputFile file(path);
+  OutputFile file(path);
   WavWriter writer(file);
   const std::vector<float> three = {0.1f, 0.2f, 0.3f};
   try {
@@ -151,7 +151,7 @@ TEST(WavWriter, WritesThroughAFifoWithAStreamingHeader) {
   std::vector<unsigned char> received;
   std::thread reader([&] { received = readBytes(fifo); });
   {
-    physics::OutputFile file(fifo);
+    OutputFile file(fifo);
     ASSERT_TRUE(file.writtenThrough());
     WavWriter writer(file);
     writer.appendStereo(std::vector<float>{0.5f, -0.5f});
@@ -168,7 +168,7 @@ TEST(WavWriter, WritesThroughAFifoWithAStreamingHeader) {
 
 TEST(WavWriter, MixAtAnotherSampleRateIsRefused) {
   const std::filesystem::path path = scratchFile("rate");
-  physics::OutputFile file(path);
+  OutputFile file(path);
   WavWriter writer(file, 44100);
   SoundMixer mixer{SoundConfig{}};
   mixer.runFrame({});

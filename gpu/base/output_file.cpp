@@ -1,4 +1,4 @@
-#include "physics/output_file.h"
+#include "gpu/base/output_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -10,7 +10,7 @@
 #include <functional>
 #include <system_error>
 
-namespace overlap::physics {
+namespace overlap {
 namespace {
 
 namespace fs = std::filesystem;
@@ -242,4 +242,4 @@ void OutputFolder::commit() {
   writeManifest(inside_);
 }
 
-}  // namespace overlap::physics
+}  // namespace overlap

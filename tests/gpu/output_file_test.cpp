@@ -1,5 +1,5 @@
-// physics/output_file.h: temporaries, write-through, symlinks, run folders.
-#include "physics/output_file.h"
+// gpu/base/output_file.h: temporaries, write-through, symlinks, run folders.
+#include "gpu/base/output_file.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -12,7 +12,7 @@
 
 #include "tests/scratch_path.h"
 
-namespace overlap::physics {
+namespace overlap {
 namespace {
 
 namespace fs = std::filesystem;
@@ -115,4 +115,4 @@ TEST_F(OutputFileTest, AFolderReplacesOnlyWhatTheLastRunWrote) {
 }
 
 }  // namespace
-}  // namespace overlap::physics
+}  // namespace overlap

@@ -29,7 +29,7 @@
 #include <string_view>
 #include <vector>
 
-namespace overlap::physics {
+namespace overlap {
 
 // A failure while writing an output: the program's (exit 1), not the user's.
 struct OutputError : std::runtime_error {
@@ -118,4 +118,4 @@ class OutputFolder {
   std::set<std::string> inside_;  // the outputs inside the folder, relative to it
 };
 
-}  // namespace overlap::physics
+}  // namespace overlap
