@@ -4,6 +4,7 @@
 #include <exception>
 #include <string>
 
+#include "engine/algorithm_list.h"
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/interrupt.h"
@@ -18,6 +19,7 @@ void addCommands(CLI::App& app) {
   app.footer(
       "Start with `overlap run` (a one-minute demo into ./out); "
       "`overlap SUBCOMMAND --help` lists its options with their defaults and an example.");
+  addListAlgosFlag(app);
   addRunCommand(app);
   addRecordCommand(app);
   addPairsCommand(app);

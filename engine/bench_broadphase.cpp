@@ -13,10 +13,9 @@
 // the slowest repeat, and the ratio to bvh (btDbvtBroadphase) at that n.
 //
 // Every frame's pair cache is checked against the exact set, taken from the
-// first exact algorithm run at that n (bf, else cpubf, cpusap, gpubf,
-// gpubf-paper):
-// an exact algorithm must match it, a conservative one (sap, sap32, bvh) must
-// hold all of it and may hold extra pairs.  A mismatch or a missed pair makes
+// first exact algorithm (in the catalogue's order, physics/broadphase_factory.h)
+// run at that n: an exact algorithm must match it, one that is not must hold
+// all of it and may hold extra pairs.  A mismatch or a missed pair makes
 // the run fail (exit 1) after it has written its results.
 //
 // GPU algorithms run only where a CUDA device is present; elsewhere they are
@@ -52,8 +51,6 @@ using physics::PairList;
 
 constexpr const char* kProgram = "overlap_bench_broadphase";
 constexpr int kScene = 4;
-// Exact algorithms in the order they are preferred as the reference.
-constexpr std::string_view kExact[] = {"bf", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 
 struct BenchOptions {
   std::vector<int> objects{500, 1250, 2000, 2750, 3500};
@@ -97,11 +94,7 @@ struct Row {
 };
 
 bool isExact(std::string_view algorithm) {
-  return std::find(std::begin(kExact), std::end(kExact), algorithm) != std::end(kExact);
-}
-
-bool isGpu(std::string_view algorithm) {
-  return algorithm == "gpubf" || algorithm == "gpubf-paper";
+  return physics::broadphaseInfo(algorithm).exact;
 }
 
 // Replays the whole stream once in a fresh broadphase and adds one repeat to
@@ -167,7 +160,7 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
   auto runnable = [&](const std::vector<std::string>& requested) {
     std::set<std::string> kept;
     for (const std::string& algorithm : requested) {
-      if (isGpu(algorithm) && !have_gpu) {
+      if (physics::broadphaseInfo(algorithm).needs_device && !have_gpu) {
         dropped.insert(algorithm);
       } else {
         kept.insert(algorithm);
@@ -205,14 +198,12 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
   return workloads;
 }
 
-// The row whose pairs are the exact set: the first of kExact that runs, if any.
+// The row whose pairs are the exact set: the first exact one (rows are in
+// the catalogue's order), if any.
 Row* referenceRow(std::vector<Row>& rows) {
-  for (std::string_view exact : kExact) {
-    for (Row& row : rows) {
-      if (row.algorithm == exact) return &row;
-    }
-  }
-  return nullptr;
+  const auto exact =
+      std::find_if(rows.begin(), rows.end(), [](const Row& row) { return isExact(row.algorithm); });
+  return exact == rows.end() ? nullptr : &*exact;
 }
 
 std::vector<Row> measure(const Workload& workload, const physics::AabbStream& stream,
@@ -391,7 +382,8 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
       "ratio_vs_bvh = median_us / bvh's median_us at the same n in this run (bvh = "
       "btDbvtBroadphase; below 1 is faster than bvh)",
       "pairs_mean: pairs in the cache per measured frame; extra_pairs_mean: cached pairs not in "
-      "the exact set (the first of bf, cpubf, cpusap run at that n) per measured frame; "
+      "the exact set (the first exact algorithm of `overlap --list-algos` run at that n) per "
+      "measured frame; "
       "missed_pairs: exact "
       "pairs missing from the cache, summed over every frame and repeat; both empty for the "
       "reference itself"};

@@ -129,8 +129,10 @@ void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
   algorithm = kDefaultAlgorithm;
   command
       .add_option("--algo", algorithm,
-                  "broadphase: " + broadphaseNameList() + " (" + kDefaultAlgorithm +
-                      " without a CUDA device runs the fastest exact CPU finder and says so)")
+                  "broadphase: " + broadphaseNameList() +
+                      " (`overlap --list-algos` says what each is; " + kDefaultAlgorithm +
+                      " without a CUDA device runs " + std::string(physics::kDeviceFallback) +
+                      " and says so)")
       ->check(broadphaseNameCheck())
       ->capture_default_str();
 }

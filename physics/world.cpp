@@ -95,13 +95,12 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
-  BroadphaseChoice choice =
-      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
   // Every broadphase answers CCD's sweeps through one shared tree: the same
   // queries for all (physics/ccd_query_broadphase.h).
-  auto queries = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
-  b.ccd_queries = queries.get();
-  b.broadphase = std::move(queries);
+  BroadphaseChoice choice =
+      makeWorldBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
+  b.ccd_queries = static_cast<CcdQueryBroadphase*>(choice.broadphase.get());
+  b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 
