@@ -18,8 +18,8 @@
 #include <optional>
 #include <vector>
 
-#include "gpu/pair_finder.h"
 #include "gpu/base/stopwatch.h"
+#include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
 

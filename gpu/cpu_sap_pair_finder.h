@@ -35,10 +35,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
 #include "gpu/sap_sweep.h"
-#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 

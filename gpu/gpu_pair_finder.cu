@@ -32,10 +32,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/row_words.h"
-#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {
