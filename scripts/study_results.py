@@ -155,7 +155,7 @@ def pair_errors(jobs: list) -> list:
 
 
 def box_centres(path: pathlib.Path):
-    """An `overlap record` stream (SCENES.md's .aabbs layout) as box centres, (frames, n, 3)."""
+    """An `overlap record` stream (the .aabbs layout of docs/SCENES.md) as box centres, (frames, n, 3)."""
     import numpy  # matplotlib's own dependency, so present wherever the figures are drawn
     data = path.read_bytes()
     objects = int(numpy.frombuffer(data, dtype="<i4", count=1, offset=256)[0])
