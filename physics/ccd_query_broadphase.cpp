@@ -48,45 +48,34 @@ btBroadphaseProxy* CcdQueryBroadphase::createProxy(const btVector3& aabbMin,
       aabbMin, aabbMax, shapeType, userPtr, collisionFilterGroup, collisionFilterMask, dispatcher);
   btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
                                               collisionFilterGroup, collisionFilterMask, nullptr);
-  leaf_of_[proxy] = leaves_.size();
-  leaves_.push_back(Leaf{proxy, node, aabbMin, aabbMax, false});
+  leaves_.emplace(proxy, Leaf{node, aabbMin, aabbMax, false});
   return proxy;
 }
 
 void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
-  const auto found = leaf_of_.find(proxy);
-  const std::size_t index = found->second;
-  leaf_of_.erase(found);
-  tree_.destroyProxy(leaves_[index].node, nullptr);
-  // Swap-remove, keeping the moved leaf's lookup and any stale mark valid.
-  if (index + 1 != leaves_.size()) {
-    leaves_[index] = leaves_.back();
-    leaf_of_[leaves_[index].proxy] = index;
-    for (std::size_t& stale : stale_)
-      if (stale == leaves_.size() - 1) stale = index;
-  }
-  leaves_.pop_back();
-  std::erase(stale_, leaves_.size());
+  const auto found = leaves_.find(proxy);
+  Leaf& leaf = found->second;
+  if (leaf.stale) std::erase(stale_, &leaf);
+  tree_.destroyProxy(leaf.node, nullptr);
+  leaves_.erase(found);
   pairs_->destroyProxy(proxy, dispatcher);
 }
 
 void CcdQueryBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin,
                                  const btVector3& aabbMax, btDispatcher* dispatcher) {
   pairs_->setAabb(proxy, aabbMin, aabbMax, dispatcher);
-  const std::size_t index = leaf_of_.at(proxy);
-  Leaf& leaf = leaves_[index];
+  Leaf& leaf = leaves_.at(proxy);
   if (leaf.min == aabbMin && leaf.max == aabbMax) return;
   leaf.min = aabbMin;
   leaf.max = aabbMax;
-  if (!leaf.stale) stale_.push_back(index);
+  if (!leaf.stale) stale_.push_back(&leaf);
   leaf.stale = true;
 }
 
 void CcdQueryBroadphase::refresh() {
-  for (const std::size_t index : stale_) {
-    Leaf& leaf = leaves_[index];
-    tree_.setAabb(leaf.node, leaf.min, leaf.max, nullptr);
-    leaf.stale = false;
+  for (Leaf* leaf : stale_) {
+    tree_.setAabb(leaf->node, leaf->min, leaf->max, nullptr);
+    leaf->stale = false;
   }
   stale_.clear();
 }

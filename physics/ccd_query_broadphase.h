@@ -58,10 +58,9 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
 
  private:
   struct Leaf {
-    btBroadphaseProxy* proxy;  // the wrapped broadphase's
-    btBroadphaseProxy* node;   // the tree's, whose client object is the proxy's
-    btVector3 min, max;        // the latest setAabb
-    bool stale;                // min/max not yet in the tree
+    btBroadphaseProxy* node;  // the tree's, whose client object is the wrapped proxy
+    btVector3 min, max;       // the latest setAabb
+    bool stale;               // min/max not yet in the tree (then it is in stale_)
   };
   // Brings every stale leaf into the tree, in the order setAabb saw them.
   void refresh();
@@ -72,9 +71,10 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   std::unique_ptr<btBroadphaseInterface> pairs_;
   btNullPairCache no_pairs_;
   btDbvtBroadphase tree_{&no_pairs_};
-  std::vector<Leaf> leaves_;
-  std::unordered_map<const btBroadphaseProxy*, std::size_t> leaf_of_;  // lookup only
-  std::vector<std::size_t> stale_;                                     // in setAabb order
+  // By the wrapped broadphase's proxy; a map's elements keep their addresses,
+  // so stale_ can point at them.
+  std::unordered_map<const btBroadphaseProxy*, Leaf> leaves_;
+  std::vector<Leaf*> stale_;  // in setAabb order
   double query_ms_ = 0;
 };
 
