@@ -7,14 +7,10 @@ verdict says so and the row gives what was measured instead, labelled.
 """
 import broadphases
 import study_physics
+from study_results import update_and_broadphase_ms
 
 PUBLISHED_CPU = ("bf", "sap", "bvh")  # Bullet's broadphases, the paper's BF, SAP and BVH
 NEAR = 1.25  # "near": at most this factor slower
-
-
-def search_ms(cell: dict) -> float:
-    """The part of the frame a broadphase changes: writing the AABBs and finding pairs."""
-    return cell["update_mean"] + cell["broadphase_mean"]
 
 
 def ratio_range(cells: list, algo: str, other: str, value) -> tuple:
@@ -37,7 +33,7 @@ def paper_rows(cells: list) -> list:
     stand_in = gpu[0] if gpu else "cpubf"
     who = stand_in if gpu else "no GPU lent: its CPU twin cpubf"
     total = lambda c: c["total_mean"]  # noqa: E731
-    compared, faster, low, high = ratio_range(cells, stand_in, "bf", search_ms)
+    compared, faster, low, high = ratio_range(cells, stand_in, "bf", update_and_broadphase_ms)
     rows.append(["Paper 1: GPU-BF beats BF everywhere",
                  f"{who}: update + broadphase x{low:.2f}-x{high:.2f} of bf's, faster in "
                  f"{faster} of {compared} cells" if compared else "not run",
@@ -123,8 +119,8 @@ def cpu_row(cells: list) -> list:
         peers = [at_n[a] for a in PUBLISHED_CPU if a in at_n]
         if "cpusap" not in at_n or not peers:
             continue
-        best = min(peers, key=search_ms)
-        ratio = search_ms(at_n["cpusap"]) / search_ms(best)
+        best = min(peers, key=update_and_broadphase_ms)
+        ratio = update_and_broadphase_ms(at_n["cpusap"]) / update_and_broadphase_ms(best)
         wins += ratio < 1
         lines.append(f"s{scene}: x{ratio:.2f} of {best['algo']}")
     if not lines:

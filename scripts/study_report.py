@@ -62,7 +62,7 @@ def sweep_tables(cells: list) -> list:
             ("Total ms per frame (mean over repetitions of each run's mean; in brackets the "
              "ratio to bf)", lambda c: c["total_mean"]),
             ("Update + broadphase ms per frame (same averaging; ratio to bf)",
-             lambda c: c["update_mean"] + c["broadphase_mean"])):
+             study_results.update_and_broadphase_ms)):
         rows = []
         for scene, n in keys:
             base = by_key.get((scene, n, "bf"))
@@ -112,7 +112,7 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
     honest = [c for c in cells if not c["fallback"]]
     by_key = {(c["scene"], c["objects"], c["algo"]): c for c in honest}
     measures = (("total", lambda c: c["total_mean"]),
-                ("update + broadphase", lambda c: c["update_mean"] + c["broadphase_mean"]))
+                ("update + broadphase", study_results.update_and_broadphase_ms))
     lines = []
 
     def versus(algo: str, other: str, name: str, value) -> str:
@@ -176,7 +176,7 @@ def figure_lines(cells: list, n: int) -> list:
     update + broadphase together: SAP and DBVT do most of their work while the AABBs are
     written (sap's broadphase column alone is a few microseconds)."""
     honest = [c for c in cells if not c["fallback"]]
-    search = lambda c: c["update_mean"] + c["broadphase_mean"]  # noqa: E731
+    search = study_results.update_and_broadphase_ms
     lines = []
     for scene in sorted({c["scene"] for c in honest}):
         present = [c for c in honest if c["scene"] == scene and c["objects"] == n]
@@ -209,7 +209,7 @@ def pairs_section(pairs: list, cells: list, n: int, figures: dict) -> tuple:
         return ["No pair comparison has run yet.", ""], []
     failures = [f"{r['algo']} missed {r['missed']} exact pairs on the scene-4 stream"
                 for r in pairs if r["missed"]]
-    time = {c["algo"]: c["update_mean"] + c["broadphase_mean"]
+    time = {c["algo"]: study_results.update_and_broadphase_ms(c)
             for c in cells if c["scene"] == 4 and c["objects"] == n and not c["fallback"]}
     rows = []
     for r in sorted(pairs, key=lambda r: algo_order([r["algo"]])[0]):
@@ -245,7 +245,7 @@ def best_broadphase_lines(cells: list) -> list:
     for scene in sorted({c["scene"] for c in honest}):
         n = max(c["objects"] for c in honest if c["scene"] == scene)
         total = fastest(honest, scene, n, lambda c: c["total_mean"])
-        search = fastest(honest, scene, n, lambda c: c["update_mean"] + c["broadphase_mean"])
+        search = fastest(honest, scene, n, study_results.update_and_broadphase_ms)
         lines.append(f"- Scene {scene} at {n} boxes: fastest frame **{total[0]}** "
                      f"({fmt(total[1])} ms), fastest update + broadphase **{search[0]}** "
                      f"({fmt(search[1])} ms).")
@@ -388,12 +388,17 @@ def shown_command(args, words) -> str:
 
 def invocation_lines(args) -> list:
     """The study invocations that ran the jobs, each with its start, length and the machine's
-    load average when it started."""
+    load average when it started.  Their --notes is left out: it shapes the report, not the
+    runs, and names a folder of the machine that ran them."""
     lines = ["The runs came from ($OUT: the study's --out folder, where its runs are kept):", ""]
     log = args.out / "study_invocations.json"
     for run in json.loads(log.read_text()) if log.exists() else []:
         load = run["load_average_at_start"]
-        lines.append(f"- `{shown_command(args, run['argv'])}`, started {run['started']}, " + (
+        argv = run["argv"]
+        if "--notes" in argv:
+            at = argv.index("--notes")
+            argv = argv[:at] + argv[at + 2:]
+        lines.append(f"- `{shown_command(args, argv)}`, started {run['started']}, " + (
             f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
             "stopped before its end (its finished runs are used, the others were run again by "
             "a later invocation)") + f"; load average at its start {load}" + (
