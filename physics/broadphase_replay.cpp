@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "physics/broadphase_factory.h"
+#include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 
@@ -17,7 +18,9 @@ struct BroadphaseReplay::Bullet {
   std::vector<int> indices;  // proxies' user pointers point here
 
   ~Bullet() {
-    for (btBroadphaseProxy* proxy : proxies) broadphase->destroyProxy(proxy, &dispatcher);
+    for (btBroadphaseProxy* proxy : proxies) {
+      if (proxy != nullptr) broadphase->destroyProxy(proxy, &dispatcher);
+    }
   }
 };
 
@@ -46,11 +49,15 @@ BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world
 
 BroadphaseReplay::~BroadphaseReplay() = default;
 
-void BroadphaseReplay::update(std::span<const Aabb> boxes) {
+void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::uint8_t> present) {
   Bullet& b = *bullet_;
-  if (boxes.size() != b.indices.size()) {
+  if (boxes.size() != b.indices.size() || (!present.empty() && present.size() != boxes.size())) {
     throw std::invalid_argument("replay: frame has " + std::to_string(boxes.size()) +
                                 " boxes, expected " + std::to_string(b.indices.size()));
+  }
+  if (!present.empty()) {
+    updatePresent(boxes, present);
+    return;
   }
   // Proxies are created at the first frame's boxes: SAP and DBVT pair a new
   // proxy with everything it overlaps at once, so n proxies created at one
@@ -68,6 +75,37 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes) {
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
   }
+}
+
+void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
+                                     std::span<const std::uint8_t> present) {
+  Bullet& b = *bullet_;
+  b.proxies.resize(boxes.size(), nullptr);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (present[i] == 0 && b.proxies[i] != nullptr) {
+      b.broadphase->destroyProxy(b.proxies[i], &b.dispatcher);
+      b.proxies[i] = nullptr;
+    }
+  }
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (present[i] == 0) continue;
+    if (b.proxies[i] == nullptr) {
+      b.proxies[i] = b.broadphase->createProxy(
+          corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
+          btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher);
+    } else {
+      b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max),
+                            &b.dispatcher);
+    }
+  }
+}
+
+std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
+  const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
+  if (ours == nullptr) return std::nullopt;
+  const gpu::SearchPhases split = ours->finder().lastPhases();
+  return ReplayPhases{ours->lastSearch().search_ms, split.sort_ms, split.sweep_ms, split.delta_ms,
+                      ours->lastSearch().cache_update_ms};
 }
 
 void BroadphaseReplay::findPairs() {

@@ -177,6 +177,7 @@ void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   times.joined = Clock::now();
   finishPairSearch(dispatcher);
   times.join_ms = msSince(times.joined);
+  times.cache_update_ms = last_cache_update_ms_;
   times.search_ms = finder_->lastSearchMs();
   times.start_delay_ms = finder_->lastSearchDelayMs();
   last_search_ = times;
@@ -199,6 +200,7 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
   }
   search_in_flight_ = false;
   const gpu::PairDelta delta = finder_->finish();
+  const auto cache_update_start = std::chrono::steady_clock::now();
   // A pair with a destroyed proxy already left the cache with it, and one it
   // gained after launch is stale: only pairs of two live proxies apply.
   const auto bothLive = [&](const gpu::IndexPair& pair) {
@@ -220,6 +222,9 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
     free_slots_.push_back(slot);
   }
   draining_.clear();
+  last_cache_update_ms_ = std::chrono::duration<double, std::milli>(
+                              std::chrono::steady_clock::now() - cache_update_start)
+                              .count();
 }
 
 void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {

@@ -108,6 +108,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
   std::size_t live_count_ = 0;
   bool search_in_flight_ = false;
+  double last_cache_update_ms_ = 0;
   SearchTimes last_search_;
 };
 
