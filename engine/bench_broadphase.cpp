@@ -226,7 +226,7 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
       line += figure;
     }
     const double elapsed = std::chrono::duration<double>(Clock::now() - run_start).count();
-    std::fprintf(stderr, "%s: n=%d repeat %d/%d:%s (%.0f s elapsed)\n", kProgram, workload.objects,
+    std::fprintf(stderr, "%s: n=%d repeat %d/%d:%s (%.0f s elapsed)\n", kProgram, stream.objects,
                  repeat + 1, options.repeats, line.c_str(), elapsed);
   }
 

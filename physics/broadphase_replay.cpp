@@ -18,6 +18,12 @@ struct BroadphaseReplay::Bullet {
   std::vector<int> indices;  // proxies' user pointers point here
 
   ~Bullet() {
+    // Every pair at once: destroyProxy() alone would walk the whole cache for
+    // each proxy (Bullet's removeOverlappingPairsContainingProxy), n times.
+    struct RemoveEvery final : btOverlapCallback {
+      bool processOverlap(btBroadphasePair& /*pair*/) override { return true; }
+    } remove_every;
+    broadphase->getOverlappingPairCache()->processAllOverlappingPairs(&remove_every, &dispatcher);
     for (btBroadphaseProxy* proxy : proxies) {
       if (proxy != nullptr) broadphase->destroyProxy(proxy, &dispatcher);
     }
