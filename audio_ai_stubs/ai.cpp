@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "physics/checksum.h"
+#include "gpu/base/checksum.h"
 
 namespace overlap::stubs {
 namespace {
@@ -137,8 +137,7 @@ void AgentCrowd::runFrame(std::span<const Obstacle> boxes) {
 std::uint64_t AgentCrowd::checksum() const {
   // Object bytes of the vectors (no padding, see the static_assert); with no
   // agents the spans are empty, never a dereferenced null.
-  return physics::fnv1a(std::as_bytes(std::span(velocities_)),
-                        physics::fnv1a(std::as_bytes(std::span(positions_))));
+  return fnv1a(std::as_bytes(std::span(velocities_)), fnv1a(std::as_bytes(std::span(positions_))));
 }
 
 Eigen::Vector3f AgentCrowd::seek(std::size_t agent) {

@@ -3,7 +3,7 @@
 // behaviours: seek a wandering target, keep apart from each other, and turn
 // away from the boxes ahead.  It reads last frame's box positions (the engine
 // copies them out of Bullet before the frame starts), so it can run on a
-// worker thread while the broadphase works on this frame.
+// worker thread while the physics steps this frame.
 //
 // Each frame rebuilds a uniform grid over the boxes and one over the agents,
 // so neighbour queries cost about O(K * local density), not O(K * n).  All
@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "audio_ai_stubs/uniform_grid.h"
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 
@@ -93,7 +93,7 @@ class AgentCrowd {
   AiConfig config_;
   float half_extent_;
   float largest_box_radius_ = 0.0f;  // this frame's, widens box queries
-  physics::SeededRandom random_;
+  SeededRandom random_;
   std::vector<Eigen::Vector3f> positions_;
   std::vector<Eigen::Vector3f> velocities_;
   std::vector<Eigen::Vector3f> targets_;

@@ -1,14 +1,14 @@
 // SoundMixer: the game's sound system, a stand-in with a real workload.  Each
 // frame it mixes its voices into one frame of 48 kHz stereo float audio, on
-// whichever thread calls runFrame(), while the broadphase runs elsewhere.
+// whichever thread calls runFrame(), while the physics steps elsewhere.
 //
 // A voice is a few oscillators (a sawtooth at the fundamental and sine partials
 // at a struck bar's inharmonic mode ratios, each with its own exponential
 // decay), then a voice-owned RBJ low-pass, then equal-power panning; a master
-// limiter keeps the summed mix under a ceiling.  Every new contact pair the
-// broadphase reports starts an impact voice whose gain and brightness follow
-// the closing speed; background voices drone throughout so that the cost
-// never drops to zero.
+// limiter keeps the summed mix under a ceiling.  Every impact (a contact the
+// physics reports as begun, which the engine turns into an ImpactEvent)
+// starts an impact voice whose gain and brightness follow the closing speed;
+// background voices drone throughout so that the cost never drops to zero.
 //
 // Invariants: at most `voices` voices sound at once, `background_voices` of
 // them always the drones; an impact that finds every impact voice busy steals
@@ -23,13 +23,13 @@
 #include <vector>
 
 #include "audio_ai_stubs/biquad.h"
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 
 class WavWriter;
 
-// One new contact, as the engine derives it from a broadphase pair.
+// One impact: a contact that began this frame, as the engine hears it.
 struct ImpactEvent {
   float closing_speed;  // m/s, >= 0; how fast the two boxes approach each other
   float pan;            // -1 full left .. 1 full right (clamped)
@@ -118,7 +118,7 @@ class SoundMixer {
   std::vector<float> mix_;
   float limiter_gain_ = 1.0f;  // at the end of the last frame
   float limiter_release_per_frame_ = 0.0f;
-  physics::SeededRandom random_;  // drawn from in a fixed order: determinism
+  SeededRandom random_;  // drawn from in a fixed order: determinism
   std::uint64_t next_serial_ = 0;
   SoundWork work_;
 };

@@ -1,9 +1,7 @@
 #include "audio_ai_stubs/wav_writer.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string_view>
@@ -18,6 +16,9 @@ void putLittleEndian(std::vector<unsigned char>& out, std::uint32_t value, int b
 void putTag(std::vector<unsigned char>& out, std::string_view tag) {
   for (const char c : tag) out.push_back(static_cast<unsigned char>(c));
 }
+
+// The data size a header written before the end says: the largest.
+constexpr std::uint32_t kStreamingDataBytes = 0xFFFFFFFFu - (WavWriter::kHeaderBytes - 8);
 
 std::vector<unsigned char> header(int sample_rate, std::uint32_t data_bytes) {
   constexpr std::uint32_t kBlockAlign = WavWriter::kChannels * WavWriter::kBitsPerSample / 8;
@@ -41,34 +42,17 @@ std::vector<unsigned char> header(int sample_rate, std::uint32_t data_bytes) {
 
 }  // namespace
 
-WavWriter::WavWriter(std::string path, int sample_rate)
-    : path_(std::move(path)), sample_rate_(sample_rate) {
-  if (sample_rate_ <= 0) {
-    throw std::runtime_error("WavWriter: sample rate " + std::to_string(sample_rate_) + " for '" +
-                             path_ + "' must be positive");
-  }
-  errno = 0;
-  file_.open(path_, std::ios::binary | std::ios::trunc);
-  if (!file_) {
-    fail(errno != 0 ? "cannot open for writing: " + std::string(std::strerror(errno))
-                    : "cannot open for writing");
-  }
-  const std::vector<unsigned char> placeholder = header(sample_rate_, 0);
-  file_.write(reinterpret_cast<const char*>(placeholder.data()),
-              static_cast<std::streamsize>(placeholder.size()));
-  if (!file_) fail("cannot write the header");
-}
-
-WavWriter::~WavWriter() {
-  try {
-    close();
-  } catch (const std::exception&) {
-    // A destructor must not throw; callers who care call close() themselves.
-  }
+WavWriter::WavWriter(OutputFile& file, int sample_rate) : file_(file), sample_rate_(sample_rate) {
+  if (sample_rate_ <= 0) fail("sample rate " + std::to_string(sample_rate_) + " must be positive");
+  // A stream that cannot be patched says "until it ends" (0xFFFFFFFF).
+  const std::vector<unsigned char> placeholder =
+      header(sample_rate_, file_.writtenThrough() ? kStreamingDataBytes : 0);
+  file_.write(
+      std::string_view(reinterpret_cast<const char*>(placeholder.data()), placeholder.size()));
 }
 
 void WavWriter::appendStereo(std::span<const float> interleaved) {
-  if (!file_.is_open()) fail("append after close");
+  if (closed_) fail("append after close");
   if (interleaved.size() % kChannels != 0) {
     fail("append of " + std::to_string(interleaved.size()) +
          " samples, not a whole number of stereo frames");
@@ -84,25 +68,24 @@ void WavWriter::appendStereo(std::span<const float> interleaved) {
     const auto pcm = static_cast<std::int16_t>(std::lround(clamped * 32767.0f));
     putLittleEndian(encoded_, static_cast<std::uint16_t>(pcm), 2);
   }
-  file_.write(reinterpret_cast<const char*>(encoded_.data()),
-              static_cast<std::streamsize>(encoded_.size()));
-  if (!file_) fail("cannot write samples");
+  file_.write(std::string_view(reinterpret_cast<const char*>(encoded_.data()), encoded_.size()));
   data_bytes_ += added;
 }
 
 void WavWriter::close() {
-  if (!file_.is_open()) return;
-  const std::vector<unsigned char> final_header =
-      header(sample_rate_, static_cast<std::uint32_t>(data_bytes_));
-  file_.seekp(0);
-  file_.write(reinterpret_cast<const char*>(final_header.data()),
-              static_cast<std::streamsize>(final_header.size()));
-  file_.close();
-  if (!file_) fail("cannot finish the header");
+  if (closed_) return;
+  closed_ = true;
+  if (!file_.writtenThrough()) {
+    const std::vector<unsigned char> final_header =
+        header(sample_rate_, static_cast<std::uint32_t>(data_bytes_));
+    file_.rewrite(0, std::string_view(reinterpret_cast<const char*>(final_header.data()),
+                                      final_header.size()));
+  }
+  file_.finish();
 }
 
 void WavWriter::fail(const std::string& what) const {
-  throw std::runtime_error("WavWriter: '" + path_ + "': " + what);
+  throw std::runtime_error("WavWriter: '" + file_.path().string() + "': " + what);
 }
 
 }  // namespace overlap::stubs

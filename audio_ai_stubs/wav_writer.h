@@ -1,18 +1,22 @@
 // WavWriter: streams interleaved stereo float samples to a 16-bit PCM RIFF/WAVE
 // file, so a run's sound can be listened to and compared byte for byte.
 //
-// The header is written first with zero sizes and patched by close(), which is
-// the only point where the file is a valid WAV.  Samples are clamped to
+// It writes into a OutputFile the caller owns and publishes.  The
+// header is written first with zero sizes and patched by close(), which
+// finishes the file (still under its temporary name until published).  An
+// output written through (a FIFO, a device) cannot be patched: its header
+// says 0xFFFFFFFF, "until the stream ends", as streaming WAV writers do.  Samples are clamped to
 // [-1, 1] and rounded to the nearest int16; everything is written
 // little-endian byte by byte, so the same samples give the same bytes on every
 // machine.  Every error is a std::runtime_error naming the file.
 #pragma once
 
 #include <cstdint>
-#include <fstream>
 #include <span>
 #include <string>
 #include <vector>
+
+#include "gpu/base/output_file.h"
 
 namespace overlap::stubs {
 
@@ -22,20 +26,16 @@ class WavWriter {
   static constexpr int kBitsPerSample = 16;
   static constexpr std::uint32_t kHeaderBytes = 44;
 
-  // Creates (truncates) `path`; throws if it cannot be opened for writing.
-  explicit WavWriter(std::string path, int sample_rate = 48000);
-  // Closes the file if close() was not called; errors there are swallowed, so
-  // call close() to see them.
-  ~WavWriter();
+  // Writes the header into `file`; throws OutputError if it cannot.
+  explicit WavWriter(OutputFile& file, int sample_rate = 48000);
   WavWriter(const WavWriter&) = delete;
   WavWriter& operator=(const WavWriter&) = delete;
 
   // Appends interleaved left/right samples; the size must be even.
   void appendStereo(std::span<const float> interleaved);
-  // Writes the RIFF and data sizes into the header and closes the file.
+  // Writes the RIFF and data sizes into the header and finishes the file.
   void close();
-
-  const std::string& path() const { return path_; }
+  std::string path() const { return file_.path().string(); }
   int sampleRate() const { return sample_rate_; }
   // Stereo sample frames (left/right pairs) written so far.
   std::uint64_t sampleFrames() const { return data_bytes_ / (kChannels * kBitsPerSample / 8); }
@@ -43,9 +43,9 @@ class WavWriter {
  private:
   void fail(const std::string& what) const;
 
-  std::string path_;
+  OutputFile& file_;
   int sample_rate_;
-  std::ofstream file_;
+  bool closed_ = false;
   std::uint64_t data_bytes_ = 0;
   std::vector<unsigned char> encoded_;  // reused between appends
 };

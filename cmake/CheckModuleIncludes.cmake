@@ -1,24 +1,29 @@
 # The modules' layering, the link graph's own: a file of a module may include
 # the headers of the modules its library links, and no others.
-#   gpu             gpu                     (the pair finders, free of Bullet)
-#   physics         physics, gpu            (knows nothing of the engine)
-#   render          render
-#   audio_ai_stubs  audio_ai_stubs, physics
+#   gpu/base        gpu/base                (random numbers, checksums, the stopwatch)
+#   gpu             gpu, gpu/base           (the pair finders, free of Bullet)
+#   physics         physics, gpu, gpu/base  (knows nothing of the engine)
+#   render          render, gpu/base
+#   audio_ai_stubs  audio_ai_stubs, gpu/base (free of Bullet)
 #   engine          everything
+# A module in a folder of another (gpu/base in gpu) is its own: an include of
+# "gpu/base/..." counts as gpu/base, never as gpu.
 # Run with
 #   cmake -DMODULE=<name> [-DDIR=<folder>] [-DSTAMP=<file>] -P cmake/CheckModuleIncludes.cmake
 # (DIR defaults to the module's folder).  It fails naming every offending
 # line; the build runs it before each module's library, and ctest runs it.
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in script mode
-set(allowed_gpu gpu)
-set(allowed_physics physics gpu)
-set(allowed_render render)
-set(allowed_audio_ai_stubs audio_ai_stubs physics)
-set(modules gpu physics render audio_ai_stubs engine)
+set(allowed_gpu/base gpu/base)
+set(allowed_gpu gpu gpu/base)
+set(allowed_physics physics gpu gpu/base)
+set(allowed_render render gpu/base)
+set(allowed_audio_ai_stubs audio_ai_stubs gpu/base)
+# Nested modules first: the include pattern tries them in this order.
+set(modules gpu/base gpu physics render audio_ai_stubs engine)
 
 if(NOT DEFINED MODULE OR NOT DEFINED allowed_${MODULE})
-  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu, physics, render, "
-                      "audio_ai_stubs (got '${MODULE}')")
+  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu/base, gpu, physics, "
+                      "render, audio_ai_stubs (got '${MODULE}')")
 endif()
 if(NOT DEFINED DIR)
   get_filename_component(DIR "${CMAKE_CURRENT_LIST_DIR}/../${MODULE}" ABSOLUTE)

@@ -6,7 +6,8 @@ function(overlap_check_includes target module)
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS
        ${PROJECT_SOURCE_DIR}/${module}/*.h ${PROJECT_SOURCE_DIR}/${module}/*.cpp
        ${PROJECT_SOURCE_DIR}/${module}/*.cuh ${PROJECT_SOURCE_DIR}/${module}/*.cu)
-  set(stamp ${CMAKE_CURRENT_BINARY_DIR}/${module}_includes.checked)
+  string(REPLACE "/" "_" stamp_name ${module})
+  set(stamp ${CMAKE_CURRENT_BINARY_DIR}/${stamp_name}_includes.checked)
   add_custom_command(OUTPUT ${stamp}
     COMMAND ${CMAKE_COMMAND} -DMODULE=${module} -DSTAMP=${stamp}
             -P ${PROJECT_SOURCE_DIR}/cmake/CheckModuleIncludes.cmake

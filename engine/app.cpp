@@ -4,8 +4,10 @@
 #include <exception>
 #include <string>
 
+#include "engine/algorithm_list.h"
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/interrupt.h"
 #include "overlap_build_info.h"
 
 namespace overlap::engine {
@@ -17,6 +19,7 @@ void addCommands(CLI::App& app) {
   app.footer(
       "Start with `overlap run` (a one-minute demo into ./out); "
       "`overlap SUBCOMMAND --help` lists its options with their defaults and an example.");
+  addListAlgosFlag(app);
   addRunCommand(app);
   addRecordCommand(app);
   addPairsCommand(app);
@@ -25,11 +28,33 @@ void addCommands(CLI::App& app) {
   addLatencyCommand(app);
 }
 
+namespace {
+
+// Refuses a first word that names no subcommand, listing them (CLI11 would
+// say only that one is required).
+void requireKnownSubcommand(const CLI::App& app, int argc, char** argv) {
+  std::string names;
+  bool known = false;
+  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+    names += (names.empty() ? "" : ", ") + command->get_name();
+    known = known || (argc > 1 && command->get_name() == argv[1]);
+  }
+  if (argc < 2) throw UsageError("a subcommand is required: " + names + " (see --help)");
+  if (argv[1][0] != '-' && !known) {
+    throw UsageError("unknown subcommand '" + std::string(argv[1]) + "'; the subcommands are " +
+                     names + " (see --help)");
+  }
+}
+
+}  // namespace
+
 int runCommandLine(int argc, char** argv) {
   CLI::App app{"Overlap: GPU brute-force broadphase in Bullet (Serpa & Rodrigues, SBGames 2014)",
                "overlap"};
   addCommands(app);
+  catchInterrupts();
   try {
+    requireKnownSubcommand(app, argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::Success& help_or_version) {
     return app.exit(help_or_version);
@@ -39,6 +64,12 @@ int runCommandLine(int argc, char** argv) {
   } catch (const UsageError& error) {
     std::fprintf(stderr, "overlap: %s\n", error.what());
     return 2;
+  } catch (const Interrupted& stop) {
+    std::fprintf(stderr,
+                 "overlap: stopped by %s; kept nothing of this run: its temporaries are removed "
+                 "and the outputs hold what they held before\n",
+                 stop.what());
+    return 128 + stop.signal;
   } catch (const std::exception& error) {
     std::fprintf(stderr, "overlap: error: %s\n", error.what());
     return 1;

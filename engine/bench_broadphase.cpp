@@ -13,10 +13,9 @@
 // the slowest repeat, and the ratio to bvh (btDbvtBroadphase) at that n.
 //
 // Every frame's pair cache is checked against the exact set, taken from the
-// first exact algorithm run at that n (bf, else cpubf, cpusap, gpubf,
-// gpubf-paper):
-// an exact algorithm must match it, a conservative one (sap, sap32, bvh) must
-// hold all of it and may hold extra pairs.  A mismatch or a missed pair makes
+// first exact algorithm (in the catalogue's order, physics/broadphase_factory.h)
+// run at that n: an exact algorithm must match it, one that is not must hold
+// all of it and may hold extra pairs.  A mismatch or a missed pair makes
 // the run fail (exit 1) after it has written its results.
 //
 // GPU algorithms run only where a CUDA device is present; elsewhere they are
@@ -47,12 +46,13 @@
 #include "engine/bench_replay.h"
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
+#include "engine/number_options.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/stream_statistics.h"
+#include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
-#include "physics/atomic_file.h"
 #include "physics/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 
@@ -64,8 +64,6 @@ using physics::PairList;
 
 constexpr const char* kProgram = "overlap_bench_broadphase";
 constexpr int kScene = 4;
-// Exact algorithms in the order they are preferred as the reference.
-constexpr std::string_view kExact[] = {"bf", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 
 struct BenchOptions {
   std::vector<int> objects{500, 1250, 2000, 2750, 3500};
@@ -96,11 +94,7 @@ struct Workload {
 };
 
 bool isExact(std::string_view algorithm) {
-  return std::find(std::begin(kExact), std::end(kExact), algorithm) != std::end(kExact);
-}
-
-bool isGpu(std::string_view algorithm) {
-  return algorithm == "gpubf" || algorithm == "gpubf-paper";
+  return physics::broadphaseInfo(algorithm).exact;
 }
 
 std::vector<std::string> inNameOrder(const std::set<std::string>& algorithms) {
@@ -120,7 +114,7 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
   auto runnable = [&](const std::vector<std::string>& requested) {
     std::set<std::string> kept;
     for (const std::string& algorithm : requested) {
-      if (isGpu(algorithm) && !have_gpu) {
+      if (physics::broadphaseInfo(algorithm).needs_device && !have_gpu) {
         dropped.insert(algorithm);
       } else {
         kept.insert(algorithm);
@@ -168,14 +162,12 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
   return workloads;
 }
 
-// The row whose pairs are the exact set: the first of kExact that runs, if any.
+// The row whose pairs are the exact set: the first exact one (rows are in
+// the catalogue's order), if any.
 Row* referenceRow(std::vector<Row>& rows) {
-  for (std::string_view exact : kExact) {
-    for (Row& row : rows) {
-      if (row.algorithm == exact) return &row;
-    }
-  }
-  return nullptr;
+  const auto exact =
+      std::find_if(rows.begin(), rows.end(), [](const Row& row) { return isExact(row.algorithm); });
+  return exact == rows.end() ? nullptr : &*exact;
 }
 
 std::string fixed(double value, int decimals) {
@@ -267,7 +259,7 @@ std::string csvText(const std::vector<Row>& rows, const std::string& command,
   for (const Row& row : rows) {
     const auto [fastest, slowest] =
         std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
-    const bool checked = row.reference && row.algorithm != *row.reference;
+    const bool checked = row.checked();
     csv += std::to_string(row.objects) + ',' + row.algorithm + ',' + std::to_string(row.frames) +
            ',' + std::to_string(row.repeats()) + ',' + fixed(row.medianUs(), 1) + ',' +
            fixed(*fastest, 1) + ',' + fixed(*slowest, 1) + ',' +
@@ -284,7 +276,7 @@ std::string csvText(const std::vector<Row>& rows, const std::string& command,
 }
 
 nlohmann::json rowJson(const Row& row) {
-  const bool checked = row.reference && row.algorithm != *row.reference;
+  const bool checked = row.checked();
   auto optional = [](bool present, auto value) {
     return present ? nlohmann::json(value) : nlohmann::json(nullptr);
   };
@@ -329,7 +321,7 @@ std::string quotedCommand(int argc, char** argv) {
 void addOptions(CLI::App& app, BenchOptions& options) {
   app.add_option("--objects,-n", options.objects, "box counts for --algos (0: none)")
       ->delimiter(',')
-      ->check(CLI::Range(0, 10'000'000))
+      ->check(wholeNumberIn(0, kMostObjects))
       ->capture_default_str();
   app.add_option("--algos", options.algorithms, "broadphases run at each of --objects")
       ->delimiter(',')
@@ -337,7 +329,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
       ->capture_default_str();
   app.add_option("--big-objects", options.big_objects, "box counts for --big-algos (0: none)")
       ->delimiter(',')
-      ->check(CLI::Range(0, 10'000'000))
+      ->check(wholeNumberIn(0, kMostObjects))
       ->capture_default_str();
   app.add_option("--big-algos", options.big_algorithms, "broadphases run at each of --big-objects")
       ->delimiter(',')
@@ -346,20 +338,22 @@ void addOptions(CLI::App& app, BenchOptions& options) {
   app.add_option("--streams", options.streams, "folder of cached .aabbs streams")
       ->capture_default_str();
   app.add_option("--out", options.out, "results: OUT.csv and OUT.json")->capture_default_str();
-  app.add_option("--seed", options.seed, "scene 4's seed")->capture_default_str();
+  app.add_option("--seed", options.seed, "scene 4's seed")
+      ->check(seedNumber())
+      ->capture_default_str();
   app.add_option("--record-frames", options.record_frames,
                  "frames of each --objects stream (F; F + 1 are replayed)")
-      ->check(CLI::Range(1, 100'000))
+      ->check(wholeNumberIn(1, 100'000))
       ->capture_default_str();
   app.add_option("--big-record-frames", options.big_record_frames,
                  "frames of each --big-objects stream")
-      ->check(CLI::Range(1, 100'000))
+      ->check(wholeNumberIn(1, 100'000))
       ->capture_default_str();
   app.add_option("--warmup", options.warmup, "first replayed frames left out of the figures")
-      ->check(CLI::Range(0, 100'000))
+      ->check(wholeNumberIn(0, 100'000))
       ->capture_default_str();
   app.add_option("--repeats", options.repeats, "replays of each stream per algorithm")
-      ->check(CLI::Range(1, 1000))
+      ->check(wholeNumberIn(1, 1000))
       ->capture_default_str();
   app.add_flag("--record-only", options.record_only,
                "record the missing streams and stop (to record several n in parallel)");
@@ -373,7 +367,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
                  "also replay with this share of the boxes destroyed and as many created every "
                  "frame (e.g. 0.01,0.1)")
       ->delimiter(',')
-      ->check(CLI::Range(1e-6, 0.25));
+      ->check(realNumberIn(0.0, 0.25, true));
   app.add_flag("--stream-stats", options.stream_stats,
                "print each --input's pairs per box, pairs changed and boxes moved per frame "
                "(after --warmup), and stop");
@@ -395,7 +389,8 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
       "ratio_vs_bvh = median_us / bvh's median_us at the same n in this run (bvh = "
       "btDbvtBroadphase; below 1 is faster than bvh)",
       "pairs_mean: pairs in the cache per measured frame; extra_pairs_mean: cached pairs not in "
-      "the exact set (the first of bf, cpubf, cpusap run at that n) per measured frame; "
+      "the exact set (the first exact algorithm of `overlap --list-algos` run at that n) per "
+      "measured frame; "
       "missed_pairs: exact "
       "pairs missing from the cache, summed over every frame and repeat; both empty for the "
       "reference itself" +
@@ -496,8 +491,8 @@ int run(const BenchOptions& options, const std::string& command) {
   std::filesystem::path csv_path = options.out, json_path = options.out;
   csv_path += ".csv";
   json_path += ".json";
-  physics::writeFileAtomically(csv_path, csvText(rows, command, notes));
-  physics::writeFileAtomically(json_path, json.dump(2) + '\n');
+  writeFileAtomically(csv_path, csvText(rows, command, notes));
+  writeFileAtomically(json_path, json.dump(2) + '\n');
   std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
 
   const std::vector<std::string> failed = failures(rows);
@@ -531,6 +526,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const UsageError& error) {
     std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
+    return 2;
+  } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
+    std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
     return 2;
   } catch (const std::exception& error) {
     std::fprintf(stderr, "%s: error: %s\n", kProgram, error.what());

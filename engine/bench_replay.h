@@ -43,6 +43,9 @@ struct Row {
   double extraMean() const { return extra_sum / (frames * static_cast<double>(repeats())); }
   int repeats() const { return static_cast<int>(repeat_medians_us.size()); }
   bool hasPhases() const { return !sort_us.empty(); }
+  // Whether its pairs were compared with a reference: not the reference's
+  // own plain replay.
+  bool checked() const { return reference && (algorithm != *reference || churn > 0); }
 };
 
 // Which objects are present in `frame` at churn share `churn` (all at 0).

@@ -7,6 +7,7 @@
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
+#include "engine/interrupt.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
@@ -23,6 +24,8 @@ struct CaptureOptions {
   std::string colour = "size";
   PhysicsOptions physics;
   std::filesystem::path out = "out/capture";
+  CLI::Option* size_option = nullptr;
+  CLI::Option* old_size_option = nullptr;
 };
 
 render::ColourMode parseColourMode(const std::string& text) {
@@ -38,16 +41,24 @@ void capture(const CaptureOptions& options) {
     throw UsageError(std::string("--keyframes: ") + error.what());
   }
   if (keyframes.empty()) throw UsageError("--keyframes: no frames given");
+  if (keyframes.back() > kMostFrames) {
+    throw UsageError("--keyframes: frame " + std::to_string(keyframes.back()) +
+                     " must be at most " + std::to_string(kMostFrames));
+  }
   prepareOutputDirectory(options.out, "--out");
+  for (const int frame : keyframes)
+    prepareOutputFile(options.out / pngName(config.scene, frame), "--out");
 
+  OutputFolder outputs(options.out);
   const std::unique_ptr<FrameCapture> camera =
-      openCapture(options.out, options.size, parseColourMode(options.colour));
+      openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
   const std::unique_ptr<physics::PhysicsWorld> world =
       makeWorld(config, options.physics.resolve(options.algorithm, config));
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
   for (int frame = 0; frame <= last; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(last + 1));
     world->stepFrame();
     if (frame == *next) {
       camera->capture(*world, frame);
@@ -56,6 +67,7 @@ void capture(const CaptureOptions& options) {
     progress.update(frame + 1);
   }
   progress.finish();
+  outputs.commit();
   std::fprintf(stderr, "overlap capture: wrote %zu PNGs in %s\n", camera->written().size(),
                options.out.string().c_str());
 }
@@ -70,10 +82,11 @@ void addCaptureCommand(CLI::App& app) {
   options->scene.addTo(*command);
   command->add_option("--keyframes", options->keyframes, "frames to render, comma-separated")
       ->capture_default_str();
-  CLI::Option* size = command->add_option("--capture-size", options->size, "PNG size WIDTHxHEIGHT")
-                          ->capture_default_str();
+  options->size_option =
+      command->add_option("--capture-size", options->size, "PNG size WIDTHxHEIGHT")
+          ->capture_default_str();
   // The name this option had before run and capture agreed on one; hidden.
-  command->add_option("--size", options->size)->group("")->excludes(size);
+  options->old_size_option = command->add_option("--size", options->size)->group("");
   command->add_option("--colour", options->colour, "colour boxes by size class or by contact")
       ->check(CLI::IsMember({"size", "contact"}))
       ->capture_default_str();
@@ -83,7 +96,12 @@ void addCaptureCommand(CLI::App& app) {
   command->footer(
       "Example:\n"
       "  overlap capture --scene 3 --objects 1250 --keyframes 0,100,200 --capture-size 400x300 "
-      "--out shots");
+      "--out shots\n"
+      "A run replaces the PNGs the last capture wrote in --out, and only those.");
+  command->parse_complete_callback([options] {
+    refuseTogether(options->old_size_option, options->size_option,
+                   "--size is --capture-size's old name; give one");
+  });
   command->callback([options] { capture(*options); });
 }
 

@@ -1,33 +1,38 @@
 #include "engine/cli_errors.h"
 
-#include <fstream>
-#include <system_error>
+#include "gpu/base/output_file.h"
 
 namespace overlap::engine {
+namespace {
+
+std::string shownPath(const std::filesystem::path& path) {
+  return path.empty() ? std::string("\"\"") : path.string();
+}
+
+}  // namespace
 
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option) {
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  if (error) {
-    throw UsageError(std::string(option) + " " + dir.string() +
-                     ": cannot create: " + error.message());
+  if (const std::string problem = outputFolderProblem(dir); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(dir) + ": " + problem);
   }
-  const std::filesystem::path probe = dir / ".overlap-write-probe";
-  {
-    std::ofstream out(probe);
-    if (!out || !(out << "probe") || !out.flush()) {
-      throw UsageError(std::string(option) + " " + dir.string() + ": not writable");
-    }
-  }
-  std::filesystem::remove(probe, error);
 }
 
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option) {
-  std::error_code error;
-  if (std::filesystem::is_directory(file, error)) {
-    throw UsageError(std::string(option) + " " + file.string() + ": is a directory, not a file");
+  if (const std::string problem = outputFileProblem(file); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
   }
-  prepareOutputDirectory(file.has_parent_path() ? file.parent_path() : ".", option);
+}
+
+std::string optionName(const CLI::Option* option) {
+  if (!option->get_lnames().empty()) return "--" + option->get_lnames().front();
+  if (!option->get_snames().empty()) return "-" + option->get_snames().front();
+  return option->get_name(false, true);
+}
+
+void refuseTogether(const CLI::Option* first, const CLI::Option* second, std::string_view why) {
+  if (first->count() > 0 && second->count() > 0) {
+    throw UsageError(optionName(first) + " and " + optionName(second) + ": " + std::string(why));
+  }
 }
 
 }  // namespace overlap::engine

@@ -1,11 +1,15 @@
-// How the `overlap` subcommands fail.
+// How the `overlap` subcommands fail (docs/CLI.md, "Exit codes").
 //
 // A UsageError is the user's input being wrong (an option, a value, a file):
-// main() prints it as one line and exits with code 2.  Anything else thrown is
-// a failure while working and exits with code 1.  Either way nothing
-// half-written is left behind: outputs go through physics/atomic_file.h.
+// main() prints it as one line and exits with code 2, before any work starts.
+// Anything else thrown is a failure while working and exits with code 1
+// (OutputError: an output that could not be written, named).
+// engine/interrupt.h's Interrupted exits 128 + the signal.  Either way
+// nothing half-written is left behind: outputs go through
+// gpu/base/output_file.h.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -17,12 +21,19 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Creates `dir` if needed and proves it writable by writing a probe file;
-// throws UsageError naming the option and the path if it is not.
+// Creates `dir` if needed and checks it writable; throws UsageError naming
+// the option and the path if it is not.
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option);
 
-// The same for a file to be written: its folder is prepared, and a path that
-// names an existing directory is a UsageError.
+// The same for a file to be written (outputFileProblem): an empty
+// name, a folder, an unwritable folder are UsageErrors.
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option);
+
+// "--size": an option's name as the user typed it, hidden options included.
+std::string optionName(const CLI::Option* option);
+
+// Throws UsageError naming both options when both were given: they
+// conflict, or the first would be ignored (`why` says which).
+void refuseTogether(const CLI::Option* first, const CLI::Option* second, std::string_view why);
 
 }  // namespace overlap::engine

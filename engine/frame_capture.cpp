@@ -25,15 +25,22 @@ int renderSizeClass(physics::SizeClass size_class) {
 
 }  // namespace
 
-FrameCapture::FrameCapture(const std::filesystem::path& folder, int width, int height,
-                           render::ColourMode mode)
-    : folder_(folder), renderer_(width, height, mode) {}
+FrameCapture::FrameCapture(OutputFolder& outputs, const std::filesystem::path& folder, int width,
+                           int height, render::ColourMode mode)
+    : outputs_(outputs), folder_(folder), renderer_(width, height, mode) {}
 
-std::unique_ptr<FrameCapture> openCapture(const std::filesystem::path& folder,
+std::string pngName(int scene, int frame) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "scene%d_frame%04d.png", scene, frame);
+  return name;
+}
+
+std::unique_ptr<FrameCapture> openCapture(OutputFolder& outputs,
+                                          const std::filesystem::path& folder,
                                           const std::string& size_text, render::ColourMode mode) {
   try {
     const render::ImageSize size = render::parseImageSize(size_text);
-    return std::make_unique<FrameCapture>(folder, size.width, size.height, mode);
+    return std::make_unique<FrameCapture>(outputs, folder, size.width, size.height, mode);
   } catch (const render::ImageSizeError& error) {
     throw UsageError("--capture-size " + size_text + ": " + error.what());
   } catch (const render::RenderError&) {
@@ -54,10 +61,11 @@ double FrameCapture::capture(const physics::PhysicsWorld& world, int frame) {
                             pose.edge, renderSizeClass(pose.size_class), pose.in_contact});
   }
   const render::SceneView view{static_cast<float>(world.layout().half_extent), boxes};
-  char name[64];
-  std::snprintf(name, sizeof(name), "scene%d_frame%04d.png", world.config().scene, frame);
-  render::writePng(renderer_.render(view), folder_ / name);
-  written_.push_back(folder_ / name);
+  const std::filesystem::path path = folder_ / pngName(world.config().scene, frame);
+  OutputFile& png = outputs_.open(path);
+  png.write(render::encodePng(renderer_.render(view)));
+  png.finish();  // closed now: a long run keeps no descriptor per picture
+  written_.push_back(path);
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
 }

@@ -1,5 +1,6 @@
 // Frame capture: pictures of a running scene, written as PNG files named
-// with the scene and the frame (scene4_frame0512.png).  Rendering happens on
+// with the scene and the frame (scene4_frame0512.png), as outputs of the
+// run's OutputFolder (published with the rest of the run).  Rendering happens on
 // the main thread after the frame's physics and is timed on its own, never
 // inside the physics timings.
 #pragma once
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/output_file.h"
 #include "physics/world.h"
 #include "render/renderer.h"
 
@@ -17,7 +19,8 @@ namespace overlap::engine {
 class FrameCapture {
  public:
   // Throws render::RenderError if no OSMesa context of that size can be made.
-  FrameCapture(const std::filesystem::path& folder, int width, int height, render::ColourMode mode);
+  FrameCapture(OutputFolder& outputs, const std::filesystem::path& folder, int width, int height,
+               render::ColourMode mode);
 
   // Renders the world as it is now and writes it as `frame`; returns the
   // milliseconds the render and the PNG took.
@@ -27,15 +30,20 @@ class FrameCapture {
   const std::vector<std::filesystem::path>& written() const { return written_; }
 
  private:
+  OutputFolder& outputs_;
   std::filesystem::path folder_;
   render::OffscreenRenderer renderer_;
   std::vector<std::filesystem::path> written_;
 };
 
+// The PNG name of `frame` of `scene`.
+std::string pngName(int scene, int frame);
+
 // Parses a --capture-size text (WIDTHxHEIGHT) and opens a camera writing into
-// `folder`.  A malformed size, or one this OpenGL cannot render, is a
+// `folder`, through `outputs`.  A malformed size, or one this OpenGL cannot render, is a
 // UsageError naming the option and the value; OSMesa failing is not.
-std::unique_ptr<FrameCapture> openCapture(const std::filesystem::path& folder,
+std::unique_ptr<FrameCapture> openCapture(OutputFolder& outputs,
+                                          const std::filesystem::path& folder,
                                           const std::string& size_text, render::ColourMode mode);
 
 }  // namespace overlap::engine

@@ -4,18 +4,44 @@
 #include <exception>
 #include <stdexcept>
 
-#include "physics/checksum.h"
+#include "gpu/base/checksum.h"
 
 namespace overlap::engine {
 namespace {
 
-// Box sizes map to impact pitch: a 1 m box rings at the base pitch.
-float pitchHint(float edge) {
-  return std::isfinite(edge) && edge > 0 ? 1.0f / edge : 1.0f;
+// A new contact as the sound hears it: panned by where the box was across the
+// container (-1 left .. 1 right), pitched by its size (a 1 m box rings at the
+// base pitch).
+stubs::ImpactEvent impactOf(const physics::NewContact& contact, double half_extent) {
+  const float pan = static_cast<float>(std::clamp(contact.centre[0] / half_extent, -1.0, 1.0));
+  const float edge = contact.edge;
+  const float pitch_hint = std::isfinite(edge) && edge > 0 ? 1.0f / edge : 1.0f;
+  return {contact.closing_speed, pan, pitch_hint};
 }
 
-double microseconds(double ms) {
-  return ms * 1e3;
+// The frame's jobs on the timeline, each substep's search, join and
+// narrowphase among them.
+void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
+  const auto add = [&](std::string_view name, std::string_view lane, const Interval& at,
+                       int substep = -1) {
+    timeline.add(Span{std::string(name), std::string(lane), at, index, substep});
+  };
+  add("frame", "main", frame.whole);
+  add("physics", "main", frame.step);
+  const std::vector<physics::SubstepReport>& substeps = frame.physics.substep_reports;
+  for (std::size_t k = 0; k < substeps.size(); ++k) {
+    const physics::SubstepReport& substep = substeps[k];
+    const int at = static_cast<int>(k);
+    add("substep", "main", {substep.start, substep.end}, at);
+    if (const auto& search = substep.search) {
+      add("search", "broadphase", {search->started, search->started + search->searched}, at);
+      add("join", "main", {search->joined, search->finished}, at);
+    }
+    add("narrowphase", "main", {substep.narrowphase_start, substep.narrowphase_end}, at);
+  }
+  if (frame.tasks) add("tasks", "tasks", *frame.tasks);
+  for (const TaskRun& task : frame.task_runs) add(task.name, task.name, task.run);
+  if (frame.wait) add("wait for tasks", "main", *frame.wait);
 }
 
 }  // namespace
@@ -26,7 +52,7 @@ class FrameScheduler::TasksBeside {
  public:
   TasksBeside(FrameScheduler& scheduler, bool beside) : scheduler_(scheduler), beside_(beside) {
     if (!beside_) return;
-    launched_ = scheduler_.now();
+    launched_ = Clock::now();
     scheduler_.arena_.execute([this] {
       for (Task& task : scheduler_.tasks_) {
         scheduler_.group_.run([this, &task] { scheduler_.runTask(task); });
@@ -39,27 +65,29 @@ class FrameScheduler::TasksBeside {
 
   // Waits for every task: the main thread runs any task no worker has taken.
   void join() {
-    if (!beside_ || joined_ >= 0) return;
-    waited_ = scheduler_.now();
+    if (!beside_ || joined_) return;
+    wait_.start = Clock::now();
     scheduler_.arena_.execute([this] { scheduler_.group_.wait(); });  // runTask never throws
-    joined_ = scheduler_.now();
+    wait_.end = Clock::now();
+    joined_ = true;
   }
-  double launched() const { return launched_; }
-  double waited() const { return waited_; }
-  double joined() const { return joined_; }
+  // Launch to join, and the wait at the join; none when the tasks ran elsewhere.
+  std::optional<Interval> job() const {
+    return beside_ ? std::optional(Interval{launched_, wait_.end}) : std::nullopt;
+  }
+  std::optional<Interval> wait() const { return beside_ ? std::optional(wait_) : std::nullopt; }
 
  private:
   FrameScheduler& scheduler_;
   bool beside_;
-  double launched_ = -1, waited_ = -1, joined_ = -1;
+  bool joined_ = false;
+  Clock::time_point launched_;
+  Interval wait_;
 };
 
 FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOptions& options,
                                Timeline& timeline)
-    : world_(world),
-      options_(options),
-      timeline_(timeline),
-      sound_checksum_(physics::kFnv1aOffsetBasis) {
+    : world_(world), options_(options), timeline_(timeline), sound_checksum_(kFnv1aOffsetBasis) {
   if (!options_.tasks) return;
   options_.sound.frame_seconds = world.config().frame_time;
   options_.ai.frame_seconds = world.config().frame_time;
@@ -67,10 +95,10 @@ FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOpti
   ai_ = std::make_unique<stubs::AgentCrowd>(options_.ai,
                                             static_cast<float>(world.layout().half_extent));
   if (options_.wav) {
-    wav_ = std::make_unique<stubs::WavWriter>(options_.wav->string(), options_.sound.sample_rate);
+    wav_ = std::make_unique<stubs::WavWriter>(*options_.wav, options_.sound.sample_rate);
   }
-  addTask("sound", [this] { runSound(); });
-  addTask("ai", [this] { runAi(); });
+  addTask(std::string(kSoundTask), [this] { runSound(); });
+  addTask(std::string(kAiTask), [this] { runAi(); });
 }
 
 FrameScheduler::~FrameScheduler() = default;
@@ -92,7 +120,7 @@ std::uint64_t FrameScheduler::aiChecksum() const {
 void FrameScheduler::snapshot() {
   impacts_.clear();
   for (const physics::NewContact& contact : world_.newContacts()) {
-    impacts_.push_back({contact.closing_speed, contact.pan, pitchHint(contact.edge)});
+    impacts_.push_back(impactOf(contact, world_.layout().half_extent));
   }
   obstacles_.clear();
   for (const physics::BoxPose& pose : world_.boxPoses()) {
@@ -104,7 +132,7 @@ void FrameScheduler::snapshot() {
 void FrameScheduler::runSound() {
   sound_->runFrame(impacts_);
   if (wav_) sound_->appendMixTo(*wav_);
-  sound_checksum_ = physics::fnv1a(sound_->mix(), sound_checksum_);
+  sound_checksum_ = fnv1a(sound_->mix(), sound_checksum_);
 }
 
 void FrameScheduler::runAi() {
@@ -115,7 +143,7 @@ void FrameScheduler::runAi() {
 // the step are done, and a task that throws must not cancel its siblings.
 void FrameScheduler::runTask(Task& task) {
   task.error.clear();
-  const double start = now();
+  const Clock::time_point start = Clock::now();
   try {
     task.work();
   } catch (const std::exception& error) {
@@ -123,17 +151,15 @@ void FrameScheduler::runTask(Task& task) {
   } catch (...) {
     task.error = "an exception that is not a std::exception";
   }
-  task.span = {start, now()};
+  task.run = {start, Clock::now()};
 }
 
 // The frame's jobs, top to bottom (frame_scheduler.h draws the graph).
 ScheduledFrame FrameScheduler::runFrame() {
   ScheduledFrame frame;
-  const double frame_start = now();
+  frame.whole.start = Clock::now();
   // 1. snapshot, main thread.  Depends on: frame N-1's step.
   if (!tasks_.empty()) snapshot();
-  std::pair<double, double> tasks_job{-1, -1};
-  double physics_start = 0;
   {
     // 2. tasks.  Depends on: 1.  Async: on the workers from here on, and
     // joined when `beside` goes, whichever way this block is left.
@@ -144,14 +170,13 @@ ScheduledFrame FrameScheduler::runFrame() {
     // 3. physics, main thread.  Depends on: 1 (the snapshot copied the state
     // the step changes).  Every substep's search is launched and joined
     // inside, before that substep's narrowphase.
-    physics_start = now();
+    frame.step.start = Clock::now();
     frame.physics = world_.stepFrame();
+    frame.step.end = Clock::now();
     // 4. join, main thread.  Depends on: 2, 3.
     beside.join();
-    if (!options_.sync) {
-      tasks_job = {beside.launched(), beside.joined()};
-      frame.tasks_wait_ms = (beside.joined() - beside.waited()) / 1e3;
-    }
+    frame.tasks = beside.job();
+    frame.wait = beside.wait();
   }
   for (const Task& task : tasks_) {
     if (!task.error.empty()) {
@@ -160,59 +185,32 @@ ScheduledFrame FrameScheduler::runFrame() {
                                std::to_string(frame_ - 1) + ": " + task.error);
     }
   }
-  if (options_.sync && !tasks_.empty()) {
-    tasks_job = {tasks_.front().span.first, tasks_.back().span.second};
-  }
-  frame.frame_ms = (now() - frame_start) / 1e3;
-  drawFrame(frame, frame_start, tasks_job, physics_start);
+  frame.whole.end = Clock::now();
+  measureTasks(frame);
+  drawFrame(frame, frame_, timeline_);
   ++frame_;
   return frame;
 }
 
-void FrameScheduler::drawFrame(ScheduledFrame& frame, double frame_start,
-                               std::pair<double, double> tasks_job, double physics_start) {
-  auto addSpan = [&](const char* name, const char* lane, double start, double end,
-                     int substep = -1) {
-    timeline_.add(Span{name, lane, start, end, frame_, substep});
-  };
-  const physics::FrameReport& step = frame.physics;
-  const double physics_end = physics_start + microseconds(step.timings.total_ms);
-  addSpan("frame", "main", frame_start, frame_start + microseconds(frame.frame_ms));
-  addSpan("physics", "main", physics_start, physics_end);
-  for (std::size_t k = 0; k < step.substep_reports.size(); ++k) {
-    const physics::SubstepReport& substep = step.substep_reports[k];
-    const int index = static_cast<int>(k);
-    const auto at = [&](Timeline::Clock::time_point t) { return timeline_.microsecondsAt(t); };
-    addSpan("substep", "main", at(substep.start), at(substep.end), index);
-    if (const auto& search = substep.search) {
-      const double search_start = at(search->launched) + microseconds(search->start_delay_ms);
-      addSpan("search", "broadphase", search_start, search_start + microseconds(search->search_ms),
-              index);
-      addSpan("join", "main", at(search->joined),
-              at(search->joined) + microseconds(search->join_ms), index);
-    }
-    addSpan("narrowphase", "main", at(substep.narrowphase_start), at(substep.narrowphase_end),
-            index);
-  }
+void FrameScheduler::measureTasks(ScheduledFrame& frame) const {
   if (tasks_.empty()) return;
-  addSpan("tasks", "tasks", tasks_job.first, tasks_job.second);
-  double task_time = 0;
-  double hidden = 0;
+  if (options_.sync) frame.tasks = Interval{tasks_.front().run.start, tasks_.back().run.end};
+  Clock::duration task_time{};
+  Clock::duration hidden{};
   for (const Task& task : tasks_) {
-    const double duration = task.span.second - task.span.first;
-    addSpan(task.name.c_str(), task.name.c_str(), task.span.first, task.span.second);
-    task_time += duration;
-    hidden += duration * coveredShare(task.span.first, duration, {{physics_start, physics_end}});
+    frame.task_runs.push_back(TaskRun{task.name, task.run});
+    task_time += task.run.length();
+    hidden += overlapOf(task.run, frame.step);
   }
-  if (!options_.sync) {
-    const double wait = microseconds(frame.tasks_wait_ms);
-    addSpan("wait for tasks", "main", tasks_job.second - wait, tasks_job.second);
+  frame.tasks_hidden =
+      task_time > Clock::duration::zero() ? std::chrono::duration<double>(hidden) / task_time : 0.0;
+}
+
+Clock::duration ScheduledFrame::taskTime(std::string_view name) const {
+  for (const TaskRun& task : task_runs) {
+    if (task.name == name) return task.run.length();
   }
-  if (sound_) {  // then tasks_ opens with sound and AI
-    frame.sound_ms = (tasks_[0].span.second - tasks_[0].span.first) / 1e3;
-    frame.ai_ms = (tasks_[1].span.second - tasks_[1].span.first) / 1e3;
-  }
-  frame.tasks_hidden = task_time > 0 ? hidden / task_time : 0.0;
+  return Clock::duration::zero();
 }
 
 }  // namespace overlap::engine

@@ -41,6 +41,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "audio_ai_stubs/ai.h"
@@ -56,16 +57,35 @@ struct SchedulerOptions {
   bool tasks = true;  // false: physics only (the paper's measurements)
   stubs::SoundConfig sound;
   stubs::AiConfig ai;
-  std::optional<std::filesystem::path> wav;  // the whole run's mix
+  OutputFile* wav = nullptr;  // the whole run's mix, finished by close(); the caller publishes it
 };
 
+// The tasks the scheduler adds itself, first, by these names.
+inline constexpr std::string_view kSoundTask = "sound";
+inline constexpr std::string_view kAiTask = "ai";
+
+// One task's run in a frame, on whatever thread ran it.
+struct TaskRun {
+  std::string name;
+  Interval run;
+};
+
+// What a frame's jobs did, as points on the steady clock; frames.csv and the
+// timeline convert them where they write them.
 struct ScheduledFrame {
   physics::FrameReport physics;
-  double frame_ms = 0;  // the whole frame, snapshot to join
-  double sound_ms = 0;  // each task's own duration, on whatever thread ran it
-  double ai_ms = 0;
-  double tasks_wait_ms = 0;  // the main thread waiting for the tasks after the step
-  double tasks_hidden = 0;   // share of the tasks' time that ran beside the step
+  Interval whole;  // the whole frame, snapshot to join
+  Interval step;   // job 3, physics
+  // Job 2 as one: launch to join beside the step, or with `sync` the first
+  // task's start to the last one's end.  None without tasks.
+  std::optional<Interval> tasks;
+  std::optional<Interval> wait;    // the main thread waiting for the tasks (not with `sync`)
+  std::vector<TaskRun> task_runs;  // in the order the tasks were added
+  double tasks_hidden = 0;         // share of the tasks' time that ran beside the step
+
+  // The named task's run; zero when it did not run.
+  Clock::duration taskTime(std::string_view name) const;
+  Clock::duration waitTime() const { return wait ? wait->length() : Clock::duration::zero(); }
 };
 
 class FrameScheduler {
@@ -91,8 +111,8 @@ class FrameScheduler {
   struct Task {
     std::string name;
     std::function<void()> work;
-    std::pair<double, double> span{};  // this frame's, timeline microseconds
-    std::string error;                 // this frame's, empty if none
+    Interval run{};     // this frame's
+    std::string error;  // this frame's, empty if none
   };
   class TasksBeside;
 
@@ -100,9 +120,8 @@ class FrameScheduler {
   void runSound();
   void runAi();
   void runTask(Task& task);
-  void drawFrame(ScheduledFrame& frame, double frame_start, std::pair<double, double> tasks_job,
-                 double physics_start);
-  double now() const { return timeline_.microsecondsAt(Timeline::Clock::now()); }
+  // The tasks' runs and how much of them the step hid, into `frame`.
+  void measureTasks(ScheduledFrame& frame) const;
 
   physics::PhysicsWorld& world_;
   SchedulerOptions options_;

@@ -8,6 +8,7 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/number_options.h"
 #include "engine/scene_options.h"
 #include "engine/stream_generator.h"
 #include "physics/aabb_stream.h"
@@ -48,19 +49,21 @@ void addGenerateCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "generate", "write a scene's AABBs as a Broadmark .aabbs file from a model, without Bullet");
   options->scene.addTo(*command);
-  command->add_option("--frames", options->frames, "frames to write (F; F + 1 are stored)")
-      ->check(CLI::Range(1, 100'000))
+  command
+      ->add_option("--frames", options->frames,
+                   "frames to write, each --frame-time long (F; F + 1 are stored)")
+      ->check(wholeNumberIn(1, kMostFrames))
       ->capture_default_str();
   command
       ->add_option("--skip", options->skip,
                    "frames run before the first one stored (e.g. until the pile has formed)")
-      ->check(CLI::Range(0, 100'000))
+      ->check(wholeNumberIn(0, kMostFrames))
       ->capture_default_str();
   command
       ->add_option("--moving", options->moving,
                    "share of the boxes that move after the first stored frame; the others keep "
                    "its AABB")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(realNumberIn(0.0, 1.0))
       ->capture_default_str();
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
   command->footer(

@@ -37,10 +37,13 @@
 #include <vector>
 
 #include "engine/commands.h"
+#include "engine/interrupt.h"
+#include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/output_file.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/broadphase_replay.h"
 #include "physics/world.h"
 
@@ -48,6 +51,9 @@ namespace overlap::engine {
 namespace {
 
 using Pairs = physics::PairList;
+
+// --growth's bound: a thousand frames' motion already covers the world.
+constexpr double kMostGrowth = 1000.0;
 
 struct LatencyOptions {
   SceneOptions scene;
@@ -70,7 +76,7 @@ struct SearchResult {
 };
 
 SearchResult search(physics::BroadphaseReplay& replay, const std::vector<physics::Aabb>& boxes) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   replay.update(boxes);
   replay.findPairs();
   const double ms = watch.ms();
@@ -168,6 +174,7 @@ void measureLatency(const LatencyOptions& options) {
   std::vector<float> last_speeds = world.boxSpeeds();
   Progress progress("overlap latency", options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
     world.stepFrame();
     const std::vector<physics::Aabb> now = boxAabbs(world, frame);
     const Pairs exact = search(oracle, now).pairs;
@@ -196,8 +203,7 @@ void measureLatency(const LatencyOptions& options) {
     progress.update(frame + 1);
   }
   progress.finish();
-  const std::string text = csv.str();
-  std::fwrite(text.data(), 1, text.size(), stdout);
+  writeStandardOutput(csv.str());
 }
 
 }  // namespace
@@ -219,10 +225,10 @@ void addLatencyCommand(CLI::App& app) {
       ->add_option("--growth", options->growths,
                    "late AABBs grow by GROWTH * |v| * frame time on every side; comma-separated")
       ->delimiter(',')
-      ->check(CLI::NonNegativeNumber)
+      ->check(realNumberIn(0, kMostGrowth))
       ->capture_default_str();
   command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
-      ->check(CLI::Range(1, 1'000'000))
+      ->check(wholeNumberIn(1, kMostFrames))
       ->capture_default_str();
   options->physics.addTo(*command);
   addThreadsOption(*command, options->threads);

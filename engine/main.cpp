@@ -1,4 +1,4 @@
-// overlap: the demo engine's one executable.  See README.md for the
+// overlap: the demo engine's one executable.  See docs/USAGE.md for the
 // subcommands; `overlap SUBCOMMAND --help` lists each one's options.
 #include "engine/app.h"
 

@@ -1,44 +1,47 @@
-// Progress on stderr for long runs: silent for the first second, then at most
-// one line a second with the frame, the elapsed time and an estimate of the
-// time left, and a closing line.  Short runs print nothing.
+// Progress on stderr for anything that can take more than two seconds:
+// silent for the first second, then at most one line a second: the frames
+// done, the time elapsed and the time left at the pace so far (the first
+// line says how long the whole will take), or, for a step without frames
+// (placing ten million boxes), the time elapsed.  A line is printed even
+// while one long frame or step runs: a one-second interval timer (SIGALRM,
+// SA_RESTART) prints it from its handler, so no thread is added beyond the
+// --threads the run may use.  finish() closes with one line if any was
+// printed; short runs print nothing.  One Progress reports at a time (a
+// newer one pauses the older until it finishes).
 #pragma once
 
-#include <chrono>
-#include <cstdio>
+#include <atomic>
+#include <ctime>
 #include <string>
 
 namespace overlap::engine {
 
 class Progress {
  public:
-  Progress(std::string label, int total) : label_(std::move(label)), total_(total) {}
+  // `total` frames to do; 0 for a step reported by its elapsed time only.
+  Progress(std::string label, int total);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
 
-  void update(int done) {
-    const double elapsed = seconds();
-    if (elapsed < next_report_) return;
-    next_report_ = elapsed + 1.0;
-    const double left = done > 0 ? elapsed * (total_ - done) / done : 0.0;
-    std::fprintf(stderr, "%s: %d/%d frames, %.1f s elapsed, about %.0f s left\n", label_.c_str(),
-                 done, total_, elapsed, left);
-    reported_ = true;
-  }
+  void update(int done) { done_.store(done, std::memory_order_relaxed); }
+  void finish();
+  double seconds() const;
 
-  void finish() {
-    if (reported_) {
-      std::fprintf(stderr, "%s: done, %d frames in %.1f s\n", label_.c_str(), total_, seconds());
-    }
-  }
-
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
+  // The timer's work: one line; async-signal-safe.
+  void report();
 
  private:
   std::string label_;
   int total_;
-  double next_report_ = 1.0;
-  bool reported_ = false;
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  std::atomic<int> done_{0};
+  std::atomic<int> lines_{0};
+  timespec start_{};
+  Progress* paused_ = nullptr;  // the one this replaced, resumed by finish()
+  bool finished_ = false;
 };
+
+// "42 s", "3 min 05 s", "2 h 07 min": a duration a user reads at a glance.
+std::string readableDuration(double seconds);
 
 }  // namespace overlap::engine

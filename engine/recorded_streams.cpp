@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/interrupt.h"
 #include "engine/progress.h"
 #include "physics/world.h"
 
@@ -19,8 +20,8 @@ void checkHeader(const physics::AabbStream& stream, const std::filesystem::path&
                  const physics::SceneConfig& config, int frames) {
   auto mismatch = [&](const std::string& field, const std::string& found,
                       const std::string& expected) {
-    throw std::runtime_error(path.string() + ": cached stream's " + field + " is " + found +
-                             ", expected " + expected + "; delete it to record it again");
+    throw physics::AabbStreamError(path.string() + ": cached stream's " + field + " is " + found +
+                                   ", expected " + expected + "; delete it to record it again");
   };
   // The name says how the stream was simulated: a stream cached under other
   // defaults (older substeps, say) is an error, not a silent replay.
@@ -57,7 +58,9 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
 
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
                                  const physics::WorldOptions& options) {
+  Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
   physics::PhysicsWorld world(config, options);
+  placing.finish();
 
   physics::AabbStream stream;
   stream.scene_name = streamSceneName(config, options);
@@ -81,6 +84,7 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
   Progress progress("record n=" + std::to_string(config.objects), frames);
   keepBoxes();
   for (int frame = 0; frame < frames; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(frames));
     world.stepFrame();
     keepBoxes();
     progress.update(frame + 1);
@@ -95,7 +99,11 @@ CachedStream loadOrRecordStream(const std::filesystem::path& folder,
   cached.path = cachedStreamPath(folder, config, frames);
   const auto start = std::chrono::steady_clock::now();
   if (std::filesystem::exists(cached.path)) {
-    cached.stream = physics::readAabbStream(cached.path);
+    try {
+      cached.stream = physics::readAabbStream(cached.path);
+    } catch (const physics::AabbStreamError& error) {
+      throw physics::AabbStreamError(std::string(error.what()) + "; delete it to record it again");
+    }
     checkHeader(cached.stream, cached.path, config, frames);
   } else {
     cached.stream = recordStream(config, frames);

@@ -49,7 +49,8 @@ struct CachedStream {
 };
 
 // Reads the cached stream, or records and caches it when there is none.
-// Throws std::runtime_error naming the file when a cached header disagrees.
+// Throws physics::AabbStreamError naming the file when a cached stream is
+// corrupt or its header disagrees (the benchmark exits 2 naming it).
 CachedStream loadOrRecordStream(const std::filesystem::path& folder,
                                 const physics::SceneConfig& config, int frames);
 

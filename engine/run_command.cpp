@@ -17,21 +17,25 @@
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
 #include "engine/frame_scheduler.h"
+#include "engine/interrupt.h"
 #include "engine/machine_info.h"
+#include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/task_load.h"
-#include "physics/atomic_file.h"
+#include "gpu/base/output_file.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
 namespace {
 
-// `overlap run` with no options is the demo: scene 4 at a size that finishes in
-// about a minute on two cores without a GPU, with every output written.
-// --paper is the paper's full run (SCENES.md: 3500 boxes, 2048 frames).
+// `overlap run` with no options is the demo: scene 4 at a size that finishes
+// within a minute on two cores without a GPU (README.md has the time
+// measured), with every output written.
+// --paper is the paper's full run (docs/SCENES.md: 3500 boxes, 2048 frames).
 constexpr int kDemoObjects = 1000;
 constexpr int kDemoFrames = 300;
 constexpr int kPaperObjects = 3500;
@@ -55,8 +59,24 @@ struct RunOptions {
   std::optional<std::filesystem::path> wav;  // unset: OUT/sound.wav
   bool no_wav = false;
   bool no_tasks = false;
+  std::optional<std::filesystem::path> wav_file;  // resolved: the WAV the run writes, if any
+  // For the checks between options (refuseConflicts).
   CLI::Option* frames_option = nullptr;
+  CLI::Option* paper_option = nullptr;
+  CLI::Option* sync_option = nullptr;
+  CLI::Option* compare_sync_option = nullptr;
+  CLI::Option* no_tasks_option = nullptr;
+  CLI::Option* wav_option = nullptr;
+  CLI::Option* no_wav_option = nullptr;
+  CLI::Option* task_options[3] = {};  // --voices, --background-voices, --agents
+  CLI::Option* capture_every_option = nullptr;
+  CLI::Option* capture_size_option = nullptr;
 };
+
+// The documented bounds of the task sizes (docs/CLI.md): a voice or an agent
+// costs a few hundred bytes and its share of every frame.
+constexpr int kMostVoices = 100'000;
+constexpr int kMostAgents = 100'000;
 
 struct FrameRow {
   ScheduledFrame frame;
@@ -80,10 +100,10 @@ const std::vector<Column>& columns() {
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
       {"ccd_query_ms", [](R r) { return r.frame.physics.timings.ccd_query_ms; }, true},
       {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
-      {"total_ms", [](R r) { return r.frame.frame_ms; }, true},
-      {"sound_ms", [](R r) { return r.frame.sound_ms; }, true},
-      {"ai_ms", [](R r) { return r.frame.ai_ms; }, true},
-      {"tasks_wait_ms", [](R r) { return r.frame.tasks_wait_ms; }, true},
+      {"total_ms", [](R r) { return toMilliseconds(r.frame.whole.length()); }, true},
+      {"sound_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kSoundTask)); }, true},
+      {"ai_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kAiTask)); }, true},
+      {"tasks_wait_ms", [](R r) { return toMilliseconds(r.frame.waitTime()); }, true},
       {"tasks_hidden", [](R r) { return r.frame.tasks_hidden; }, true},
       {"search_ms", [](R r) { return r.frame.physics.timings.search_ms; }, true},
       {"join_ms", [](R r) { return r.frame.physics.timings.join_ms; }, true},
@@ -228,12 +248,54 @@ RunOptions resolveDefaults(RunOptions options, physics::SceneConfig& config) {
         std::max(1, (options.frames + kDefaultKeyframes - 1) / kDefaultKeyframes);
   }
   options.scheduler.tasks = !options.no_tasks;
-  if (options.no_wav || options.no_tasks) {
-    options.scheduler.wav.reset();
-  } else {
-    options.scheduler.wav = options.wav.value_or(options.out / "sound.wav");
+  if (!options.no_wav && !options.no_tasks) {
+    options.wav_file = options.wav.value_or(options.out / "sound.wav");
   }
   return options;
+}
+
+// Options that conflict, or that the run would ignore, refused once parsing
+// is done and before any work, naming both.
+void refuseConflicts(const RunOptions& options) {
+  refuseTogether(options.wav_option, options.no_wav_option, "--no-wav writes no WAV");
+  refuseTogether(options.sync_option, options.compare_sync_option,
+                 "--compare-sync runs a --sync run beside the async one itself");
+  for (const CLI::Option* ignored : {options.wav_option, options.task_options[0],
+                                     options.task_options[1], options.task_options[2]}) {
+    refuseTogether(ignored, options.no_tasks_option,
+                   "--no-tasks runs no sound and no AI, so the first would be ignored");
+  }
+  if (options.capture_every && *options.capture_every == 0) {
+    refuseTogether(options.capture_size_option, options.capture_every_option,
+                   "--capture-every 0 writes no PNG, so --capture-size would be ignored");
+  }
+  if (options.paper && options.scene.objectsGiven() && options.frames_option->count() > 0) {
+    throw UsageError(
+        "--paper with --objects and --frames: both of its numbers are given, so --paper would "
+        "be ignored");
+  }
+  const stubs::SoundConfig& sound = options.scheduler.sound;
+  if (sound.background_voices > sound.voices) {
+    throw UsageError("--background-voices " + std::to_string(sound.background_voices) +
+                     (options.task_options[1]->count() > 0 ? "" : " (its default)") +
+                     " must be at most --voices " + std::to_string(sound.voices));
+  }
+}
+
+// Every output the run will write, checked before any work: a name that is
+// a folder, or a folder that cannot be written, is a UsageError.
+void checkOutputs(const RunOptions& options, const physics::SceneConfig& config) {
+  prepareOutputDirectory(options.out, "--out");
+  for (const char* name : {"frames.csv", "summary.json", "timeline.json"}) {
+    prepareOutputFile(options.out / name, "--out");
+  }
+  if (options.wav_file) prepareOutputFile(*options.wav_file, options.wav ? "--wav" : "--out");
+  if (*options.capture_every > 0) {
+    prepareOutputDirectory(options.out / "frames", "--out");
+    for (int frame = 0; frame < options.frames; frame += *options.capture_every) {
+      prepareOutputFile(options.out / "frames" / pngName(config.scene, frame), "--out");
+    }
+  }
 }
 
 // The closing line: every file the run wrote, where.
@@ -265,8 +327,10 @@ void run(const RunOptions& given) {
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string("task options: ") + error.what());
   }
-  prepareOutputDirectory(options.out, "--out");
-  if (options.scheduler.wav) prepareOutputFile(*options.scheduler.wav, "--wav");
+  checkOutputs(options, config);
+  // Everything goes to temporaries, published together at the end.
+  OutputFolder outputs(options.out);
+  if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
   std::optional<TaskLoadCalibration> calibration;
   if (options.task_load && options.scheduler.tasks) {
     calibration =
@@ -285,9 +349,8 @@ void run(const RunOptions& given) {
     // environment says otherwise).
     setenv("LP_NUM_THREADS", "0", 0);
     setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
-    prepareOutputDirectory(options.out / "frames", "--out");
-    camera =
-        openCapture(options.out / "frames", options.capture_size, render::ColourMode::kSizeClass);
+    camera = openCapture(outputs, options.out / "frames", options.capture_size,
+                         render::ColourMode::kSizeClass);
   }
 
   std::optional<SteppedRun> sync_stepper;
@@ -295,7 +358,7 @@ void run(const RunOptions& given) {
   if (options.compare_sync) {
     SchedulerOptions sync_options = options.scheduler;
     sync_options.sync = true;
-    sync_options.wav.reset();
+    sync_options.wav = nullptr;
     sync_stepper.emplace(options, config, sync_options, sync_timeline);
   }
   Timeline timeline;
@@ -303,6 +366,7 @@ void run(const RunOptions& given) {
   Progress progress(options.compare_sync ? "overlap run (sync and async)" : "overlap run",
                     options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
     if (sync_stepper) sync_stepper->step();
     FrameRow& row = stepper.step();
     if (camera != nullptr && frame % *options.capture_every == 0) {
@@ -322,9 +386,11 @@ void run(const RunOptions& given) {
       for (const FrameRow& row : rows) values.push_back(value(row.frame));
       return median(values);
     };
-    const auto frameMs = [](const ScheduledFrame& f) { return f.frame_ms; };
+    const auto frameMs = [](const ScheduledFrame& f) { return toMilliseconds(f.whole.length()); };
     const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
-    const auto tasksMs = [](const ScheduledFrame& f) { return f.sound_ms + f.ai_ms; };
+    const auto tasksMs = [](const ScheduledFrame& f) {
+      return toMilliseconds(f.taskTime(kSoundTask) + f.taskTime(kAiTask));
+    };
     const double sync_ms = medianOf(sync_run->rows, frameMs);
     const double async_ms = medianOf(result.rows, frameMs);
     summary["compare_sync"] = {
@@ -341,11 +407,17 @@ void run(const RunOptions& given) {
         {"identical_tasks", sync_run->sound_checksum == result.sound_checksum &&
                                 sync_run->ai_checksum == result.ai_checksum}};
   }
-  physics::writeFileAtomically(options.out / "frames.csv", framesCsv(result.rows));
-  timeline.write(options.out / "timeline.json");
-  physics::writeFileAtomically(options.out / "summary.json", summary.dump(2) + "\n");
-  std::fprintf(stderr, "%s\n",
-               writtenLine(options.out, options.scheduler.wav, camera.get()).c_str());
+  outputs.open(options.out / "frames.csv").write(framesCsv(result.rows));
+  outputs.open(options.out / "timeline.json").write(timeline.json());
+  outputs.open(options.out / "summary.json").write(summary.dump(2) + "\n");
+  outputs.commit();
+  std::fprintf(stderr, "%s\n", writtenLine(options.out, options.wav_file, camera.get()).c_str());
+}
+
+// A flag that is off unless given.
+CLI::Option* addFlag(CLI::App& command, const std::string& name, bool& value,
+                     const std::string& description) {
+  return command.add_flag(name, value, description)->default_str("off");
 }
 
 }  // namespace
@@ -358,76 +430,88 @@ void addRunCommand(CLI::App& app) {
       "timeline.json, the sound as a WAV and keyframe PNGs.  With no options: the demo, scene 4 "
       "with " +
           std::to_string(kDemoObjects) + " boxes for " + std::to_string(kDemoFrames) +
-          " frames (about a minute on two cores); --paper for the paper's full run");
+          " frames (its time on two cores: see README.md); --paper for the paper's full run");
   options->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, options->algorithm);
   options->frames_option =
       command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
-          ->check(CLI::Range(1, 1'000'000))
+          ->check(wholeNumberIn(1, kMostFrames))
           ->capture_default_str();
-  command
-      ->add_flag("--paper", options->paper,
-                 "the paper's full run: --objects " + std::to_string(kPaperObjects) + " --frames " +
-                     std::to_string(kPaperFrames) +
-                     " (about half an hour on two cores without a GPU); either given "
-                     "explicitly wins")
-      ->default_str("off");
+  options->paper_option =
+      addFlag(*command, "--paper", options->paper,
+              "the paper's full run: --objects " + std::to_string(kPaperObjects) + " --frames " +
+                  std::to_string(kPaperFrames) +
+                  " (about half an hour on two cores without a GPU); either given "
+                  "explicitly wins");
   options->physics.addTo(*command);
-  command
-      ->add_flag("--sync", options->scheduler.sync,
-                 "run the frame's jobs one after another: the sound and AI tasks, then the "
-                 "physics step (default: the tasks beside the whole step)")
-      ->default_str("off");
+  options->sync_option =
+      addFlag(*command, "--sync", options->scheduler.sync,
+              "run the frame's jobs one after another: the sound and AI tasks, then the "
+              "physics step (default: the tasks beside the whole step)");
   addThreadsOption(*command, options->threads);
-  command
-      ->add_flag("--compare-sync", options->compare_sync,
-                 "step a --sync run and the async run in turn, frame by frame, in one process, "
-                 "and report the speed-up")
-      ->default_str("off");
+  options->compare_sync_option =
+      addFlag(*command, "--compare-sync", options->compare_sync,
+              "step a --sync run and the async run in turn, frame by frame, in one process, "
+              "and report the speed-up");
   CLI::Option* task_load =
       command
           ->add_option("--task-load", options->task_load,
                        "size the sound and AI tasks to cost X times the physics step, measured "
                        "on the scene's first frames (instead of --voices, --background-voices, "
                        "--agents)")
-          ->check(CLI::Range(0.0, 100.0))
+          ->check(realNumberIn(0.0, 100.0))
           ->default_str("unset: --voices and --agents");
-  CLI::Option* no_tasks =
-      command
-          ->add_flag("--no-tasks", options->no_tasks,
-                     "physics only: no sound or AI tasks (the paper's measurements)")
-          ->default_str("off");
+  CLI::Option* no_tasks = addFlag(*command, "--no-tasks", options->no_tasks,
+                                  "physics only: no sound or AI tasks (the paper's measurements)");
   CLI::Option* voices =
       command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
+          ->check(wholeNumberIn(0, kMostVoices))
           ->capture_default_str();
   CLI::Option* background_voices =
       command
           ->add_option("--background-voices", options->scheduler.sound.background_voices,
-                       "sound: of the voices, always sounding")
+                       "sound: of the voices, always sounding (at most --voices)")
+          ->check(wholeNumberIn(0, kMostVoices))
           ->capture_default_str();
   CLI::Option* agents =
       command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
+          ->check(wholeNumberIn(0, kMostAgents))
           ->capture_default_str();
   // The knob sizes the tasks itself: with the tasks off, or sized by hand, it is a mistake.
   for (CLI::Option* other : {no_tasks, voices, background_voices, agents}) {
     task_load->excludes(other);
   }
-  command->add_option("--wav", options->wav, "the WAV file the run's sound mix goes to")
-      ->default_str("OUT/sound.wav");
-  command->add_flag("--no-wav", options->no_wav, "write no WAV")->default_str("off");
-  command->add_option("--out", options->out, "output folder")->capture_default_str();
+  options->no_tasks_option = no_tasks;
+  options->task_options[0] = voices;
+  options->task_options[1] = background_voices;
+  options->task_options[2] = agents;
+  options->wav_option =
+      command
+          ->add_option("--wav", options->wav,
+                       "the WAV file the run's sound mix goes to (a FIFO or device is written "
+                       "through)")
+          ->default_str("OUT/sound.wav");
+  options->no_wav_option = addFlag(*command, "--no-wav", options->no_wav, "write no WAV");
   command
-      ->add_option("--capture-every", options->capture_every,
-                   "write every K-th frame as a PNG under OUT/frames (0: none)")
-      ->check(CLI::NonNegativeNumber)
-      ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
-  command->add_option("--capture-size", options->capture_size, "PNG size WIDTHxHEIGHT")
+      ->add_option("--out", options->out,
+                   "output folder; a run replaces the outputs of the last run there, and only "
+                   "those")
       ->capture_default_str();
+  options->capture_every_option =
+      command
+          ->add_option("--capture-every", options->capture_every,
+                       "write every K-th frame as a PNG under OUT/frames (0: none)")
+          ->check(wholeNumberIn(0, kMostFrames))
+          ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
+  options->capture_size_option =
+      command->add_option("--capture-size", options->capture_size, "PNG size WIDTHxHEIGHT")
+          ->capture_default_str();
   command->footer(
       "Examples:\n"
       "  overlap run                                  # the demo, into ./out\n"
       "  overlap run --paper --algo bvh --out paper   # the paper's scene 4 with Bullet's BVH\n"
       "  overlap run --scene 2 --objects 1000 --frames 300 --no-tasks --out s2");
+  command->parse_complete_callback([options] { refuseConflicts(*options); });
   command->callback([options] { run(*options); });
 }
 

@@ -5,6 +5,8 @@
 #include <tuple>
 
 #include "engine/cli_errors.h"
+#include "engine/number_options.h"
+#include "engine/progress.h"
 #include "physics/broadphase_factory.h"
 
 namespace overlap::engine {
@@ -14,7 +16,7 @@ CLI::Option* addSizeRange(CLI::App& command, const std::string& name, std::vecto
                           const physics::SizeRange& paper, const std::string& what) {
   return command.add_option(name, range, "scene 4: " + what + " edge factor range LO HI")
       ->expected(2)
-      ->check(CLI::PositiveNumber)
+      ->check(realNumberIn(0, kMostReal, true))
       ->default_str(CLI::detail::to_string(paper.lo) + " " + CLI::detail::to_string(paper.hi));
 }
 
@@ -28,47 +30,49 @@ void SceneOptions::addTo(CLI::App& command, int objects) {
   config_.objects = objects;
   command
       .add_option("--scene", config_.scene, "1 fall, 2 kicks, 3 rotating gravity, 4 mixed sizes")
-      ->check(CLI::Range(1, 4))
+      ->check(wholeNumberIn(1, 4))
       ->capture_default_str();
   objects_option_ = command.add_option("--objects,-n", config_.objects, "dynamic boxes")
-                        ->check(CLI::Range(1, 10'000'000))
+                        ->check(wholeNumberIn(1, kMostObjects))
                         ->capture_default_str();
   command.add_option("--seed", config_.seed, "seed of the start state (and scene 2's kicks)")
+      ->check(seedNumber())
       ->capture_default_str();
   command.add_option("--fill", config_.fill_fraction, "share of the interior the boxes fill")
-      ->check(CLI::Range(1e-6, 0.3))
+      ->check(realNumberIn(1e-6, 0.3))
       ->capture_default_str();
   command.add_option("--wall-min", config_.wall_min_thickness, "minimum wall thickness (m)")
-      ->check(CLI::PositiveNumber)
+      ->check(realNumberIn(0, kMostReal, true))
       ->capture_default_str();
   command
       .add_option("--wall-fraction", config_.wall_fraction,
                   "wall thickness as a share of the interior edge")
-      ->check(CLI::NonNegativeNumber)
+      ->check(realNumberIn(0, kMostReal))
       ->capture_default_str();
   command
       .add_option("--initial-speed", config_.initial_speed,
                   "start velocity components uniform in [-v, v] m/s")
-      ->check(CLI::NonNegativeNumber)
+      ->check(realNumberIn(0, kMostReal))
       ->capture_default_str();
   command.add_option("--frame-time", config_.frame_time, "seconds of animation per frame")
-      ->check(CLI::Range(1e-6, 1.0))
+      ->check(realNumberIn(1e-6, 1.0))
       ->capture_default_str();
   command.add_option("--gravity", config_.g, "g in m/s^2")
-      ->check(CLI::NonNegativeNumber)
+      ->check(realNumberIn(0, kMostReal))
       ->capture_default_str();
   command.add_option("--gravity-scale", gravity_scale_, "gravity in g")
-      ->check(CLI::NonNegativeNumber)
+      ->check(realNumberIn(0, kMostReal))
       ->default_str("1 for scenes 1-2, 50 for scenes 3-4");
   using Config = const physics::SceneConfig&;
   scene_specific_ = {
       {command.add_option("--kicks", config_.kicks_per_frame, "scene 2: objects kicked per frame")
-           ->check(CLI::NonNegativeNumber)
+           ->check(wholeNumberIn(0, kMostObjects))
            ->capture_default_str(),
        [](Config c) { return c.kicks(); }, "scene 2"},
       {command
            .add_option("--rotation", config_.rotation_per_frame,
                        "scenes 3-4: gravity rotation per frame (rad)")
+           ->check(realNumberIn(-kMostReal, kMostReal))
            ->capture_default_str(),
        [](Config c) { return c.rotatingGravity(); }, "scenes 3-4"},
   };
@@ -125,8 +129,10 @@ void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
   algorithm = kDefaultAlgorithm;
   command
       .add_option("--algo", algorithm,
-                  "broadphase: " + broadphaseNameList() + " (" + kDefaultAlgorithm +
-                      " without a CUDA device runs the fastest exact CPU finder and says so)")
+                  "broadphase: " + broadphaseNameList() +
+                      " (`overlap --list-algos` says what each is; " + kDefaultAlgorithm +
+                      " without a CUDA device runs " + std::string(physics::kDeviceFallback) +
+                      " and says so)")
       ->check(broadphaseNameCheck())
       ->capture_default_str();
 }
@@ -149,18 +155,20 @@ void addThreadsOption(CLI::App& command, int& threads) {
       .add_option("--threads", threads,
                   "threads the run uses, the main thread included: it runs Bullet, N - 1 oneTBB "
                   "workers run the tasks and cpubf's search (0: one per hardware thread)")
-      ->check(CLI::Range(0, 1024))
+      ->check(wholeNumberIn(0, kMostThreads))
       ->capture_default_str();
 }
 
 std::unique_ptr<physics::PhysicsWorld> makeWorld(const physics::SceneConfig& config,
                                                  const physics::WorldOptions& options) {
   std::unique_ptr<physics::PhysicsWorld> world;
+  Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
   try {
     world = std::make_unique<physics::PhysicsWorld>(config, options);
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string("--") + error.what());
   }
+  placing.finish();
   if (!world->algorithmNotice().empty()) {
     std::fprintf(stderr, "overlap: %s\n", world->algorithmNotice().c_str());
   }

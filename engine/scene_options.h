@@ -1,6 +1,7 @@
 // The options the scene-driven subcommands share (run, record, capture,
-// latency), named like SCENES.md's numbers, each defaulting to the paper's
-// value, and the one --algo option every subcommand takes.  Defaults that
+// latency), named like docs/SCENES.md's numbers, each defaulting to the paper's
+// value, and the --algo option of run, capture and pairs (record has none
+// and latency takes a list; both step the scene with bvh).  Defaults that
 // depend on the scene (50 g for scenes 3 and 4) are resolved after parsing,
 // so `--scene 3 --gravity-scale 10` still works.  An option only some scenes
 // use (--kicks: scene 2) given to another scene is a UsageError, not ignored.
@@ -23,6 +24,11 @@ namespace overlap::engine {
 // Every subcommand's --algo default.  Without a CUDA device it runs the
 // fastest exact CPU finder instead and says so (physics/broadphase_factory.h).
 inline constexpr const char* kDefaultAlgorithm = "gpubf";
+
+// The documented upper bounds of the counts (docs/CLI.md, "Bounds").
+inline constexpr int kMostObjects = 10'000'000;
+inline constexpr int kMostFrames = 1'000'000;
+inline constexpr int kMostThreads = 1024;
 
 class SceneOptions {
  public:

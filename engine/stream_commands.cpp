@@ -2,12 +2,17 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/interrupt.h"
+#include "engine/number_options.h"
 #include "engine/physics_options.h"
+#include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
+#include "gpu/base/output_file.h"
 #include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
 
@@ -30,7 +35,9 @@ void record(const RecordOptions& options) {
   } catch (const std::invalid_argument& error) {  // a scene the options cannot build
     throw UsageError(std::string("--") + error.what());
   }
+  Progress writing("overlap record: writing " + options.out.string(), 0);
   physics::writeAabbStream(options.out, stream);
+  writing.finish();
   std::fprintf(stderr, "overlap record: wrote %s (%d objects, the start and %d frames)\n",
                options.out.string().c_str(), stream.objects, stream.stored_frames - 1);
 }
@@ -40,25 +47,42 @@ struct PairsOptions {
   std::filesystem::path input;
 };
 
+// Frame by frame, so a stream without a size (a pipe) needs memory for one
+// frame only.  A file with a size is checked whole first: a bad box in it
+// leaves stdout empty.  From a pipe, the rows of the frames before a bad one
+// are printed already; the exit status says the stream was bad.
 void printPairs(const PairsOptions& options) {
-  physics::AabbStream stream;
   try {
-    stream = physics::readAabbStream(options.input);
+    physics::AabbStreamReader reader(options.input);
+    if (reader.sized()) reader.checkAll();
+    const physics::AabbStreamHeader& header = reader.header();
+    // The broadphase is sized once a whole frame has arrived: a header's
+    // count alone never allocates.
+    std::vector<physics::Aabb> boxes;
+    reader.next(boxes);
+    physics::BroadphaseReplay replay(options.algorithm, header.world, header.objects);
+    if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
+
+    std::string csv = "frame,a,b\n";
+    int frame = 0;
+    do {
+      stopIfInterrupted("frame " + std::to_string(frame) + " of " +
+                        std::to_string(header.stored_frames));
+      replay.update(boxes);
+      replay.findPairs();
+      for (const auto& [a, b] : replay.pairs()) {
+        csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
+      }
+      if (csv.size() > (1 << 20)) {
+        writeStandardOutput(csv);
+        csv.clear();
+      }
+      ++frame;
+    } while (reader.next(boxes));
+    writeStandardOutput(csv);
   } catch (const physics::AabbStreamError& error) {
     throw UsageError(error.what());
   }
-  physics::BroadphaseReplay replay(options.algorithm, stream.world, stream.objects);
-  if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
-
-  std::string csv = "frame,a,b\n";
-  for (int frame = 0; frame < stream.stored_frames; ++frame) {
-    replay.update(stream.frame(frame));
-    replay.findPairs();
-    for (const auto& [a, b] : replay.pairs()) {
-      csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
-    }
-  }
-  std::fwrite(csv.data(), 1, csv.size(), stdout);
 }
 
 }  // namespace
@@ -71,7 +95,7 @@ void addRecordCommand(CLI::App& app) {
   command
       ->add_option("--frames", options->frames,
                    "frames to record, each --frame-time long (F; F + 1 are stored)")
-      ->check(CLI::Range(1, 1'000'000))
+      ->check(wholeNumberIn(1, kMostFrames))
       ->capture_default_str();
   options->physics.addTo(*command);
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
@@ -86,7 +110,10 @@ void addPairsCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "pairs", "print each frame's pairs of a .aabbs file as CSV (frame,a,b) on stdout");
   addAlgorithmOption(*command, options->algorithm);
-  command->add_option("--input", options->input, "a Broadmark .aabbs file")->required();
+  command
+      ->add_option("--input", options->input,
+                   "a Broadmark .aabbs file, or a pipe or device streaming one")
+      ->required();
   command->footer(
       "Example:\n"
       "  overlap pairs --algo cpubf --input scene4.aabbs > pairs.csv");

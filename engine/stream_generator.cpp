@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "physics/random.h"
+#include "gpu/base/random.h"
 #include "physics/step_policy.h"
 
 namespace overlap::engine {
@@ -66,7 +66,7 @@ class GranularModel {
         layout_(physics::generateScene(config)),
         gravity_rotation_(config.g * config.gravity_scale, config.rotation_per_frame),
         kicks_(config.seed ^ 0x6b69636b73ull) {  // "kicks": apart from the start's draws
-    physics::SeededRandom spins(config.seed ^ 0x7370696e73ull);
+    SeededRandom spins(config.seed ^ 0x7370696e73ull);
     double volume = 0;
     boxes_.reserve(layout_.boxes.size());
     for (const physics::BoxStart& start : layout_.boxes) {
@@ -296,7 +296,7 @@ class GranularModel {
   physics::SceneConfig config_;
   physics::SceneLayout layout_;
   physics::GravityRotation gravity_rotation_;
-  physics::SeededRandom kicks_;
+  SeededRandom kicks_;
   std::vector<Box> boxes_;
   int cells_ = 1;
   double cell_ = 1;
@@ -337,7 +337,7 @@ physics::AabbStream generateStream(const physics::SceneConfig& config, int frame
   model.appendBoxes(stream.boxes);
   std::vector<std::uint8_t> moving(static_cast<std::size_t>(config.objects), 1);
   if (moving_share < 1) {
-    physics::SeededRandom draw(config.seed ^ 0x6d6f76696e67ull);  // "moving"
+    SeededRandom draw(config.seed ^ 0x6d6f76696e67ull);  // "moving"
     for (std::uint8_t& box : moving) box = draw.unit() < moving_share ? 1 : 0;
   }
   const std::size_t n = moving.size();

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "engine/statistics.h"
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::engine {
 namespace {
@@ -46,7 +46,7 @@ int sizeToBudget(double budget_ms, int guess, const std::function<double(int)>& 
 double frameMs(double budget_ms, const std::function<void()>& frame) {
   std::vector<double> times;
   for (int i = 0; i < kTimedFrames; ++i) {
-    const gpu::HostStopwatch watch;
+    const HostStopwatch watch;
     frame();
     times.push_back(watch.ms());
     if (times.front() > 4 * budget_ms) break;

@@ -4,11 +4,16 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "physics/atomic_file.h"
-
 namespace overlap::engine {
+namespace {
 
-void Timeline::write(const std::filesystem::path& path) const {
+double microseconds(Clock::duration duration) {
+  return std::chrono::duration<double, std::micro>(duration).count();
+}
+
+}  // namespace
+
+std::string Timeline::json() const {
   // Lanes become threads of one process, numbered in order of appearance.
   std::map<std::string, int> lane_ids;
   nlohmann::json events = nlohmann::json::array();
@@ -27,29 +32,18 @@ void Timeline::write(const std::filesystem::path& path) const {
                       {"ph", "X"},
                       {"pid", 1},
                       {"tid", it->second},
-                      {"ts", span.start_us},
-                      {"dur", span.durationUs()},
+                      {"ts", microseconds(span.at.start - origin_)},
+                      {"dur", microseconds(span.at.length())},
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
-  physics::writeFileAtomically(path, trace.dump());
+  return trace.dump();
 }
 
-double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy) {
-  if (duration <= 0) return 0.0;
-  const double end = start + duration;
-  std::sort(busy.begin(), busy.end());
-  double covered = 0.0;
-  double reached = start;  // everything before this is counted already
-  for (const auto& [from, to] : busy) {
-    const double lo = std::max(from, reached);
-    const double hi = std::min(to, end);
-    if (hi > lo) {
-      covered += hi - lo;
-      reached = hi;
-    }
-  }
-  return covered / duration;
+Clock::duration overlapOf(const Interval& a, const Interval& b) {
+  const Clock::time_point start = std::max(a.start, b.start);
+  const Clock::time_point end = std::min(a.end, b.end);
+  return end > start ? end - start : Clock::duration::zero();
 }
 
 }  // namespace overlap::engine

@@ -1,51 +1,48 @@
 // The frame timeline: named spans on named lanes (main thread, broadphase
 // search, tasks, sound, AI), each tagged with its frame and, for a
-// substep's spans (substep, search, join, narrowphase), its substep; written in the Chrome trace
-// event format, which Perfetto (ui.perfetto.dev) and chrome://tracing open.  Times are microseconds
-// since the run started.
+// substep's spans (substep, search, join, narrowphase), its substep; written
+// in the Chrome trace event format, which Perfetto (ui.perfetto.dev) and
+// chrome://tracing open.  Spans are kept as points on the steady clock and
+// written as microseconds since the run started.
 #pragma once
 
 #include <chrono>
-#include <filesystem>
 #include <string>
 #include <vector>
 
 namespace overlap::engine {
 
-// A span keeps its end, not its length: two jobs that end at one instant
-// (the last task and the tasks' job, say) then end at the same number, which
-// start + duration, rounded twice, would not promise.
+using Clock = std::chrono::steady_clock;
+
+// A job's run: when it started and when it ended.
+struct Interval {
+  Clock::time_point start;
+  Clock::time_point end;
+  Clock::duration length() const { return end - start; }
+};
+
+// How long `a` and `b` ran at the same time.
+Clock::duration overlapOf(const Interval& a, const Interval& b);
+
 struct Span {
   std::string name;
   std::string lane;
-  double start_us;
-  double end_us;
+  Interval at;
   int frame;
   int substep = -1;  // the physics substep it belongs to; -1: the whole frame's
-
-  double durationUs() const { return end_us - start_us; }
 };
 
 class Timeline {
  public:
-  using Clock = std::chrono::steady_clock;
-
   explicit Timeline(Clock::time_point origin = Clock::now()) : origin_(origin) {}
-  double microsecondsAt(Clock::time_point t) const {
-    return std::chrono::duration<double, std::micro>(t - origin_).count();
-  }
   void add(Span span) { spans_.push_back(std::move(span)); }
   const std::vector<Span>& spans() const { return spans_; }
-  // Writes the whole run as one JSON trace, through a temporary file.
-  void write(const std::filesystem::path& path) const;
+  // The whole run as one JSON trace (timeline.json's contents).
+  std::string json() const;
 
  private:
   Clock::time_point origin_;
   std::vector<Span> spans_;
 };
-
-// The share of [start, start + duration) that lies inside any of `busy`
-// (intervals in the same units, possibly overlapping each other).
-double coveredShare(double start, double duration, std::vector<std::pair<double, double>> busy);
 
 }  // namespace overlap::engine

@@ -30,6 +30,9 @@ PairDelta BackgroundPairFinder::finish() {
   }
   join();
   if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  launch_to_finish_ms_ =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - requested_at_)
+          .count();
   return delta_;
 }
 

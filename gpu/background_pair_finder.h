@@ -41,6 +41,7 @@ class BackgroundPairFinder final : public PairFinder {
   double lastSearchMs() const override { return inner_->lastSearchMs(); }
   double lastSearchDelayMs() const override { return search_delay_ms_; }
   SearchPhases lastPhases() const override { return inner_->lastPhases(); }
+  double lastLaunchToFinishMs() const override { return launch_to_finish_ms_; }
 
  private:
   void search();
@@ -52,6 +53,7 @@ class BackgroundPairFinder final : public PairFinder {
   std::exception_ptr error_;
   std::chrono::steady_clock::time_point requested_at_;
   double search_delay_ms_ = 0;
+  double launch_to_finish_ms_ = 0;
   bool in_flight_ = false;  // between launch() and finish(); caller's thread only
 
   // Normal priority: a caller with other work for the pool (the engine's

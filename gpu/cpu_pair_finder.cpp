@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {
@@ -159,7 +159,7 @@ OVERLAP_VECTOR_CLONES void CpuPairFinder::searchWords(std::uint64_t first_word,
 
 void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
   if (searched_) throw std::runtime_error("cpubf: launch() called twice without finish()");
-  const HostStopwatch watch;
+  launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   storeObjects(objects);
   // New words start at zero: new slots had no pairs last frame.
@@ -196,13 +196,14 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
   }
   std::sort(result_.added.begin(), result_.added.end());
   std::sort(result_.removed.begin(), result_.removed.end());
-  last_search_ms_ = watch.ms();
+  last_search_ms_ = launch_watch_.ms();
   searched_ = true;
 }
 
 PairDelta CpuPairFinder::finish() {
   if (!searched_) throw std::runtime_error("cpubf: finish() called without launch()");
   searched_ = false;
+  last_launch_to_finish_ms_ = launch_watch_.ms();
   return PairDelta{result_.added, result_.removed};
 }
 

@@ -18,6 +18,7 @@
 #include <optional>
 #include <vector>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
@@ -31,6 +32,7 @@ class CpuPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return last_search_ms_; }
+  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
 
  private:
   struct Changes {
@@ -55,6 +57,8 @@ class CpuPairFinder final : public PairFinder {
   Changes result_;
   bool searched_ = false;
   double last_search_ms_ = 0;
+  HostStopwatch launch_watch_;
+  double last_launch_to_finish_ms_ = 0;
 };
 
 }  // namespace overlap::gpu

@@ -8,9 +8,9 @@
 #include <cstring>
 #include <iterator>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/cpu_sap_pair_finder.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {

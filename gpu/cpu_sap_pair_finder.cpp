@@ -13,8 +13,8 @@
 #include <string>
 #include <utility>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stopwatch.h"
 
 namespace overlap::gpu {
 namespace {
@@ -285,7 +285,7 @@ void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) 
 
 void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
   if (searched_) throw std::runtime_error("cpusap: launch() called twice without finish()");
-  const HostStopwatch watch;
+  launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
 
   moved_only_ = searchMovedBoxes(objects);
@@ -294,16 +294,16 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
     const int last_sweep_axis = sweep_axis_;
     chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
     sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
-    phases_.sort_ms = watch.ms();
+    phases_.sort_ms = launch_watch_.ms();
     layOut(objects);             // 4
     sweep();                     // 5
     testInvertedBoxes(objects);  // 6
-    phases_.sweep_ms = watch.ms() - phases_.sort_ms;
+    phases_.sweep_ms = launch_watch_.ms() - phases_.sort_ms;
     computeDelta();  // 7
     keepFullFrame(objects);
-    phases_.delta_ms = watch.ms() - phases_.sort_ms - phases_.sweep_ms;
+    phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
   }
-  last_search_ms_ = watch.ms();
+  last_search_ms_ = launch_watch_.ms();
   searched_ = true;
 }
 
@@ -351,6 +351,7 @@ void CpuSapPairFinder::computeDelta() {
 PairDelta CpuSapPairFinder::finish() {
   if (!searched_) throw std::runtime_error("cpusap: finish() called without launch()");
   searched_ = false;
+  last_launch_to_finish_ms_ = launch_watch_.ms();
   return PairDelta{added_, removed_};
 }
 

@@ -47,6 +47,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
 #include "gpu/sap_sweep.h"
@@ -63,6 +64,7 @@ class CpuSapPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return last_search_ms_; }
+  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
 
   // kScalar or kAvx2: the kernel that sweeps.
   sap::SweepKernel kernel() const { return kernel_; }
@@ -156,6 +158,8 @@ class CpuSapPairFinder final : public PairFinder {
   };
   tbb::enumerable_thread_specific<MovedPairs> moved_pairs_;
   std::vector<std::uint64_t> pending_added_, pending_removed_;  // since previous_ was built
+  HostStopwatch launch_watch_;
+  double last_launch_to_finish_ms_ = 0;
 };
 
 template <typename Body>

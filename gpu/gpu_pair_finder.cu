@@ -1,17 +1,28 @@
 // gpubf: the GPU brute-force pair finder, built so that almost nothing but
-// the answer crosses the bus.
+// the answer crosses the bus, and so that a warp spends its instructions on
+// the boxes, not on finding out which boxes to test.
 //
-// One warp computes one 32-bit word: each lane decodes its pair p exactly
-// (pair_logic::pairAt), tests it, and __ballot_sync gathers the 32 results.
-// The warp XORs the word with last frame's and appends the changed pairs to
-// an "added" or a "removed" list through one atomic per list per word, so only
-// those lists and their two counts are copied back.  The counts keep growing
-// past the lists' capacity: an overflow is seen on the host and the changes
-// are collected again, from the two frames' words, into longer lists.
+// The bits are laid out in row words (gpu/row_words.h): one word holds the
+// pairs (32 c + lane, b) of one row b.  A warp takes a run of up to 64 rows of
+// one column c: it decodes the run's start once, loads box A = 32 c + lane
+// into registers once, then per row loads only box B (one address for the
+// whole warp), tests, and __ballot_sync gathers the word.  The warp XORs the
+// word with last frame's and, when they differ, appends the changed pairs
+// (it knows their (a, b), no decode) to an "added" or a "removed" list through
+// one atomic per list per word.  The counts keep growing past the lists'
+// capacity: an overflow is seen on the host and the changes are collected
+// again, from the two frames' words, into longer lists.
+//
+// One frame is: an upload of the boxes from pinned staging (which the caller
+// may fill itself: stagingFor()), the kernel, one copy back of a result block
+// holding both counts and the first kHeadEntries of both lists, and two
+// events; nothing else unless more changed than the block holds.  The kernel
+// zeroes the counts the next counting kernel will use (two pairs of counts,
+// used in turn), so no memset is queued per frame.
 //
 // Memory: two word buffers (last frame's, read; this frame's, written) swap
-// roles every frame; words past the last pair are zero, so growing the slot
-// count appends pairs that had no overlap.  All buffers live across frames and
+// roles every frame; words past the last row are zero, so growing the slot
+// count appends rows that had no overlap.  All buffers live across frames and
 // grow geometrically; host buffers are pinned so the copies are asynchronous.
 // launch() only enqueues work on the finder's stream; finish() waits on events.
 #include <cuda_runtime.h>
@@ -21,9 +32,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
-#include "gpu/pair_logic.h"
+#include "gpu/row_words.h"
 
 namespace overlap::gpu {
 namespace {
@@ -34,35 +46,55 @@ constexpr unsigned kThreadsPerBlock = 256;
 constexpr unsigned kWarpsPerBlock = kThreadsPerBlock / kBitsPerWord;
 // Enough blocks to fill any current GPU; larger problems loop (grid-stride).
 constexpr std::uint64_t kMaxBlocks = 1u << 16;
+// The entries of each list that come back with the counts in one copy: a
+// frame that changes fewer pairs (the common case) needs no second round
+// trip.  32 KiB a list.
+constexpr std::size_t kHeadEntries = 1u << 12;
+// Each list holds this many entries at first, the head included.
 constexpr std::size_t kInitialListCapacity = 1u << 14;
-// launch() copies this many entries of each list back with the counts, before
-// it knows how many there are: a frame that changes fewer pairs (the common
-// case) then needs one round trip, not two.  32 KiB a list, a few microseconds.
-constexpr std::size_t kSpeculativeCopy = 1u << 12;
 constexpr unsigned kFullWarp = 0xFFFFFFFFu;
 
-struct ChangeLists {
-  IndexPair* added;
-  IndexPair* removed;
-  unsigned long long* counts;  // [0] added, [1] removed; may exceed capacity
-  unsigned long long capacity;
+// What one copy brings back each frame.
+struct ResultBlock {
+  // [pair][0 added, 1 removed]: counting kernels use the pairs in turn, each
+  // zeroing the other for the next; a count may exceed the lists' capacity.
+  unsigned long long counts[2][2];
+  IndexPair added[kHeadEntries];  // entries 0 .. kHeadEntries - 1 of each list
+  IndexPair removed[kHeadEntries];
 };
 
-// Called by all 32 lanes of a warp with the same word; appends the word's
-// changed pairs.  Lane k handles bit k, so each list entry is written once.
-__device__ void appendChanges(std::uint64_t word, std::uint32_t previous, std::uint32_t current,
-                              const ChangeLists& lists) {
-  if (previous == current) return;  // uniform across the warp
+struct ChangeLists {
+  ResultBlock* block;
+  unsigned counting;      // the count pair this kernel adds to; it zeroes the other
+  IndexPair* added_tail;  // entries from kHeadEntries on
+  IndexPair* removed_tail;
+  unsigned long long tail_capacity;
+};
+
+// One thread of the grid zeroes the count pair the next counting kernel uses;
+// the stream orders that kernel after this one.
+__device__ void zeroNextCounts(const ChangeLists& lists) {
+  if (blockIdx.x == 0 && threadIdx.x == 0) {
+    lists.block->counts[1 - lists.counting][0] = 0;
+    lists.block->counts[1 - lists.counting][1] = 0;
+  }
+}
+
+// Called by all 32 lanes of a warp with the same word, lane k holding its
+// pair (a, b); appends the word's changed pairs, each entry written once.
+__device__ void appendChanges(std::uint32_t previous, std::uint32_t current, std::uint32_t a,
+                              std::uint32_t b, const ChangeLists& lists) {
   const unsigned lane = threadIdx.x % kBitsPerWord;
   const std::uint32_t added = pair_logic::addedBits(previous, current);
   const std::uint32_t removed = pair_logic::removedBits(previous, current);
+  unsigned long long* const counts = lists.block->counts[lists.counting];
   unsigned long long added_base = 0;
   unsigned long long removed_base = 0;
   if (lane == 0) {
     if (added != 0)
-      added_base = atomicAdd(&lists.counts[0], static_cast<unsigned long long>(__popc(added)));
+      added_base = atomicAdd(&counts[0], static_cast<unsigned long long>(__popc(added)));
     if (removed != 0)
-      removed_base = atomicAdd(&lists.counts[1], static_cast<unsigned long long>(__popc(removed)));
+      removed_base = atomicAdd(&counts[1], static_cast<unsigned long long>(__popc(removed)));
   }
   added_base = __shfl_sync(kFullWarp, added_base, 0);
   removed_base = __shfl_sync(kFullWarp, removed_base, 0);
@@ -72,52 +104,79 @@ __device__ void appendChanges(std::uint64_t word, std::uint32_t previous, std::u
     const bool is_added = (added & lane_bit) != 0;
     const unsigned long long slot = is_added ? added_base + __popc(added & lanes_below)
                                              : removed_base + __popc(removed & lanes_below);
-    if (slot < lists.capacity) {
-      (is_added ? lists.added : lists.removed)[slot] =
-          pair_logic::pairAt(word * kBitsPerWord + lane);
+    const IndexPair pair{a, b};
+    if (slot < kHeadEntries) {
+      (is_added ? lists.block->added : lists.block->removed)[slot] = pair;
+    } else if (slot - kHeadEntries < lists.tail_capacity) {
+      (is_added ? lists.added_tail : lists.removed_tail)[slot - kHeadEntries] = pair;
     }
   }
 }
 
-__device__ std::uint64_t firstWarp() {
-  return static_cast<std::uint64_t>(blockIdx.x) * kWarpsPerBlock + threadIdx.x / kBitsPerWord;
-}
-
-__device__ std::uint64_t warpCount() {
-  return static_cast<std::uint64_t>(gridDim.x) * kWarpsPerBlock;
+// Calls visit(run, a, first_word) for each non-empty run this warp takes
+// (grid-stride), a being this lane's box A and first_word the run's column
+// in its first row.
+template <class Visit>
+__device__ void forEachRun(std::uint32_t n, Visit visit) {
+  const std::uint64_t first_warp =
+      static_cast<std::uint64_t>(blockIdx.x) * kWarpsPerBlock + threadIdx.x / kBitsPerWord;
+  const std::uint64_t warps = static_cast<std::uint64_t>(gridDim.x) * kWarpsPerBlock;
+  const unsigned lane = threadIdx.x % kBitsPerWord;
+  const std::uint64_t columns = row_words::columnCount(n);
+  const std::uint64_t runs = row_words::runCount(n);
+  for (std::uint64_t r = first_warp; r < runs; r += warps) {
+    const row_words::Run run = row_words::runAt(r, columns, n);
+    if (run.first_row >= run.end_row) continue;  // above the diagonal; uniform
+    visit(run, static_cast<std::uint32_t>(run.column * kBitsPerWord + lane),
+          row_words::rowStart(run.first_row) + run.column);
+  }
 }
 
 __global__ void __launch_bounds__(kThreadsPerBlock)
-    findPairsKernel(const ObjectBounds* __restrict__ objects, std::uint64_t pair_count,
-                    std::uint64_t word_count, const std::uint32_t* __restrict__ previous_words,
+    findPairsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
+                    const std::uint32_t* __restrict__ previous_words,
                     std::uint32_t* __restrict__ current_words, ChangeLists lists) {
-  const unsigned lane = threadIdx.x % kBitsPerWord;
-  for (std::uint64_t word = firstWarp(); word < word_count; word += warpCount()) {
-    const std::uint64_t p = word * kBitsPerWord + lane;
-    bool pairs = false;
-    if (p < pair_count) {
-      const IndexPair ab = pair_logic::pairAt(p);
-      pairs = pair_logic::objectsPair(objects[ab.a], objects[ab.b]);
+  zeroNextCounts(lists);
+  const bool lane_zero = threadIdx.x % kBitsPerWord == 0;
+  forEachRun(n, [&](const row_words::Run& run, std::uint32_t a, std::uint64_t first_word) {
+    // Lanes past the last slot test slot 0 and are masked by a < b below.
+    const ObjectBounds box_a = objects[a < n ? a : 0];
+    // The column's word, stepped row by row.
+    const std::uint32_t* previous_word = previous_words + first_word;
+    std::uint32_t* current_word = current_words + first_word;
+    const auto end_row = static_cast<std::uint32_t>(run.end_row);
+    for (auto b = static_cast<std::uint32_t>(run.first_row); b < end_row; ++b) {
+      const ObjectBounds box_b = objects[b];  // one address for the whole warp
+      const bool pairs = (a < b) & pair_logic::objectsPair(box_a, box_b);
+      const std::uint32_t current = __ballot_sync(kFullWarp, pairs);
+      const std::uint32_t previous = *previous_word;
+      if (lane_zero) *current_word = current;
+      if (previous != current) appendChanges(previous, current, a, b, lists);  // uniform
+      const std::uint32_t to_next_row = row_words::rowWords(b);  // the same column of row b + 1
+      previous_word += to_next_row;
+      current_word += to_next_row;
     }
-    const std::uint32_t current = __ballot_sync(kFullWarp, pairs);
-    const std::uint32_t previous = previous_words[word];
-    if (lane == 0) current_words[word] = current;
-    appendChanges(word, previous, current, lists);
-  }
+  });
 }
 
 // The change collection alone, rerun into longer lists after an overflow.
 __global__ void __launch_bounds__(kThreadsPerBlock)
-    collectChangesKernel(std::uint64_t word_count, const std::uint32_t* __restrict__ previous_words,
+    collectChangesKernel(std::uint32_t n, const std::uint32_t* __restrict__ previous_words,
                          const std::uint32_t* __restrict__ current_words, ChangeLists lists) {
-  for (std::uint64_t word = firstWarp(); word < word_count; word += warpCount()) {
-    appendChanges(word, previous_words[word], current_words[word], lists);
-  }
+  zeroNextCounts(lists);
+  forEachRun(n, [&](const row_words::Run& run, std::uint32_t a, std::uint64_t word) {
+    const auto end_row = static_cast<std::uint32_t>(run.end_row);
+    for (auto b = static_cast<std::uint32_t>(run.first_row); b < end_row; ++b) {
+      const std::uint32_t previous = previous_words[word];
+      const std::uint32_t current = current_words[word];
+      if (previous != current) appendChanges(previous, current, a, b, lists);
+      word += row_words::rowWords(b);
+    }
+  });
 }
 
-unsigned blocksFor(std::uint64_t word_count) {
-  return static_cast<unsigned>(
-      std::min((word_count + kWarpsPerBlock - 1) / kWarpsPerBlock, kMaxBlocks));
+unsigned blocksFor(std::uint64_t runs) {
+  return static_cast<unsigned>(std::min((runs + kWarpsPerBlock - 1) / kWarpsPerBlock, kMaxBlocks));
 }
 
 class GpuPairFinder final : public PairFinder {
@@ -125,21 +184,22 @@ class GpuPairFinder final : public PairFinder {
   GpuPairFinder() {
     CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
     CUDA_CHECK(cudaEventCreate(&search_started_));
-    CUDA_CHECK(cudaEventCreate(&counts_ready_));
+    CUDA_CHECK(cudaEventCreate(&block_ready_));
     CUDA_CHECK(cudaEventCreate(&lists_ready_));
-    counts_ = DeviceBuffer<unsigned long long>(2);
-    host_counts_ = PinnedBuffer<unsigned long long>(2);
-    reserveDiscarding(added_, kInitialListCapacity);
-    reserveDiscarding(removed_, kInitialListCapacity);
-    reserveDiscarding(host_added_, kSpeculativeCopy);
-    reserveDiscarding(host_removed_, kSpeculativeCopy);
+    block_ = DeviceBuffer<ResultBlock>(1);
+    host_block_ = PinnedBuffer<ResultBlock>(1);
+    // Once: from here on each counting kernel zeroes the count pair the next
+    // one uses.  The whole block, as every frame copies all of it back
+    // (compute-sanitizer's initcheck reports a copy of unwritten memory).
+    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock), stream_));
+    growTails(kInitialListCapacity - kHeadEntries);
   }
 
   // Waits for work in flight before the buffers go; errors cannot be thrown here.
   ~GpuPairFinder() override {
     cudaStreamSynchronize(stream_);
     cudaEventDestroy(lists_ready_);
-    cudaEventDestroy(counts_ready_);
+    cudaEventDestroy(block_ready_);
     cudaEventDestroy(search_started_);
     cudaStreamDestroy(stream_);
   }
@@ -149,34 +209,40 @@ class GpuPairFinder final : public PairFinder {
 
   std::string_view name() const override { return "gpubf"; }
   double lastSearchMs() const override { return last_search_ms_; }
+  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
+
+  std::span<ObjectBounds> stagingFor(std::size_t count) override {
+    if (in_flight_)
+      throw std::runtime_error("gpubf: stagingFor() called between launch() and finish()");
+    reserveDiscarding(staging_, count);
+    return {staging_.data(), count};
+  }
 
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf: launch() called twice without finish()");
+    launch_watch_ = HostStopwatch();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
-    pair_count_ = pair_logic::pairsBelow(slot_count_);
-    growWords(pair_logic::wordCount(pair_count_));
-
-    reserveDiscarding(staging_, objects.size());
+    growWords(row_words::wordCount(slot_count_));
     reserveDiscarding(objects_, objects.size());
-    if (!objects.empty()) {
+    if (!objects.empty() && objects.data() != staging_.data()) {
       // The caller's memory is pageable and may change once we return: stage it.
+      reserveDiscarding(staging_, objects.size());
       std::memcpy(staging_.data(), objects.data(), objects.size_bytes());
     }
-    // After the staging copy: the stream is idle until here, and an event
-    // recorded earlier would count the host's memcpy as GPU time.
     CUDA_CHECK(cudaEventRecord(search_started_, stream_));
     if (!objects.empty()) {
       CUDA_CHECK(cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
                                  cudaMemcpyHostToDevice, stream_));
     }
-    CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, 2 * sizeof(unsigned long long), stream_));
-    if (word_count_ > 0) {
-      findPairsKernel<<<blocksFor(word_count_), kThreadsPerBlock, 0, stream_>>>(
-          objects_.data(), pair_count_, word_count_, words_[previous_].data(),
-          words_[1 - previous_].data(), changeLists());
+    reading_ = counting_;
+    if (row_words::runCount(slot_count_) > 0) {
+      findPairsKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
+                        stream_>>>(objects_.data(), slot_count_, words_[previous_].data(),
+                                   words_[1 - previous_].data(), changeLists());
       CUDA_CHECK(cudaGetLastError());
+      counting_ = 1 - counting_;
     }
-    enqueueCountsCopy();
+    enqueueBlockCopy();
     in_flight_ = true;
   }
 
@@ -187,7 +253,9 @@ class GpuPairFinder final : public PairFinder {
     if (!in_flight_) throw std::runtime_error("gpubf: finish() called without launch()");
     in_flight_ = false;
     try {
-      return collectDelta();
+      const PairDelta delta = collectDelta();
+      last_launch_to_finish_ms_ = launch_watch_.ms();
+      return delta;
     } catch (...) {
       cudaStreamSynchronize(stream_);  // its own error is the one being thrown
       throw;
@@ -196,19 +264,19 @@ class GpuPairFinder final : public PairFinder {
 
  private:
   PairDelta collectDelta() {
-    CUDA_CHECK(cudaEventSynchronize(counts_ready_));
-    const std::size_t added_count = host_counts_.data()[0];
-    const std::size_t removed_count = host_counts_.data()[1];
-    cudaEvent_t done = counts_ready_;
-    if (std::max(added_count, removed_count) > kSpeculativeCopy) {
-      // More changes than launch() copied back: fetch the whole lists.
-      if (std::max(added_count, removed_count) > added_.size()) {
-        recollectChanges(std::max(added_count, removed_count));
-      }
-      reserveDiscarding(host_added_, added_count);
-      reserveDiscarding(host_removed_, removed_count);
-      copyBack(added_, host_added_, added_count);
-      copyBack(removed_, host_removed_, removed_count);
+    CUDA_CHECK(cudaEventSynchronize(block_ready_));
+    std::size_t added_count = host_block_.data()->counts[reading_][0];
+    std::size_t removed_count = host_block_.data()->counts[reading_][1];
+    IndexPair* added = host_block_.data()->added;
+    IndexPair* removed = host_block_.data()->removed;
+    cudaEvent_t done = block_ready_;
+    if (std::max(added_count, removed_count) > kHeadEntries) {
+      // More changes than the block holds: fetch the tails too.
+      const std::size_t needed = std::max(added_count, removed_count) - kHeadEntries;
+      if (needed > added_tail_.size()) recollectChanges(needed);
+      added = joinHeadAndTail(host_block_.data()->added, added_tail_, host_added_, added_count);
+      removed =
+          joinHeadAndTail(host_block_.data()->removed, removed_tail_, host_removed_, removed_count);
       CUDA_CHECK(cudaEventRecord(lists_ready_, stream_));
       CUDA_CHECK(cudaEventSynchronize(lists_ready_));
       done = lists_ready_;
@@ -219,33 +287,43 @@ class GpuPairFinder final : public PairFinder {
     previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
     // Atomics append in no fixed order; sorting restores the contract.
-    IndexPair* const added = host_added_.data();
-    IndexPair* const removed = host_removed_.data();
     std::sort(added, added + added_count);
     std::sort(removed, removed + removed_count);
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
+  // The list of `count` entries whose head is `head` (in the block): the
+  // head itself when it holds them all, else `host`, filled with the head and
+  // (queued; the caller waits) the device tail.
+  IndexPair* joinHeadAndTail(IndexPair* head, const DeviceBuffer<IndexPair>& tail,
+                             PinnedBuffer<IndexPair>& host, std::size_t count) {
+    if (count <= kHeadEntries) return head;
+    reserveDiscarding(host, count);
+    std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
+    CUDA_CHECK(cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(),
+                               (count - kHeadEntries) * sizeof(IndexPair), cudaMemcpyDeviceToHost,
+                               stream_));
+    return host.data();
+  }
+
   ChangeLists changeLists() const {
-    return ChangeLists{added_.data(), removed_.data(), counts_.data(),
-                       std::min(added_.size(), removed_.size())};
+    return ChangeLists{block_.data(), counting_, added_tail_.data(), removed_tail_.data(),
+                       std::min(added_tail_.size(), removed_tail_.size())};
   }
 
-  // The counts, and the lists' first kSpeculativeCopy entries on the chance
-  // that they hold all of it.
-  void enqueueCountsCopy() {
-    CUDA_CHECK(cudaMemcpyAsync(host_counts_.data(), counts_.data(), 2 * sizeof(unsigned long long),
+  void enqueueBlockCopy() {
+    CUDA_CHECK(cudaMemcpyAsync(host_block_.data(), block_.data(), sizeof(ResultBlock),
                                cudaMemcpyDeviceToHost, stream_));
-    copyBack(added_, host_added_, kSpeculativeCopy);
-    copyBack(removed_, host_removed_, kSpeculativeCopy);
-    CUDA_CHECK(cudaEventRecord(counts_ready_, stream_));
+    CUDA_CHECK(cudaEventRecord(block_ready_, stream_));
   }
 
-  void copyBack(const DeviceBuffer<IndexPair>& from, PinnedBuffer<IndexPair>& to,
-                std::size_t count) {
-    if (count == 0) return;
-    CUDA_CHECK(cudaMemcpyAsync(to.data(), from.data(), count * sizeof(IndexPair),
-                               cudaMemcpyDeviceToHost, stream_));
+  // Both tails are replaced only once both exist: they share one capacity.
+  void growTails(std::size_t needed) {
+    const std::size_t capacity = std::max(needed, 2 * added_tail_.size());
+    DeviceBuffer<IndexPair> added(capacity);
+    DeviceBuffer<IndexPair> removed(capacity);
+    added_tail_ = std::move(added);
+    removed_tail_ = std::move(removed);
   }
 
   // Both word buffers cover `words`: the one previous_ names keeps last
@@ -271,45 +349,46 @@ class GpuPairFinder final : public PairFinder {
     word_count_ = words;
   }
 
-  // The kernel counted `needed` changes on one list but stored only what fit:
-  // collect them again from the two frames' words into lists that fit them.
+  // The kernel counted `needed` tail entries on one list but stored only what
+  // fit: collect the changes again from the two frames' words into tails that
+  // fit them, and bring the block back again with the new counts.
   void recollectChanges(std::size_t needed) {
-    // Both lists are replaced only once both exist: they share one capacity.
-    const std::size_t capacity = std::max(needed, 2 * added_.size());
-    DeviceBuffer<IndexPair> added(capacity);
-    DeviceBuffer<IndexPair> removed(capacity);
-    added_ = std::move(added);
-    removed_ = std::move(removed);
-    CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, 2 * sizeof(unsigned long long), stream_));
-    collectChangesKernel<<<blocksFor(word_count_), kThreadsPerBlock, 0, stream_>>>(
-        word_count_, words_[previous_].data(), words_[1 - previous_].data(), changeLists());
+    growTails(needed);
+    reading_ = counting_;
+    collectChangesKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
+                           stream_>>>(slot_count_, words_[previous_].data(),
+                                      words_[1 - previous_].data(), changeLists());
     CUDA_CHECK(cudaGetLastError());
-    enqueueCountsCopy();
-    CUDA_CHECK(cudaEventSynchronize(counts_ready_));
+    counting_ = 1 - counting_;
+    enqueueBlockCopy();
+    CUDA_CHECK(cudaEventSynchronize(block_ready_));
   }
 
   cudaStream_t stream_ = nullptr;
   cudaEvent_t search_started_ = nullptr;
-  cudaEvent_t counts_ready_ = nullptr;
+  cudaEvent_t block_ready_ = nullptr;
   cudaEvent_t lists_ready_ = nullptr;
 
   std::uint32_t slot_count_ = 0;
-  std::uint64_t pair_count_ = 0;
   std::uint64_t word_count_ = 0;
   bool in_flight_ = false;
+  HostStopwatch launch_watch_;
   double last_search_ms_ = 0;
+  double last_launch_to_finish_ms_ = 0;
 
-  PinnedBuffer<ObjectBounds> staging_;  // this frame's boxes, copied from the caller
+  PinnedBuffer<ObjectBounds> staging_;  // this frame's boxes, from the caller
   DeviceBuffer<ObjectBounds> objects_;  // ... and uploaded from staging_
   // One bit per pair: words_[previous_] holds the last finished frame's, the
   // other the frame being searched (or last searched, if finish() threw).
   DeviceBuffer<std::uint32_t> words_[2];
   int previous_ = 0;
-  DeviceBuffer<IndexPair> added_;            // this frame's appeared pairs, in atomic order
-  DeviceBuffer<IndexPair> removed_;          // ... and vanished ones; same capacity as added_
-  DeviceBuffer<unsigned long long> counts_;  // their counts, which may exceed the capacity
-  PinnedBuffer<unsigned long long> host_counts_;
-  PinnedBuffer<IndexPair> host_added_;  // the lists on the host, sorted by finish()
+  DeviceBuffer<ResultBlock> block_;
+  PinnedBuffer<ResultBlock> host_block_;
+  unsigned counting_ = 0;                 // the count pair the next counting kernel adds to
+  unsigned reading_ = 0;                  // ... and the one the block copied back holds
+  DeviceBuffer<IndexPair> added_tail_;    // entries from kHeadEntries on, in atomic order
+  DeviceBuffer<IndexPair> removed_tail_;  // ... same capacity as added_tail_
+  PinnedBuffer<IndexPair> host_added_;    // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;
 };
 

@@ -39,12 +39,23 @@ struct alignas(16) ObjectBounds {
   std::int32_t mask;
 };
 
+// Two slots (or objects, or bodies) that overlap: the project's one pair
+// type.  Lists of them are sorted by (a, b).
 struct IndexPair {
   std::uint32_t a;  // a < b
   std::uint32_t b;
   friend bool operator==(const IndexPair&, const IndexPair&) = default;
   friend auto operator<=>(const IndexPair&, const IndexPair&) = default;
 };
+
+// The IndexPair of slots x and y (in either order) as one 64-bit key, lower
+// slot in the high half, so keys sort as the pairs do: the form a sweep
+// collects pairs in (gpu/pair_set.h).
+constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
+  const std::uint32_t a = x < y ? x : y;
+  const std::uint32_t b = x < y ? y : x;
+  return (std::uint64_t{a} << 32) | b;
+}
 
 // What changed since the previous frame; valid until the next launch().
 struct PairDelta {
@@ -68,9 +79,19 @@ class PairFinder {
   virtual void launch(std::span<const ObjectBounds> objects) = 0;
   // Waits for the search started by launch() and returns what changed.
   virtual PairDelta finish() = 0;
-  // How long the last finished search took by its own clock: CUDA events on
-  // the GPU (upload to last copy back), the searching thread's on the CPU.
+  // How long the last finished search took by its own clock: on both GPU
+  // finders CUDA events from before the upload to after the last copy back
+  // (device time: the host's staging, XOR and sort are not in it), on the CPU
+  // the searching thread's clock.
   virtual double lastSearchMs() const = 0;
+  // How long the last finished search took on the host's clock, from
+  // launch()'s entry to finish()'s return, whatever the caller did between.
+  virtual double lastLaunchToFinishMs() const = 0;
+  // Room for `count` boxes that the caller may fill and then pass to
+  // launch(), which then copies nothing on the host (gpubf: its pinned
+  // staging).  Empty where the finder has none.  Write all `count` boxes each
+  // frame, and only between finish() (or construction) and launch().
+  virtual std::span<ObjectBounds> stagingFor(std::size_t /*count*/) { return {}; }
   // How long after launch() the last finished search began.  A GPU stream
   // starts at once; a CPU worker that has to wake up (or wait for a core) may
   // not, and a measure of what overlapped the search must start it there.

@@ -12,8 +12,9 @@
 //   p(a, b) = b (b - 1) / 2 + a   for a < b,
 // so row b holds the b pairs (0, b) .. (b - 1, b) and growing n only appends
 // pairs: an index, and every bit stored under it, stays valid.  Pair p lives in
-// 32-bit word p / 32, bit p % 32.  All index math is 64-bit and exact for
-// every slot index below 2^32 (p below 2^63).
+// 32-bit word p / 32, bit p % 32 (cpubf's words, gpubf-paper's bytes; gpubf
+// starts each row on a word of its own: gpu/row_words.h).  All index math is
+// 64-bit and exact for every slot index below 2^32 (p below 2^63).
 //
 // Overlap is inclusive on all three axes (touching boxes pair, as in
 // btSimpleBroadphase); a NaN coordinate compares false and so never pairs.

@@ -26,13 +26,6 @@
 
 namespace overlap::gpu {
 
-// A pair as one 64-bit key, lower slot in the high half: keys sort as (a, b).
-constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
-  const std::uint32_t a = x < y ? x : y;
-  const std::uint32_t b = x < y ? y : x;
-  return (std::uint64_t{a} << 32) | b;
-}
-
 // The pair keys a search appends, kept from frame to frame so that it
 // allocates only while it grows.  The sweep's AVX2 kernel writes a whole
 // vector of keys at once and then keeps as many as it found.

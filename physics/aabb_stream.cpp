@@ -1,15 +1,19 @@
 #include "physics/aabb_stream.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <limits>
-#include <system_error>
 
-#include "physics/atomic_file.h"
+#include "gpu/base/output_file.h"
 
 namespace overlap::physics {
 namespace {
@@ -30,24 +34,13 @@ constexpr std::size_t kHeaderBytes = 2 * kNameBytes + 4 * sizeof(std::int32_t) +
 
 std::string readName(const char* field, const std::filesystem::path& path, const char* what) {
   const std::size_t length = strnlen(field, kNameBytes);
+  if (length == kNameBytes) fail(path, std::string(what) + " has no NUL within its 128 bytes");
   for (std::size_t i = 0; i < kNameBytes; ++i) {
     const auto c = static_cast<unsigned char>(field[i]);
     if (i < length && (c < 0x20 || c > 0x7e)) fail(path, std::string(what) + " is not printable");
     if (i >= length && c != 0) fail(path, std::string(what) + " is not NUL-padded");
   }
   return std::string(field, length);
-}
-
-Aabb decodeAabb(const char* bytes) {
-  float corners[8];
-  std::memcpy(corners, bytes, sizeof(corners));
-  return Aabb{{corners[0], corners[1], corners[2]}, {corners[4], corners[5], corners[6]}};
-}
-
-void encodeAabb(const Aabb& box, char* bytes) {
-  const float corners[8] = {box.min[0], box.min[1], box.min[2], 0.0f,
-                            box.max[0], box.max[1], box.max[2], 0.0f};
-  std::memcpy(bytes, corners, sizeof(corners));
 }
 
 // Empty when the box is well-formed, else what is wrong with it.
@@ -60,6 +53,29 @@ std::string aabbProblem(const Aabb& box) {
     if (box.min[axis] > box.max[axis]) return std::string("min > max on ") + kAxes[axis];
   }
   return {};
+}
+
+// Decodes a stored AABB into `box`; empty when it is well-formed (its
+// fourth floats 0 as the layout requires), else what is wrong with it.
+std::string decodeAabb(const char* bytes, Aabb& box) {
+  float corners[8];
+  std::memcpy(corners, bytes, sizeof(corners));
+  box = Aabb{{corners[0], corners[1], corners[2]}, {corners[4], corners[5], corners[6]}};
+  for (const int w : {3, 7}) {
+    if (!(corners[w] == 0.0f)) {
+      char shown[32];
+      std::snprintf(shown, sizeof(shown), "%g", static_cast<double>(corners[w]));
+      return std::string("the fourth float of ") + (w == 3 ? "min" : "max") + " is " + shown +
+             ", not 0";
+    }
+  }
+  return aabbProblem(box);
+}
+
+void encodeAabb(const Aabb& box, char* bytes) {
+  const float corners[8] = {box.min[0], box.min[1], box.min[2], 0.0f,
+                            box.max[0], box.max[1], box.max[2], 0.0f};
+  std::memcpy(bytes, corners, sizeof(corners));
 }
 
 }  // namespace
@@ -78,61 +94,133 @@ Aabb parkedBox(const Aabb& world, int object, int objects) {
   return Aabb{{x, y, z}, {x, y, z}};
 }
 
-AabbStream readAabbStream(const std::filesystem::path& path) {
-  std::error_code error;
-  if (std::filesystem::is_directory(path, error)) fail(path, "is a directory, not a .aabbs file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open");
-  std::vector<char> bytes;
-  try {
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  } catch (const std::ios_base::failure& failure) {  // libstdc++ throws on EISDIR and the like
-    fail(path, std::string("cannot read: ") + failure.what());
+AabbStreamReader::AabbStreamReader(const std::filesystem::path& path) : path_(path) {
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) fail(std::string("cannot open: ") + std::strerror(errno));
+  struct stat info {};
+  if (::fstat(fd_, &info) != 0) fail(std::string("cannot read: ") + std::strerror(errno));
+  if (S_ISDIR(info.st_mode)) fail("is a directory, not a .aabbs file");
+  sized_ = S_ISREG(info.st_mode);
+
+  char bytes[kHeaderBytes];
+  const std::size_t got = readUpTo(bytes, kHeaderBytes);
+  if (got < kHeaderBytes) {
+    fail("truncated header: " + std::to_string(got) + " bytes, need " +
+         std::to_string(kHeaderBytes));
   }
-  if (in.bad()) fail(path, "cannot read");
-  if (bytes.size() < kHeaderBytes) {
-    fail(path, "truncated header: " + std::to_string(bytes.size()) + " bytes, need " +
-                   std::to_string(kHeaderBytes));
-  }
-  AabbStream stream;
-  stream.scene_name = readName(bytes.data(), path, "scene name");
-  stream.object_type = readName(bytes.data() + kNameBytes, path, "object type");
+  header_.scene_name = readName(bytes, path_, "scene name");
+  header_.object_type = readName(bytes + kNameBytes, path_, "object type");
   std::int32_t counts[4];
-  std::memcpy(counts, bytes.data() + 2 * kNameBytes, sizeof(counts));
-  if (counts[0] <= 0) fail(path, "object count " + std::to_string(counts[0]) + " is not positive");
-  if (counts[1] <= 0) fail(path, "frame count " + std::to_string(counts[1]) + " is not positive");
+  std::memcpy(counts, bytes + 2 * kNameBytes, sizeof(counts));
+  if (counts[0] <= 0) fail("object count " + std::to_string(counts[0]) + " is not positive");
+  if (counts[1] <= 0) fail("frame count " + std::to_string(counts[1]) + " is not positive");
   // F + 1 frames are stored, and that count must fit the same int32.
   if (counts[1] == std::numeric_limits<std::int32_t>::max()) {
-    fail(path, "frame count " + std::to_string(counts[1]) + " is too large");
+    fail("frame count " + std::to_string(counts[1]) + " is too large");
   }
-  if (counts[2] != 0 || counts[3] != 0) fail(path, "reserved header fields are not 0");
-  stream.objects = counts[0];
-  stream.stored_frames = counts[1] + 1;
-  stream.world = decodeAabb(bytes.data() + 2 * kNameBytes + sizeof(counts));
-  if (const std::string problem = aabbProblem(stream.world); !problem.empty()) {
-    fail(path, "world AABB: " + problem);
+  if (counts[2] != 0 || counts[3] != 0) fail("reserved header fields are not 0");
+  header_.objects = counts[0];
+  header_.stored_frames = counts[1] + 1;
+  if (const std::string problem =
+          decodeAabb(bytes + 2 * kNameBytes + sizeof(counts), header_.world);
+      !problem.empty()) {
+    fail("world AABB: " + problem);
   }
+  if (!sized_) return;
 
   // Compared as box counts: N x (F + 1) x 32 bytes could overflow 64 bits.
-  const auto boxes = static_cast<std::uint64_t>(stream.objects) * stream.stored_frames;
-  const std::uint64_t payload = bytes.size() - kHeaderBytes;
+  const auto file_bytes = static_cast<std::uint64_t>(info.st_size);
+  const auto boxes = static_cast<std::uint64_t>(header_.objects) * header_.stored_frames;
+  const std::uint64_t payload = file_bytes - kHeaderBytes;
   if (payload % kAabbBytes != 0 || payload / kAabbBytes != boxes) {
     const std::uint64_t complete_frames =
-        payload / (kAabbBytes * static_cast<std::uint64_t>(stream.objects));
-    fail(path, "size " + std::to_string(bytes.size()) + " bytes does not match " +
-                   std::to_string(stream.objects) + " objects x " +
-                   std::to_string(stream.stored_frames) + " frames (" + std::to_string(boxes) +
-                   " boxes of 32 bytes after the header); first incomplete frame " +
-                   std::to_string(complete_frames));
+        payload / (kAabbBytes * static_cast<std::uint64_t>(header_.objects));
+    fail("size " + std::to_string(file_bytes) + " bytes does not match " +
+         std::to_string(header_.objects) + " objects x " + std::to_string(header_.stored_frames) +
+         " frames (" + std::to_string(boxes) +
+         " boxes of 32 bytes after the header); first incomplete frame " +
+         std::to_string(complete_frames));
   }
-  stream.boxes.resize(boxes);
-  for (std::uint64_t i = 0; i < boxes; ++i) {
-    stream.boxes[i] = decodeAabb(bytes.data() + kHeaderBytes + i * kAabbBytes);
-    if (const std::string problem = aabbProblem(stream.boxes[i]); !problem.empty()) {
-      fail(path, "frame " + std::to_string(i / stream.objects) + ", object " +
-                     std::to_string(i % stream.objects) + ": " + problem);
+}
+
+AabbStreamReader::~AabbStreamReader() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void AabbStreamReader::fail(const std::string& problem) const {
+  ::overlap::physics::fail(path_, problem);
+}
+
+std::size_t AabbStreamReader::readUpTo(char* bytes, std::size_t count) {
+  std::size_t got = 0;
+  while (got < count) {
+    const ssize_t read = ::read(fd_, bytes + got, count - got);
+    if (read < 0 && errno == EINTR) continue;
+    if (read < 0) fail(std::string("cannot read: ") + std::strerror(errno));
+    if (read == 0) break;
+    got += static_cast<std::size_t>(read);
+  }
+  return got;
+}
+
+bool AabbStreamReader::next(std::vector<Aabb>& boxes) {
+  if (frames_read_ == header_.stored_frames) {
+    char extra = 0;
+    if (!sized_ && readUpTo(&extra, 1) > 0) {
+      fail("more bytes after the last of " + std::to_string(header_.stored_frames) + " frames");
+    }
+    return false;
+  }
+  // Read in chunks, so a header's count alone never allocates: a stream
+  // without a size grows `boxes` only as its bytes arrive.
+  constexpr std::size_t kChunkBoxes = 1 << 14;
+  const auto objects = static_cast<std::size_t>(header_.objects);
+  boxes.clear();
+  while (boxes.size() < objects) {
+    const std::size_t count = std::min(kChunkBoxes, objects - boxes.size());
+    chunk_.resize(count * kAabbBytes);
+    const std::size_t got = readUpTo(chunk_.data(), chunk_.size());
+    if (got < chunk_.size()) {
+      fail("frame " + std::to_string(frames_read_) + ": the stream ends after object " +
+           std::to_string(boxes.size() + got / kAabbBytes) + " of " + std::to_string(objects) +
+           " (" + std::to_string(header_.stored_frames) + " frames of " + std::to_string(objects) +
+           " boxes expected)");
+    }
+    for (std::size_t i = 0; i < count; ++i) {
+      Aabb box;
+      if (const std::string problem = decodeAabb(chunk_.data() + i * kAabbBytes, box);
+          !problem.empty()) {
+        fail("frame " + std::to_string(frames_read_) + ", object " + std::to_string(boxes.size()) +
+             ": " + problem);
+      }
+      boxes.push_back(box);
     }
   }
+  ++frames_read_;
+  return true;
+}
+
+void AabbStreamReader::checkAll() {
+  if (!sized_) fail("cannot be read twice: it has no size (a pipe or a device)");
+  std::vector<Aabb> boxes;
+  while (next(boxes)) {
+  }
+  if (::lseek(fd_, static_cast<off_t>(kHeaderBytes), SEEK_SET) < 0) {
+    fail(std::string("cannot read: ") + std::strerror(errno));
+  }
+  frames_read_ = 0;
+}
+
+AabbStream readAabbStream(const std::filesystem::path& path) {
+  AabbStreamReader reader(path);
+  AabbStream stream;
+  const AabbStreamHeader& header = reader.header();
+  static_cast<AabbStreamHeader&>(stream) = header;
+  // The size matched the counts: the file holds every box reserved here.
+  if (reader.sized())
+    stream.boxes.reserve(static_cast<std::size_t>(header.objects) * header.stored_frames);
+  std::vector<Aabb> frame;
+  while (reader.next(frame)) stream.boxes.insert(stream.boxes.end(), frame.begin(), frame.end());
   return stream;
 }
 

@@ -9,19 +9,35 @@
 #include <string>
 
 #include "gpu/background_pair_finder.h"
+#include "physics/ccd_query_broadphase.h"
 #include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 namespace {
 
-constexpr std::array<std::string_view, 8> kNames = {"bf",    "sap",    "sap32", "bvh",
-                                                    "cpubf", "cpusap", "gpubf", "gpubf-paper"};
+constexpr std::array<BroadphaseInfo, 8> kCatalogue = {{
+    {"bf", true, false, "Bullet's btSimpleBroadphase: every pair tested (the paper's BF)"},
+    {"sap", false, false,
+     "Bullet's btAxisSweep3: sweep and prune on 16-bit quantized bounds, under 32766 objects"},
+    {"sap32", false, false,
+     "Bullet's bt32BitAxisSweep3: sweep and prune on 32-bit quantized bounds"},
+    {"bvh", false, false, "Bullet's btDbvtBroadphase: trees of fattened boxes (the paper's BVH)"},
+    {"cpubf", true, false, "ours: brute force on CPU threads, gpubf's twin and the reference"},
+    {"cpusap", true, false,
+     "ours: sort and sweep on CPU threads (AVX2), the fastest exact CPU finder"},
+    {"gpubf", true, true, "ours: CUDA brute force, pairs as bits, only the changes copied back"},
+    {"gpubf-paper", true, true,
+     "the paper's CUDA brute force as published: a byte per pair, all copied back"},
+}};
+
+constexpr std::array<std::string_view, kCatalogue.size()> kNames = [] {
+  std::array<std::string_view, kCatalogue.size()> names{};
+  for (std::size_t i = 0; i < names.size(); ++i) names[i] = kCatalogue[i].name;
+  return names;
+}();
+
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
-
-// The fastest exact finder without a GPU: what gpubf and gpubf-paper run
-// where there is no CUDA device.
-constexpr std::string_view kGpuFallback = "cpusap";
 
 // The CPU finders search on a worker thread, so the frame's CPU tasks can
 // overlap them as they overlap the GPU's search.
@@ -31,12 +47,24 @@ std::unique_ptr<gpu::PairFinder> cpuFinder(gpu::PairFinderKind kind) {
 
 }  // namespace
 
+std::span<const BroadphaseInfo> broadphaseCatalogue() {
+  return kCatalogue;
+}
+
 std::span<const std::string_view> broadphaseNames() {
   return kNames;
 }
 
+const BroadphaseInfo& broadphaseInfo(std::string_view name) {
+  for (const BroadphaseInfo& info : kCatalogue) {
+    if (info.name == name) return info;
+  }
+  throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
+}
+
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects) {
+  const BroadphaseInfo& info = broadphaseInfo(name);
   BroadphaseChoice choice;
   choice.name = std::string(name);
   if (name == "bf") {
@@ -47,8 +75,8 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
                                   std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
                                   std::to_string(max_objects) + "; use sap32");
     }
-    // No ray-test tree of its own: PhysicsWorld answers every broadphase's
-    // ray and sweep queries through one shared tree (ccd_query_broadphase.h).
+    // No ray-test tree of its own: makeWorldBroadphase() answers every
+    // broadphase's ray and sweep queries through one shared tree.
     choice.broadphase = std::make_unique<btAxisSweep3>(
         world_min, world_max, static_cast<unsigned short>(max_objects + 1), nullptr, true);
   } else if (name == "sap32") {
@@ -62,20 +90,25 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   } else if (name == "cpusap") {
     choice.broadphase =
         std::make_unique<PairFinderBroadphase>(cpuFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
-  } else if (name == "gpubf" || name == "gpubf-paper") {
+  } else if (info.needs_device) {
     std::string why;
     if (gpu::cudaDeviceAvailable(&why)) {
       choice.broadphase = std::make_unique<PairFinderBroadphase>(
           gpu::makePairFinder(name == "gpubf" ? gpu::PairFinderKind::kGpuBruteForce
                                               : gpu::PairFinderKind::kGpuBruteForcePaper));
     } else {
-      choice = makeBroadphase(kGpuFallback, world_min, world_max, max_objects);
+      choice = makeBroadphase(kDeviceFallback, world_min, world_max, max_objects);
       choice.notice =
           "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
     }
-  } else {
-    throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
   }
+  return choice;
+}
+
+BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                     const btVector3& world_max, int max_objects) {
+  BroadphaseChoice choice = makeBroadphase(name, world_min, world_max, max_objects);
+  choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
   return choice;
 }
 

@@ -1,15 +1,15 @@
-// Broadphases by the names the paper and the CLI use.
+// Broadphases by the names the paper and the CLI use, and their catalogue:
+// the one table of every name, whether it is exact, whether it needs a CUDA
+// device, and what it is.  The CLI's --algo check and help, `overlap
+// --list-algos`, the benchmark and the tests read it; README's table is
+// checked against it (tests/physics/broadphase_catalogue_test.cpp).
 //
-//   bf           btSimpleBroadphase     (the paper's BF)
-//   sap          btAxisSweep3           (SAP; 16-bit quantized, < 32767 objects)
-//   sap32        bt32BitAxisSweep3
-//   bvh          btDbvtBroadphase       (BVH)
-//   cpubf        our brute force on CPU threads (gpubf's twin, the reference)
-//   cpusap       our sort-and-sweep on CPU threads (AVX2), exact
-//   gpubf        our CUDA brute force (bit-packed, changes compacted on the GPU)
-//   gpubf-paper  the paper's CUDA brute force, reproduced as published
+// This is the package's public header (docs/PACKAGE.md): any Bullet program
+// gets a btBroadphaseInterface by name from makeWorldBroadphase().
 //
-// A GPU name without a CUDA device falls back to cpusap, the fastest exact
+// Exact: the pair cache holds exactly the pairs whose AABBs overlap (touching
+// counts).  Not exact: it holds all of them and may hold more.
+// A device name without a CUDA device runs kDeviceFallback, the fastest exact
 // CPU finder; the returned notice says so in one line, and `name` is what
 // actually runs.
 #pragma once
@@ -23,18 +23,44 @@
 
 namespace overlap::physics {
 
+struct BroadphaseInfo {
+  std::string_view name;
+  bool exact;
+  bool needs_device;             // runs on a CUDA device
+  std::string_view description;  // one line
+};
+
+// Every broadphase, Bullet's first, then ours; the first exact one (bf) is
+// the reference the others are checked against.
+std::span<const BroadphaseInfo> broadphaseCatalogue();
+// The catalogue's names, in its order.
+std::span<const std::string_view> broadphaseNames();
+// The entry named `name`; throws std::invalid_argument for an unknown name.
+const BroadphaseInfo& broadphaseInfo(std::string_view name);
+
+// What a device name runs where there is no CUDA device.
+inline constexpr std::string_view kDeviceFallback = "cpusap";
+
 struct BroadphaseChoice {
   std::unique_ptr<btBroadphaseInterface> broadphase;
   std::string name;    // the algorithm that runs
   std::string notice;  // empty, or why it is not the one asked for
 };
 
-std::span<const std::string_view> broadphaseNames();
-
-// `world_min`/`world_max` bound where objects may go (SAP quantizes inside
-// them); `max_objects` is the most proxies the run will create.  Throws
-// std::invalid_argument for an unknown name or a count the algorithm can't hold.
+// The pair search alone (what the benchmark times).  `world_min`/`world_max`
+// bound where objects may go (SAP quantizes inside them); `max_objects` is
+// the most proxies the run will create.  Throws std::invalid_argument for an
+// unknown name or a count the algorithm can't hold.
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects);
+
+// What a btCollisionWorld should get: makeBroadphase()'s pair search, with
+// its ray and sweep queries (raycasts, CCD) answered by one shared tree
+// (the broadphase returned is a CcdQueryBroadphase,
+// physics/ccd_query_broadphase.h).  Our finders and bf answer a query by
+// visiting every proxy; through the tree it costs O(log n) under every name,
+// and a program that never queries never builds it.
+BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                     const btVector3& world_max, int max_objects);
 
 }  // namespace overlap::physics

@@ -3,6 +3,7 @@
 #include <btBulletCollisionCommon.h>
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 
 #include "physics/broadphase_factory.h"
@@ -18,6 +19,7 @@ struct BroadphaseReplay::Bullet {
   std::vector<int> indices;  // proxies' user pointers point here
 
   ~Bullet() {
+    if (broadphase == nullptr) return;  // the factory refused the algorithm or the count
     // Every pair at once: destroyProxy() alone would walk the whole cache for
     // each proxy (Bullet's removeOverlappingPairsContainingProxy), n times.
     struct RemoveEvery final : btOverlapCallback {
@@ -109,9 +111,13 @@ void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
 std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
   if (ours == nullptr) return std::nullopt;
-  const gpu::SearchPhases split = ours->finder().lastPhases();
-  return ReplayPhases{ours->lastSearch().search_ms, split.sort_ms, split.sweep_ms, split.delta_ms,
-                      ours->lastSearch().cache_update_ms};
+  const gpu::SearchPhases split = ours->lastPhases();
+  const SearchTimes& times = ours->lastSearch();
+  const auto ms = [](std::chrono::steady_clock::duration span) {
+    return std::chrono::duration<double, std::milli>(span).count();
+  };
+  return ReplayPhases{ms(times.searched), split.sort_ms, split.sweep_ms, split.delta_ms,
+                      ms(times.finished - times.answered)};
 }
 
 void BroadphaseReplay::findPairs() {
@@ -121,12 +127,12 @@ void BroadphaseReplay::findPairs() {
 PairList BroadphaseReplay::pairs() const {
   const btBroadphasePairArray& array =
       bullet_->broadphase->getOverlappingPairCache()->getOverlappingPairArray();
-  std::vector<std::pair<int, int>> result;
+  PairList result;
   result.reserve(static_cast<std::size_t>(array.size()));
   for (int i = 0; i < array.size(); ++i) {
     const int a = *static_cast<const int*>(array[i].m_pProxy0->m_clientObject);
     const int b = *static_cast<const int*>(array[i].m_pProxy1->m_clientObject);
-    result.emplace_back(std::min(a, b), std::max(a, b));
+    result.push_back(orderedPair(a, b));
   }
   std::sort(result.begin(), result.end());
   return result;

@@ -26,9 +26,6 @@
 
 namespace overlap::physics {
 
-// Object-index pairs (a < b), sorted, as pairs() and PhysicsWorld::cachedPairs() give them.
-using PairList = std::vector<std::pair<int, int>>;
-
 // How many pairs of `wanted` are not in `held`, both sorted: a broadphase's
 // missed pairs against the exact ones, or with the arguments swapped its extra ones.
 inline std::size_t countMissing(const PairList& wanted, const PairList& held) {

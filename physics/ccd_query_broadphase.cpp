@@ -1,6 +1,6 @@
 #include "physics/ccd_query_broadphase.h"
 
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::physics {
 
@@ -99,7 +99,7 @@ void CcdQueryBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
 void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayTo,
                                  btBroadphaseRayCallback& callback, const btVector3& aabbMin,
                                  const btVector3& aabbMax) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   refresh();
   ForwardRay forward(callback);
   tree_.rayTest(rayFrom, rayTo, forward, aabbMin, aabbMax);
@@ -108,7 +108,7 @@ void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayT
 
 void CcdQueryBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                                   btBroadphaseAabbCallback& callback) {
-  const gpu::HostStopwatch watch;
+  const HostStopwatch watch;
   refresh();
   ForwardAabb forward(callback);
   tree_.aabbTest(aabbMin, aabbMax, forward);

@@ -1,12 +1,15 @@
 #include "physics/pair_finder_broadphase.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::physics {
 namespace {
@@ -164,29 +167,16 @@ void PairFinderBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& a
 }
 
 void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
-  using Clock = std::chrono::steady_clock;
-  const auto msSince = [](Clock::time_point start) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-  };
-  SearchTimes times;
-  times.launched = Clock::now();
   launchPairSearch();
-  // Nothing of Bullet's step can run before its narrowphase has the pairs:
-  // join at once.  The search ran off this thread all the same, beside
-  // whatever else the machine runs (the engine's tasks).
-  times.joined = Clock::now();
   finishPairSearch(dispatcher);
-  times.join_ms = msSince(times.joined);
-  times.cache_update_ms = last_cache_update_ms_;
-  times.search_ms = finder_->lastSearchMs();
-  times.start_delay_ms = finder_->lastSearchDelayMs();
-  last_search_ = times;
 }
 
 void PairFinderBroadphase::launchPairSearch() {
   if (search_in_flight_) {
     throw std::runtime_error("PairFinderBroadphase: launchPairSearch() called twice");
   }
+  last_search_ = SearchTimes{};
+  last_search_.launched = std::chrono::steady_clock::now();
   for (const std::uint32_t slot : destroyed_) states_[slot] = SlotState::kDraining;
   draining_.insert(draining_.end(), destroyed_.begin(), destroyed_.end());
   destroyed_.clear();
@@ -198,9 +188,10 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
   if (!search_in_flight_) {
     throw std::runtime_error("PairFinderBroadphase: finishPairSearch() without launchPairSearch()");
   }
+  last_search_.joined = std::chrono::steady_clock::now();
   search_in_flight_ = false;
   const gpu::PairDelta delta = finder_->finish();
-  const auto cache_update_start = std::chrono::steady_clock::now();
+  last_search_.answered = std::chrono::steady_clock::now();
   // A pair with a destroyed proxy already left the cache with it, and one it
   // gained after launch is stale: only pairs of two live proxies apply.
   const auto bothLive = [&](const gpu::IndexPair& pair) {
@@ -222,9 +213,9 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
     free_slots_.push_back(slot);
   }
   draining_.clear();
-  last_cache_update_ms_ = std::chrono::duration<double, std::milli>(
-                              std::chrono::steady_clock::now() - cache_update_start)
-                              .count();
+  last_search_.finished = std::chrono::steady_clock::now();
+  last_search_.started = last_search_.launched + fromMilliseconds(finder_->lastSearchDelayMs());
+  last_search_.searched = fromMilliseconds(finder_->lastSearchMs());
 }
 
 void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {

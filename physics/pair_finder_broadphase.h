@@ -9,8 +9,11 @@
 // finishPairSearch() joins it and applies what changed to the owned
 // btHashedOverlappingPairCache (removals through the dispatcher, which frees
 // the pair's algorithm; a pair that stays keeps its cache entry untouched).
-// Inside Bullet's step, calculateOverlappingPairs() does both, and records
-// when the search ran and how long the caller waited: lastSearch().
+// calculateOverlappingPairs(), what Bullet's own step calls, does both at
+// once; a caller with work to overlap with the search calls the two halves
+// itself, with that work between them (TimedDynamicsWorld's substep calls
+// them as two phases).  Either way lastSearch() says when the search ran and
+// how long the caller waited.
 //
 // Invariants:
 // - The cache holds exactly the pairs the finder last reported (minus those
@@ -57,7 +60,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
                const btVector3& aabbMax = btVector3(0, 0, 0)) override;
   void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                 btBroadphaseAabbCallback& callback) override;
-  // launchPairSearch() then finishPairSearch(dispatcher), timed: lastSearch().
+  // launchPairSearch() then finishPairSearch(dispatcher).
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
   btOverlappingPairCache* getOverlappingPairCache() override { return pair_cache_.get(); }
   const btOverlappingPairCache* getOverlappingPairCache() const override {
@@ -69,14 +72,16 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void resetPool(btDispatcher* dispatcher) override;
   void printStats() override;
 
-  // Starts the search over the boxes as they are now; returns at once on the GPU.
+  // The search's two halves, for a late join.  Starts the search over the
+  // boxes as they are now; returns at once on the GPU.
   void launchPairSearch();
   // Waits for the search and brings the pair cache up to date.
   void finishPairSearch(btDispatcher* dispatcher);
 
-  const gpu::PairFinder& finder() const { return *finder_; }
-  // The last calculateOverlappingPairs()'s search.
+  // The last finished search's times.
   const SearchTimes& lastSearch() const { return last_search_; }
+  // The finder's split of its last search (cpusap's sort, sweep and delta).
+  gpu::SearchPhases lastPhases() const { return finder_->lastPhases(); }
   bool searchInFlight() const { return search_in_flight_; }
 
  private:
@@ -108,7 +113,6 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
   std::size_t live_count_ = 0;
   bool search_in_flight_ = false;
-  double last_cache_update_ms_ = 0;
   SearchTimes last_search_;
 };
 

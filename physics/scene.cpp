@@ -4,19 +4,28 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::physics {
 namespace {
 
 constexpr double kSqrt3 = 1.7320508075688772;
-// Rejection sampling gives up after this many tries for one box: at the
-// paper's 10% fill a box needs a handful, so hitting it means the config asks
-// for an impossible packing.
+// Rejection sampling gives up on a box after this many tries: at the paper's
+// 10% fill a box needs a handful.
 constexpr int kMaxPlacementTries = 100000;
+// Rejection sampling can also jam: with few boxes the walls leave so little
+// room that an unlucky early box leaves no place for a later one, however
+// many tries it gets (scene 1 at 50 boxes did).  Placement then starts over,
+// drawing on from the same generator, so a config placed at the first
+// attempt keeps its start; a jam shows within a few tries, so the later
+// attempts give up on a box sooner.  After the last attempt the config is
+// refused as an impossible packing.
+constexpr int kMaxPlacementAttempts = 64;
+constexpr int kRetryPlacementTries = 10000;
 
 void require(bool ok, const char* field, const std::string& problem) {
   if (!ok) throw std::invalid_argument(std::string(field) + ": " + problem);
@@ -115,6 +124,29 @@ Eigen::Quaterniond randomOrientation(SeededRandom& random) {
   return Eigen::Quaterniond(a * std::cos(u2), a * std::sin(u2), b * std::cos(u3), b * std::sin(u3));
 }
 
+// One attempt at placing every box, in `order`, uniform in the interior with
+// no two bounding spheres overlapping and none reaching a wall.  Returns the
+// box that found no place in `max_tries` draws, or nothing when all are placed.
+std::optional<std::size_t> placeBoxes(const std::vector<std::pair<double, SizeClass>>& sizes,
+                                      const std::vector<std::size_t>& order, SceneLayout& layout,
+                                      double cell, int max_tries, SeededRandom& random) {
+  SphereGrid grid(layout.half_extent, cell, sizes.size());
+  for (const std::size_t i : order) {
+    const double radius = sizes[i].first * kSqrt3 / 2;
+    const double reach = layout.half_extent - radius;  // sphere stays off the walls
+    int tries = 0;
+    Eigen::Vector3d centre;
+    do {
+      if (++tries > max_tries) return i;
+      centre = {random.uniform(-reach, reach), random.uniform(-reach, reach),
+                random.uniform(-reach, reach)};
+    } while (grid.overlapsAny(centre, radius));
+    grid.insert(centre, radius);
+    layout.boxes[i].position = centre;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 SceneConfig SceneConfig::forScene(int scene) {
@@ -167,32 +199,24 @@ SceneLayout generateScene(const SceneConfig& config) {
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return sizes[a].first > sizes[b].first; });
   const double largest_radius = sizes[order.front()].first * kSqrt3 / 2;
-  SphereGrid grid(layout.half_extent, 2 * largest_radius, sizes.size());
-
-  for (const std::size_t i : order) {
-    const double radius = sizes[i].first * kSqrt3 / 2;
-    const double reach = layout.half_extent - radius;  // sphere stays off the walls
-    if (reach <= 0) {
-      throw std::invalid_argument("objects: " + std::to_string(config.objects) +
-                                  " leave no room in the container for a box of edge " +
-                                  std::to_string(sizes[i].first) + " m; raise --objects");
+  if (layout.half_extent - largest_radius <= 0) {  // the sphere cannot stay off the walls
+    throw std::invalid_argument("objects: " + std::to_string(config.objects) +
+                                " leave no room in the container for a box of edge " +
+                                std::to_string(sizes[order.front()].first) + " m; raise --objects");
+  }
+  for (int attempt = 1;; ++attempt) {
+    const int max_tries = attempt == 1 ? kMaxPlacementTries : kRetryPlacementTries;
+    const std::optional<std::size_t> stuck =
+        placeBoxes(sizes, order, layout, 2 * largest_radius, max_tries, random);
+    if (!stuck) break;
+    if (attempt == kMaxPlacementAttempts) {
+      std::ostringstream fill;
+      fill << config.fill_fraction;
+      throw std::invalid_argument(
+          "fill: " + fill.str() + " leaves no room for " + std::to_string(config.objects) +
+          " boxes: box " + std::to_string(*stuck) + " found no place without overlap in " +
+          std::to_string(kMaxPlacementAttempts) + " attempts; lower --fill or raise --objects");
     }
-    int tries = 0;
-    Eigen::Vector3d centre;
-    do {
-      if (++tries > kMaxPlacementTries) {
-        std::ostringstream fill;
-        fill << config.fill_fraction;
-        throw std::invalid_argument(
-            "fill: " + fill.str() + " leaves no room for " + std::to_string(config.objects) +
-            " boxes: box " + std::to_string(i) + " found no place without overlap in " +
-            std::to_string(kMaxPlacementTries) + " tries; lower --fill or raise --objects");
-      }
-      centre = {random.uniform(-reach, reach), random.uniform(-reach, reach),
-                random.uniform(-reach, reach)};
-    } while (grid.overlapsAny(centre, radius));
-    grid.insert(centre, radius);
-    layout.boxes[i].position = centre;
   }
 
   for (std::size_t i = 0; i < sizes.size(); ++i) {

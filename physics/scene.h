@@ -1,4 +1,4 @@
-// The four scenes of the paper, as ../shared/SCENES.md fixes them.
+// The four scenes of the paper, as docs/SCENES.md fixes them.
 //
 // A SceneConfig holds every number of a scene, each defaulting to the paper's
 // value; generateScene() turns it into a start state without touching Bullet:

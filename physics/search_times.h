@@ -1,6 +1,7 @@
 // SearchTimes: one broadphase search as the thread that launched and joined
 // it saw it (physics/pair_finder_broadphase.h records them, physics/world.h
-// reports them per substep).  Free of Bullet, so the engine can read them.
+// reports them per substep), as points on the steady clock; whoever writes
+// them out converts them.  Free of Bullet, so the engine can read them.
 #pragma once
 
 #include <chrono>
@@ -9,11 +10,14 @@ namespace overlap::physics {
 
 struct SearchTimes {
   std::chrono::steady_clock::time_point launched;  // the boxes handed to the finder
+  std::chrono::steady_clock::time_point started;   // the search began: at once on a GPU
+                                                   // stream, at a CPU worker's pick-up
+  std::chrono::steady_clock::duration searched{};  // by the search's own clock (GPU events,
+                                                   // or the searching thread's)
   std::chrono::steady_clock::time_point joined;    // the caller began to wait
-  double start_delay_ms = 0;   // launch to the search's start (a CPU worker's pick-up)
-  double search_ms = 0;        // the search by its own clock (GPU events, or the CPU's)
-  double join_ms = 0;          // waiting for the search and applying its changes
-  double cache_update_ms = 0;  // of join_ms: applying the changes to the pair cache
+  std::chrono::steady_clock::time_point answered;  // the finder's changes in hand: the
+                                                   // pair-cache update begins
+  std::chrono::steady_clock::time_point finished;  // the wait over, the pair cache updated
 };
 
 }  // namespace overlap::physics

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string_view>
 
 namespace overlap::physics {
 namespace {
@@ -14,27 +15,38 @@ int substepsFor(double length_per_frame, double allowed) {
   return std::isfinite(k) ? static_cast<int>(std::clamp(k, 1.0, 1e6)) : 1'000'000;
 }
 
+// Each mode's command-line name, in the order the error message lists them.
+template <typename Mode>
+struct NamedMode {
+  Mode mode;
+  std::string_view name;
+};
+constexpr NamedMode<CcdMode> kCcdModes[] = {
+    {CcdMode::kOff, "off"}, {CcdMode::kAuto, "auto"}, {CcdMode::kAll, "all"}};
+constexpr NamedMode<SleepMode> kSleepModes[] = {
+    {SleepMode::kScene, "scene"}, {SleepMode::kOn, "on"}, {SleepMode::kOff, "off"}};
+constexpr NamedMode<SolverMode> kSolverModes[] = {{SolverMode::kPile, "pile"},
+                                                  {SolverMode::kBullet, "bullet"}};
+
+template <typename Mode, std::size_t N>
+Mode parseMode(const NamedMode<Mode> (&table)[N], const std::string& text) {
+  std::string names;
+  for (const NamedMode<Mode>& entry : table) {
+    if (text == entry.name) return entry.mode;
+    names += (names.empty() ? "" : ", ") + std::string(entry.name);
+  }
+  throw std::invalid_argument("'" + text + "' is not one of " + names);
+}
+
+template <typename Mode, std::size_t N>
+std::string modeName(const NamedMode<Mode> (&table)[N], Mode mode) {
+  for (const NamedMode<Mode>& entry : table) {
+    if (entry.mode == mode) return std::string(entry.name);
+  }
+  return "?";
+}
+
 }  // namespace
-
-CcdMode parseCcdMode(const std::string& text) {
-  if (text == "off") return CcdMode::kOff;
-  if (text == "auto") return CcdMode::kAuto;
-  if (text == "all") return CcdMode::kAll;
-  throw std::invalid_argument("'" + text + "' is not one of off, auto, all");
-}
-
-SleepMode parseSleepMode(const std::string& text) {
-  if (text == "scene") return SleepMode::kScene;
-  if (text == "on") return SleepMode::kOn;
-  if (text == "off") return SleepMode::kOff;
-  throw std::invalid_argument("'" + text + "' is not one of scene, on, off");
-}
-
-SolverMode parseSolverMode(const std::string& text) {
-  if (text == "pile") return SolverMode::kPile;
-  if (text == "bullet") return SolverMode::kBullet;
-  throw std::invalid_argument("'" + text + "' is not one of pile, bullet");
-}
 
 int parseSubsteps(const std::string& text) {
   if (text == "auto") return kAutoSubsteps;
@@ -51,32 +63,23 @@ int parseSubsteps(const std::string& text) {
   return k;
 }
 
+CcdMode parseCcdMode(const std::string& text) {
+  return parseMode(kCcdModes, text);
+}
+SleepMode parseSleepMode(const std::string& text) {
+  return parseMode(kSleepModes, text);
+}
+SolverMode parseSolverMode(const std::string& text) {
+  return parseMode(kSolverModes, text);
+}
 std::string ccdModeName(CcdMode mode) {
-  switch (mode) {
-    case CcdMode::kOff:
-      return "off";
-    case CcdMode::kAuto:
-      return "auto";
-    case CcdMode::kAll:
-      return "all";
-  }
-  return "?";
+  return modeName(kCcdModes, mode);
 }
-
 std::string sleepModeName(SleepMode mode) {
-  switch (mode) {
-    case SleepMode::kScene:
-      return "scene";
-    case SleepMode::kOn:
-      return "on";
-    case SleepMode::kOff:
-      return "off";
-  }
-  return "?";
+  return modeName(kSleepModes, mode);
 }
-
 std::string solverModeName(SolverMode mode) {
-  return mode == SolverMode::kPile ? "pile" : "bullet";
+  return modeName(kSolverModes, mode);
 }
 
 double typicalEdge(std::span<const double> edges) {

@@ -1,6 +1,9 @@
 // What a frame needs modelled: substeps, continuous collision detection,
 // sleep and the contact solver's settings, each chosen by one small function
-// whose rule is stated beside it.
+// whose rule is stated beside it.  docs/REPORT.md section 3.2 measures the
+// rules as shipped; the measurements that chose them, with their commits,
+// are in docs/HISTORY.md ("The step policy's measurements" and issue 14's
+// measurement).
 //
 // The functions read plain numbers (speeds, edges, gravity, times) and never
 // touch Bullet, so they are deterministic by construction: the same state
@@ -40,7 +43,7 @@ std::string solverModeName(SolverMode mode);
 // must not cross in one substep; K is the least that keeps all of them.
 struct SubstepRule {
   // Box against wall: a box tunnels once one substep carries its centre past
-  // a wall's middle (measured: 1.05 m a step through 2.0 m walls, not 2.2 m).
+  // a wall's middle; 0.35 keeps a margin under that half.
   double wall_share = 0.35;
   // Box against box without CCD: the closing motion against the smallest
   // edge.  With CCD on, the small boxes that could pass through others are
@@ -49,22 +52,16 @@ struct SubstepRule {
   // How far two bodies may close in one substep, as a share of the typical
   // (median) edge: a box meets a wall, a pile or another box up to one
   // substep's closing motion deep before a contact holds it, so this bounds
-  // the penetration on impact (measured: scene 3's first fall, 0.58 edges
-  // at 0.56 m a substep; scene 2's kicked boxes, 0.60 edges at K = 1 and
-  // 0.28 at K = 2, where two of them close at up to 0.58 m a frame).
+  // the penetration on impact.
   double motion_share = 0.5;
   // A pile under strong gravity, the solver's limit: one substep's free
   // fall, g (T/K)^2, stays under this share of the typical edge, or the
   // pile's bottom layer gives way: boxes squeezed into the corner gravity
   // points at merge into each other, and the deepest overlap grows towards a
-  // whole edge.  Measured in scene 3 with SolverMode::kPile over 240 frames
-  // (deepest overlap in the last 100), 1000 boxes: K = 4 held (g (T/K)^2 =
-  // 0.034 m; 0.44, 0.54, 0.51 edges at seeds 42, 7, 123) and K = 3 gave way
-  // (0.92, 0.060 m; measured with 10 iterations).  3500 boxes, a pile half
-  // again as deep, is at the rule's limit: K = 4 reached 0.82 edges with
-  // kPile's 8 iterations (0.56 with 10), K = 3 0.89.  Bullet's own settings
-  // (SolverMode::kBullet) need more: 1000 boxes gave way at K = 6 and held at
-  // 7; 3500 gave way even at K = 8 (0.95 edges).
+  // whole edge.  With SolverMode::kPile at 50 g this makes K = 4 the floor:
+  // the least K whose pile held in scene 3 at 1000 boxes (at 3500, a deeper
+  // pile, K = 4 is at the limit; Bullet's own solver settings need more
+  // substeps than any rule can afford).
   double fall_share = 0.04;
   int max_substeps = 16;
 };
@@ -89,23 +86,17 @@ struct FrameMotion {
 };
 
 // The edge the motion and pile rules measure against: the median box's.
-// Not the volume-weighted median (3.4 m in scene 4, where the large boxes
-// hold most of the volume): its K = 3 floor let small boxes sink into the
-// walls under the resting pile, up to 4 at once and more as it settled.
-// 0 for no boxes.
+// Not the volume-weighted median: in scene 4 the large boxes hold most of
+// the volume, and the lower floor that edge gives let small boxes sink into
+// the walls under the resting pile.  0 for no boxes.
 double typicalEdge(std::span<const double> edges);
 
 // A box's speed in typical edges: speed x typical_edge / edge.  How deep a
 // box closes on what it meets is an error in its own edges (a 4 m box 1 m
 // into a wall is a quarter of an edge deep), so a box larger than the
 // typical one may move further per substep: a 4 m box at 100 m/s needs the
-// substeps of a 1 m box at 25.  Measured in scene 4 (240 frames, --ccd
-// auto), where the fastest boxes of at least the typical edge were 2.5-4 m
-// boxes thrown at 80-100 m/s: at 1000 boxes the mean K fell from 6.2, 6.3,
-// 6.1 to 4.8, 5.2, 4.8 (seeds 42, 7, 123), the deepest penetration went
-// from 2.08, 2.44, 1.87 edges to 2.36, 1.97, 2.37 and the most boxes sunk
-// from 1, 1, 0 to 2, 1, 0; at 3500 boxes K fell from 8.7 to 6.1 and the
-// penetration from 2.61 to 2.37 edges (1 box sunk in both).
+// substeps of a 1 m box at 25.  In scene 4 the large boxes thrown across the
+// container would otherwise set K as if they were 1 m boxes.
 double inTypicalEdges(double speed, double edge, double typical_edge);
 
 // A box's speed can grow by at most g T during a frame before a contact
@@ -123,16 +114,15 @@ double speedBound(double speed, double gravity, double frame_time);
 //       smallest edge;
 //   (d) the pile holds: g (T/K)^2 <= fall_share x typical edge.
 // With CCD on, (b) reads the boxes at least the typical edge, each at its
-// speed inTypicalEdges(): a smaller box that is fast for its size is swept this frame
-// (chooseCcdBodies) instead of every box being substepped for it (in scene 4 the fastest box is a
-// 0.1-0.4 m one squeezed out of the pile at 35-100 m/s); (a) still reads
-// every box.  Capped at max_substeps (the cap wins over (a)-(d): the frame's
+// speed inTypicalEdges(): a smaller box that is fast for its size is swept
+// this frame (chooseCcdBodies) instead of every box being substepped for it
+// (in scene 4 the fastest box is usually a small one squeezed out of the
+// pile); (a) still reads every box.  Capped at max_substeps (the cap wins over (a)-(d): the frame's
 // cost is bounded, and CCD covers what a capped K leaves).
 // (b) reads the centres' speeds, not the corners': a spinning box's corners
-// close faster (scene 2's deepest overlaps, 0.3-0.37 edges, are spinning
-// boxes in K = 1 frames), but adding |w| x half-diagonal to every speed
-// cost scene 4 at 3500 boxes 39% more time for the same penetration
-// (mean K 6.1 -> 8.7), past the 50 g time target; docs/REPORT.md 3.2.
+// close faster (scene 2's deepest overlaps are spinning boxes in one-step
+// frames), but counting spin in every speed adds substeps at 50 g for the
+// same penetration, past the time target (docs/HISTORY.md).
 int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule = {});
 
 // The share of its own edge a box may move in one substep before Bullet's
@@ -173,14 +163,9 @@ struct SolverSettings {
 // last substep's impulse leaves the iterations less to do; and pushing
 // overlaps out in the velocity solve solves the pile's weight and its
 // push-out together, where the split pass undid part of what the velocity
-// pass did.  Measured in scene 3 at K = 4 (1000 boxes, 240 frames, seeds
-// 42, 7, 123; the deepest overlap in the last 100 frames): kBullet's pile
-// gave way (1.0 edges); kPile with 10 iterations held (0.52, 0.59, 0.60),
-// with 8 held as well for 7% less time (0.44, 0.54, 0.51), with 6 less well
-// (0.60, 0.78, 0.66); a stiffer push-out (m_erp2 0.35, 0.5) did worse, and
-// m_erp2 0.25 or 0.3 moved the deepest overlap both ways seed by seed under
-// --substeps auto (seeds 2, 3, 4, 7, 123); 12 iterations lowered it at
-// seeds 3 and 4 (0.65, 0.64 -> 0.40, 0.47) for 9-14% more time.
+// pass did.  8 iterations: the fewest that held scene 3's pile at K = 4;
+// more cost time without a gain that holds from seed to seed
+// (docs/HISTORY.md).
 SolverSettings solverSettings(SolverMode mode);
 
 }  // namespace overlap::physics

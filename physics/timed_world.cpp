@@ -2,7 +2,7 @@
 
 #include <chrono>
 
-#include "gpu/stopwatch.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/ccd_query_broadphase.h"
 #include "physics/pair_finder_broadphase.h"
 
@@ -66,74 +66,83 @@ TimedDynamicsWorld::~TimedDynamicsWorld() {
   releasePredictiveContacts();
 }
 
-void TimedDynamicsWorld::updateAabbs() {
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::updateAabbs();
-  if (after_aabb_update) after_aabb_update();
-  timings.update_ms += watch.ms();
+template <typename Phase>
+void TimedDynamicsWorld::timePhase(double& column, Phase&& phase) {
+  const HostStopwatch watch;
+  const double queries_before = ccdQueryMs();
+  phase();
+  const double queries = ccdQueryMs() - queries_before;
+  timings.ccd_query_ms += queries;
+  column += watch.ms() - queries;
 }
 
-void TimedDynamicsWorld::computeOverlappingPairs() {
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::computeOverlappingPairs();
+// The substep, phase by phase: Bullet's btDiscreteDynamicsWorld step with
+// its collision detection (btCollisionWorld::performDiscreteCollisionDetection)
+// written out, so the order is read here and each phase timed on its own.
+void TimedDynamicsWorld::internalSingleStepSimulation(btScalar dt) {
+  if (m_internalPreTickCallback != nullptr) (*m_internalPreTickCallback)(this, dt);
+  // 1. predict
+  timePhase(timings.integrate_ms, [&] { predictUnconstraintMotion(dt); });
+  btDispatcherInfo& dispatch = getDispatchInfo();
+  dispatch.m_timeStep = dt;
+  dispatch.m_stepCount = 0;
+  dispatch.m_debugDraw = getDebugDrawer();
+  // 2. CCD's predictive contacts
+  timePhase(timings.narrowphase_ms, [&] { createPredictiveContacts(dt); });
+  // 3. update
+  timePhase(timings.update_ms, [&] {
+    updateAabbs();
+    if (after_aabb_update) after_aabb_update();
+  });
+  // 4. search, 5. join
+  searchPairs();
+  // 6. narrowphase
+  timePhase(timings.narrowphase_ms, [&] {
+    m_dispatcher1->dispatchAllCollisionPairs(m_broadphasePairCache->getOverlappingPairCache(),
+                                             dispatch, m_dispatcher1);
+  });
+  if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
+  if (after_narrowphase) after_narrowphase();
+  // 7. solver
+  timePhase(timings.solver_ms, [&] {
+    calculateSimulationIslands();
+    getSolverInfo().m_timeStep = dt;
+    solveConstraints(getSolverInfo());
+  });
+  // 8. integrate, with CCD's motion clamp
+  timePhase(timings.integrate_ms, [&] { integrateTransforms(dt); });
+  // 9. bookkeeping
+  updateActions(dt);
+  updateActivationState(dt);
+  if (m_internalTickCallback != nullptr) (*m_internalTickCallback)(this, dt);
+}
+
+void TimedDynamicsWorld::searchPairs() {
+  const HostStopwatch watch;
+  if (background_search != nullptr) {
+    // Launched and joined at once: the narrowphase needs the pairs.  Work to
+    // overlap with the search would go between the two.
+    background_search->launchPairSearch();
+    background_search->finishPairSearch(m_dispatcher1);
+  } else {
+    m_broadphasePairCache->calculateOverlappingPairs(m_dispatcher1);
+  }
   timings.broadphase_ms += watch.ms();
   if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
   SubstepReport& substep = substeps.back();
   if (background_search != nullptr) {
-    substep.search = background_search->lastSearch();
-    timings.search_ms += substep.search->search_ms;
-    timings.join_ms += substep.search->join_ms;
+    const SearchTimes& search = substep.search.emplace(background_search->lastSearch());
+    timings.search_ms += toMilliseconds(search.searched);
+    timings.join_ms += toMilliseconds(search.finished - search.joined);
   }
   substep.narrowphase_start = std::chrono::steady_clock::now();
 }
 
-void TimedDynamicsWorld::performDiscreteCollisionDetection() {
-  const double before = timings.update_ms + timings.broadphase_ms;
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
-  const double after = timings.update_ms + timings.broadphase_ms;
-  timings.narrowphase_ms += watch.ms() - (after - before);
-  if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
-  if (after_narrowphase) after_narrowphase();
-}
-
-void TimedDynamicsWorld::createPredictiveContacts(btScalar dt) {
-  const gpu::HostStopwatch watch;
-  const double queries_before = ccdQueryMs();
-  btDiscreteDynamicsWorld::createPredictiveContacts(dt);
-  const double queries = ccdQueryMs() - queries_before;
-  timings.ccd_query_ms += queries;
-  timings.narrowphase_ms += watch.ms() - queries;
-}
-
-void TimedDynamicsWorld::calculateSimulationIslands() {
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::calculateSimulationIslands();
-  timings.solver_ms += watch.ms();
-}
-
-void TimedDynamicsWorld::solveConstraints(btContactSolverInfo& info) {
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::solveConstraints(info);
-  timings.solver_ms += watch.ms();
-}
-
-void TimedDynamicsWorld::predictUnconstraintMotion(btScalar dt) {
-  const gpu::HostStopwatch watch;
-  btDiscreteDynamicsWorld::predictUnconstraintMotion(dt);
-  timings.integrate_ms += watch.ms();
-}
-
 void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
-  const gpu::HostStopwatch watch;
-  const double queries_before = ccdQueryMs();
   for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
     integrateBody(*m_nonStaticRigidBodies[i], dt);
   // Bullet's speculative restitution pass is left out with the rest of its
   // integrateTransforms: it is off unless asked for, and nothing asks.
-  const double queries = ccdQueryMs() - queries_before;
-  timings.ccd_query_ms += queries;
-  timings.integrate_ms += watch.ms() - queries;
 }
 
 double TimedDynamicsWorld::ccdQueryMs() const {

@@ -1,28 +1,38 @@
-// The btDiscreteDynamicsWorld PhysicsWorld steps: Bullet's own, with each
-// stage of a substep timed from inside, and one repair to its CCD.
+// The btDiscreteDynamicsWorld PhysicsWorld steps: Bullet's own, with its
+// substep written out phase by phase, each phase timed, and one repair to its
+// CCD.
 //
-// Timing: update, broadphase, narrowphase, solver, integration and CCD's
-// sweep queries add into `timings` over the frame's substeps (a sweep's
-// query is taken out of the stage that asked for it); each substep started by the caller
-// (an entry pushed on `substeps`) gets its narrowphase's start and end and,
-// for a broadphase that searches off the main thread (PairFinderBroadphase),
-// that search's times.  A step from outside stepFrame() (no entry pushed)
-// is timed but not reported per substep.
+// A substep, in order (internalSingleStepSimulation, Bullet's order kept
+// call for call), and the column of `timings` each phase adds to:
+//   1. predict      gravity and damping into the velocities, each body's
+//                   predicted transform                          integrate_ms
+//   2. CCD          predictive contacts for fast bodies          narrowphase_ms
+//   3. update       AABBs into the broadphase; after_aabb_update  update_ms
+//   4. search       the pair search launched (off this thread for a
+//                   PairFinderBroadphase)                        broadphase_ms
+//   5. join         waiting for it, the pair cache updated       broadphase_ms, join_ms
+//   6. narrowphase  contacts for the cached pairs; then
+//                   after_narrowphase (untimed)                  narrowphase_ms
+//   7. solver       simulation islands, the constraint solver    solver_ms
+//   8. integrate    velocities into transforms, with CCD's
+//                   motion clamp (integrateBody)                 integrate_ms
+//   9. bookkeeping  Bullet's actions and sleep                   total only
+// CCD's sweep queries (in 2 and 8) are taken out of their phase into
+// ccd_query_ms.  Each substep the caller started (an entry pushed on
+// `substeps`) gets its narrowphase's start and end and, for a broadphase that
+// searches off the main thread, that search's times.  A step from outside
+// stepFrame() (no entry pushed) is timed but not reported per substep.
 //
-// CCD: Bullet's motion clamp sweeps a fast body's sphere along the body's
-// own motion and stops it at the first body it meets while moving towards
-// it, as if that body stood still.  Two overlapping CCD boxes falling side
-// by side then stop each other every substep while gravity keeps adding
-// speed: in scene 3 at 3500 boxes (K = 8, --ccd auto) a pair froze in mid-air
-// at frame 9 and reached 3462 m/s by frame 240, and at 1000 boxes (K = 2)
-// released pairs flew out through the walls (39 boxes).  Here a hit stops
-// the body only when the two close by their relative motion over the
-// substep (a wall's velocity is zero, so walls are as before).  Sweeping
-// against the walls alone (Bullet's USE_STATIC_ONLY variant, compiled out of
-// Debian's build) also ends the freeze but lets small boxes through large
-// moving ones: scene 4's deepest penetration at 3500 boxes was 6.17 edges
-// with it and 2.37 with the relative test (1000 boxes: 2.61, 2.71, 2.34
-// against 2.36, 1.97, 2.37 at seeds 42, 7, 123).
+// CCD: Bullet's motion clamp stops a fast body at the first body its swept
+// sphere meets while moving towards it, as if that body stood still, so two
+// overlapping CCD boxes falling side by side stop each other every substep
+// while gravity keeps adding speed (they freeze in mid-air, and fly through
+// the walls once released).  Here a hit stops the body only when the two
+// close by their relative motion over the substep (a wall's velocity is zero,
+// so walls are as before).  Sweeping against the walls alone (Bullet's
+// USE_STATIC_ONLY variant, compiled out of Debian's build) also ends the
+// freeze but lets small boxes through large moving ones.  Measured in
+// docs/REPORT.md, section 3.2.
 //
 // Bullet is not thread-safe here: one world, one thread.
 #pragma once
@@ -52,21 +62,22 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::vector<SubstepReport> substeps;                // this frame's, the last one running
   PairFinderBroadphase* background_search = nullptr;  // set when the broadphase searches off-thread
   CcdQueryBroadphase* ccd_queries = nullptr;          // set when CCD's sweeps are to be timed apart
-  std::function<void()> after_aabb_update;
-  std::function<void()> after_narrowphase;
+  std::function<void()> after_aabb_update;            // in phase 3, before the search reads them
+  std::function<void()> after_narrowphase;            // after phase 6, before the solver
 
-  void updateAabbs() override;
-  void computeOverlappingPairs() override;
-  // update + broadphase + narrowphase; the narrowphase is what remains.
-  void performDiscreteCollisionDetection() override;
-  void createPredictiveContacts(btScalar dt) override;
-  void calculateSimulationIslands() override;
-  void solveConstraints(btContactSolverInfo& info) override;
-  void predictUnconstraintMotion(btScalar dt) override;
-  // Bullet's integrateTransforms with the CCD clamp on relative motion.
+ protected:
+  // One substep: the phases above, in order.
+  void internalSingleStepSimulation(btScalar dt) override;
+  // Phase 8: Bullet's integrateTransforms with the CCD clamp on relative motion.
   void integrateTransforms(btScalar dt) override;
 
  private:
+  // Runs `phase`, adding its time to `column`; CCD's sweep queries made
+  // inside go to ccd_query_ms instead.
+  template <typename Phase>
+  void timePhase(double& column, Phase&& phase);
+  // Phases 4 and 5; stamps the substep's narrowphase start.
+  void searchPairs();
   // Moves `body` by its velocities over dt, stopped where its swept sphere
   // first meets a body it closes on, when its motion exceeds its CCD
   // threshold.

@@ -14,12 +14,12 @@
 #include <stdexcept>
 #include <utility>
 
-#include "gpu/stopwatch.h"
+#include "gpu/base/checksum.h"
+#include "gpu/base/random.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/broadphase_factory.h"
 #include "physics/ccd_query_broadphase.h"
-#include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
-#include "physics/random.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -62,7 +62,7 @@ struct PhysicsWorld::Bullet {
   std::vector<double> edges;                         // per box
   std::vector<bool> removed;                         // per box: out of the simulation
   btGhostPairCallback ghost_pairs;                   // the pair cache's slot, for ghost objects
-  std::vector<std::pair<int, int>> touching;         // pairs whose manifold has points, sorted
+  PairList touching;                                 // pairs whose manifold has points
   std::vector<NewContact> new_contacts;              // this frame's
   std::vector<char> ccd;                             // per box: CCD on this frame
   double smallest_edge = INFINITY;
@@ -88,20 +88,19 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
       substeps_(options.substeps),
       automatic_substeps_(options.substeps == kAutoSubsteps),
       ccd_(options.ccd),
-      sleep_(sleepAllowed(config, options.sleep)),
       bullet_(std::make_unique<Bullet>()) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
   Bullet& b = *bullet_;
+  const bool sleep = sleepAllowed(config, options.sleep);
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
-  BroadphaseChoice choice =
-      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
   // Every broadphase answers CCD's sweeps through one shared tree: the same
   // queries for all (physics/ccd_query_broadphase.h).
-  auto queries = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
-  b.ccd_queries = queries.get();
-  b.broadphase = std::move(queries);
+  BroadphaseChoice choice =
+      makeWorldBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
+  b.ccd_queries = static_cast<CcdQueryBroadphase*>(choice.broadphase.get());
+  b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 
@@ -138,7 +137,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
                     toBullet(start.position)));
     body->setLinearVelocity(toBullet(start.velocity));
     body->setUserIndex(i);
-    if (!sleep_) body->setActivationState(DISABLE_DEACTIVATION);
+    if (!sleep) body->setActivationState(DISABLE_DEACTIVATION);
     b.world->addRigidBody(body.get());
     b.edges.push_back(start.edge);
     b.smallest_edge = std::min(b.smallest_edge, start.edge);
@@ -198,7 +197,7 @@ void PhysicsWorld::applySceneForces() {
 
 FrameReport PhysicsWorld::stepFrame() {
   Bullet& b = *bullet_;
-  const gpu::HostStopwatch frame_watch;
+  const HostStopwatch frame_watch;
   b.world->timings = {};
   b.world->substeps.clear();
   b.new_contacts.clear();
@@ -371,16 +370,16 @@ std::vector<Aabb> PhysicsWorld::aabbs() const {
   return result;
 }
 
-std::vector<std::pair<int, int>> PhysicsWorld::cachedPairs() const {
+PairList PhysicsWorld::cachedPairs() const {
   btOverlappingPairCache& cache = *bullet_->broadphase->getOverlappingPairCache();
-  std::vector<std::pair<int, int>> pairs;
+  PairList pairs;
   pairs.reserve(static_cast<std::size_t>(cache.getNumOverlappingPairs()));
   const btBroadphasePairArray& array = cache.getOverlappingPairArray();
   for (int i = 0; i < array.size(); ++i) {
     const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
     const auto* c = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
-    pairs.emplace_back(std::min(a->getUserIndex(), c->getUserIndex()),
-                       std::max(a->getUserIndex(), c->getUserIndex()));
+    if (!bullet_->owns(a) || !bullet_->owns(c)) continue;  // a ghost's
+    pairs.push_back(orderedPair(a->getUserIndex(), c->getUserIndex()));
   }
   std::sort(pairs.begin(), pairs.end());
   return pairs;
@@ -405,7 +404,7 @@ void PhysicsWorld::removeBrokenBoxes() {
         !(std::isfinite(c.x()) && std::isfinite(c.y()) && std::isfinite(c.z())) ? "not finite"
         : disabled ? "inside an AABB too large for Bullet"
                    : "too far from the origin");
-    // Nor may a contact it began this frame reach the sound.
+    // Nor may a contact it began this frame be reported.
     const int box = static_cast<int>(i);
     std::erase_if(b.new_contacts, [box](const NewContact& contact) {
       return contact.a == box || contact.b == box;
@@ -418,29 +417,30 @@ void PhysicsWorld::removeBrokenBoxes() {
 // solver, at impact.
 void PhysicsWorld::noteContactsStarted() {
   Bullet& b = *bullet_;
-  std::vector<std::pair<int, int>> touching;
+  PairList touching;
   for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
     const btPersistentManifold* manifold = b.dispatcher.getManifoldByIndexInternal(m);
     if (manifold->getNumContacts() == 0) continue;
     if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
     touching.push_back(
-        std::minmax(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
+        orderedPair(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
   }
   std::sort(touching.begin(), touching.end());
   touching.erase(std::unique(touching.begin(), touching.end()), touching.end());
-  std::vector<std::pair<int, int>> began;
+  PairList began;
   std::set_difference(touching.begin(), touching.end(), b.touching.begin(), b.touching.end(),
                       std::back_inserter(began));
   b.touching = std::move(touching);
 
   const auto n = static_cast<int>(layout_.boxes.size());
-  const double h = layout_.half_extent;
   const auto edgeOf = [&](int index) {
     return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
   };
-  for (const auto& [index0, index1] : began) {
-    const btRigidBody& body0 = *b.bodies[static_cast<std::size_t>(index0)];
-    const btRigidBody& body1 = *b.bodies[static_cast<std::size_t>(index1)];
+  for (const gpu::IndexPair& pair : began) {
+    const auto index0 = static_cast<int>(pair.a);
+    const auto index1 = static_cast<int>(pair.b);
+    const btRigidBody& body0 = *b.bodies[pair.a];
+    const btRigidBody& body1 = *b.bodies[pair.b];
     const btVector3& c0 = body0.getWorldTransform().getOrigin();
     const btVector3& c1 = body1.getWorldTransform().getOrigin();
     // Boxes close along the line between their centres; a box closes on a
@@ -454,8 +454,10 @@ void PhysicsWorld::noteContactsStarted() {
     const btScalar length = line.length();
     const btScalar closing =
         length > 0 ? (body0.getLinearVelocity() - body1.getLinearVelocity()).dot(line) / length : 0;
-    b.new_contacts.push_back(NewContact{index0, index1, std::max(0.0f, closing),
-                                        static_cast<float>(std::clamp(c0.x() / h, -1.0, 1.0)),
+    b.new_contacts.push_back(NewContact{index0,
+                                        index1,
+                                        std::max(0.0f, closing),
+                                        {c0.x(), c0.y(), c0.z()},
                                         std::min(edgeOf(index0), edgeOf(index1))});
   }
 }

@@ -4,13 +4,13 @@
 // steps it one frame at a time (K substeps of frame_time / K, K fixed or
 // chosen each frame with the CCD bodies by physics/step_policy.h, which also
 // sets up Bullet's contact solver: solverSettings()), and
-// reports what the frame cost and what it got wrong.  Times are taken inside
-// Bullet's step: AABB update, broadphase (pair search and pair-cache update),
-// narrowphase, solver and integration are each summed over the substeps, and
-// each substep reports when it ran, when its narrowphase ran and, for a
-// broadphase that searches off the main thread, when its search ran and how
-// long the step waited for it.  Bullet is not thread-safe here: one
-// PhysicsWorld is used from one thread; it starts no task of its own.
+// reports what the frame cost and what it got wrong.  Each substep runs its
+// phases in the order physics/timed_world.h lists them; each phase's time is
+// summed over the substeps, and each substep reports when it ran, when its
+// narrowphase ran and, for a broadphase that searches off the main thread,
+// when its search ran and how long the step waited for it.  Bullet is not
+// thread-safe here: one PhysicsWorld is used from one thread; it starts no
+// task of its own.
 //
 // Invariants: box i of the layout is rigid body i; the walls come after the
 // boxes; the same config and options give bit-identical runs (stateHash()).
@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/pair_finder.h"
 #include "physics/scene.h"
 #include "physics/search_times.h"
 #include "physics/step_policy.h"
@@ -92,13 +93,14 @@ struct BoxPose {
 // Two bodies that began touching during the last frame: their contact
 // manifold gained its first point in some substep's narrowphase.  It follows
 // the physics, not the broadphase (a fattened AABB pair is no contact), so
-// every broadphase hears the same contacts.  Walls are numbered after the boxes.
+// every broadphase reports the same contacts.  Walls are numbered after the
+// boxes, and two walls never touch, so `a` is always a box.
 struct NewContact {
   int a;  // a < b
   int b;
   float closing_speed;  // m/s, before that substep's solver, along the line
                         // between the centres (walls: their normal)
-  float pan;            // the contact's x in the container, -1 left .. 1 right
+  float centre[3];      // box a's centre at that narrowphase
   float edge;           // the smaller box's edge
 };
 
@@ -106,6 +108,14 @@ struct Aabb {
   float min[3];
   float max[3];
 };
+
+// Object-index pairs (a < b), sorted: the world's cached pairs, a replay's.
+using PairList = std::vector<gpu::IndexPair>;
+
+// The pair of two object indices (>= 0) given in either order.
+inline gpu::IndexPair orderedPair(int x, int y) {
+  return {static_cast<std::uint32_t>(x < y ? x : y), static_cast<std::uint32_t>(x < y ? y : x)};
+}
 
 class PhysicsWorld {
  public:
@@ -124,7 +134,6 @@ class PhysicsWorld {
   // The fixed K, or with automatic substeps the K of the last frame (0 before the first).
   int substeps() const { return substeps_; }
   bool automaticSubsteps() const { return automatic_substeps_; }
-  bool sleepEnabled() const { return sleep_; }
   int framesDone() const { return frame_; }
   const std::string& algorithm() const { return algorithm_; }
   const std::string& algorithmNotice() const { return algorithm_notice_; }
@@ -136,9 +145,10 @@ class PhysicsWorld {
   std::vector<float> boxSpeeds() const;
   // The broadphase's current AABBs, boxes then walls.
   std::vector<Aabb> aabbs() const;
-  // Overlapping pairs in the cache as (min index, max index), sorted; walls
-  // are numbered after the boxes.
-  std::vector<std::pair<int, int>> cachedPairs() const;
+  // Overlapping pairs of the world's own bodies in the cache, sorted; walls
+  // are numbered after the boxes (objects added through bulletWorld() are
+  // left out).
+  PairList cachedPairs() const;
 
   // Contacts that began during the last frame, by substep, then by (a, b).
   const std::vector<NewContact>& newContacts() const;
@@ -153,7 +163,7 @@ class PhysicsWorld {
   // Bullet's world, for what this class does not wrap.  Up to 64 objects of
   // your own may be added (a btPairCachingGhostObject sees the boxes that
   // enter it under every broadphase; give such objects a user index of -1, the
-  // default, and they are left out of the error counts and the sound).  Do not
+  // default, and they are left out of the error counts and the new contacts).  Do not
   // replace the pair cache's ghost-pair callback: the world's forwards to
   // Bullet's btGhostPairCallback already.
   btDiscreteDynamicsWorld& bulletWorld();
@@ -174,7 +184,6 @@ class PhysicsWorld {
   int substeps_;
   bool automatic_substeps_;
   CcdMode ccd_;
-  bool sleep_;
   int frame_ = 0;
   std::string algorithm_;
   std::string algorithm_notice_;

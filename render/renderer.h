@@ -18,9 +18,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
-#include <filesystem>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "render/render_error.h"
@@ -81,9 +81,9 @@ class OffscreenRenderer {
   std::unique_ptr<Context> context_;
 };
 
-// Writes an 8-bit RGBA PNG with no time stamp, so equal images give equal
-// files.  Writes a temporary file beside path and renames it over path, so
-// path never holds a partial image.  Throws RenderError naming path.
-void writePng(const Image& image, const std::filesystem::path& path);
+// An 8-bit RGBA PNG file's bytes, with no time stamp, so equal images give
+// equal files; the caller writes them (engine/: gpu/base/output_file.h).
+// Throws RenderError for a malformed image.
+std::string encodePng(const Image& image);
 
 }  // namespace overlap::render

@@ -57,19 +57,14 @@ void main() {
 }
 )glsl";
 
-std::string shaderInfoLog(const GlFunctions& gl, GLuint shader) {
+// A shader's or a program's info log, read with that kind's two getters
+// (GetShaderiv and GetShaderInfoLog, or GetProgramiv and GetProgramInfoLog).
+std::string infoLog(GLuint object, PFNGLGETSHADERIVPROC get_parameter,
+                    PFNGLGETSHADERINFOLOGPROC get_log) {
   GLint length = 0;
-  gl.GetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+  get_parameter(object, GL_INFO_LOG_LENGTH, &length);
   std::string log(static_cast<std::size_t>(length > 0 ? length : 0), '\0');
-  if (length > 0) gl.GetShaderInfoLog(shader, length, nullptr, log.data());
-  return log;
-}
-
-std::string programInfoLog(const GlFunctions& gl, GLuint program) {
-  GLint length = 0;
-  gl.GetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-  std::string log(static_cast<std::size_t>(length > 0 ? length : 0), '\0');
-  if (length > 0) gl.GetProgramInfoLog(program, length, nullptr, log.data());
+  if (length > 0) get_log(object, length, nullptr, log.data());
   return log;
 }
 
@@ -82,7 +77,7 @@ GLuint compileShader(const GlFunctions& gl, GLenum stage, const char* source,
   GLint compiled = GL_FALSE;
   gl.GetShaderiv(shader, GL_COMPILE_STATUS, &compiled);
   if (compiled != GL_TRUE) {
-    const std::string log = shaderInfoLog(gl, shader);
+    const std::string log = infoLog(shader, gl.GetShaderiv, gl.GetShaderInfoLog);
     gl.DeleteShader(shader);
     throw RenderError("shader " + std::string(name) + " does not compile: " + log);
   }
@@ -110,7 +105,8 @@ GLuint linkProgram(const GlFunctions& gl, const char* vertex_source, const char*
   GLint linked = GL_FALSE;
   gl.GetProgramiv(program, GL_LINK_STATUS, &linked);
   if (linked != GL_TRUE) {
-    throw RenderError("program " + prefix + " does not link: " + programInfoLog(gl, program));
+    throw RenderError("program " + prefix +
+                      " does not link: " + infoLog(program, gl.GetProgramiv, gl.GetProgramInfoLog));
   }
   throwIfGlError(gl, "building the program " + prefix);
   return program;

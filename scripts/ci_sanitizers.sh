@@ -15,8 +15,8 @@ cd "$(dirname "$0")/.."
 readonly ASAN_DIR="${1:-build-asan}"
 readonly TSAN_DIR="${2:-build-tsan}"
 readonly JOBS="$(nproc)"
-# -O1 with line tables halves the compile time of -O2 -g (measured on
-# engine/run_command.cpp: 44 s -> 22 s) and keeps the sanitizers' stack traces.
+# -O1 with line tables halves the compile time of -O2 -g (docs/CI.md) and
+# keeps the sanitizers' stack traces.
 readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
 # The threaded tests: their labels and the targets that hold them
 # (tests/*/CMakeLists.txt); engine's CLI tests run the `overlap` binary.

@@ -71,20 +71,16 @@ FULL = {
     "overlap_loads": "0,0.5,1,1.5,2", "overlap_frames": 48, "overlap_algo": "gpubf",
     "overlap_repetitions": 5,
 }
-QUICK = {
-    "scenes": "1,2,3,4", "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1,
-    "frames": 90, "figure_objects": 400,
-    "pairs_objects": 400, "pairs_frames": 90, "pairs_algos": "bf,sap,sap32,bvh,cpubf",
-    "physics_scenes": "1,3,4", "physics_objects": 400, "physics_frames": 90,
-    "physics_substeps": "1,2,4,8,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
-    "physics_seeds": "7", "physics_compare_objects": "", "physics_compare_frames": 90,
-    "latency_scenes": "1,2,3,4", "latency_objects": 400, "latency_frames": 90,
-    "latency_algos": "bvh,cpubf", "latency_growths": "0,1,2",
-    "timeline_objects": 400, "timeline_frames": 16,
-    "overlap_scenes": "1,4", "overlap_objects": "150,300",
-    "overlap_loads": "0,1,2", "overlap_frames": 10, "overlap_algo": "gpubf",
-    "overlap_repetitions": 1,
-}
+# The small version, minutes on a 2-core machine: what it does not name is FULL's.
+QUICK = {**FULL,
+         "algos": "bf,bvh,cpubf", "objects": "200,400", "repetitions": 1, "frames": 90,
+         "figure_objects": 400, "pairs_objects": 400, "pairs_frames": 90,
+         "pairs_algos": "bf,sap,sap32,bvh,cpubf", "physics_scenes": "1,3,4",
+         "physics_objects": 400, "physics_frames": 90, "physics_substeps": "1,2,4,8,auto",
+         "physics_seeds": "7", "physics_compare_frames": 90, "latency_objects": 400,
+         "latency_frames": 90, "latency_algos": "bvh,cpubf", "timeline_objects": 400,
+         "timeline_frames": 16, "overlap_objects": "150,300", "overlap_loads": "0,1,2",
+         "overlap_frames": 10, "overlap_repetitions": 1}
 EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline", "overlap")
 HELP = {
     "scenes": "sweep: scenes", "algos": "sweep: broadphases", "objects": "sweep: box counts",
@@ -462,8 +458,9 @@ def without_a_gpu(pending: list, args) -> tuple:
     return runnable, left
 
 
-def run_jobs(jobs: list, args) -> list:
-    """Runs this shard's pending jobs one after another; returns the GPU jobs left pending."""
+def run_jobs(jobs: list, args, on_start) -> tuple:
+    """Runs this shard's pending jobs one after another, calling on_start() first when
+    there is any; returns (the jobs run, the GPU jobs left pending)."""
     shard, shards = args.shard
     mine = [job for index, job in enumerate(jobs) if index % shards == shard - 1]
     pending = [job for job in mine if not job.done()]
@@ -477,6 +474,8 @@ def run_jobs(jobs: list, args) -> list:
     print(f"study: shard {shard}/{shards}: {len(mine)} of {len(jobs)} jobs, "
           f"{len(mine) - len(pending) - len(gpu_pending)} already done, {len(pending)} to run",
           file=sys.stderr)
+    if pending:
+        on_start()
     total_weight = sum(job.weight for job in pending)
     done_weight = 0
     started = time.monotonic()
@@ -489,7 +488,7 @@ def run_jobs(jobs: list, args) -> list:
         print(f"[{index + 1}/{len(pending)}] {job.experiment} {job.key}: "
               f"{time.monotonic() - job_started:.1f} s; elapsed {format_seconds(elapsed)}, "
               f"about {format_seconds(left)} left", file=sys.stderr)
-    return gpu_pending
+    return pending, gpu_pending
 
 
 def parse_shard(text: str) -> tuple:
@@ -522,6 +521,9 @@ def parse_args(argv: list) -> argparse.Namespace:
                         help="run nothing; tables, figures and report from existing results")
     parser.add_argument("--report", action="store_true",
                         help="also write docs/REPORT.md with its figures in docs/report/")
+    parser.add_argument("--notes", type=pathlib.Path, default=REPO / "docs" / "report_notes",
+                        help="folder of the report's hand-written notes, KEY.md for section KEY "
+                        "(default docs/report_notes)")
     parser.add_argument("--seed", type=int, default=42, help="every run's seed (default 42)")
     parser.add_argument("--threads", type=int, default=0,
                         help="oneTBB thread cap passed to every run (0: all hardware threads)")
@@ -559,7 +561,6 @@ def main(argv: list) -> int:
     write_atomically(args.out / "commands.txt",
                      "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
     started = time.time()
-    # Logged before the runs and again after them: a stopped study still names its runs.
     invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
         "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": None,
         "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False}
@@ -569,10 +570,11 @@ def main(argv: list) -> int:
     def log_invocation():
         write_atomically(log_path, json.dumps(log + [invocation], indent=1) + "\n")
 
-    if not args.no_runs:
-        log_invocation()
-    gpu_pending = [] if args.no_runs else run_jobs(jobs, args)
-    if not args.no_runs:
+    # Logged before the runs and again after them: a stopped study still names its runs;
+    # an invocation that runs nothing (everything done) is not logged, so regenerating the
+    # report leaves it as it was.
+    ran, gpu_pending = ([], []) if args.no_runs else run_jobs(jobs, args, log_invocation)
+    if ran:
         invocation.update(seconds=round(time.time() - started, 1), finished=True,
                           gpu_jobs_pending=len(gpu_pending))
         log_invocation()

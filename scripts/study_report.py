@@ -10,6 +10,8 @@ import json
 import pathlib
 import shutil
 
+import study_claims
+import study_notes
 import study_overlap
 import study_physics
 import study_plots
@@ -76,6 +78,26 @@ def sweep_tables(cells: list) -> list:
                 row.append(text)
             rows.append(row)
         lines += [f"{title}:", ""] + table(["scene", "n"] + algos, rows)
+    return lines
+
+
+def stage_tables(cells: list) -> list:
+    """Each stage of the frame at the largest n of each scene, one row per algorithm: the
+    stages a broadphase changes (update, broadphase) beside those it should not (the
+    narrowphase, solver, integration and CCD's queries, which every broadphase asks of the
+    same shared tree), with the mean K each run chose from its own state."""
+    honest = [c for c in cells if not c["fallback"]]
+    stages = ("update", "broadphase", "narrowphase", "solver", "integrate", "ccd_query", "total")
+    lines = []
+    for scene in sorted({c["scene"] for c in honest}):
+        n = max(c["objects"] for c in honest if c["scene"] == scene)
+        rows = [[c["algo"]] + [fmt(c[f"{stage}_mean"]) for stage in stages]
+                + [fmt(c["substeps"])]
+                for c in sorted((c for c in honest if c["scene"] == scene and c["objects"] == n),
+                                key=lambda c: algo_order(a["algo"] for a in honest).index(c["algo"]))]
+        lines += [f"Scene {scene}, {n} boxes, ms per frame by stage (mean over repetitions):", ""]
+        lines += table(["algo", "update", "broadphase", "narrowphase", "solver", "integration",
+                        "CCD queries", "total", "mean K"], rows)
     return lines
 
 
@@ -324,16 +346,28 @@ def profile_lines(args, cells: list) -> list:
             "." + cost + " The full study is for a batch of machines (`--shard i/k`).", ""]
 
 
-def machine_lines(jobs: list) -> list:
+def machine_lines(jobs: list, args) -> tuple:
+    """(the lines naming the machine, commit and load once; failures when the runs came from
+    more than one machine, build or commit: a report is of one of each)."""
     machines = {}
     for job in jobs:
         folder = getattr(job, "folder", None)
         if folder is not None and (folder / "summary.json").exists():
             m = json.loads((folder / "summary.json").read_text())["machine"]
-            machines[json.dumps(m, sort_keys=True)] = m
-    return [f"- {m['cpu']}, {m['hardware_threads']} hardware threads; GPU: {m['gpu']}; "
-            f"{m['compiler']}, {m['build_type']} build, commit {m['git_commit']}."
-            for m in machines.values()] + [""]
+            machines.setdefault(json.dumps(m, sort_keys=True), m)
+    if not machines:
+        return ["No run yet.", ""], []
+    if len(machines) > 1:
+        return (["The runs come from more than one machine, build or commit:", ""]
+                + [f"- {machine_text(m)}" for m in machines.values()] + [""],
+                [f"the runs come from {len(machines)} machines, builds or commits; a report "
+                 "is of one (rerun the others into a fresh --out)"])
+    return [machine_text(next(iter(machines.values()))) + ".", ""], []
+
+
+def machine_text(m: dict) -> str:
+    return (f"{m['cpu']}, {m['hardware_threads']} hardware threads; GPU: {m['gpu']}; "
+            f"{m['compiler']}, {m['build_type']} build; commit {m['git_commit']}")
 
 
 def fewer_repetitions(cells: list, args) -> str:
@@ -347,33 +381,36 @@ def fewer_repetitions(cells: list, args) -> str:
                    for k, v in sorted(short.items()))
 
 
-def command_lines(args, jobs: list) -> list:
-    """The study's invocations that ran jobs, this report's, and one command per experiment,
-    with paths relative to the repository and the study's --out folder shown as $OUT."""
-    def shown(words) -> str:
-        return portable(" ".join(map(str, words)), {args.out: "$OUT"})
+def shown_command(args, words) -> str:
+    """A command line with paths relative to the repository and --out shown as $OUT."""
+    return portable(" ".join(map(str, words)), {args.out: "$OUT"})
 
-    lines = ["The study's runs came from ($OUT: the study's --out folder, where its runs are "
-             "kept):", ""]
+
+def invocation_lines(args) -> list:
+    """The study invocations that ran the jobs, each with its start, length and the machine's
+    load average when it started."""
+    lines = ["The runs came from ($OUT: the study's --out folder, where its runs are kept):", ""]
     log = args.out / "study_invocations.json"
     for run in json.loads(log.read_text()) if log.exists() else []:
         load = run["load_average_at_start"]
-        command = (f"`{shown(run['argv'])}`" if run["argv"] else
-                   "a study invocation whose command line was not recorded")
-        lines.append(f"- {command}, started {run['started']}, " + (
+        lines.append(f"- `{shown_command(args, run['argv'])}`, started {run['started']}, " + (
             f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
             "stopped before its end (its finished runs are used, the others were run again by "
-            "a later invocation)") + "; the machine's load average at its start was " + (
-            "not recorded." if load is None else f"{load}" + (
-                " (other jobs were running: their noise is in its timings)." if load >= 0.5
-                else " (a quiet machine).")) + (f" {run['note']}" if run.get("note") else ""))
-    lines += ["", f"This report: `scripts/study.py {shown(args.argv)}`.", "",
-              "One command per experiment (every command is in `commands.txt`):", "", "```"]
+            "a later invocation)") + f"; load average at its start {load}" + (
+            " (other jobs were running: their noise is in its timings)." if load >= 0.5
+            else " (a quiet machine)."))
+    return lines + [""]
+
+
+def command_lines(args, jobs: list) -> list:
+    """This report's command and one command per experiment."""
+    lines = [f"This report: `scripts/study.py {shown_command(args, args.argv)}`.", "",
+             "One command per experiment (every command is in `commands.txt`):", "", "```"]
     seen = set()
     for job in jobs:
         if job.experiment not in seen:
             seen.add(job.experiment)
-            lines += [shown(c) for c in job.commands()]
+            lines += [shown_command(args, c) for c in job.commands()]
     return lines + ["```", ""]
 
 
@@ -420,111 +457,128 @@ def gpu_lines(jobs: list, pairs: list) -> list:
     return lines
 
 
+def sweep_section(args, runs: list, cells: list, jobs: list, pairs: list, figures: dict,
+                  gpu_pending: int) -> list:
+    sweep_jobs = [j for j in jobs if j.experiment == "sweep"]
+    lines = [f"Scenes {args.scenes}, algorithms {args.algos}, n in {args.objects}, "
+             f"{args.repetitions} repetition(s) of {args.frames} frames, seed {args.seed} "
+             f"every time, physics only (`--no-tasks`). Every run has the same physics "
+             "configuration, today's defaults: `--substeps auto --ccd auto --sleep scene "
+             "--solver pile`; CCD's sweeps go through one query tree shared by every "
+             "broadphase (physics/ccd_query_broadphase.h), so every broadphase meets the same "
+             "queries on the same path. K is chosen each frame from the run's own state, which "
+             "the broadphase's pair order nudges: the mean K of each cell is in the stage "
+             f"tables. Runs present: {len(runs)} of {len(sweep_jobs)}"
+             + ("; the GPU algorithms' runs need a real GPU (see below)." if gpu_pending
+                else ".") + fewer_repetitions(cells, args), ""]
+    lines += gpu_lines(jobs, pairs)
+    lines += keyframe_figure(args, figures)
+    if not cells:
+        return lines + ["No sweep runs yet.", ""]
+    out = args.out
+    study_results.write_csv(out / "sweep_runs.csv",
+                            [dict(r, folder=portable(r["folder"], {out: "$OUT"})) for r in runs])
+    study_results.write_csv(out / "sweep.csv", cells)
+    sizes = sorted({c["objects"] for c in cells})
+    n_fig = min(sizes, key=lambda n: abs(n - args.figure_objects))
+    for scene in sorted({c["scene"] for c in cells}):
+        series = study_results.per_frame(runs, scene, n_fig)
+        if series:
+            name = study_plots.per_frame(scene, n_fig, series, figures["folder"])
+            lines += [f"Figure {scene + 1}, scene {scene}, {n_fig} boxes, per frame "
+                      "(mean over repetitions; log scale):", "", f"![scene {scene}](report/{name})",
+                      ""]
+    study_plots.total_against_n(cells, figures["folder"])
+    lines += ["Figure 6, total time against n (bars: the repetitions' run means):", "",
+              "![total against n](report/fig6_total_against_n.png)", ""]
+    lines += ["What the figures say:", ""] + figure_lines(cells, n_fig)
+    lines += sweep_tables(cells) + stage_tables(cells)
+    lines.append(f"Boxes escaped in any sweep run: {max(c['escaped_max'] for c in cells)}; most "
+                 f"sunk at once: {max(c['sunk_max'] for c in cells)}; deepest penetration "
+                 f"{fmt(max(c['penetration_max'] for c in cells))} box edges.")
+    varied = [f"s{c['scene']} n{c['objects']} {c['algo']}" for c in cells
+              if not c["same_state_every_rep"]]
+    if any(c["repetitions"] > 1 for c in cells):
+        lines.append("Repetitions end in the same state everywhere." if not varied else
+                     "Repetitions end in different states in: " + ", ".join(varied) + ".")
+    lines += ["", "### The paper's claims, point by point", ""] + claim_lines(cells, gpu_pending)
+    return lines + ["### Best broadphase per scene (largest n run)", ""] + best_broadphase_lines(cells)
+
+
+def timeline_section(args, jobs: list, figures: dict) -> list:
+    job = next((j for j in jobs if j.experiment == "timeline"), None)
+    if job is None or not job.done():
+        return ["No timeline run yet.", ""]
+    frame, algo, spans = study_results.timeline_frame(job.folder)
+    study_plots.timeline(frame, algo, spans, figures["folder"])
+    by_name = {}  # a substep's spans (search, join) summed over the frame's substeps
+    for _, name, _, duration in spans:
+        if name in TIMELINE_TOTALS:
+            by_name[name] = by_name.get(name, 0.0) + duration
+    return [f"Scene 4, {args.timeline_objects} boxes, sound and AI tasks on, broadphase {algo} "
+            "(asked gpubf" + ("" if algo == "gpubf" else "; no GPU here, so this is its CPU "
+                              "fallback") + f"). Frame {frame}, the median-length frame: "
+            + ", ".join(f"{name} {fmt(ms)} ms" for name, ms in sorted(by_name.items())) + ".", "",
+            "![timeline](report/fig_timeline.png)", "",
+            "The timeline draws every substep: on the main lane the physics step, each substep "
+            "and, inside it, that substep's join and narrowphase; each substep's search on the "
+            "broadphase lane; the sound and AI tasks beside the whole step. The search and join "
+            "figures above are the frame's, summed over its substeps (as frames.csv's search_ms "
+            "and join_ms).", ""]
+
+
 def write_everything(args, jobs: list) -> list:
+    """Writes the tables, figures and REPORT.md; returns the study's failures: a missed
+    exact pair (reported), or a report that cannot stand (runs from two machines or
+    commits, a note for a section it lacks: then docs/REPORT.md is left as it was)."""
     out = args.out
     figures = {"folder": out / "report"}
+    notes = study_notes.Notes(args.notes)
     runs = study_results.sweep_runs(jobs)
     cells = study_results.aggregate_sweep(runs)
     pairs = study_results.pair_errors(jobs)
     physics = study_results.physics_runs(jobs)
     latency = study_results.latency_rows(jobs)
+    overlap = study_overlap.overlap_rows(jobs)
     gpu_pending = sum(1 for j in jobs if j.gpu_algo and not j.done())
-    sweep_jobs = [j for j in jobs if j.experiment == "sweep"]
+    machine, blocking = machine_lines(jobs, args)
+    failures = []
 
     title = "Overlap: the study" + (" (quick version)" if args.quick else "")
     lines = [f"# {title}", "",
              "Serpa & Rodrigues, *Parallelizing Broad Phase Collision Detection for Animation in "
              "Games* (SBGames 2014), redone and extended. Every number below was measured by "
-             "the commands listed, on the machine listed; every table is also a CSV file in "
-             "`report/` beside this file.", ""] + profile_lines(args, cells)
-    lines += ["## Machine", ""] + machine_lines(jobs)
-    lines += ["## Commands", ""] + command_lines(args, jobs)
-
-    lines += ["## 1. The sweep", "",
-              f"Scenes {args.scenes}, algorithms {args.algos}, n in {args.objects}, "
-              f"{args.repetitions} repetition(s) of {args.frames} frames, seed {args.seed} "
-              f"every time, physics only (`--no-tasks`). Runs present: {len(runs)} of "
-              f"{len(sweep_jobs)}" + ("; the GPU algorithms' runs need a real GPU (see below)."
-                                      if gpu_pending else ".") + fewer_repetitions(cells, args),
-              ""]
-    lines += gpu_lines(jobs, pairs)
-    lines += keyframe_figure(args, figures)
-    if cells:
-        study_results.write_csv(out / "sweep_runs.csv",
-                                [dict(r, folder=portable(r["folder"], {out: "$OUT"})) for r in runs])
-        study_results.write_csv(out / "sweep.csv", cells)
-        sizes = sorted({c["objects"] for c in cells})
-        n_fig = min(sizes, key=lambda n: abs(n - args.figure_objects))
-        for scene in sorted({c["scene"] for c in cells}):
-            series = study_results.per_frame(runs, scene, n_fig)
-            if series:
-                name = study_plots.per_frame(scene, n_fig, series, figures["folder"])
-                lines += [f"Figure {scene + 1}, scene {scene}, {n_fig} boxes, per frame "
-                          "(mean over repetitions; log scale):", "",
-                          f"![scene {scene}](report/{name})", ""]
-        study_plots.total_against_n(cells, figures["folder"])
-        lines += ["Figure 6, total time against n (bars: the repetitions' run means):", "",
-                  "![total against n](report/fig6_total_against_n.png)", ""]
-        lines += ["What the figures say:", ""] + figure_lines(cells, n_fig)
-        lines += sweep_tables(cells)
-        escaped = max(c["escaped_max"] for c in cells)
-        lines.append(f"Boxes escaped in any sweep run: {escaped}; most sunk at once: "
-                     f"{max(c['sunk_max'] for c in cells)}; deepest penetration "
-                     f"{fmt(max(c['penetration_max'] for c in cells))} box edges.")
-        varied = [f"s{c['scene']} n{c['objects']} {c['algo']}" for c in cells
-                  if not c["same_state_every_rep"]]
-        if any(c["repetitions"] > 1 for c in cells):
-            lines.append("Repetitions end in the same state everywhere." if not varied else
-                         "Repetitions end in different states in: " + ", ".join(varied) + ".")
-        lines += ["", "### The paper's claims, point by point", ""]
-        lines += claim_lines(cells, gpu_pending)
-        lines += ["### Best broadphase per scene (largest n run)", ""]
-        lines += best_broadphase_lines(cells)
-    else:
-        lines += ["No sweep runs yet.", ""]
-
+             "the commands listed, on the one machine and commit named below; every table is "
+             "also a CSV file in `report/` beside this file.", "", "## At a glance", ""]
+    lines += study_claims.claims_lines(cells, pairs, physics, overlap, table)
+    lines += notes.take("glance")
+    lines += ["## Machine and runs", ""] + machine + invocation_lines(args)
+    lines += profile_lines(args, cells) + ["## Commands", ""] + command_lines(args, jobs)
+    lines += ["## 1. The sweep", ""]
+    lines += sweep_section(args, runs, cells, jobs, pairs, figures, gpu_pending)
+    lines += notes.take("sweep")
     lines += ["## 2. The async loop: one frame's timeline", ""]
-    timeline_job = next((j for j in jobs if j.experiment == "timeline"), None)
-    if timeline_job is not None and timeline_job.done():
-        frame, algo, spans = study_results.timeline_frame(timeline_job.folder)
-        study_plots.timeline(frame, algo, spans, figures["folder"])
-        by_name = {}  # a substep's spans (search, join) summed over the frame's substeps
-        for _, name, _, duration in spans:
-            if name in TIMELINE_TOTALS:
-                by_name[name] = by_name.get(name, 0.0) + duration
-        lines += [f"Scene 4, {timeline_job.labels.get('objects', args.timeline_objects)} boxes, "
-                  f"sound and AI tasks on, broadphase {algo} (asked gpubf"
-                  + ("" if algo == "gpubf" else "; no GPU here, so this is its CPU fallback") + "). "
-                  f"Frame {frame}, the median-length frame: " + ", ".join(
-                      f"{name} {fmt(ms)} ms" for name, ms in sorted(by_name.items())) + ".", "",
-                  "![timeline](report/fig_timeline.png)", "",
-                  "The timeline draws every substep: on the main lane the physics step, each "
-                  "substep and, inside it, that substep's join and narrowphase; each substep's "
-                  "search on the broadphase lane; the sound and AI tasks beside the whole step. "
-                  "The search and join figures above are the frame's, summed over its substeps "
-                  "(as frames.csv's search_ms and join_ms).", ""]
-    else:
-        lines += ["No timeline run yet.", ""]
-
+    lines += timeline_section(args, jobs, figures) + notes.take("timeline")
     lines += ["## 3. Speed against error", "", "### 3.1 Broadphase: pairs against the exact "
               "oracle (bf)", "", f"Scene 4, {args.pairs_objects} boxes, {args.pairs_frames} "
-              "frames recorded with `overlap record` (bvh, its default substeps and CCD), each algorithm's pair "
-              "cache from `overlap pairs` compared frame by frame with bf's.", ""]
-    section, failures = pairs_section(pairs, cells, args.pairs_objects, figures)
-    lines += section
-    if pairs:
-        study_results.write_csv(out / "pairs.csv", pairs)
+              "frames recorded with `overlap record` (bvh, today's default substeps and CCD), each "
+              "algorithm's pair cache from `overlap pairs` compared frame by frame with bf's.", ""]
+    section, pair_failures = pairs_section(pairs, cells, args.pairs_objects, figures)
+    failures += pair_failures
+    lines += section + notes.take("pairs")
     lines += ["### 3.2 Physics: substeps, CCD, sleep and the solver", ""]
     lines += study_physics.physics_section(physics, figures, fmt, table, args.physics_objects,
                                            args.seed)
-    study_results.write_csv(out / "physics.csv", physics)
+    lines += notes.take("physics")
     lines += ["### 3.3 A broadphase one frame late", ""] + latency_section(latency, figures, cells)
-    study_results.write_csv(out / "latency.csv", latency)
-    overlap = study_overlap.overlap_rows(jobs)
+    lines += notes.take("latency")
     lines += ["## 4. The asynchronous frame: where overlap pays", ""]
-    lines += study_overlap.overlap_section(overlap, figures, fmt, table)
-    study_results.write_csv(out / "overlap.csv", overlap)
+    lines += study_overlap.overlap_section(overlap, figures, fmt, table) + notes.take("overlap")
+    blocking += notes.failures()
 
+    for name, rows in (("pairs.csv", pairs), ("physics.csv", physics), ("latency.csv", latency),
+                       ("overlap.csv", overlap)):
+        study_results.write_csv(out / name, rows)
     figures["folder"].mkdir(parents=True, exist_ok=True)
     for table_name in ("sweep_runs.csv", "sweep.csv", "pairs.csv", "physics.csv", "latency.csv",
                        "overlap.csv"):
@@ -532,10 +586,10 @@ def write_everything(args, jobs: list) -> list:
             shutil.copy(out / table_name, figures["folder"] / table_name)
     text = "\n".join(lines) + "\n"
     (out / "REPORT.md").write_text(text)
-    if args.report:
+    if args.report and not blocking:
         docs = REPO / "docs"
         (docs / "report").mkdir(parents=True, exist_ok=True)
-        for image in figures["folder"].iterdir():
+        for image in sorted(figures["folder"].iterdir()):
             shutil.copy(image, docs / "report" / image.name)
         (docs / "REPORT.md").write_text(text)
-    return failures
+    return blocking + failures

@@ -11,7 +11,8 @@ import json
 import pathlib
 import statistics
 
-TIMES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms", "total_ms"]
+TIMES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms",
+         "ccd_query_ms", "total_ms"]
 # frames.csv columns the physics table uses when the engine writes them (the lead's FrameReport).
 ENERGY = ("kinetic_energy", "potential_energy")
 
@@ -102,7 +103,8 @@ def aggregate_sweep(runs: list) -> list:
                 "fallback": algo != group[0]["algo_requested"],  # not what was asked: no claim
                 "repetitions": len(group), "frames": group[0]["frames"],
                 "substeps": group[0]["substeps"]}
-        for column in ("update", "broadphase", "narrowphase", "solver", "integrate", "total"):
+        for column in ("update", "broadphase", "narrowphase", "solver", "integrate", "ccd_query",
+                       "total"):
             cell[f"{column}_mean"] = statistics.fmean(r[f"{column}_mean"] for r in group)
             cell[f"{column}_median"] = statistics.median(r[f"{column}_median"] for r in group)
         cell["total_min"] = min(r["total_mean"] for r in group)

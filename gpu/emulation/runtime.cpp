@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "gpu/emulation/api_counters.h"
 #include "gpu/emulation/executor.h"
 
 struct CudaEmulationStream {
@@ -60,6 +61,21 @@ thread_local cudaError_t t_last_error = cudaSuccess;
 cudaError_t record(cudaError_t error) {
   if (error != cudaSuccess) t_last_error = error;
   return error;
+}
+
+// The counts of gpu/emulation/api_counters.h, under their own mutex: some
+// calls count before they take the runtime's.
+std::mutex g_counters_mutex;
+ApiCounters g_counters;
+
+template <class Field>
+void count(Field ApiCounters::*field, std::uint64_t amount = 1) {
+  const std::lock_guard lock(g_counters_mutex);
+  g_counters.*field += amount;
+}
+
+void countCall() {
+  count(&ApiCounters::api_calls);
 }
 
 enum class Space { kDevice, kPinned };
@@ -148,6 +164,11 @@ class Runtime {
            ": pointer argument " + std::to_string(position + 1) + " (" + describe(pointer) +
            ") is not in a live device or pinned allocation");
     }
+  }
+
+  bool onDevice(const void* pointer) const {
+    const Allocation* allocation = containing(pointer).second;
+    return allocation != nullptr && allocation->space == Space::kDevice;
   }
 
   // --- streams -------------------------------------------------------------
@@ -242,6 +263,19 @@ bool validDims(const dim3& dims, unsigned max_x, unsigned max_y, unsigned max_z)
          dims.z <= max_z;
 }
 
+void countCopy(bool to_device, bool from_device, std::size_t bytes, bool blocking) {
+  if (blocking) count(&ApiCounters::host_waits);
+  if (to_device && from_device) {
+    count(&ApiCounters::copies_on_device);
+  } else if (to_device) {
+    count(&ApiCounters::copies_to_device);
+    count(&ApiCounters::bytes_to_device, bytes);
+  } else if (from_device) {
+    count(&ApiCounters::copies_to_host);
+    count(&ApiCounters::bytes_to_host, bytes);
+  }
+}
+
 cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
                  cudaStream_t handle, bool blocking, const char* call,
                  const std::source_location& site) {
@@ -260,6 +294,7 @@ cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind k
     rt.checkOperand(from, bytes, kind == cudaMemcpyDeviceToHost || kind == cudaMemcpyDeviceToDevice,
                     call, "source", site);
   }
+  countCopy(rt.onDevice(to), rt.onDevice(from), bytes, blocking);
   const std::uint64_t sequence = rt.enqueue(*target, [=] {
     if (bytes != 0) std::memmove(to, from, bytes);
   });
@@ -274,6 +309,8 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
   CudaEmulationStream* target = rt.stream(handle);
   if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
   rt.checkOperand(to, bytes, true, call, "destination", site);
+  count(&ApiCounters::memsets);
+  if (blocking) count(&ApiCounters::host_waits);
   const std::uint64_t sequence = rt.enqueue(*target, [=] {
     if (bytes != 0) std::memset(to, value, bytes);
   });
@@ -284,6 +321,8 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
 }  // namespace
 
 void enqueueLaunch(KernelLaunch launch) {
+  countCall();
+  count(&ApiCounters::kernel_launches);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(launch.stream);
@@ -308,24 +347,29 @@ void enqueueLaunch(KernelLaunch launch) {
 }  // namespace overlap::cuda_emulation::detail
 
 using namespace overlap::cuda_emulation::detail;
+using overlap::cuda_emulation::ApiCounters;
 
 cudaError_t cudaGetDeviceCount(int* count) {
+  countCall();
   if (count == nullptr) return record(cudaErrorInvalidValue);
   *count = 1;
   return cudaSuccess;
 }
 
 cudaError_t cudaGetDevice(int* device) {
+  countCall();
   if (device == nullptr) return record(cudaErrorInvalidValue);
   *device = 0;
   return cudaSuccess;
 }
 
 cudaError_t cudaSetDevice(int device) {
+  countCall();
   return device == 0 ? cudaSuccess : record(cudaErrorInvalidDevice);
 }
 
 cudaError_t cudaGetDeviceProperties(cudaDeviceProp* properties, int device) {
+  countCall();
   if (properties == nullptr) return record(cudaErrorInvalidValue);
   if (device != 0) return record(cudaErrorInvalidDevice);
   *properties = cudaDeviceProp{};
@@ -346,6 +390,8 @@ cudaError_t cudaGetDeviceProperties(cudaDeviceProp* properties, int device) {
 }
 
 cudaError_t cudaDeviceSynchronize(CudaSite) {
+  countCall();
+  count(&ApiCounters::host_waits);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   rt.synchronizeAll();
@@ -353,80 +399,38 @@ cudaError_t cudaDeviceSynchronize(CudaSite) {
 }
 
 cudaError_t cudaGetLastError() {
+  countCall();
   return std::exchange(t_last_error, cudaSuccess);
 }
 
 cudaError_t cudaPeekAtLastError() {
+  countCall();
   return t_last_error;
 }
 
-const char* cudaGetErrorName(cudaError_t error) {
-  switch (error) {
-    case cudaSuccess:
-      return "cudaSuccess";
-    case cudaErrorInvalidValue:
-      return "cudaErrorInvalidValue";
-    case cudaErrorMemoryAllocation:
-      return "cudaErrorMemoryAllocation";
-    case cudaErrorInvalidConfiguration:
-      return "cudaErrorInvalidConfiguration";
-    case cudaErrorInvalidDevicePointer:
-      return "cudaErrorInvalidDevicePointer";
-    case cudaErrorNoDevice:
-      return "cudaErrorNoDevice";
-    case cudaErrorInvalidDevice:
-      return "cudaErrorInvalidDevice";
-    case cudaErrorInvalidResourceHandle:
-      return "cudaErrorInvalidResourceHandle";
-    case cudaErrorNotReady:
-      return "cudaErrorNotReady";
-  }
-  return "cudaErrorUnknown";
-}
-
-const char* cudaGetErrorString(cudaError_t error) {
-  switch (error) {
-    case cudaSuccess:
-      return "no error";
-    case cudaErrorInvalidValue:
-      return "invalid argument";
-    case cudaErrorMemoryAllocation:
-      return "out of memory";
-    case cudaErrorInvalidConfiguration:
-      return "invalid configuration argument";
-    case cudaErrorInvalidDevicePointer:
-      return "invalid device pointer";
-    case cudaErrorNoDevice:
-      return "no CUDA-capable device is detected";
-    case cudaErrorInvalidDevice:
-      return "invalid device ordinal";
-    case cudaErrorInvalidResourceHandle:
-      return "invalid resource handle";
-    case cudaErrorNotReady:
-      return "device not ready";
-  }
-  return "unknown error";
-}
-
 cudaError_t cudaMalloc(void** pointer, std::size_t bytes, CudaSite site) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   return record(rt.allocate(pointer, bytes, Space::kDevice, site));
 }
 
 cudaError_t cudaMallocHost(void** pointer, std::size_t bytes, CudaSite site) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   return record(rt.allocate(pointer, bytes, Space::kPinned, site));
 }
 
 cudaError_t cudaFree(void* pointer, CudaSite site) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   return record(rt.release(pointer, Space::kDevice, "cudaFree", site));
 }
 
 cudaError_t cudaFreeHost(void* pointer, CudaSite site) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   return record(rt.release(pointer, Space::kPinned, "cudaFreeHost", site));
@@ -434,20 +438,24 @@ cudaError_t cudaFreeHost(void* pointer, CudaSite site) {
 
 cudaError_t cudaMemcpy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
                        CudaSite site) {
+  countCall();
   return copy(to, from, bytes, kind, nullptr, true, "cudaMemcpy", site);
 }
 
 cudaError_t cudaMemcpyAsync(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
                             cudaStream_t stream, CudaSite site) {
+  countCall();
   return copy(to, from, bytes, kind, stream, false, "cudaMemcpyAsync", site);
 }
 
 cudaError_t cudaMemset(void* to, int value, std::size_t bytes, CudaSite site) {
+  countCall();
   return fill(to, value, bytes, nullptr, true, "cudaMemset", site);
 }
 
 cudaError_t cudaMemsetAsync(void* to, int value, std::size_t bytes, cudaStream_t stream,
                             CudaSite site) {
+  countCall();
   return fill(to, value, bytes, stream, false, "cudaMemsetAsync", site);
 }
 
@@ -456,6 +464,7 @@ cudaError_t cudaStreamCreate(cudaStream_t* stream) {
 }
 
 cudaError_t cudaStreamCreateWithFlags(cudaStream_t* stream, unsigned flags) {
+  countCall();
   if (stream == nullptr || (flags & ~cudaStreamNonBlocking) != 0) {
     return record(cudaErrorInvalidValue);
   }
@@ -466,6 +475,7 @@ cudaError_t cudaStreamCreateWithFlags(cudaStream_t* stream, unsigned flags) {
 }
 
 cudaError_t cudaStreamDestroy(cudaStream_t stream) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   if (stream == nullptr || rt.stream(stream) == nullptr) {
@@ -476,6 +486,8 @@ cudaError_t cudaStreamDestroy(cudaStream_t stream) {
 }
 
 cudaError_t cudaStreamSynchronize(cudaStream_t stream, CudaSite) {
+  countCall();
+  count(&ApiCounters::host_waits);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(stream);
@@ -490,6 +502,7 @@ cudaError_t cudaStreamQuery(cudaStream_t stream, CudaSite site) {
 }
 
 cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned flags) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(stream);
@@ -506,6 +519,7 @@ cudaError_t cudaEventCreate(cudaEvent_t* event) {
 }
 
 cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
+  countCall();
   if (event == nullptr || (flags & ~(cudaEventBlockingSync | cudaEventDisableTiming)) != 0) {
     return record(cudaErrorInvalidValue);
   }
@@ -518,6 +532,7 @@ cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
 }
 
 cudaError_t cudaEventDestroy(cudaEvent_t event) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
@@ -527,6 +542,8 @@ cudaError_t cudaEventDestroy(cudaEvent_t event) {
 }
 
 cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream) {
+  countCall();
+  count(&ApiCounters::event_records);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(stream);
@@ -539,6 +556,8 @@ cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream) {
 }
 
 cudaError_t cudaEventSynchronize(cudaEvent_t event, CudaSite) {
+  countCall();
+  count(&ApiCounters::host_waits);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
@@ -551,6 +570,7 @@ cudaError_t cudaEventQuery(cudaEvent_t event, CudaSite site) {
 }
 
 cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end) {
+  countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   if (ms == nullptr) return record(cudaErrorInvalidValue);
@@ -566,3 +586,12 @@ cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end) 
   *ms = std::chrono::duration<float, std::milli>(end->when - start->when).count();
   return cudaSuccess;
 }
+
+namespace overlap::cuda_emulation {
+
+ApiCounters apiCounters() {
+  const std::lock_guard lock(detail::g_counters_mutex);
+  return detail::g_counters;
+}
+
+}  // namespace overlap::cuda_emulation

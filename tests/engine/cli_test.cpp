@@ -16,44 +16,11 @@
 #include <utility>
 #include <vector>
 
-#include "tests/scratch_path.h"
+#include "tests/engine/cli_test_support.h"
 
 namespace {
 
-struct Result {
-  int exit_code;
-  std::string stderr_text;
-};
-
-// Runs the overlap binary with `args`, capturing stderr.
-Result runOverlap(const std::string& args) {
-  // One stderr file per test: ctest runs the tests in parallel processes.
-  const std::filesystem::path err = overlap::testing::scratchPath(
-      "cli_err_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
-      ".txt");
-  const std::string command =
-      std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err.string();
-  const int status = std::system(command.c_str());
-  std::stringstream text;
-  text << std::ifstream(err).rdbuf();
-  std::filesystem::remove(err);
-  return {WEXITSTATUS(status), text.str()};
-}
-
-int lineCount(const std::string& text) {
-  return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
-}
-
-class CliTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    out_ = overlap::testing::scratchPath(
-        "cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    std::filesystem::remove_all(out_);
-  }
-  void TearDown() override { std::filesystem::remove_all(out_); }
-  std::filesystem::path out_;
-};
+using namespace overlap::testing;
 
 TEST_F(CliTest, BadOptionsPrintOneLineAndExitWith2) {
   const std::array<std::string, 13> bad = {
@@ -221,23 +188,6 @@ TEST_F(CliTest, RunCapturesEveryKthFrameOutsideThePhysicsTimings) {
   std::string header;
   std::getline(csv, header);
   EXPECT_NE(header.find("render_ms"), std::string::npos);
-}
-
-// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
-std::string stdoutOf(const std::string& args, int* exit_code) {
-  std::string output;
-  FILE* pipe = popen((std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
-  char buffer[4096];
-  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    output.append(buffer, got);
-  }
-  *exit_code = WEXITSTATUS(pclose(pipe));
-  return output;
-}
-
-std::string fileText(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
 }
 
 TEST_F(CliTest, RecordThenPairsGivesSortedPairsForEveryStoredFrame) {
@@ -457,23 +407,27 @@ TEST_F(CliTest, WavAndTasksAreDeterministicAndCompareSyncMatches) {
   const std::string args =
       "run --objects 100 --frames 10 --voices 8 --background-voices 2 "
       "--agents 16 --compare-sync ";
+  // Outside the run's folder: a second run into it would remove the first's
+  // outputs there (a folder never mixes runs).
   ASSERT_EQ(
-      runOverlap(args + "--wav " + (out_ / "a.wav").string() + " --out " + out_.string()).exit_code,
+      runOverlap(args + "--wav " + (out_ / "a.wav").string() + " --out " + (out_ / "run").string())
+          .exit_code,
       0);
   ASSERT_EQ(
-      runOverlap(args + "--wav " + (out_ / "b.wav").string() + " --out " + out_.string()).exit_code,
+      runOverlap(args + "--wav " + (out_ / "b.wav").string() + " --out " + (out_ / "run").string())
+          .exit_code,
       0);
   const std::string a = fileText(out_ / "a.wav");
   EXPECT_EQ(a.substr(0, 4), "RIFF");
   EXPECT_EQ(a.size(), 44u + 10u * 1600u * 4u);
   EXPECT_EQ(a, fileText(out_ / "b.wav"));
 
-  std::ifstream summary_file(out_ / "summary.json");
+  std::ifstream summary_file(out_ / "run" / "summary.json");
   const nlohmann::json summary = nlohmann::json::parse(summary_file);
   EXPECT_TRUE(summary["compare_sync"]["identical_state"].get<bool>());
   EXPECT_TRUE(summary["compare_sync"]["identical_tasks"].get<bool>());
   EXPECT_GT(summary["compare_sync"]["speedup"].get<double>(), 0.0);
-  const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "timeline.json"));
+  const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "run" / "timeline.json"));
   EXPECT_GT(timeline["traceEvents"].size(), 10u * 4u);
 }
 

@@ -6,11 +6,13 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <stdexcept>
 
 #include "engine/frame_scheduler.h"
+#include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
 #include "tests/engine/scheduler_test_support.h"
@@ -25,7 +27,7 @@ physics::SceneConfig smallScene() {
 }
 
 struct Outcome {
-  std::vector<std::vector<std::pair<int, int>>> pairs;  // per frame
+  std::vector<physics::PairList> pairs;  // per frame
   std::uint64_t state_hash;
   std::uint64_t sound_checksum;
   std::uint64_t ai_checksum;
@@ -108,24 +110,24 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
       const std::vector<Span>& substeps = spans["substep"];
       for (const char* task : {"sound", "ai"}) {
         const Span& span = spans[task].front();
-        EXPECT_GE(span.start_us, tasks.start_us) << task << ", frame " << frame;
-        EXPECT_LE(span.end_us, tasks.end_us) << task << ", frame " << frame;
+        EXPECT_GE(span.at.start, tasks.at.start) << task << ", frame " << frame;
+        EXPECT_LE(span.at.end, tasks.at.end) << task << ", frame " << frame;
         if (sync) {
-          EXPECT_LE(span.end_us, physics.start_us) << task << ", frame " << frame;
+          EXPECT_LE(span.at.end, physics.at.start) << task << ", frame " << frame;
         }
       }
       if (!sync) {
-        EXPECT_LE(tasks.start_us, substeps.front().start_us) << "frame " << frame;
-        EXPECT_GE(tasks.end_us, substeps.back().end_us) << "frame " << frame;
+        EXPECT_LE(tasks.at.start, substeps.front().at.start) << "frame " << frame;
+        EXPECT_GE(tasks.at.end, substeps.back().at.end) << "frame " << frame;
       }
       for (std::size_t k = 0; k < substeps.size(); ++k) {
         const Span& search = spans["search"][k];
         const Span& join = spans["join"][k];
         const Span& narrowphase = spans["narrowphase"][k];
-        EXPECT_GE(search.start_us, substeps[k].start_us) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(search.end_us, join.end_us) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(join.end_us, narrowphase.start_us) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(narrowphase.end_us, substeps[k].end_us) << "frame " << frame << ", substep " << k;
+        EXPECT_GE(search.at.start, substeps[k].at.start) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.at.end, join.at.end) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(join.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(narrowphase.at.end, substeps[k].at.end) << "frame " << frame << ", substep " << k;
       }
     }
   }
@@ -139,15 +141,16 @@ TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
   FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
   for (int frame = 0; frame < 10; ++frame) {
     const ScheduledFrame scheduled = scheduler.runFrame();
-    double drawn_us = 0;
+    Clock::duration drawn{};
     int joins = 0;
     auto spans = spansOfFrame(timeline, frame);  // a named map: the loop reads into it
     for (const Span& span : spans["join"]) {
-      drawn_us += span.durationUs();
+      drawn += span.at.length();
       ++joins;
     }
     EXPECT_EQ(joins, scheduled.physics.substeps);
-    EXPECT_NEAR(drawn_us / 1e3, scheduled.physics.timings.join_ms, 1e-9) << "frame " << frame;
+    EXPECT_NEAR(toMilliseconds(drawn), scheduled.physics.timings.join_ms, 1e-9)
+        << "frame " << frame;
   }
 }
 
@@ -286,16 +289,21 @@ TEST(FrameScheduler, PhysicsOnlyRunsNoTasks) {
   FrameScheduler scheduler(world, options, timeline);
   const ScheduledFrame frame = scheduler.runFrame();
   EXPECT_EQ(scheduler.soundWork(), nullptr);
-  EXPECT_EQ(frame.sound_ms + frame.ai_ms + frame.tasks_wait_ms, 0.0);
+  EXPECT_FALSE(frame.tasks);
+  EXPECT_TRUE(frame.task_runs.empty());
+  EXPECT_EQ(frame.taskTime(kSoundTask) + frame.taskTime(kAiTask) + frame.waitTime(),
+            Clock::duration::zero());
   EXPECT_GT(frame.physics.pairs, 0);
 }
 
-TEST(CoveredShare, CountsOverlappingIntervalsOnce) {
-  EXPECT_DOUBLE_EQ(coveredShare(0, 10, {{0, 10}}), 1.0);
-  EXPECT_DOUBLE_EQ(coveredShare(0, 10, {{2, 4}, {3, 6}}), 0.4);
-  EXPECT_DOUBLE_EQ(coveredShare(0, 10, {{-5, 2}, {8, 20}}), 0.4);
-  EXPECT_DOUBLE_EQ(coveredShare(0, 10, {{11, 12}}), 0.0);
-  EXPECT_DOUBLE_EQ(coveredShare(0, 0, {{0, 1}}), 0.0);
+TEST(OverlapOf, IsTheTimeTwoIntervalsShare) {
+  const auto at = [](int ms) { return Clock::time_point(std::chrono::milliseconds(ms)); };
+  const Interval ten{at(0), at(10)};
+  EXPECT_EQ(overlapOf(ten, ten), std::chrono::milliseconds(10));
+  EXPECT_EQ(overlapOf(ten, {at(2), at(4)}), std::chrono::milliseconds(2));
+  EXPECT_EQ(overlapOf({at(-5), at(2)}, ten), std::chrono::milliseconds(2));
+  EXPECT_EQ(overlapOf(ten, {at(11), at(12)}), Clock::duration::zero());
+  EXPECT_EQ(overlapOf(ten, {at(10), at(12)}), Clock::duration::zero());
 }
 
 }  // namespace

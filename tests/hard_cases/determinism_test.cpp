@@ -1,5 +1,5 @@
 // Determinism: the same scene gives the same state, bit for bit, after a
-// full run of 2048 frames (SCENES.md), run after run, whatever the thread
+// full run of 2048 frames (docs/SCENES.md), run after run, whatever the thread
 // count cpubf or cpusap searches with, and whether the broadphase overlaps the frame's
 // sound and AI tasks or runs after them.  The runs use the automatic
 // substeps and CCD, so the frame-by-frame choices (K, CCD bodies) are
@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "engine/frame_scheduler.h"
+#include "gpu/base/checksum.h"
 #include "gpu/pair_finder.h"
-#include "physics/checksum.h"
 #include "physics/pair_finder_broadphase.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
@@ -113,7 +113,7 @@ TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce
 // one after another (sync).  Every frame's pairs, the final state, the sound
 // and the AI must be bit-identical over the full 2048 frames.
 struct ScheduledRun {
-  std::uint64_t pairs_digest = physics::kFnv1aOffsetBasis;  // FNV-1a over every frame's pairs
+  std::uint64_t pairs_digest = kFnv1aOffsetBasis;  // FNV-1a over every frame's pairs
   std::uint64_t state_hash = 0;
   std::uint64_t sound_checksum = 0;
   std::uint64_t ai_checksum = 0;
@@ -128,12 +128,10 @@ ScheduledRun scheduledRun(bool sync) {
   ScheduledRun run;
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
-    for (const auto& [a, b] : world.cachedPairs()) {
-      const std::array<int, 2> pair{a, b};
-      run.pairs_digest = physics::fnv1a(std::span<const int>(pair), run.pairs_digest);
-    }
+    const physics::PairList pairs = world.cachedPairs();
+    run.pairs_digest = fnv1a(std::span<const gpu::IndexPair>(pairs), run.pairs_digest);
     const std::array<int, 1> frame_separator{-1};
-    run.pairs_digest = physics::fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
+    run.pairs_digest = fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
   run.state_hash = world.stateHash();
   run.sound_checksum = scheduler.soundChecksum();
@@ -193,8 +191,8 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
         broadphase.getOverlappingPairCache()->getOverlappingPairArray();
     PairList pairs;
     for (int p = 0; p < array.size(); ++p) {
-      pairs.emplace_back(
-          std::minmax(array[p].m_pProxy0->m_uniqueId, array[p].m_pProxy1->m_uniqueId));
+      pairs.push_back(
+          physics::orderedPair(array[p].m_pProxy0->m_uniqueId, array[p].m_pProxy1->m_uniqueId));
     }
     std::sort(pairs.begin(), pairs.end());
     pairs_per_frame.push_back(std::move(pairs));

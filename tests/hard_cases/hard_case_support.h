@@ -21,8 +21,8 @@
 
 namespace overlap::hard_cases {
 
+using physics::PairList;
 using physics::testing::oraclePairs;
-using PairList = physics::testing::PairList;
 
 // The pairs of `set` that are not in `minus`; both sorted.
 inline PairList pairsMissingFrom(const PairList& set, const PairList& minus) {
@@ -36,7 +36,7 @@ inline std::string describePairs(const PairList& pairs, std::size_t at_most = 5)
   std::ostringstream text;
   text << pairs.size() << " pair(s)";
   for (std::size_t i = 0; i < std::min(at_most, pairs.size()); ++i) {
-    text << (i == 0 ? ": " : ", ") << "(" << pairs[i].first << ", " << pairs[i].second << ")";
+    text << (i == 0 ? ": " : ", ") << "(" << pairs[i].a << ", " << pairs[i].b << ")";
   }
   if (pairs.size() > at_most) text << ", ...";
   return text.str();

@@ -44,7 +44,7 @@ TEST_P(FiftyGScenes, NoBoxEscapesAndTheStateStaysFinite) {
     }
     ASSERT_TRUE(everyBodyIsFinite(world)) << "frame " << frame;
   }
-  // Sinking into a wall is an error to report, not a failure (SCENES.md).
+  // Sinking into a wall is an error to report, not a failure (docs/SCENES.md).
   std::printf("[ sunk     ] scene %d: at most %d of %d box centres outside the interior\n",
               GetParam(), most_sunk, kBoxes);
 }

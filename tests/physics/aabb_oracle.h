@@ -8,15 +8,12 @@
 #include <btBulletCollisionCommon.h>
 
 #include <span>
-#include <utility>
 #include <vector>
 
 #include "physics/world.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::physics::testing {
-
-using PairList = std::vector<std::pair<int, int>>;
 
 // Every overlapping pair (a, b), a < b, sorted; touching counts.
 inline PairList oraclePairs(std::span<const Aabb> boxes, int first_static) {
@@ -32,11 +29,7 @@ inline PairList oraclePairs(std::span<const Aabb> boxes, int first_static) {
     b.mask = is_static ? btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter
                        : btBroadphaseProxy::AllFilter;
   }
-  PairList pairs;
-  for (const gpu::IndexPair& pair : gpu::testing::oraclePairs(bounds)) {
-    pairs.emplace_back(static_cast<int>(pair.a), static_cast<int>(pair.b));
-  }
-  return pairs;
+  return gpu::testing::oraclePairs(bounds);
 }
 
 // Every box dynamic.

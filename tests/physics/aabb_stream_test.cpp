@@ -121,11 +121,12 @@ TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
     BroadphaseReplay replay(algorithm, stream.world, stream.objects);
     replay.update(stream.frame(0));
     replay.findPairs();
-    EXPECT_EQ(replay.pairs(), (std::vector<std::pair<int, int>>{{0, 1}})) << algorithm;
+    EXPECT_EQ(replay.pairs(), (PairList{{0, 1}})) << algorithm;
     replay.update(stream.frame(1));
     replay.findPairs();
     const auto pairs = replay.pairs();
-    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), std::pair{1, 2}) != pairs.end()) << algorithm;
+    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), gpu::IndexPair{1, 2}) != pairs.end())
+        << algorithm;
   }
 }
 

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 namespace overlap::physics {
 namespace {
@@ -53,25 +54,57 @@ TEST(Scene, Scene4HasThreeEqualSizeClassesInTheirRanges) {
                layout.boxes[3].size_class == SizeClass::kSmall);
 }
 
+// Every box off the walls, no two bounding spheres overlapping, rotations
+// and velocities as drawn.
+void expectInsideAndApart(const SceneLayout& layout, const SceneConfig& config) {
+  const double h = layout.half_extent;
+  for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
+    const BoxStart& a = layout.boxes[i];
+    const Eigen::Vector3d reach = a.position.cwiseAbs() + rotatedHalfExtent(a.orientation, a.edge);
+    EXPECT_LT(reach.maxCoeff(), h) << "box " << i << " touches a wall";
+    EXPECT_NEAR(a.orientation.norm(), 1.0, 1e-12);
+    EXPECT_LE(a.velocity.cwiseAbs().maxCoeff(), config.initial_speed);
+    for (std::size_t j = i + 1; j < layout.boxes.size(); ++j) {
+      const BoxStart& b = layout.boxes[j];
+      const double spheres = (a.edge + b.edge) * std::sqrt(3.0) / 2;
+      ASSERT_GE((a.position - b.position).norm(), spheres) << "boxes " << i << ", " << j;
+    }
+  }
+}
+
 TEST(Scene, NothingOverlapsAndEverythingIsInsideAtTheStart) {
   for (int scene : {1, 4}) {
     SceneConfig config = SceneConfig::forScene(scene);
     config.objects = 1500;
-    const SceneLayout layout = generateScene(config);
-    const double h = layout.half_extent;
-    for (std::size_t i = 0; i < layout.boxes.size(); ++i) {
-      const BoxStart& a = layout.boxes[i];
-      const Eigen::Vector3d reach =
-          a.position.cwiseAbs() + rotatedHalfExtent(a.orientation, a.edge);
-      EXPECT_LT(reach.maxCoeff(), h) << "box " << i << " touches a wall";
-      EXPECT_NEAR(a.orientation.norm(), 1.0, 1e-12);
-      EXPECT_LE(a.velocity.cwiseAbs().maxCoeff(), config.initial_speed);
-      for (std::size_t j = i + 1; j < layout.boxes.size(); ++j) {
-        const BoxStart& b = layout.boxes[j];
-        const double spheres = (a.edge + b.edge) * std::sqrt(3.0) / 2;
-        ASSERT_GE((a.position - b.position).norm(), spheres) << "boxes " << i << ", " << j;
-      }
-    }
+    expectInsideAndApart(generateScene(config), config);
+  }
+}
+
+// With few boxes the walls leave so little room that rejection sampling can
+// jam: scene 1 at 50 boxes was refused ("--fill: 0.1 leaves no room for 50
+// boxes") while 20 and 100 were placed.  Placement starts over instead.
+TEST(Scene, FewBoxesArePlacedWhereRejectionSamplingJams) {
+  for (const int objects : {8, 12, 20, 50, 100}) {
+    SceneConfig config = SceneConfig::forScene(1);
+    config.objects = objects;
+    SceneLayout layout;
+    ASSERT_NO_THROW(layout = generateScene(config)) << objects << " boxes";
+    ASSERT_EQ(layout.boxes.size(), static_cast<std::size_t>(objects));
+    expectInsideAndApart(layout, config);
+  }
+}
+
+// Two unit boxes at 10% fill cannot be placed: their spheres cannot both
+// stay off the walls and apart.  Starting over must still end in a refusal.
+TEST(Scene, AnImpossiblePackingIsStillRefused) {
+  SceneConfig config = SceneConfig::forScene(1);
+  config.objects = 2;
+  try {
+    generateScene(config);
+    FAIL() << "two boxes at 10% fill were placed";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("fill: 0.1 leaves no room for 2 boxes", 0), 0u)
+        << error.what();
   }
 }
 

@@ -78,19 +78,18 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
   }
   PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
   static int marker;
-  std::set<std::pair<int, int>> previous;
+  std::set<gpu::IndexPair> previous;
   std::size_t kept = 0;
   for (int frame = 0; frame < 80; ++frame) {
     world.stepFrame();
     ASSERT_EQ(world.cachedPairs(), oraclePairs(world.aabbs(), 250)) << "frame " << frame;
-    std::set<std::pair<int, int>> current;
+    std::set<gpu::IndexPair> current;
     btBroadphasePairArray& array =
         world.broadphase().getOverlappingPairCache()->getOverlappingPairArray();
     for (int i = 0; i < array.size(); ++i) {
       const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
       const auto* b = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
-      const std::pair key{std::min(a->getUserIndex(), b->getUserIndex()),
-                          std::max(a->getUserIndex(), b->getUserIndex())};
+      const gpu::IndexPair key = orderedPair(a->getUserIndex(), b->getUserIndex());
       ASSERT_TRUE(current.insert(key).second) << "duplicate pair in frame " << frame;
       if (previous.count(key) != 0) {
         EXPECT_EQ(array[i].m_internalInfo1, &marker) << "pair lost its entry in frame " << frame;
@@ -142,7 +141,7 @@ TEST(PhysicsWorld, NoBoxPassesThroughAWallAt50g) {
 
 TEST(PhysicsWorld, OneStepPerFrameAt50gLetsBoxesEscape) {
   // The negative control for the test above: without substeps or CCD they tunnel.
-  // The count is recorded (--gtest_output=json: most_escaped) for README.md.
+  // The count is recorded (--gtest_output=json: most_escaped).
   PhysicsWorld world(smallScene(3, 300), WorldOptions{"bvh", 1, CcdMode::kOff});
   int most_escaped = 0;
   for (int frame = 0; frame < 300; ++frame) {

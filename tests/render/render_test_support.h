@@ -7,16 +7,12 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdint>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "render/renderer.h"
-#include "tests/scratch_path.h"
 
 namespace overlap::render::test_support {
 
@@ -86,41 +82,20 @@ inline int majorityColour(const Image& image, const std::vector<Eigen::Vector3f>
   return static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
 }
 
-inline Image readPng(const std::filesystem::path& path) {
+// Decodes PNG file bytes (encodePng's) as RGBA.
+inline Image decodePng(const std::string& bytes) {
   png_image description{};
   description.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&description, path.c_str())) {
-    throw std::runtime_error("cannot read " + path.string() + ": " + description.message);
+  if (!png_image_begin_read_from_memory(&description, bytes.data(), bytes.size())) {
+    throw std::runtime_error(std::string("cannot read the PNG: ") + description.message);
   }
   description.format = PNG_FORMAT_RGBA;
   Image image{static_cast<int>(description.width), static_cast<int>(description.height), {}};
   image.rgba.resize(PNG_IMAGE_SIZE(description));
   if (!png_image_finish_read(&description, nullptr, image.rgba.data(), 0, nullptr)) {
-    throw std::runtime_error("cannot decode " + path.string() + ": " + description.message);
+    throw std::runtime_error(std::string("cannot decode the PNG: ") + description.message);
   }
   return image;
 }
-
-inline std::string fileBytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// A fresh directory, removed with everything in it when the test ends.
-class ScratchDirectory {
- public:
-  explicit ScratchDirectory(const std::string& name)
-      : path_(overlap::testing::scratchPath("render_" + name)) {
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDirectory() { std::filesystem::remove_all(path_); }
-  ScratchDirectory(const ScratchDirectory&) = delete;
-  ScratchDirectory& operator=(const ScratchDirectory&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 }  // namespace overlap::render::test_support

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "audio_ai_stubs/sound.h"
-#include "physics/checksum.h"
-#include "physics/random.h"
+#include "gpu/base/checksum.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 namespace {
@@ -17,7 +17,7 @@ namespace {
 constexpr float kHalfExtent = 8.0f;
 
 std::vector<Obstacle> randomBoxes(std::uint64_t seed, int count) {
-  physics::SeededRandom random(seed);
+  SeededRandom random(seed);
   std::vector<Obstacle> boxes(static_cast<std::size_t>(count));
   for (Obstacle& box : boxes) {
     for (int axis = 0; axis < 3; ++axis) {
@@ -134,7 +134,7 @@ TEST(AgentCrowd, SameSeedGivesTheSameAgents) {
 TEST(AgentCrowd, NoAgentsRunAndHashToTheEmptyHash) {
   AgentCrowd crowd(smallCrowd(0), kHalfExtent);
   crowd.runFrame(randomBoxes(9, 40));
-  EXPECT_EQ(crowd.checksum(), physics::kFnv1aOffsetBasis);
+  EXPECT_EQ(crowd.checksum(), kFnv1aOffsetBasis);
 }
 
 // The engine runs sound and AI as concurrent TBB tasks: each must give
@@ -146,21 +146,21 @@ TEST(AgentCrowd, TbbTaskGivesTheSameResultAsTheMainThread) {
   SoundMixer mixer_on_main{SoundConfig{}};
   SoundMixer mixer_on_task{SoundConfig{}};
   std::vector<Obstacle> boxes = randomBoxes(11, 80);
-  std::uint64_t main_sound = physics::kFnv1aOffsetBasis;
-  std::uint64_t task_sound = physics::kFnv1aOffsetBasis;
+  std::uint64_t main_sound = kFnv1aOffsetBasis;
+  std::uint64_t task_sound = kFnv1aOffsetBasis;
   for (int frame = 0; frame < 30; ++frame) {
     drift(boxes, frame);
     const std::vector<ImpactEvent> impacts(static_cast<std::size_t>(frame % 4),
                                            ImpactEvent{3.0f, 0.2f, 1.0f});
     on_main.runFrame(boxes);
     mixer_on_main.runFrame(impacts);
-    main_sound = physics::fnv1a(mixer_on_main.mix(), main_sound);
+    main_sound = fnv1a(mixer_on_main.mix(), main_sound);
 
     tbb::task_group tasks;
     tasks.run([&] { on_task.runFrame(boxes); });
     tasks.run([&] { mixer_on_task.runFrame(impacts); });
     tasks.wait();
-    task_sound = physics::fnv1a(mixer_on_task.mix(), task_sound);
+    task_sound = fnv1a(mixer_on_task.mix(), task_sound);
   }
   EXPECT_EQ(on_main.checksum(), on_task.checksum());
   EXPECT_EQ(main_sound, task_sound);

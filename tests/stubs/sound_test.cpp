@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "audio_ai_stubs/biquad.h"
-#include "physics/checksum.h"
+#include "gpu/base/checksum.h"
 
 namespace overlap::stubs {
 namespace {
@@ -154,11 +154,11 @@ TEST(SoundMixer, SameSeedAndImpactsGiveIdenticalSamples) {
     SoundConfig config;
     config.seed = seed;
     SoundMixer mixer(config);
-    std::uint64_t hash = physics::kFnv1aOffsetBasis;
+    std::uint64_t hash = kFnv1aOffsetBasis;
     for (int frame = 0; frame < 6; ++frame) {
       const ImpactEvent impact{speed, 0.5f, 1.5f};
       mixer.runFrame({&impact, frame % 2 == 0 ? 1u : 0u});
-      hash = physics::fnv1a(mixer.mix(), hash);
+      hash = fnv1a(mixer.mix(), hash);
     }
     return hash;
   };

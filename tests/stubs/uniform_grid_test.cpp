@@ -5,14 +5,14 @@
 #include <set>
 #include <vector>
 
-#include "physics/random.h"
+#include "gpu/base/random.h"
 
 namespace overlap::stubs {
 namespace {
 
 TEST(UniformGrid, VisitsEveryPointWithinReachOnce) {
   constexpr float kHalfExtent = 10.0f;
-  physics::SeededRandom random(3);
+  SeededRandom random(3);
   std::vector<Eigen::Vector3f> points(500);
   for (Eigen::Vector3f& point : points) {
     // Some points lie outside the cube, as boxes sunk into a wall do.

@@ -1,12 +1,14 @@
 #include "audio_ai_stubs/wav_writer.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "audio_ai_stubs/sound.h"
@@ -47,13 +49,15 @@ std::vector<unsigned char> renderWav(const std::filesystem::path& path, std::uin
   config.seed = seed;
   SoundMixer mixer(config);
   {
-    WavWriter writer(path.string());
+    OutputFile file(path);
+    WavWriter writer(file);
     for (int frame = 0; frame < frames; ++frame) {
       const ImpactEvent impact{closing_speed, -0.3f, 1.0f};
       mixer.runFrame({&impact, frame % 3 == 0 ? 1u : 0u});
       mixer.appendMixTo(writer);
     }
     writer.close();
+    file.publish();
   }
   std::vector<unsigned char> bytes = readBytes(path);
   std::filesystem::remove(path);
@@ -83,11 +87,14 @@ TEST(WavWriter, HeaderFieldsDescribeTheSamples) {
 TEST(WavWriter, CountsFramesAndClampsAndRoundsSamples) {
   const std::filesystem::path path = scratchFile("clamp");
   {
-    WavWriter writer(path.string());
+    OutputFile file(path);
+    WavWriter writer(file);
     const std::vector<float> samples = {0.0f, 1.0f, -1.0f, 0.5f, 2.0f, -2.0f};
     writer.appendStereo(samples);
     EXPECT_EQ(writer.sampleFrames(), 3u);
-  }  // the destructor finishes the file
+    writer.close();
+    file.publish();
+  }
   const std::vector<unsigned char> bytes = readBytes(path);
   std::filesystem::remove(path);
   ASSERT_EQ(bytes.size(), WavWriter::kHeaderBytes + 12u);
@@ -113,7 +120,8 @@ TEST(WavWriter, DifferentSeedOrImpactsGiveDifferentBytes) {
 TEST(WavWriter, UnwritablePathThrowsNamingThePath) {
   const std::string path = "/nonexistent-overlap-dir/sound.wav";
   try {
-    WavWriter writer(path);
+    OutputFile file(path);
+    WavWriter writer(file);
     FAIL() << "opened " << path;
   } catch (const std::runtime_error& error) {
     EXPECT_NE(std::string(error.what()).find(path), std::string::npos) << error.what();
@@ -122,7 +130,8 @@ TEST(WavWriter, UnwritablePathThrowsNamingThePath) {
 
 TEST(WavWriter, OddSampleCountThrowsNamingThePath) {
   const std::filesystem::path path = scratchFile("odd");
-  WavWriter writer(path.string());
+  OutputFile file(path);
+  WavWriter writer(file);
   const std::vector<float> three = {0.1f, 0.2f, 0.3f};
   try {
     writer.appendStereo(three);
@@ -131,17 +140,40 @@ TEST(WavWriter, OddSampleCountThrowsNamingThePath) {
     EXPECT_NE(std::string(error.what()).find(path.string()), std::string::npos) << error.what();
   }
   writer.close();
-  std::filesystem::remove(path);
+}
+
+// A FIFO cannot be patched: the header says "until the stream ends", the
+// FIFO stays a FIFO and the samples go through it.
+TEST(WavWriter, WritesThroughAFifoWithAStreamingHeader) {
+  const std::filesystem::path fifo = scratchFile("fifo");
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::vector<unsigned char> received;
+  std::thread reader([&] { received = readBytes(fifo); });
+  {
+    OutputFile file(fifo);
+    ASSERT_TRUE(file.writtenThrough());
+    WavWriter writer(file);
+    writer.appendStereo(std::vector<float>{0.5f, -0.5f});
+    writer.close();
+    file.publish();
+  }
+  reader.join();
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(received.size(), WavWriter::kHeaderBytes + 4u);
+  EXPECT_EQ(readU32(received, 4), 0xFFFFFFFFu);
+  EXPECT_EQ(readU16(received, WavWriter::kHeaderBytes), 16384u);
 }
 
 TEST(WavWriter, MixAtAnotherSampleRateIsRefused) {
   const std::filesystem::path path = scratchFile("rate");
-  WavWriter writer(path.string(), 44100);
+  OutputFile file(path);
+  WavWriter writer(file, 44100);
   SoundMixer mixer{SoundConfig{}};
   mixer.runFrame({});
   EXPECT_THROW(mixer.appendMixTo(writer), std::invalid_argument);
   writer.close();
-  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -60,7 +60,10 @@ def main() -> int:
         return 77
     shutil.rmtree(args.out, ignore_errors=True)
 
-    study(args.overlap, args.out)
+    notes = args.out / "notes"
+    notes.mkdir(parents=True)
+    (notes / "sweep.md").write_text("A hand-written finding about the sweep.\n")
+    study(args.overlap, args.out, "--notes", str(notes))
     runs = rows(args.out / "sweep_runs.csv")
     gpu = json.loads(next((args.out / "sweep").glob("*/summary.json")).read_text())
     has_gpu = not gpu["machine"]["gpu"].startswith("none")
@@ -123,8 +126,22 @@ def main() -> int:
           "a sync and an async run of the overlap study ended differently")
     check("## 4. The asynchronous frame" in report, "the report lacks the overlap section")
 
-    again = study(args.overlap, args.out)
+    again = study(args.overlap, args.out, "--notes", str(notes))
     check(" 0 to run" in again.stderr, "a second invocation ran jobs again:\n" + again.stderr)
+    # The report is a function of the results and the notes: regenerated, byte for byte the
+    # same, the note still in place after its section's tables.
+    regenerated = (args.out / "REPORT.md").read_text()
+    check(regenerated == report, "regenerating the report changed it")
+    sweep_at = report.index("## 1. The sweep")
+    check(sweep_at < report.index("A hand-written finding about the sweep.") <
+          report.index("## 2. The async loop"), "the sweep's note is not in the sweep's section")
+    # A note for a section the report no longer has stops the study, naming the note.
+    (notes / "section_that_went.md").write_text("Words about a section that is gone.\n")
+    command = [sys.executable, str(STUDY), "--overlap", args.overlap, "--out", str(args.out),
+               *TINY, "--notes", str(notes), "--no-runs"]
+    stale = subprocess.run(command, capture_output=True, text=True)
+    check(stale.returncode == 1 and "section_that_went.md" in stale.stderr,
+          f"a stale note was not refused (exit {stale.returncode}):\n{stale.stderr}")
 
     shard_out = args.out / "shard"
     sharded = study(args.overlap, shard_out, "--experiments", "sweep", "--shard", "2/3")

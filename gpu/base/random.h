@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <random>
 
-namespace overlap::physics {
+namespace overlap {
 
 class SeededRandom {
  public:
@@ -33,4 +33,4 @@ class SeededRandom {
   std::mt19937_64 engine_;
 };
 
-}  // namespace overlap::physics
+}  // namespace overlap

@@ -1,5 +1,5 @@
 // FNV-1a checksums, so determinism tests can compare whole buffers by one
-// number: the physics state hash, the sound mix and the AI crowd all use it.
+// number: the physics state hash and the stubs' outputs use it.
 //
 // The hash covers the values' object bytes, so it is only as portable as their
 // representation: equal on machines with the same endianness and float format,
@@ -11,7 +11,7 @@
 #include <span>
 #include <type_traits>
 
-namespace overlap::physics {
+namespace overlap {
 
 inline constexpr std::uint64_t kFnv1aOffsetBasis = 14695981039346656037ull;
 inline constexpr std::uint64_t kFnv1aPrime = 1099511628211ull;
@@ -32,4 +32,4 @@ requires std::is_trivially_copyable_v<T> std::uint64_t fnv1a(
   return fnv1a(std::as_bytes(values), state);
 }
 
-}  // namespace overlap::physics
+}  // namespace overlap

@@ -1,11 +1,11 @@
-#include "physics/checksum.h"
+#include "gpu/base/checksum.h"
 
 #include <gtest/gtest.h>
 
 #include <array>
 #include <string_view>
 
-namespace overlap::physics {
+namespace overlap {
 namespace {
 
 TEST(Fnv1a, MatchesTheReferenceValues) {
@@ -23,4 +23,4 @@ TEST(Fnv1a, ChainingEqualsHashingTheConcatenation) {
 }
 
 }  // namespace
-}  // namespace overlap::physics
+}  // namespace overlap

@@ -1,0 +1,245 @@
+#include "gpu/base/output_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <system_error>
+
+namespace overlap {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string lastError() {
+  return std::strerror(errno);
+}
+
+// `path` with every symlink followed (at most 40, as the kernel does); a
+// dangling link gives the name it points to, where the file will be made.
+fs::path followLinks(fs::path path) {
+  for (int hop = 0; hop < 40; ++hop) {
+    std::error_code error;
+    if (!fs::is_symlink(fs::symlink_status(path, error))) return path;
+    const fs::path link = fs::read_symlink(path, error);
+    if (error) return path;
+    path = link.is_absolute() ? link : path.parent_path() / link;
+  }
+  return path;
+}
+
+fs::path folderOf(const fs::path& file) {
+  return file.has_parent_path() ? file.parent_path() : fs::path(".");
+}
+
+// The mode a new file gets: 0666 less the umask, read once.
+mode_t newFileMode() {
+  static const mode_t mode = [] {
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    return static_cast<mode_t>(0666 & ~mask);
+  }();
+  return mode;
+}
+
+void syncFolder(const fs::path& folder) {
+  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;  // the renames are done; durability is best effort here
+  ::fsync(fd);
+  ::close(fd);
+}
+
+void writeAll(int fd, std::string_view bytes, const std::function<void()>& on_error) {
+  while (!bytes.empty()) {
+    const ssize_t wrote = ::write(fd, bytes.data(), bytes.size());
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote <= 0) {
+      if (wrote == 0) errno = EIO;
+      on_error();
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(wrote));
+  }
+}
+
+// A manifest entry: a plain relative path that stays inside the folder.
+bool safeRelative(const fs::path& path) {
+  if (path.empty() || path.is_absolute()) return false;
+  for (const fs::path& part : path) {
+    if (part == ".." || part == ".") return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::string outputFolderProblem(const fs::path& folder) {
+  if (folder.empty()) return "the name is empty";
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) return "cannot create the folder: " + error.message();
+  if (!fs::is_directory(folder, error)) return "is not a folder";
+  if (::access(folder.c_str(), W_OK | X_OK) != 0)
+    return "the folder is not writable: " + lastError();
+  return {};
+}
+
+std::string outputFileProblem(const fs::path& file) {
+  if (file.empty()) return "the name is empty";
+  if (!file.has_filename()) return "names a folder (it ends in '/'), not a file";
+  const fs::path target = followLinks(file);
+  struct stat info {};
+  if (::stat(target.c_str(), &info) == 0) {
+    if (S_ISDIR(info.st_mode)) return "is a directory, not a file";
+    if (!S_ISREG(info.st_mode)) {  // written through
+      return ::access(target.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
+    }
+  }
+  const std::string problem = outputFolderProblem(folderOf(target));
+  return problem.empty() ? "" : "its folder " + folderOf(target).string() + ": " + problem;
+}
+
+OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLinks(path_)) {
+  if (path_.empty()) fail("the name is empty");
+  struct stat info {};
+  const bool exists = ::stat(target_.c_str(), &info) == 0;
+  if (exists && S_ISDIR(info.st_mode)) fail("is a directory, not a file");
+  if (exists && !S_ISREG(info.st_mode)) {
+    fd_ = ::open(target_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    if (fd_ < 0) fail("cannot open for writing: " + lastError());
+    return;
+  }
+  std::string hidden = ".";  // appended, not "." + name: GCC 12 warns falsely (-Wrestrict)
+  hidden += target_.filename().string();
+  hidden += ".overlap-XXXXXX";
+  std::string name = (folderOf(target_) / hidden).string();
+  fd_ = ::mkostemp(name.data(), O_CLOEXEC);  // O_CREAT | O_EXCL: a name of its own
+  if (fd_ < 0) fail("cannot create a temporary file beside it: " + lastError());
+  temporary_ = name;
+  // A replaced file keeps its permissions; a new one gets the umask's.
+  ::fchmod(fd_, exists ? (info.st_mode & 07777) : newFileMode());
+}
+
+OutputFile::OutputFile(OutputFile&& other) noexcept
+    : path_(std::move(other.path_)),
+      target_(std::move(other.target_)),
+      temporary_(std::move(other.temporary_)),
+      fd_(other.fd_),
+      finished_(other.finished_),
+      published_(other.published_) {
+  other.fd_ = -1;
+  other.temporary_.clear();
+  other.published_ = true;
+}
+
+OutputFile::~OutputFile() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!published_ && !temporary_.empty()) ::unlink(temporary_.c_str());
+}
+
+void OutputFile::fail(const std::string& what) const {
+  throw OutputError(path_.string() + ": " + what);
+}
+
+void OutputFile::write(std::string_view bytes) {
+  if (fd_ < 0) fail("written after it was finished");
+  writeAll(fd_, bytes, [this] { fail("cannot write: " + lastError()); });
+}
+
+void OutputFile::rewrite(std::uint64_t offset, std::string_view bytes) {
+  if (fd_ < 0 || writtenThrough()) fail("cannot rewrite what is written through or finished");
+  while (!bytes.empty()) {
+    const ssize_t wrote = ::pwrite(fd_, bytes.data(), bytes.size(), static_cast<off_t>(offset));
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote <= 0) fail("cannot write: " + lastError());
+    bytes.remove_prefix(static_cast<std::size_t>(wrote));
+    offset += static_cast<std::uint64_t>(wrote);
+  }
+}
+
+void OutputFile::finish() {
+  if (finished_) return;
+  // Devices and FIFOs have nothing to sync (fsync fails on a FIFO).
+  if (!writtenThrough() && ::fsync(fd_) != 0) fail("cannot write to disk: " + lastError());
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) fail("cannot finish writing: " + lastError());
+  finished_ = true;
+}
+
+void OutputFile::publish() {
+  if (!finished_) fail("published before it was finished");
+  if (published_) return;
+  if (!writtenThrough()) {
+    struct stat info {};
+    if (::lstat(target_.c_str(), &info) == 0 && !S_ISREG(info.st_mode)) {
+      fail("is no longer a regular file; not replaced");
+    }
+    if (::rename(temporary_.c_str(), target_.c_str()) != 0) {
+      fail("cannot rename the finished file into place: " + lastError());
+    }
+    syncFolder(folderOf(target_));
+  }
+  published_ = true;
+}
+
+void writeFileAtomically(const fs::path& path, std::string_view contents) {
+  OutputFile file(path);
+  file.write(contents);
+  file.commit();
+}
+
+void writeStandardOutput(std::string_view bytes) {
+  writeAll(STDOUT_FILENO, bytes,
+           [] { throw OutputError("standard output: cannot write: " + lastError()); });
+}
+
+OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {}
+
+OutputFile& OutputFolder::open(const fs::path& path) {
+  std::error_code error;
+  const fs::path relative =
+      fs::weakly_canonical(path, error).lexically_relative(fs::weakly_canonical(folder_, error));
+  if (safeRelative(relative)) inside_.insert(relative.generic_string());
+  files_.push_back(std::make_unique<OutputFile>(path));
+  return *files_.back();
+}
+
+std::set<std::string> OutputFolder::previousOutputs() const {
+  std::set<std::string> entries;
+  std::ifstream manifest(folder_ / kManifestName);
+  for (std::string line; std::getline(manifest, line);) {
+    if (!line.empty() && line[0] != '#' && safeRelative(line)) entries.insert(line);
+  }
+  return entries;
+}
+
+void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
+  std::string text =
+      "# the outputs of the last `overlap` run in this folder, replaced by the next\n";
+  for (const std::string& entry : entries) text += entry + '\n';
+  writeFileAtomically(folder_ / kManifestName, text);
+}
+
+void OutputFolder::commit() {
+  for (const auto& file : files_) file->finish();
+  // Listed before anything moves: if the process dies in between, the next
+  // run still knows every file this one and the last may have left.
+  const std::set<std::string> previous = previousOutputs();
+  std::set<std::string> pending = previous;
+  pending.insert(inside_.begin(), inside_.end());
+  writeManifest(pending);
+  for (const auto& file : files_) file->publish();
+  for (const std::string& entry : previous) {
+    if (inside_.count(entry) > 0) continue;
+    const fs::path stale = folder_ / entry;
+    struct stat info {};
+    if (::lstat(stale.c_str(), &info) == 0 && S_ISREG(info.st_mode)) ::unlink(stale.c_str());
+  }
+  writeManifest(inside_);
+}
+
+}  // namespace overlap

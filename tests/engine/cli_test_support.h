@@ -1,0 +1,71 @@
+// Running the `overlap` binary from a test: exit code, stderr, stdout.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "tests/scratch_path.h"
+
+namespace overlap::testing {
+
+struct Result {
+  int exit_code;
+  std::string stderr_text;
+};
+
+// Runs the overlap binary with `args` (a shell command line), capturing stderr.
+inline Result runOverlap(const std::string& args) {
+  // One stderr file per test: ctest runs the tests in parallel processes.
+  const std::filesystem::path err = overlap::testing::scratchPath(
+      "cli_err_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+      ".txt");
+  const std::string command =
+      std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err.string();
+  const int status = std::system(command.c_str());
+  std::stringstream text;
+  text << std::ifstream(err).rdbuf();
+  std::filesystem::remove(err);
+  return {WEXITSTATUS(status), text.str()};
+}
+
+inline int lineCount(const std::string& text) {
+  return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    out_ = overlap::testing::scratchPath(
+        "cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    std::filesystem::remove_all(out_);
+  }
+  void TearDown() override { std::filesystem::remove_all(out_); }
+  std::filesystem::path out_;
+};
+
+// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
+inline std::string stdoutOf(const std::string& args, int* exit_code) {
+  std::string output;
+  FILE* pipe = popen((std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
+  char buffer[4096];
+  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
+    output.append(buffer, got);
+  }
+  *exit_code = WEXITSTATUS(pclose(pipe));
+  return output;
+}
+
+inline std::string fileText(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+}  // namespace overlap::testing

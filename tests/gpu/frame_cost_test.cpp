@@ -1,0 +1,53 @@
+// The lean frame of gpubf (project issue 29), counted by the CUDA emulation:
+// one upload, one kernel, one copy back, no memset; and the copies' bytes.
+#include "tests/gpu/frame_cost.h"
+
+#include <gtest/gtest.h>
+
+#include "gpu/gpu_pair_finders.h"
+
+namespace overlap::gpu {
+namespace {
+
+TEST(GpubfFrameCostTest, OneUploadOneKernelOneCopyBackAndNoMemset) {
+  for (const std::uint32_t n : {2u, 33u, 1025u}) {
+    SCOPED_TRACE("n = " + std::to_string(n));
+    const auto finder = makeGpuPairFinder();
+    const cuda_emulation::ApiCounters frame = testing::steadyFrameCost(*finder, n);
+    EXPECT_EQ(frame.kernel_launches, 1u);
+    EXPECT_EQ(frame.copies_to_device, 1u);
+    EXPECT_EQ(frame.copies_to_host, 1u);
+    EXPECT_EQ(frame.copies_on_device, 0u);
+    EXPECT_EQ(frame.memsets, 0u);
+    EXPECT_EQ(frame.bytes_to_device, n * sizeof(ObjectBounds));
+    EXPECT_EQ(frame.host_waits, 1u);
+  }
+}
+
+TEST(GpubfFrameCostTest, TheCallerFillsTheStagingItself) {
+  const auto finder = makeGpuPairFinder();
+  const std::span<ObjectBounds> staging = finder->stagingFor(40);
+  ASSERT_EQ(staging.size(), 40u);
+  const std::vector<ObjectBounds> boxes = testing::steppingBoxes(40, 0);
+  std::copy(boxes.begin(), boxes.end(), staging.begin());
+  finder->launch(staging);
+  const PairDelta delta = finder->finish();
+  EXPECT_EQ(delta.added.size(), 19u);  // (1, 2), (3, 4) ... (37, 38)
+  EXPECT_THROW(
+      {
+        finder->launch(staging);
+        finder->stagingFor(40);
+      },
+      std::runtime_error);
+  finder->finish();
+}
+
+TEST(GpubfPaperFrameCostTest, CopiesEveryPairsByteBack) {
+  const auto finder = makePaperGpuPairFinder();
+  const cuda_emulation::ApiCounters frame = testing::steadyFrameCost(*finder, 1025);
+  EXPECT_EQ(frame.kernel_launches, 1u);
+  EXPECT_EQ(frame.bytes_to_host, 1025u * 1024u / 2u);
+}
+
+}  // namespace
+}  // namespace overlap::gpu
