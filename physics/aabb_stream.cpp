@@ -97,6 +97,16 @@ Aabb parkedBox(const Aabb& world, int object, int objects) {
 AabbStreamReader::AabbStreamReader(const std::filesystem::path& path) : path_(path) {
   fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd_ < 0) fail(std::string("cannot open: ") + std::strerror(errno));
+  // A refused header throws from here, where no destructor will close the file.
+  try {
+    checkHeader();
+  } catch (...) {
+    ::close(fd_);
+    throw;
+  }
+}
+
+void AabbStreamReader::checkHeader() {
   struct stat info {};
   if (::fstat(fd_, &info) != 0) fail(std::string("cannot read: ") + std::strerror(errno));
   if (S_ISDIR(info.st_mode)) fail("is a directory, not a .aabbs file");

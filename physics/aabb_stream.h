@@ -79,6 +79,7 @@ class AabbStreamReader {
   void checkAll();
 
  private:
+  void checkHeader();  // reads and checks the header, sized files against their size
   std::size_t readUpTo(char* bytes, std::size_t count);  // short only at the end
   [[noreturn]] void fail(const std::string& problem) const;
 

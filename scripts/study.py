@@ -46,13 +46,13 @@ import subprocess
 import sys
 import time
 
+import broadphases
 from overlap_runs import run_summary
 import study_physics
 import study_report
 import study_results
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-GPU_ALGOS = ("gpubf", "gpubf-paper")
 
 # Each profile's values; any option given on the command line wins.
 FULL = {
@@ -326,14 +326,14 @@ def plan(args) -> list:
                             out / "sweep" / key,
                             ["--scene", str(scene), "--objects", str(n), "--algo", algo,
                              "--frames", str(args.frames), "--seed", seed, "--no-tasks", *threads],
-                            algo if algo in GPU_ALGOS else None))
+                            algo if algo in broadphases.needs_device() else None))
     if "pairs" in args.experiments:
         n, frames = args.pairs_objects, args.pairs_frames
         stream = out / "streams" / f"scene4_seed{seed}_n{n}_f{frames}.aabbs"
         record = ["--scene", "4", "--objects", str(n), "--frames", str(frames), "--seed", seed]
         for algo in names(args.pairs_algos):
             jobs.append(PairsJob(f"pairs_{algo}", frames * n, overlap, out / "pairs", stream,
-                                 record, frames, algo, algo if algo in GPU_ALGOS else None))
+                                 record, frames, algo, algo if algo in broadphases.needs_device() else None))
     if "physics" in args.experiments:
         for scene, substeps, ccd, sleep, solver, n, frames, cell_seed in physics_cells(args):
             key = (f"s{scene}_n{n}_k{substeps}_ccd-{ccd}" + ("" if sleep == "scene" else "_nosleep")
@@ -366,7 +366,7 @@ def plan(args) -> list:
                     out / "latency" / f"{key}.csv",
                     ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
                      "--seed", seed, "--algo", algo, "--growth", args.latency_growths, *threads],
-                    algo if algo in GPU_ALGOS else None))
+                    algo if algo in broadphases.needs_device() else None))
     if "timeline" in args.experiments:
         n, frames = args.timeline_objects, args.timeline_frames
         # gpubf with the tasks beside it: on a machine without a GPU it runs
@@ -554,6 +554,7 @@ def parse_args(argv: list) -> argparse.Namespace:
 
 def main(argv: list) -> int:
     args = parse_args(argv)
+    broadphases.load(args.overlap)
     args.argv = argv
     args.full_profile = FULL
     args.out.mkdir(parents=True, exist_ok=True)

@@ -5,10 +5,9 @@ Every verdict is computed from the same rows the sections print; where the
 runs a claim needs are missing (the GPU's, on a machine without one) the
 verdict says so and the row gives what was measured instead, labelled.
 """
+import broadphases
 import study_physics
 
-GPU_ALGOS = ("gpubf", "gpubf-paper")
-EXACT_ALGOS = ("bf", "cpubf", "cpusap", "gpubf", "gpubf-paper")
 PUBLISHED_CPU = ("bf", "sap", "bvh")  # Bullet's broadphases, the paper's BF, SAP and BVH
 NEAR = 1.25  # "near": at most this factor slower
 
@@ -29,7 +28,7 @@ def ratio_range(cells: list, algo: str, other: str, value) -> tuple:
 
 
 def gpu_measured(cells: list) -> list:
-    return [a for a in GPU_ALGOS if any(c["algo"] == a and not c["fallback"] for c in cells)]
+    return [a for a in broadphases.needs_device() if any(c["algo"] == a and not c["fallback"] for c in cells)]
 
 
 def paper_rows(cells: list) -> list:
@@ -64,7 +63,7 @@ def paper_rows(cells: list) -> list:
                      f"fastest whole frame at {n} boxes: {best['algo']} "
                      f"({best['total_mean']:.0f} ms; next {at_n[1]['algo']} "
                      f"{at_n[1]['total_mean']:.0f})" if len(at_n) > 1 else best["algo"],
-                     ("holds" if best["algo"] in GPU_ALGOS else "does not hold")
+                     ("holds" if best["algo"] in broadphases.needs_device() else "does not hold")
                      + ("" if gpu else " among the algorithms run; untested on a GPU"), "§1"])
     return rows
 
@@ -87,7 +86,7 @@ def async_row(overlap: list) -> list:
 
 
 def exactness_row(pairs: list) -> list:
-    exact = [r for r in pairs if r["algo"].split(" ")[0] in EXACT_ALGOS and
+    exact = [r for r in pairs if r["algo"].split(" ")[0] in broadphases.exact() and
              r["algo"].split(" ")[0] != "bf"]
     if not exact:
         return ["Ours: the exact broadphases are exact", "not run", "—", "§3.1"]

@@ -10,6 +10,7 @@ import json
 import pathlib
 import shutil
 
+import broadphases
 import study_claims
 import study_notes
 import study_overlap
@@ -21,7 +22,6 @@ from overlap_runs import portable
 # The spans whose per-frame totals the timeline section quotes.
 TIMELINE_TOTALS = ("frame", "physics", "search", "join", "sound", "ai", "wait for tasks")
 REPO = pathlib.Path(__file__).resolve().parent.parent
-EXACT_ALGOS = ("bf", "cpubf", "cpusap", "gpubf", "gpubf-paper")
 
 
 def fmt(x: float) -> str:
@@ -43,7 +43,7 @@ def table(headers: list, rows: list) -> list:
 
 
 def algo_order(algos) -> list:
-    known = ["bf", "sap", "sap32", "bvh", "gpubf-paper", "gpubf", "cpubf", "cpusap"]
+    known = broadphases.names()
     def base(a):  # "gpubf (CUDA emulation)" sorts as gpubf
         return a.split(" ")[0]
     return sorted(algos, key=lambda a: (known.index(base(a)) if base(a) in known else len(known), a))
@@ -134,7 +134,7 @@ def claim_lines(cells: list, gpu_pending: int) -> list:
                      f"{len(pairs)} cells" + (f": {', '.join(ties)}" if ties else ""))
         return text
 
-    gpu_algos = [a for a in ("gpubf", "gpubf-paper") if any(k[2] == a for k in by_key)]
+    gpu_algos = [a for a in broadphases.needs_device() if any(k[2] == a for k in by_key)]
     pending = " (see *What needs a real GPU*)" if gpu_pending else ""
     lines.append("1. *GPU-BF beats BF everywhere.*")
     if not gpu_algos:

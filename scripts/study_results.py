@@ -11,6 +11,8 @@ import json
 import pathlib
 import statistics
 
+import broadphases
+
 TIMES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms",
          "ccd_query_ms", "total_ms"]
 # frames.csv columns the physics table uses when the engine writes them (the lead's FrameReport).
@@ -82,7 +84,7 @@ def label(row: dict) -> str:
     run by the CUDA emulation says so (its times are the CPU's, never a GPU figure)."""
     if row["algorithm"] != row["algo_requested"]:
         return f"{row['algorithm']} (asked {row['algo_requested']})"
-    if row["algorithm"] in ("gpubf", "gpubf-paper") and "emulation" in row["gpu"]:
+    if row["algorithm"] in broadphases.needs_device() and "emulation" in row["gpu"]:
         return f"{row['algorithm']} (CUDA emulation)"
     return row["algorithm"]
 
@@ -153,7 +155,7 @@ def pair_errors(jobs: list) -> list:
 
 
 def box_centres(path: pathlib.Path):
-    """An `overlap record` stream (SCENES.md's .aabbs layout) as box centres, (frames, n, 3)."""
+    """An `overlap record` stream (the .aabbs layout of docs/SCENES.md) as box centres, (frames, n, 3)."""
     import numpy  # matplotlib's own dependency, so present wherever the figures are drawn
     data = path.read_bytes()
     objects = int(numpy.frombuffer(data, dtype="<i4", count=1, offset=256)[0])

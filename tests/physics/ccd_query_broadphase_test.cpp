@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <set>
+#include <vector>
 
 #include "physics/world.h"
 
@@ -38,11 +39,22 @@ void aimAlongX(btBroadphaseRayCallback& ray, btScalar length) {
 
 class CcdQueryBroadphaseTest : public ::testing::Test {
  protected:
+  // As a world does: every proxy is destroyed before its broadphase (the
+  // tree's proxies are freed by destroyProxy, not by the tree).
+  void TearDown() override {
+    for (btBroadphaseProxy* proxy : proxies_) queries_.destroyProxy(proxy, nullptr);
+  }
   btBroadphaseProxy* add(const btVector3& lo, const btVector3& hi) {
     // btSimpleBroadphase pairs only proxies with a client object.
-    return queries_.createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, &client_, 1, -1, nullptr);
+    proxies_.push_back(queries_.createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, &client_, 1, -1, nullptr));
+    return proxies_.back();
+  }
+  void destroy(btBroadphaseProxy* proxy) {
+    std::erase(proxies_, proxy);
+    queries_.destroyProxy(proxy, nullptr);
   }
   int client_ = 0;
+  std::vector<btBroadphaseProxy*> proxies_;
   btSimpleBroadphase* pairs_ = new btSimpleBroadphase(16);
   CcdQueryBroadphase queries_{std::unique_ptr<btBroadphaseInterface>(pairs_)};
 };
@@ -86,7 +98,7 @@ TEST_F(CcdQueryBroadphaseTest, ADestroyedProxyIsNeverAnsweredAndTheOthersStay) {
   btBroadphaseProxy* second = add({0.5f, 0, 0}, {1.5f, 1, 1});
   btBroadphaseProxy* third = add({0.2f, 0, 0}, {0.8f, 1, 1});
   queries_.setAabb(third, {0.1f, 0, 0}, {0.9f, 1, 1}, nullptr);  // stale when destroyed
-  queries_.destroyProxy(first, nullptr);
+  destroy(first);
   queries_.setAabb(second, {0.6f, 0, 0}, {1.6f, 1, 1}, nullptr);
   AabbCollector box;
   queries_.aabbTest({0, 0, 0}, {2, 1, 1}, box);
