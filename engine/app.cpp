@@ -23,6 +23,7 @@ void addCommands(CLI::App& app) {
   addRunCommand(app);
   addRecordCommand(app);
   addPairsCommand(app);
+  addGenerateCommand(app);
   addCaptureCommand(app);
   addLatencyCommand(app);
 }

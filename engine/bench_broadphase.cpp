@@ -20,6 +20,17 @@
 //
 // GPU algorithms run only where a CUDA device is present; elsewhere they are
 // skipped with a note, never measured as their CPU fallback.
+//
+// --input FILE.aabbs... replays those streams (any .aabbs, Broadmark's own
+// included) instead of the recorded scene-4 ones, each with every --algos
+// algorithm; --grid-check takes the exact set from gpu/grid_pair_checker.h,
+// an exact finder that shares no code with cpusap, so every exact algorithm
+// is checked (fit for 10^5-10^6 boxes, where cpubf is too slow); --churn
+// adds, for each share s, rows in which about s of the boxes are destroyed
+// and s created every frame (engine/bench_replay.h); --stream-stats prints
+// what each input asks of a broadphase (engine/stream_statistics.h) and stops.
+// Our broadphases' frames are split into update (setAabb), sort, sweep,
+// delta and Bullet's pair-cache update.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -32,12 +43,14 @@
 #include <string>
 #include <vector>
 
+#include "engine/bench_replay.h"
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
 #include "engine/number_options.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
+#include "engine/stream_statistics.h"
 #include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase_factory.h"
@@ -66,6 +79,10 @@ struct BenchOptions {
   int warmup = 8;
   int repeats = 5;
   bool record_only = false;
+  std::vector<std::filesystem::path> inputs;
+  bool grid_check = false;
+  std::vector<double> churn;
+  bool stream_stats = false;
 };
 
 // One n of the run: its stream's length and the algorithms measured on it.
@@ -73,74 +90,11 @@ struct Workload {
   int objects;
   int record_frames;
   std::vector<std::string> algorithms;  // in broadphaseNames() order
-};
-
-struct Row {
-  int objects = 0;
-  std::string algorithm;
-  int frames = 0;  // measured frames per repeat
-  std::vector<double> repeat_medians_us;
-  std::optional<std::string> reference;  // the exact set's algorithm, if any ran
-  double pairs_sum = 0;
-  double extra_sum = 0;
-  long long mismatched_frames = 0;  // exact algorithms: frames that differ from the reference
-  long long missed = 0;
-  std::optional<double> ratio_vs_bvh;
-
-  double medianUs() const { return median(repeat_medians_us); }
-  double pairsMean() const { return pairs_sum / (frames * static_cast<double>(repeats())); }
-  double extraMean() const { return extra_sum / (frames * static_cast<double>(repeats())); }
-  int repeats() const { return static_cast<int>(repeat_medians_us.size()); }
+  std::filesystem::path input;          // empty: the recorded scene-4 stream
 };
 
 bool isExact(std::string_view algorithm) {
   return physics::broadphaseInfo(algorithm).exact;
-}
-
-// Replays the whole stream once in a fresh broadphase and adds one repeat to
-// `row`.  With `reference` empty it fills it (this algorithm is the
-// reference); otherwise every frame is checked against it.
-void replayOnce(const physics::AabbStream& stream, int warmup, std::vector<PairList>& reference,
-                bool has_reference, Row& row) {
-  std::optional<physics::BroadphaseReplay> made;
-  try {
-    made.emplace(row.algorithm, stream.world, stream.objects);
-  } catch (const std::invalid_argument& error) {  // e.g. sap beyond 32765 boxes
-    throw UsageError(std::string(error.what()) + " (n = " + std::to_string(stream.objects) + ")");
-  }
-  physics::BroadphaseReplay& replay = *made;
-  if (replay.algorithm() != row.algorithm) {
-    throw std::runtime_error("algorithm " + row.algorithm + " ran as " + replay.algorithm() + ": " +
-                             replay.notice());
-  }
-  const bool fills_reference = has_reference && reference.empty();
-  std::vector<double> frame_us;
-  frame_us.reserve(static_cast<std::size_t>(stream.stored_frames - warmup));
-  for (int frame = 0; frame < stream.stored_frames; ++frame) {
-    const Clock::time_point start = Clock::now();
-    replay.update(stream.frame(frame));
-    replay.findPairs();
-    const double elapsed_us =
-        std::chrono::duration<double, std::micro>(Clock::now() - start).count();
-
-    PairList pairs = replay.pairs();
-    const bool measured = frame >= warmup;
-    if (measured) {
-      frame_us.push_back(elapsed_us);
-      row.pairs_sum += static_cast<double>(pairs.size());
-    }
-    if (fills_reference) {
-      reference.push_back(std::move(pairs));
-    } else if (has_reference) {
-      const PairList& exact = reference[static_cast<std::size_t>(frame)];
-      const std::size_t extra = physics::countMissing(pairs, exact);
-      const std::size_t missed = physics::countMissing(exact, pairs);
-      if (measured) row.extra_sum += static_cast<double>(extra);
-      row.missed += static_cast<long long>(missed);
-      if (extra + missed > 0) ++row.mismatched_frames;
-    }
-  }
-  row.repeat_medians_us.push_back(median(std::move(frame_us)));
 }
 
 std::vector<std::string> inNameOrder(const std::set<std::string>& algorithms) {
@@ -183,9 +137,19 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
                          std::to_string(record_frames) +
                          " + 1 to measure at n = " + std::to_string(n));
       }
-      by_objects.emplace(n, Workload{n, record_frames, runnable(algorithms)});
+      by_objects.emplace(n, Workload{n, record_frames, runnable(algorithms), {}});
     }
   };
+  if (!options.inputs.empty()) {
+    std::vector<Workload> inputs;
+    for (const std::filesystem::path& input : options.inputs) {
+      inputs.push_back(Workload{0, 0, runnable(options.algorithms), input});
+    }
+    if (!dropped.empty()) {
+      skipped = "skipped " + CLI::detail::join(inNameOrder(dropped), ", ") + ": " + why;
+    }
+    return inputs;
+  }
   add(options.objects, options.algorithms, options.record_frames, "--objects");
   add(options.big_objects, options.big_algorithms, options.big_record_frames, "--big-objects");
   if (by_objects.empty()) throw UsageError("--objects, --big-objects: nothing to run");
@@ -206,43 +170,63 @@ Row* referenceRow(std::vector<Row>& rows) {
   return exact == rows.end() ? nullptr : &*exact;
 }
 
+std::string fixed(double value, int decimals) {
+  char text[48];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
 std::vector<Row> measure(const Workload& workload, const physics::AabbStream& stream,
                          const BenchOptions& options, Clock::time_point run_start) {
-  std::vector<Row> rows(workload.algorithms.size());
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    rows[i].objects = workload.objects;
-    rows[i].algorithm = workload.algorithms[i];
-    rows[i].frames = stream.stored_frames - options.warmup;
+  std::vector<double> churns = {0};
+  churns.insert(churns.end(), options.churn.begin(), options.churn.end());
+  std::vector<Row> rows;
+  for (const double churn : churns) {
+    for (const std::string& algorithm : workload.algorithms) {
+      Row row;
+      row.objects = stream.objects;
+      row.algorithm = algorithm;
+      row.stream = workload.input.string();
+      row.churn = churn;
+      row.frames = stream.stored_frames - options.warmup;
+      rows.push_back(std::move(row));
+    }
   }
   // The reference runs first in every repeat: its first replay fills the
-  // exact set the others are checked against.
+  // exact set the others are checked against.  The grid checker's set, if
+  // asked for, is there before any replay.
+  std::vector<PairList> reference;
+  if (options.grid_check) reference = gridCheckerReference(stream);
   std::vector<Row*> run_order;
-  Row* const reference_row = referenceRow(rows);
+  Row* const reference_row = options.grid_check ? nullptr : referenceRow(rows);
   if (reference_row != nullptr) run_order.push_back(reference_row);
   for (Row& row : rows) {
+    if (options.grid_check) row.reference = "grid checker";
     if (reference_row != nullptr) row.reference = reference_row->algorithm;
     if (&row != reference_row) run_order.push_back(&row);
   }
+  const bool has_reference = options.grid_check || reference_row != nullptr;
 
-  std::vector<PairList> reference;
   for (int repeat = 0; repeat < options.repeats; ++repeat) {
     std::string line;
     for (Row* row : run_order) {
-      replayOnce(stream, options.warmup, reference, reference_row != nullptr, *row);
-      char figure[64];
-      std::snprintf(figure, sizeof(figure), " %s %.1f us", row->algorithm.c_str(),
+      replayOnce(stream, options.warmup, options.seed, reference, has_reference, *row);
+      char figure[96];
+      std::snprintf(figure, sizeof(figure), " %s%s %.1f us", row->algorithm.c_str(),
+                    row->churn > 0 ? (" churn " + fixed(row->churn, 3)).c_str() : "",
                     row->repeat_medians_us.back());
       line += figure;
     }
     const double elapsed = std::chrono::duration<double>(Clock::now() - run_start).count();
-    std::fprintf(stderr, "%s: n=%d repeat %d/%d:%s (%.0f s elapsed)\n", kProgram, workload.objects,
+    std::fprintf(stderr, "%s: n=%d repeat %d/%d:%s (%.0f s elapsed)\n", kProgram, stream.objects,
                  repeat + 1, options.repeats, line.c_str(), elapsed);
   }
 
-  const auto bvh =
-      std::find_if(rows.begin(), rows.end(), [](const Row& row) { return row.algorithm == "bvh"; });
-  if (bvh != rows.end()) {
-    for (Row& row : rows) row.ratio_vs_bvh = row.medianUs() / bvh->medianUs();
+  for (Row& row : rows) {
+    const auto bvh = std::find_if(rows.begin(), rows.end(), [&](const Row& other) {
+      return other.algorithm == "bvh" && other.churn == row.churn;
+    });
+    if (bvh != rows.end()) row.ratio_vs_bvh = row.medianUs() / bvh->medianUs();
   }
   return rows;
 }
@@ -252,7 +236,9 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
 std::vector<std::string> failures(const std::vector<Row>& rows) {
   std::vector<std::string> found;
   for (const Row& row : rows) {
-    const std::string where = row.algorithm + " at n=" + std::to_string(row.objects);
+    std::string where = row.algorithm + " at n=" + std::to_string(row.objects);
+    if (!row.stream.empty()) where += " (" + row.stream + ")";
+    if (row.churn > 0) where += " with churn " + fixed(row.churn, 3);
     if (isExact(row.algorithm) && row.mismatched_frames > 0) {
       found.push_back(where + ": pair cache differs from " + *row.reference + "'s on " +
                       std::to_string(row.mismatched_frames) + " frames");
@@ -263,53 +249,58 @@ std::vector<std::string> failures(const std::vector<Row>& rows) {
   return found;
 }
 
-std::string fixed(double value, int decimals) {
-  char text[48];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
-
 std::string csvText(const std::vector<Row>& rows, const std::string& command,
                     const std::vector<std::string>& notes) {
   std::string csv = "# " + machineSummary() + "; command: " + command + '\n';
   for (const std::string& note : notes) csv += "# " + note + '\n';
   csv +=
       "n,algorithm,frames,repeats,median_us,min_us,max_us,ratio_vs_bvh,pairs_mean,"
-      "extra_pairs_mean,missed_pairs\n";
+      "extra_pairs_mean,missed_pairs,stream,churn,update_us,sort_us,sweep_us,delta_us,cache_us\n";
   for (const Row& row : rows) {
     const auto [fastest, slowest] =
         std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
-    const bool checked = row.reference && row.algorithm != *row.reference;
+    const bool checked = row.checked();
     csv += std::to_string(row.objects) + ',' + row.algorithm + ',' + std::to_string(row.frames) +
            ',' + std::to_string(row.repeats()) + ',' + fixed(row.medianUs(), 1) + ',' +
            fixed(*fastest, 1) + ',' + fixed(*slowest, 1) + ',' +
            (row.ratio_vs_bvh ? fixed(*row.ratio_vs_bvh, 3) : "") + ',' + fixed(row.pairsMean(), 1) +
            ',' + (checked ? fixed(row.extraMean(), 1) : "") + ',' +
-           (checked ? std::to_string(row.missed) : "") + '\n';
+           (checked ? std::to_string(row.missed) : "") + ',' + row.stream + ',' +
+           fixed(row.churn, 3) + ',' + fixed(median(row.update_us), 1);
+    for (const auto* phase : {&row.sort_us, &row.sweep_us, &row.delta_us, &row.cache_us}) {
+      csv += ',' + (row.hasPhases() ? fixed(median(*phase), 1) : "");
+    }
+    csv += '\n';
   }
   return csv;
 }
 
 nlohmann::json rowJson(const Row& row) {
-  const bool checked = row.reference && row.algorithm != *row.reference;
+  const bool checked = row.checked();
   auto optional = [](bool present, auto value) {
     return present ? nlohmann::json(value) : nlohmann::json(nullptr);
   };
-  return {
-      {"n", row.objects},
-      {"algorithm", row.algorithm},
-      {"frames", row.frames},
-      {"repeats", row.repeats()},
-      {"median_us", row.medianUs()},
-      {"min_us", *std::min_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
-      {"max_us", *std::max_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
-      {"repeat_medians_us", row.repeat_medians_us},
-      {"ratio_vs_bvh", optional(row.ratio_vs_bvh.has_value(), row.ratio_vs_bvh.value_or(0))},
-      {"pairs_mean", row.pairsMean()},
-      {"reference", optional(row.reference.has_value(), row.reference.value_or(""))},
-      {"extra_pairs_mean", optional(checked, row.extraMean())},
-      {"missed_pairs", optional(checked, row.missed)},
-      {"mismatched_frames", optional(checked && isExact(row.algorithm), row.mismatched_frames)}};
+  return {{"n", row.objects},
+          {"algorithm", row.algorithm},
+          {"frames", row.frames},
+          {"repeats", row.repeats()},
+          {"median_us", row.medianUs()},
+          {"min_us", *std::min_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
+          {"max_us", *std::max_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end())},
+          {"repeat_medians_us", row.repeat_medians_us},
+          {"ratio_vs_bvh", optional(row.ratio_vs_bvh.has_value(), row.ratio_vs_bvh.value_or(0))},
+          {"pairs_mean", row.pairsMean()},
+          {"reference", optional(row.reference.has_value(), row.reference.value_or(""))},
+          {"extra_pairs_mean", optional(checked, row.extraMean())},
+          {"missed_pairs", optional(checked, row.missed)},
+          {"mismatched_frames", optional(checked && isExact(row.algorithm), row.mismatched_frames)},
+          {"stream", row.stream},
+          {"churn", row.churn},
+          {"update_us", median(row.update_us)},
+          {"sort_us", optional(row.hasPhases(), median(row.sort_us))},
+          {"sweep_us", optional(row.hasPhases(), median(row.sweep_us))},
+          {"delta_us", optional(row.hasPhases(), median(row.delta_us))},
+          {"cache_us", optional(row.hasPhases(), median(row.cache_us))}};
 }
 
 // The command line as it reruns from the repository's top: the executable as
@@ -366,15 +357,31 @@ void addOptions(CLI::App& app, BenchOptions& options) {
       ->capture_default_str();
   app.add_flag("--record-only", options.record_only,
                "record the missing streams and stop (to record several n in parallel)");
+  app.add_option("--input", options.inputs,
+                 ".aabbs streams to replay with every --algos algorithm, instead of the recorded "
+                 "scene-4 ones (--objects, --big-objects and --streams are then not used)")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--grid-check", options.grid_check,
+               "check every frame against the grid checker's exact pairs (fit for 10^6 boxes)");
+  app.add_option("--churn", options.churn,
+                 "also replay with this share of the boxes destroyed and as many created every "
+                 "frame (e.g. 0.01,0.1)")
+      ->delimiter(',')
+      ->check(realNumberIn(0.0, 0.25, true));
+  app.add_flag("--stream-stats", options.stream_stats,
+               "print each --input's pairs per box, pairs changed and boxes moved per frame "
+               "(after --warmup), and stop");
 }
 
 // What the CSV's columns mean, for its header comment and the JSON.
 std::vector<std::string> csvNotes(const BenchOptions& options, const std::string& skipped) {
   std::vector<std::string> notes = {
-      "scene " + std::to_string(kScene) + ", seed " + std::to_string(options.seed) +
-          ", streams in " + options.streams.string() +
-          " (recorded with bvh and the scene's default substeps); warm-up frames " +
-          std::to_string(options.warmup),
+      (options.inputs.empty()
+           ? "scene " + std::to_string(kScene) + ", seed " + std::to_string(options.seed) +
+                 ", streams in " + options.streams.string() +
+                 " (recorded with bvh and the scene's default substeps)"
+           : std::string("streams given by --input (column stream)")) +
+          "; warm-up frames " + std::to_string(options.warmup),
       "time per frame: BroadphaseReplay update (setAabb of every box) + findPairs "
       "(calculateOverlappingPairs: search and pair-cache update); per repeat (fresh "
       "broadphase) the median of the measured frames; median_us = median over repeats, "
@@ -386,16 +393,57 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
       "measured frame; "
       "missed_pairs: exact "
       "pairs missing from the cache, summed over every frame and repeat; both empty for the "
-      "reference itself"};
+      "reference itself" +
+          std::string(options.grid_check ? "; exact set: gpu/grid_pair_checker.h's" : ""),
+      "churn: share of the boxes destroyed and created each frame (0: none); update_us: the "
+      "median frame's update (with churn, its destroyProxy and createProxy); sort_us, sweep_us, "
+      "delta_us: our finders' search split (cpusap), cache_us: applying its changes to Bullet's "
+      "pair cache (our broadphases only); each the median over measured frames, then repeats"};
   if (!skipped.empty()) notes.push_back(skipped);
   return notes;
+}
+
+// The workload's stream: the --input file (a file the reader refuses is a
+// UsageError naming it), or the recorded scene-4 stream, recorded if missing.
+CachedStream workloadStream(const Workload& workload, const BenchOptions& options) {
+  if (workload.input.empty()) {
+    physics::SceneConfig config = physics::SceneConfig::forScene(kScene);
+    config.objects = workload.objects;
+    config.seed = options.seed;
+    return loadOrRecordStream(options.streams, config, workload.record_frames);
+  }
+  CachedStream cached;
+  cached.path = workload.input;
+  const Clock::time_point start = Clock::now();
+  try {
+    cached.stream = physics::readAabbStream(workload.input);
+  } catch (const physics::AabbStreamError& error) {
+    throw UsageError(std::string("--input: ") + error.what());
+  }
+  cached.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (options.warmup >= cached.stream.stored_frames) {
+    throw UsageError("--warmup " + std::to_string(options.warmup) + ": leaves no frame of " +
+                     workload.input.string() + "'s " + std::to_string(cached.stream.stored_frames) +
+                     " to measure");
+  }
+  return cached;
+}
+
+void printStreamStatistics(const CachedStream& cached, int warmup) {
+  const StreamStatistics statistics = measureStream(cached.stream, std::max(1, warmup));
+  std::printf(
+      "%s: n=%d, frames %d-%d: pairs per box %.3f, pairs changed per frame %.4f, boxes moving "
+      "per frame %.4f (last frame: %.3f pairs per box, %.4f moving)\n",
+      cached.path.c_str(), cached.stream.objects, cached.stream.stored_frames - statistics.frames,
+      cached.stream.stored_frames - 1, statistics.pairs_per_box, statistics.changed_pairs,
+      statistics.moving_boxes, statistics.last_pairs_per_box, statistics.last_moving_boxes);
 }
 
 int run(const BenchOptions& options, const std::string& command) {
   std::string skipped;
   const std::vector<Workload> workloads = planWorkloads(options, skipped);
-  prepareOutputDirectory(options.streams, "--streams");
-  if (!options.record_only) {
+  if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
+  if (!options.record_only && !options.stream_stats) {
     prepareOutputDirectory(
         options.out.has_parent_path() ? options.out.parent_path() : std::filesystem::path("."),
         "--out");
@@ -408,29 +456,30 @@ int run(const BenchOptions& options, const std::string& command) {
   std::vector<Row> rows;
   nlohmann::json streams = nlohmann::json::array();
   for (const Workload& workload : workloads) {
-    physics::SceneConfig config = physics::SceneConfig::forScene(kScene);
-    config.objects = workload.objects;
-    config.seed = options.seed;
-    const CachedStream cached = loadOrRecordStream(options.streams, config, workload.record_frames);
-    std::fprintf(stderr, "%s: n=%d: %s %s in %.1f s\n", kProgram, workload.objects,
+    const CachedStream cached = workloadStream(workload, options);
+    std::fprintf(stderr, "%s: n=%d: %s %s in %.1f s\n", kProgram, cached.stream.objects,
                  cached.recorded ? "recorded" : "read", cached.path.c_str(), cached.seconds);
-    streams.push_back({{"n", workload.objects},
+    streams.push_back({{"n", cached.stream.objects},
                        {"path", cached.path.string()},
-                       {"recorded_frames", workload.record_frames},
+                       {"recorded_frames", cached.stream.stored_frames - 1},
                        {"recorded", cached.recorded},
                        {"seconds", cached.seconds}});
+    if (options.stream_stats) {
+      printStreamStatistics(cached, options.warmup);
+      continue;
+    }
     if (options.record_only) continue;
     const std::vector<Row> measured = measure(workload, cached.stream, options, start);
     rows.insert(rows.end(), measured.begin(), measured.end());
   }
-  if (options.record_only) return 0;
+  if (options.record_only || options.stream_stats) return 0;
 
   const std::vector<std::string> notes = csvNotes(options, skipped);
 
   nlohmann::json json = {
       {"machine", machineInfo()},
       {"command", command},
-      {"scene", kScene},
+      {"scene", options.inputs.empty() ? nlohmann::json(kScene) : nlohmann::json(nullptr)},
       {"seed", options.seed},
       {"warmup", options.warmup},
       {"repeats", options.repeats},

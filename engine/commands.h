@@ -10,6 +10,7 @@ namespace overlap::engine {
 void addRunCommand(CLI::App& app);
 void addRecordCommand(CLI::App& app);
 void addPairsCommand(CLI::App& app);
+void addGenerateCommand(CLI::App& app);
 void addCaptureCommand(CLI::App& app);
 void addLatencyCommand(CLI::App& app);
 

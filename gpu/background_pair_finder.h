@@ -40,6 +40,7 @@ class BackgroundPairFinder final : public PairFinder {
   PairDelta finish() override;
   double lastSearchMs() const override { return inner_->lastSearchMs(); }
   double lastSearchDelayMs() const override { return search_delay_ms_; }
+  SearchPhases lastPhases() const override { return inner_->lastPhases(); }
   double lastLaunchToFinishMs() const override { return launch_to_finish_ms_; }
 
  private:

@@ -50,17 +50,6 @@ constexpr std::size_t kMinSlotsPerDeltaPart = 1024;
 // Step 7 counts the threads' pair batches in parallel when each holds this many.
 constexpr std::size_t kMinPairsPerParallelBatch = 8192;
 
-// The float's bits as an unsigned key with the same order: -inf < ... < -0 <
-// +0 < ... < +inf.  Not for NaN, which step 1 keeps out of the sort.
-std::uint32_t orderedBits(float value) {
-  const auto bits = std::bit_cast<std::uint32_t>(value);
-  return bits ^ ((bits >> 31) != 0 ? 0xFFFFFFFFu : 0x80000000u);
-}
-
-std::uint64_t sortEntry(const ObjectBounds& box, int axis, std::uint32_t slot) {
-  return (std::uint64_t{orderedBits(box.min[axis])} << 32) | slot;
-}
-
 bool hasNaN(const ObjectBounds& box) {
   bool nan = false;
   for (int axis = 0; axis < 3; ++axis) nan |= std::isnan(box.min[axis]) | std::isnan(box.max[axis]);
@@ -177,7 +166,7 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
     for (const std::uint64_t entry : entries_) {
       const auto slot = static_cast<std::uint32_t>(entry);
       if (slot < slot_count_ && placed_[slot] == 1) {
-        entries_[kept++] = sortEntry(objects[slot], sweep_axis_, slot);
+        entries_[kept++] = sap::sortEntry(objects[slot], sweep_axis_, slot);
         placed_[slot] = 2;  // 2: placed
       }
     }
@@ -185,7 +174,7 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
     for (std::size_t k = 0; kept < regular_.size() && k < regular_.size(); ++k) {
       const std::uint32_t slot = regular_[k];
       if (placed_[slot] == 1) {
-        entries_.push_back(sortEntry(objects[slot], sweep_axis_, slot));
+        entries_.push_back(sap::sortEntry(objects[slot], sweep_axis_, slot));
         ++kept;
       }
     }
@@ -195,7 +184,7 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
   }
   entries_.clear();
   for (const std::uint32_t slot : regular_)
-    entries_.push_back(sortEntry(objects[slot], sweep_axis_, slot));
+    entries_.push_back(sap::sortEntry(objects[slot], sweep_axis_, slot));
   radixSort();
 }
 
@@ -245,19 +234,6 @@ void CpuSapPairFinder::radixSort() {
     }
     entries_.swap(radix_scratch_);
   }
-}
-
-template <typename Body>
-void CpuSapPairFinder::forPieces(std::size_t count, std::size_t grain, const Body& body) {
-  if (arena_.max_concurrency() <= 1 || count < 2 * grain) {
-    body(std::size_t{0}, count);
-    return;
-  }
-  arena_.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, count, grain),
-        [&](const tbb::blocked_range<std::size_t>& range) { body(range.begin(), range.end()); });
-  });
 }
 
 void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
@@ -312,14 +288,21 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
   launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
 
-  const int last_sweep_axis = sweep_axis_;
-  chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
-  sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
-  layOut(objects);                                     // 4
-  sweep();                                             // 5
-  testInvertedBoxes(objects);                          // 6
-  computeDelta();                                      // 7
-
+  moved_only_ = searchMovedBoxes(objects);
+  if (!moved_only_) {
+    applyPendingChanges();
+    const int last_sweep_axis = sweep_axis_;
+    chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
+    sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
+    phases_.sort_ms = launch_watch_.ms();
+    layOut(objects);             // 4
+    sweep();                     // 5
+    testInvertedBoxes(objects);  // 6
+    phases_.sweep_ms = launch_watch_.ms() - phases_.sort_ms;
+    computeDelta();  // 7
+    keepFullFrame(objects);
+    phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
+  }
   last_search_ms_ = launch_watch_.ms();
   searched_ = true;
 }

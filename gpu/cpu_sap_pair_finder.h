@@ -22,13 +22,25 @@
 // finish() only hands the delta over; run it on its own thread
 // (gpu/background_pair_finder.h) for a launch() that returns at once.
 //
+// A frame in which few boxes changed (gpu/cpu_sap_moved_boxes.cpp) skips all
+// of that: the boxes that differ from last frame's are found by comparing
+// them, and only they are queried, each at its old and its new bounds,
+// against last full frame's layout (for the boxes unchanged since) and
+// against a small layout of the boxes changed since (the "dirty" ones); the
+// pairs that differ between the two queries are the delta.  Its cost follows
+// the moved boxes and their pairs, plus one comparison of each box's bytes.
+// The full search runs again once the dirty boxes pass a share of all, or
+// when a box is inverted.
+//
 // Invariants: the same inclusive test and filters as gpu/pair_logic.h, so
 // every frame's pairs are exactly cpubf's (its brute-force twin, kept as the
 // reference); the axes, the kernel and the thread count change the speed,
 // never the answer.  A launch() that throws keeps last frame's pairs.
 #pragma once
 
+#include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
 #include <array>
@@ -61,6 +73,9 @@ class CpuSapPairFinder final : public PairFinder {
   const sap::SlabGrid& slabs() const { return grid_; }
   // Whether the last search sorted by insertion on the frame before's order.
   bool lastSortWasIncremental() const { return sorted_incrementally_; }
+  // Whether the last search queried only the moved boxes.
+  bool lastSearchWasMovedOnly() const { return moved_only_; }
+  SearchPhases lastPhases() const override { return phases_; }
 
  private:
   // What step 1 measures of the swept boxes, per axis.
@@ -83,6 +98,15 @@ class CpuSapPairFinder final : public PairFinder {
   void sweep();
   void testInvertedBoxes(std::span<const ObjectBounds> objects);
   void computeDelta();
+  // The moved-box path: true when it found this frame's delta.
+  bool searchMovedBoxes(std::span<const ObjectBounds> objects);
+  bool findMovedBoxes(std::span<const ObjectBounds> objects);
+  void layOutDirtyBoxes(std::span<const ObjectBounds> objects, sap::SweepLayout& layout);
+  void queryMovedBoxes(std::span<const ObjectBounds> objects);
+  // After a full search: its boxes become the reference for the next moved-box frame.
+  void keepFullFrame(std::span<const ObjectBounds> objects);
+  // Folds the moved-box frames' changes into previous_.
+  void applyPendingChanges();
   // Runs body(first, end) over pieces of [0, count), on the finder's threads
   // when it has several and there are at least two pieces of `grain`.
   template <typename Body>
@@ -116,8 +140,39 @@ class CpuSapPairFinder final : public PairFinder {
   std::vector<IndexPair> added_, removed_;
   bool searched_ = false;
   double last_search_ms_ = 0;
+  SearchPhases phases_;
+
+  // The moved-box path's state.
+  bool moved_only_ = false;
+  bool have_full_frame_ = false;
+  std::vector<ObjectBounds> kept_;             // every slot's bounds as last searched
+  std::vector<std::uint8_t> dirty_flag_;       // per slot: changed since the full frame
+  std::vector<std::uint32_t> dirty_;           // those slots
+  std::vector<std::uint8_t> moved_flag_;       // per slot: changed this frame
+  std::vector<std::uint32_t> moved_;           // those slots
+  sap::SweepLayout dirty_before_, dirty_now_;  // the dirty boxes at kept_ and now
+  std::vector<std::uint64_t> dirty_entries_;
+  struct MovedPairs {
+    std::vector<std::uint32_t> before, now;  // one query's hits
+    std::vector<std::uint64_t> added, removed;
+  };
+  tbb::enumerable_thread_specific<MovedPairs> moved_pairs_;
+  std::vector<std::uint64_t> pending_added_, pending_removed_;  // since previous_ was built
   HostStopwatch launch_watch_;
   double last_launch_to_finish_ms_ = 0;
 };
+
+template <typename Body>
+void CpuSapPairFinder::forPieces(std::size_t count, std::size_t grain, const Body& body) {
+  if (arena_.max_concurrency() <= 1 || count < 2 * grain) {
+    body(std::size_t{0}, count);
+    return;
+  }
+  arena_.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, count, grain),
+        [&](const tbb::blocked_range<std::size_t>& range) { body(range.begin(), range.end()); });
+  });
+}
 
 }  // namespace overlap::gpu

@@ -63,6 +63,14 @@ struct PairDelta {
   std::span<const IndexPair> removed;
 };
 
+// Where a search's time went, for the finders that split it (cpusap); zero
+// where a finder does not.
+struct SearchPhases {
+  double sort_ms = 0;   // sorting the boxes (or finding the moved ones)
+  double sweep_ms = 0;  // finding the overlapping pairs
+  double delta_ms = 0;  // turning them into added and removed pairs
+};
+
 class PairFinder {
  public:
   virtual ~PairFinder() = default;
@@ -88,6 +96,8 @@ class PairFinder {
   // starts at once; a CPU worker that has to wake up (or wait for a core) may
   // not, and a measure of what overlapped the search must start it there.
   virtual double lastSearchDelayMs() const { return 0; }
+  // The last finished search's phases.
+  virtual SearchPhases lastPhases() const { return {}; }
 };
 
 enum class PairFinderKind {

@@ -245,6 +245,43 @@ void SweepLayout::gather(std::uint32_t first, std::uint32_t end) {
   }
 }
 
+void SweepLayout::indexForQueries() {
+  const std::size_t slabs = slab_starts_.size() - 1;
+  longest_.assign(slabs, 0);
+  for (std::size_t slab = 0; slab < slabs; ++slab) {
+    for (std::uint32_t i = slab_starts_[slab]; i + kLanes < slab_starts_[slab + 1]; ++i) {
+      longest_[slab] = std::max(longest_[slab], double{sweep_max_[i]} - double{sweep_min_[i]});
+    }
+  }
+}
+
+void SweepLayout::query(const ObjectBounds& box, const SlabGrid& grid,
+                        std::vector<std::uint32_t>& hits) const {
+  const auto [sweep_axis, slab_axis, third_axis] = axes_;
+  const std::uint32_t first_slab = grid.slabOf(box.min[slab_axis]);
+  const std::uint32_t last_slab = grid.slabOf(box.max[slab_axis]);
+  for (std::uint32_t slab = first_slab; slab <= last_slab && slab < longest_.size(); ++slab) {
+    const float* const begin = sweep_min_.data() + slab_starts_[slab];
+    const float* const end = sweep_min_.data() + slab_starts_[slab + 1] - kLanes;
+    // A box of this slab that starts before this bound ends before `box`
+    // starts; the margin only widens the scan against rounding.
+    const double reach = double{box.min[sweep_axis]} - longest_[slab] * (1 + 1e-6) - 1e-30;
+    const float* i = std::lower_bound(begin, end, reach,
+                                      [](float value, double bound) { return value < bound; });
+    for (; i != end && *i <= box.max[sweep_axis]; ++i) {
+      const auto k = static_cast<std::size_t>(i - sweep_min_.data());
+      const bool pairs_with = (box.min[sweep_axis] <= sweep_max_[k]) &
+                              pair_logic::intervalsOverlap(box.min[slab_axis], box.max[slab_axis],
+                                                           other_min_[0][k], other_max_[0][k]) &
+                              pair_logic::intervalsOverlap(box.min[third_axis], box.max[third_axis],
+                                                           other_min_[1][k], other_max_[1][k]) &
+                              pair_logic::filtersAccept(box.group, box.mask, group_[k], mask_[k]) &
+                              ((slab == first_slab) | (starts_here_[k] != 0));
+      if (pairs_with) hits.push_back(slot_[k]);
+    }
+  }
+}
+
 void SweepLayout::cutChunks(std::size_t chunks, std::vector<std::uint32_t>& starts) const {
   const auto work = [&](std::uint32_t i, double fixed) {
     const float extent = sweep_max_[i] - sweep_min_[i];  // NaN for padding

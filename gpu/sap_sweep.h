@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -45,6 +46,18 @@ enum class SweepKernel {
 
 // True when this CPU (and this build) can run the AVX2 kernel.
 bool avx2Available();
+
+// The float's bits as an unsigned key with the same order: -inf < ... < -0 <
+// +0 < ... < +inf.  Not for NaN, which cpusap keeps out of its sorts.
+inline std::uint32_t orderedBits(float value) {
+  const auto bits = std::bit_cast<std::uint32_t>(value);
+  return bits ^ ((bits >> 31) != 0 ? 0xFFFFFFFFu : 0x80000000u);
+}
+
+// What cpusap sorts: the key of the box's min on `axis`, then the slot.
+inline std::uint64_t sortEntry(const ObjectBounds& box, int axis, std::uint32_t slot) {
+  return (std::uint64_t{orderedBits(box.min[axis])} << 32) | slot;
+}
 
 // Slabs of equal width along the slab axis, the outer ones open-ended.
 struct SlabGrid {
@@ -89,6 +102,14 @@ class SweepLayout {
   // kAvx2 (the latter only where avx2Available()).
   void sweep(SweepKernel kernel, std::uint32_t first, std::uint32_t end, PairKeys& pairs) const;
 
+  // Queries of single boxes (cpusap's moved boxes), after gather():
+  // indexForQueries() notes each slab's longest box on the sweep axis;
+  // query() then appends to `hits` the slot of every laid-out box that pairs
+  // with `box` (pair_logic's test on the laid-out bounds), each once.  `box`
+  // must have min <= max and no NaN; `grid` is the one plan() was given.
+  void indexForQueries();
+  void query(const ObjectBounds& box, const SlabGrid& grid, std::vector<std::uint32_t>& hits) const;
+
  private:
   std::vector<float> sweep_min_, sweep_max_;
   std::vector<float> other_min_[2], other_max_[2];  // [0]: the slab axis
@@ -99,9 +120,11 @@ class SweepLayout {
   std::vector<std::uint32_t> slot_;  // kPaddingSlot for padding
   static constexpr std::uint32_t kPaddingSlot = 0xFFFFFFFFu;
   std::span<const ObjectBounds> objects_;
-  std::array<int, 3> axes_{};                             // sweep, slab, third
-  std::vector<std::uint32_t> slab_starts_, slab_cursor_;  // scratch
-  std::vector<std::uint32_t> first_slab_, last_slab_;     // scratch, per sorted box
+  std::array<int, 3> axes_{};               // sweep, slab, third
+  std::vector<std::uint32_t> slab_starts_;  // slab s is [starts[s], starts[s + 1] - kLanes)
+  std::vector<double> longest_;             // per slab: indexForQueries()
+  std::vector<std::uint32_t> slab_cursor_;  // scratch
+  std::vector<std::uint32_t> first_slab_, last_slab_;  // scratch, per sorted box
 };
 
 }  // namespace overlap::gpu::sap

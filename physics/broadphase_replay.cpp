@@ -3,9 +3,11 @@
 #include <btBulletCollisionCommon.h>
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 
 #include "physics/broadphase_factory.h"
+#include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 
@@ -17,7 +19,16 @@ struct BroadphaseReplay::Bullet {
   std::vector<int> indices;  // proxies' user pointers point here
 
   ~Bullet() {
-    for (btBroadphaseProxy* proxy : proxies) broadphase->destroyProxy(proxy, &dispatcher);
+    if (broadphase == nullptr) return;  // the factory refused the algorithm or the count
+    // Every pair at once: destroyProxy() alone would walk the whole cache for
+    // each proxy (Bullet's removeOverlappingPairsContainingProxy), n times.
+    struct RemoveEvery final : btOverlapCallback {
+      bool processOverlap(btBroadphasePair& /*pair*/) override { return true; }
+    } remove_every;
+    broadphase->getOverlappingPairCache()->processAllOverlappingPairs(&remove_every, &dispatcher);
+    for (btBroadphaseProxy* proxy : proxies) {
+      if (proxy != nullptr) broadphase->destroyProxy(proxy, &dispatcher);
+    }
   }
 };
 
@@ -46,11 +57,15 @@ BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world
 
 BroadphaseReplay::~BroadphaseReplay() = default;
 
-void BroadphaseReplay::update(std::span<const Aabb> boxes) {
+void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::uint8_t> present) {
   Bullet& b = *bullet_;
-  if (boxes.size() != b.indices.size()) {
+  if (boxes.size() != b.indices.size() || (!present.empty() && present.size() != boxes.size())) {
     throw std::invalid_argument("replay: frame has " + std::to_string(boxes.size()) +
                                 " boxes, expected " + std::to_string(b.indices.size()));
+  }
+  if (!present.empty()) {
+    updatePresent(boxes, present);
+    return;
   }
   // Proxies are created at the first frame's boxes: SAP and DBVT pair a new
   // proxy with everything it overlaps at once, so n proxies created at one
@@ -68,6 +83,41 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes) {
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
   }
+}
+
+void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
+                                     std::span<const std::uint8_t> present) {
+  Bullet& b = *bullet_;
+  b.proxies.resize(boxes.size(), nullptr);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (present[i] == 0 && b.proxies[i] != nullptr) {
+      b.broadphase->destroyProxy(b.proxies[i], &b.dispatcher);
+      b.proxies[i] = nullptr;
+    }
+  }
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (present[i] == 0) continue;
+    if (b.proxies[i] == nullptr) {
+      b.proxies[i] = b.broadphase->createProxy(
+          corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
+          btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher);
+    } else {
+      b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max),
+                            &b.dispatcher);
+    }
+  }
+}
+
+std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
+  const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
+  if (ours == nullptr) return std::nullopt;
+  const gpu::SearchPhases split = ours->lastPhases();
+  const SearchTimes& times = ours->lastSearch();
+  const auto ms = [](std::chrono::steady_clock::duration span) {
+    return std::chrono::duration<double, std::milli>(span).count();
+  };
+  return ReplayPhases{ms(times.searched), split.sort_ms, split.sweep_ms, split.delta_ms,
+                      ms(times.finished - times.answered)};
 }
 
 void BroadphaseReplay::findPairs() {

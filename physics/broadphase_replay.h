@@ -6,12 +6,16 @@
 // update its pair cache, and pairs() reads the cache back.
 // It is how `overlap pairs` and the broadphase benchmark drive Bullet's
 // broadphases and ours through the same btBroadphaseInterface, with the same
-// pair cache the simulation uses.
+// pair cache the simulation uses.  With a presence mask an update() also
+// destroys the proxies of the objects absent this frame and creates those of
+// the objects that came back (insertion and removal).
 #pragma once
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -34,6 +38,15 @@ inline std::size_t countMissing(const PairList& wanted, const PairList& held) {
   return missing;
 }
 
+// Where one findPairs() of one of our broadphases (physics/pair_finder_broadphase.h) went.
+struct ReplayPhases {
+  double search_ms = 0;        // the finder's search by its own clock
+  double sort_ms = 0;          // of it: sorting (cpusap; 0 for the others)
+  double sweep_ms = 0;         //   finding the pairs
+  double delta_ms = 0;         //   turning them into changes
+  double cache_update_ms = 0;  // applying the changes to Bullet's pair cache
+};
+
 class BroadphaseReplay {
  public:
   // `world` bounds every box of the stream (SAP quantizes inside it).
@@ -46,15 +59,20 @@ class BroadphaseReplay {
   const std::string& notice() const { return notice_; }
 
   // Writes the frame's AABBs (one per object) into the broadphase; the first
-  // call creates the proxies there.
-  void update(std::span<const Aabb> boxes);
+  // call creates the proxies there.  With `present` (one entry per object),
+  // an object whose entry is 0 has no proxy this frame: it is destroyed if it
+  // had one, and created again at its box when its entry is 1 again.
+  void update(std::span<const Aabb> boxes, std::span<const std::uint8_t> present = {});
   // Finds the pairs and updates the persistent pair cache.
   void findPairs();
   // The cache's pairs as object indices (a < b), sorted.
   PairList pairs() const;
+  // The last findPairs()'s split, for our broadphases only.
+  std::optional<ReplayPhases> lastPhases() const;
 
  private:
   struct Bullet;
+  void updatePresent(std::span<const Aabb> boxes, std::span<const std::uint8_t> present);
   std::string algorithm_;
   std::string notice_;
   std::unique_ptr<Bullet> bullet_;

@@ -191,6 +191,7 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
   last_search_.joined = std::chrono::steady_clock::now();
   search_in_flight_ = false;
   const gpu::PairDelta delta = finder_->finish();
+  last_search_.answered = std::chrono::steady_clock::now();
   // A pair with a destroyed proxy already left the cache with it, and one it
   // gained after launch is stale: only pairs of two live proxies apply.
   const auto bothLive = [&](const gpu::IndexPair& pair) {

@@ -80,6 +80,8 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
 
   // The last finished search's times.
   const SearchTimes& lastSearch() const { return last_search_; }
+  // The finder's split of its last search (cpusap's sort, sweep and delta).
+  gpu::SearchPhases lastPhases() const { return finder_->lastPhases(); }
   bool searchInFlight() const { return search_in_flight_; }
 
  private:

@@ -7,7 +7,6 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
-#include <unordered_map>
 
 #include "gpu/base/random.h"
 
@@ -57,18 +56,28 @@ std::vector<std::pair<double, SizeClass>> drawSizes(const SceneConfig& config,
 
 // Uniform grid over placed bounding spheres; a cell is as wide as the largest
 // sphere's diameter, so a new sphere only needs to check the 27 cells around it.
+// Each cell heads a list threaded through the spheres (flat arrays: a
+// million boxes place in seconds).
 class SphereGrid {
  public:
-  SphereGrid(double half_extent, double cell) : half_extent_(half_extent), cell_(cell) {}
+  SphereGrid(double half_extent, double cell, std::size_t spheres)
+      : half_extent_(half_extent),
+        cell_(cell),
+        cells_(std::max(1, static_cast<int>(std::ceil(2 * half_extent / cell)))),
+        head_(static_cast<std::size_t>(cells_) * cells_ * cells_, -1) {
+    spheres_.reserve(spheres);
+    next_.reserve(spheres);
+  }
 
   bool overlapsAny(const Eigen::Vector3d& centre, double radius) const {
     const Eigen::Vector3i c = cellOf(centre);
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = cells_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
-          if (it == cells_.end()) continue;
-          for (const auto& [other, other_radius] : it->second) {
+          const Eigen::Vector3i near = c + Eigen::Vector3i(dx, dy, dz);
+          if ((near.array() < 0).any() || (near.array() >= cells_).any()) continue;
+          for (std::int32_t i = head_[index(near)]; i >= 0; i = next_[i]) {
+            const auto& [other, other_radius] = spheres_[i];
             const double reach = radius + other_radius;
             if ((other - centre).squaredNorm() < reach * reach) return true;
           }
@@ -79,21 +88,30 @@ class SphereGrid {
   }
 
   void insert(const Eigen::Vector3d& centre, double radius) {
-    cells_[key(cellOf(centre))].emplace_back(centre, radius);
+    std::int32_t& head = head_[index(cellOf(centre))];
+    next_.push_back(head);
+    head = static_cast<std::int32_t>(spheres_.size());
+    spheres_.emplace_back(centre, radius);
   }
 
  private:
   Eigen::Vector3i cellOf(const Eigen::Vector3d& p) const {
-    return ((p.array() + half_extent_) / cell_).floor().cast<int>();
+    return ((p.array() + half_extent_) / cell_)
+        .floor()
+        .cast<int>()
+        .cwiseMax(0)
+        .cwiseMin(cells_ - 1);
   }
-  static std::int64_t key(const Eigen::Vector3i& c) {
-    return (static_cast<std::int64_t>(c.x() + 1) << 42) ^
-           (static_cast<std::int64_t>(c.y() + 1) << 21) ^ static_cast<std::int64_t>(c.z() + 1);
+  std::size_t index(const Eigen::Vector3i& c) const {
+    return (static_cast<std::size_t>(c.z()) * cells_ + c.y()) * cells_ + c.x();
   }
 
   double half_extent_;
   double cell_;
-  std::unordered_map<std::int64_t, std::vector<std::pair<Eigen::Vector3d, double>>> cells_;
+  int cells_;                       // per axis
+  std::vector<std::int32_t> head_;  // per cell: its last sphere, -1 for none
+  std::vector<std::int32_t> next_;  // per sphere: the one before it in its cell
+  std::vector<std::pair<Eigen::Vector3d, double>> spheres_;
 };
 
 // Uniformly distributed rotation (Shoemake's method).
@@ -112,7 +130,7 @@ Eigen::Quaterniond randomOrientation(SeededRandom& random) {
 std::optional<std::size_t> placeBoxes(const std::vector<std::pair<double, SizeClass>>& sizes,
                                       const std::vector<std::size_t>& order, SceneLayout& layout,
                                       double cell, int max_tries, SeededRandom& random) {
-  SphereGrid grid(layout.half_extent, cell);
+  SphereGrid grid(layout.half_extent, cell, sizes.size());
   for (const std::size_t i : order) {
     const double radius = sizes[i].first * kSqrt3 / 2;
     const double reach = layout.half_extent - radius;  // sphere stays off the walls

@@ -15,6 +15,8 @@ struct SearchTimes {
   std::chrono::steady_clock::duration searched{};  // by the search's own clock (GPU events,
                                                    // or the searching thread's)
   std::chrono::steady_clock::time_point joined;    // the caller began to wait
+  std::chrono::steady_clock::time_point answered;  // the finder's changes in hand: the
+                                                   // pair-cache update begins
   std::chrono::steady_clock::time_point finished;  // the wait over, the pair cache updated
 };
 

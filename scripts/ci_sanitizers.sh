@@ -21,7 +21,8 @@ readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
 # The threaded tests: their labels and the targets that hold them
 # (tests/*/CMakeLists.txt); engine's CLI tests run the `overlap` binary.
 readonly TSAN_LABELS="gpu|engine|scheduler|stubs"
-readonly TSAN_TARGETS=(overlap_gpu_tests overlap_engine_tests overlap_scheduler_tests stubs_tests)
+readonly TSAN_TARGETS=(overlap_gpu_tests overlap_engine_tests overlap_scheduler_tests stubs_tests
+                      overlap_stream_tests)
 
 section() { printf '\n== %s: %s\n' "$(date +%T)" "$*"; }
 

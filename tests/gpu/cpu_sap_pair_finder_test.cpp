@@ -216,6 +216,64 @@ TEST(CpuSapPairFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
   }
 }
 
+TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
+  // 1% of the boxes move each frame, far or by a hair, some become unused
+  // or NaN and come back; every few frames many move, forcing a full search
+  // that must take over the moved-box frames' pairs.
+  std::vector<ObjectBounds> boxes = pile(3000, 0);
+  const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
+  CpuSapPairFinder sap;
+  CpuPairFinder brute_force;
+  std::vector<IndexPair> pairs;
+  std::mt19937 random(11);
+  int moved_only = 0, full_after_moved_only = 0;
+  bool last_was_moved_only = false;
+  for (int frame = 0; frame < 40; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    const std::size_t moving = frame % 9 == 8 ? 400 : 30;
+    for (std::size_t k = 0; k < moving; ++k) {
+      const std::size_t i = random() % boxes.size();
+      switch (random() % 6) {
+        case 0:
+          boxes[i] = ObjectBounds{};
+          break;
+        case 1:
+          boxes[i].min[0] = kNaN;
+          break;
+        case 2:
+          boxes[i].max[1] = std::nextafter(boxes[i].max[1], kInf);
+          break;
+        default:
+          boxes[i] = elsewhere[random() % elsewhere.size()];
+      }
+    }
+    ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
+    if (last_was_moved_only && !sap.lastSearchWasMovedOnly()) ++full_after_moved_only;
+    last_was_moved_only = sap.lastSearchWasMovedOnly();
+    moved_only += last_was_moved_only ? 1 : 0;
+  }
+  EXPECT_GE(moved_only, 20) << "few moved boxes should not need the full search";
+  EXPECT_GE(full_after_moved_only, 3);
+  // And a frame where nothing moved changes nothing.
+  sap.launch(boxes);
+  const PairDelta none = sap.finish();
+  EXPECT_TRUE(sap.lastSearchWasMovedOnly());
+  EXPECT_TRUE(none.added.empty() && none.removed.empty());
+}
+
+TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
+  std::vector<ObjectBounds> boxes = pile(1000, 0);
+  CpuSapPairFinder sap;
+  CpuPairFinder brute_force;
+  ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
+  boxes[17] = box(5, 5, 5, 4, 6, 6);
+  ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
+  EXPECT_FALSE(sap.lastSearchWasMovedOnly());
+  boxes[18] = box(1, 1, 1, 2, 2, 2);
+  ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
+  EXPECT_FALSE(sap.lastSearchWasMovedOnly()) << "an inverted box is swept by the full search only";
+}
+
 TEST(CpuSapPairFinderTest, RejectsANegativeThreadCountAndMisuse) {
   EXPECT_THROW(CpuSapPairFinder(-1), std::runtime_error);
   CpuSapPairFinder finder;

@@ -1,0 +1,138 @@
+#include "engine/bench_replay.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "engine/cli_errors.h"
+#include "gpu/grid_pair_checker.h"
+
+namespace overlap::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double usSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+}
+
+// SplitMix64's finalizer: a well-mixed hash of (seed, frame, object).
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+physics::PairList presentPairs(const physics::PairList& all,
+                               const std::vector<std::uint8_t>& present) {
+  physics::PairList kept;
+  for (const auto& [a, b] : all) {
+    if (present[static_cast<std::size_t>(a)] != 0 && present[static_cast<std::size_t>(b)] != 0) {
+      kept.emplace_back(a, b);
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> presentObjects(std::uint64_t seed, int frame, int objects, double churn) {
+  std::vector<std::uint8_t> present(static_cast<std::size_t>(objects), 1);
+  if (churn <= 0) return present;
+  const double absent = (1 - std::sqrt(1 - 4 * std::min(churn, 0.25))) / 2;
+  const auto threshold = static_cast<std::uint64_t>(absent * 0x1.0p64);
+  for (int i = 0; i < objects; ++i) {
+    const std::uint64_t draw =
+        mix(seed ^ mix((static_cast<std::uint64_t>(frame) << 32) | static_cast<std::uint32_t>(i)));
+    present[static_cast<std::size_t>(i)] = draw < threshold ? 0 : 1;
+  }
+  return present;
+}
+
+std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& stream) {
+  std::vector<physics::PairList> reference;
+  std::vector<gpu::ObjectBounds> bounds(static_cast<std::size_t>(stream.objects));
+  for (int frame = 0; frame < stream.stored_frames; ++frame) {
+    const auto boxes = stream.frame(frame);
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      for (int axis = 0; axis < 3; ++axis) {
+        bounds[i].min[axis] = boxes[i].min[axis];
+        bounds[i].max[axis] = boxes[i].max[axis];
+      }
+      bounds[i].group = bounds[i].mask = 1;
+    }
+    physics::PairList pairs;
+    for (const std::uint64_t key : gpu::gridCheckerPairs(bounds)) {
+      pairs.emplace_back(static_cast<int>(key >> 32), static_cast<int>(key & 0xFFFFFFFFu));
+    }
+    reference.push_back(std::move(pairs));
+  }
+  return reference;
+}
+
+void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
+                std::vector<physics::PairList>& reference, bool has_reference, Row& row) {
+  std::optional<physics::BroadphaseReplay> made;
+  try {
+    made.emplace(row.algorithm, stream.world, stream.objects);
+  } catch (const std::invalid_argument& error) {  // e.g. sap beyond 32765 boxes
+    throw UsageError(std::string(error.what()) + " (n = " + std::to_string(stream.objects) + ")");
+  }
+  physics::BroadphaseReplay& replay = *made;
+  if (replay.algorithm() != row.algorithm) {
+    throw std::runtime_error("algorithm " + row.algorithm + " ran as " + replay.algorithm() + ": " +
+                             replay.notice());
+  }
+  const bool fills_reference = has_reference && reference.empty();
+  if (fills_reference && row.churn > 0) {
+    throw std::logic_error("replayOnce: a churn replay cannot be the reference");
+  }
+  std::vector<double> frame_us, update_us, sort_us, sweep_us, delta_us, cache_us;
+  for (int frame = 0; frame < stream.stored_frames; ++frame) {
+    std::vector<std::uint8_t> present;
+    if (row.churn > 0) present = presentObjects(seed, frame, stream.objects, row.churn);
+    const Clock::time_point start = Clock::now();
+    replay.update(stream.frame(frame), present);
+    const double updated_us = usSince(start);
+    replay.findPairs();
+    const double elapsed_us = usSince(start);
+
+    physics::PairList pairs = replay.pairs();
+    const bool measured = frame >= warmup;
+    if (measured) {
+      frame_us.push_back(elapsed_us);
+      update_us.push_back(updated_us);
+      if (const auto phases = replay.lastPhases()) {
+        sort_us.push_back(1e3 * phases->sort_ms);
+        sweep_us.push_back(1e3 * phases->sweep_ms);
+        delta_us.push_back(1e3 * phases->delta_ms);
+        cache_us.push_back(1e3 * phases->cache_update_ms);
+      }
+      row.pairs_sum += static_cast<double>(pairs.size());
+    }
+    if (fills_reference) {
+      reference.push_back(std::move(pairs));
+    } else if (has_reference) {
+      const physics::PairList& all = reference[static_cast<std::size_t>(frame)];
+      const physics::PairList exact =
+          row.churn > 0 ? presentPairs(all, present) : physics::PairList{};
+      const physics::PairList& wanted = row.churn > 0 ? exact : all;
+      const std::size_t extra = physics::countMissing(pairs, wanted);
+      const std::size_t missed = physics::countMissing(wanted, pairs);
+      if (measured) row.extra_sum += static_cast<double>(extra);
+      row.missed += static_cast<long long>(missed);
+      if (extra + missed > 0) ++row.mismatched_frames;
+    }
+  }
+  row.repeat_medians_us.push_back(median(std::move(frame_us)));
+  row.update_us.push_back(median(std::move(update_us)));
+  if (!sort_us.empty()) {
+    row.sort_us.push_back(median(std::move(sort_us)));
+    row.sweep_us.push_back(median(std::move(sweep_us)));
+    row.delta_us.push_back(median(std::move(delta_us)));
+    row.cache_us.push_back(median(std::move(cache_us)));
+  }
+}
+
+}  // namespace overlap::engine

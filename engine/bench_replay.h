@@ -1,0 +1,64 @@
+// One replay of the broadphase benchmark (engine/bench_broadphase.cpp): a
+// stream through one broadphase, each frame timed and checked, and the
+// row of figures the replays of one (stream, algorithm, churn) add up to.
+//
+// A frame's time is update() (the boxes written into the broadphase, and
+// with churn the proxies destroyed and created) plus findPairs(), on the
+// steady clock.  With churn share s > 0, the objects absent in a frame are a
+// fresh seeded draw, each with probability p, p (1 - p) = s, so that about
+// s of the boxes are destroyed and s created every frame; the exact set of
+// such a frame is the full frame's pairs between two present objects.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/statistics.h"
+#include "physics/aabb_stream.h"
+#include "physics/broadphase_replay.h"
+
+namespace overlap::engine {
+
+struct Row {
+  int objects = 0;
+  std::string algorithm;
+  std::string stream;  // the --input file, empty for a recorded stream
+  double churn = 0;    // share of boxes destroyed and created per frame
+  int frames = 0;      // measured frames per repeat
+  std::vector<double> repeat_medians_us;
+  // Per repeat, the median measured frame's parts (our broadphases only):
+  // update (setAabb), sort, sweep, delta, the pair-cache update.
+  std::vector<double> update_us, sort_us, sweep_us, delta_us, cache_us;
+  std::optional<std::string> reference;  // the exact set's algorithm, if any ran
+  double pairs_sum = 0;
+  double extra_sum = 0;
+  long long mismatched_frames = 0;  // exact algorithms: frames that differ from the reference
+  long long missed = 0;
+  std::optional<double> ratio_vs_bvh;
+
+  double medianUs() const { return median(repeat_medians_us); }
+  double pairsMean() const { return pairs_sum / (frames * static_cast<double>(repeats())); }
+  double extraMean() const { return extra_sum / (frames * static_cast<double>(repeats())); }
+  int repeats() const { return static_cast<int>(repeat_medians_us.size()); }
+  bool hasPhases() const { return !sort_us.empty(); }
+  // Whether its pairs were compared with a reference: not the reference's
+  // own plain replay.
+  bool checked() const { return reference && (algorithm != *reference || churn > 0); }
+};
+
+// Which objects are present in `frame` at churn share `churn` (all at 0).
+std::vector<std::uint8_t> presentObjects(std::uint64_t seed, int frame, int objects, double churn);
+
+// Every frame's exact pairs by gpu/grid_pair_checker.h.
+std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& stream);
+
+// Replays the whole stream once in a fresh broadphase and adds one repeat to
+// `row`.  With `has_reference` and `reference` empty it fills it (this
+// algorithm is the reference; only without churn); otherwise every frame is
+// checked against it.  Throws UsageError for a count the algorithm cannot hold.
+void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
+                std::vector<physics::PairList>& reference, bool has_reference, Row& row);
+
+}  // namespace overlap::engine

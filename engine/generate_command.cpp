@@ -1,0 +1,76 @@
+// `overlap generate`: a scene's AABB stream from engine/stream_generator.h's
+// model, without Bullet, in the .aabbs layout `overlap pairs` and
+// overlap_bench_broadphase --input read.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "engine/cli_errors.h"
+#include "engine/commands.h"
+#include "engine/number_options.h"
+#include "engine/scene_options.h"
+#include "engine/stream_generator.h"
+#include "physics/aabb_stream.h"
+
+namespace overlap::engine {
+namespace {
+
+struct GenerateOptions {
+  SceneOptions scene;
+  int frames = 16;
+  int skip = 0;
+  double moving = 1.0;
+  std::filesystem::path out;
+};
+
+void generate(const GenerateOptions& options) {
+  const physics::SceneConfig config = options.scene.resolve();
+  prepareOutputFile(options.out, "--out");
+  const auto start = std::chrono::steady_clock::now();
+  physics::AabbStream stream;
+  try {
+    stream = generateStream(config, options.frames, options.skip, options.moving);
+  } catch (const std::invalid_argument& error) {  // a scene the options cannot build
+    throw UsageError(std::string("--") + error.what());
+  }
+  physics::writeAabbStream(options.out, stream);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::fprintf(stderr,
+               "overlap generate: wrote %s (%d objects, the start and %d frames) in %.1f s\n",
+               options.out.string().c_str(), stream.objects, stream.stored_frames - 1, seconds);
+}
+
+}  // namespace
+
+void addGenerateCommand(CLI::App& app) {
+  auto options = std::make_shared<GenerateOptions>();
+  CLI::App* command = app.add_subcommand(
+      "generate", "write a scene's AABBs as a Broadmark .aabbs file from a model, without Bullet");
+  options->scene.addTo(*command);
+  command
+      ->add_option("--frames", options->frames,
+                   "frames to write, each --frame-time long (F; F + 1 are stored)")
+      ->check(wholeNumberIn(1, kMostFrames))
+      ->capture_default_str();
+  command
+      ->add_option("--skip", options->skip,
+                   "frames run before the first one stored (e.g. until the pile has formed)")
+      ->check(wholeNumberIn(0, kMostFrames))
+      ->capture_default_str();
+  command
+      ->add_option("--moving", options->moving,
+                   "share of the boxes that move after the first stored frame; the others keep "
+                   "its AABB")
+      ->check(realNumberIn(0.0, 1.0))
+      ->capture_default_str();
+  command->add_option("--out", options->out, "the .aabbs file to write")->required();
+  command->footer(
+      "The model (engine/stream_generator.h) moves the scene's boxes like the simulation, "
+      "without collisions between them.\nExample:\n"
+      "  overlap generate --scene 4 --objects 1000000 --frames 16 --out scene4_1M.aabbs");
+  command->callback([options] { generate(*options); });
+}
+
+}  // namespace overlap::engine

@@ -1,0 +1,208 @@
+// cpusap's moved-box path (gpu/cpu_sap_pair_finder.h): a frame in which few
+// boxes changed costs in proportion to them and their pairs.
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iterator>
+
+#include "gpu/base/stopwatch.h"
+#include "gpu/cpu_sap_pair_finder.h"
+#include "gpu/pair_logic.h"
+
+namespace overlap::gpu {
+namespace {
+
+// The moved-box path runs while the boxes changed since the last full frame
+// are at most this share of all: each moved box costs two queries, and the
+// dirty boxes' own layouts are rebuilt every frame.
+constexpr std::size_t kDirtyShareDivisor = 16;
+// Moved boxes per piece of parallel queries.
+constexpr std::size_t kMovedPerPiece = 256;
+
+bool sameBounds(const ObjectBounds& a, const ObjectBounds& b) {
+  return std::memcmp(&a, &b, sizeof(ObjectBounds)) == 0;
+}
+
+// Swept by the layouts: used, no NaN, min <= max (what sortOutBoxes() calls regular).
+bool searchable(const ObjectBounds& box) {
+  bool fine = box.group != 0 && box.mask != 0;
+  for (int axis = 0; axis < 3; ++axis) fine &= box.min[axis] <= box.max[axis];
+  return fine;
+}
+
+bool inverted(const ObjectBounds& box) {
+  bool any = false, nan = false;
+  for (int axis = 0; axis < 3; ++axis) {
+    any |= box.min[axis] > box.max[axis];
+    nan |= std::isnan(box.min[axis]) | std::isnan(box.max[axis]);
+  }
+  return any && !nan;
+}
+
+// sorted := (sorted \ minus) u plus, all sorted, `plus` disjoint from `sorted`.
+void replaceSorted(std::vector<std::uint64_t>& sorted, const std::vector<std::uint64_t>& minus,
+                   const std::vector<std::uint64_t>& plus, std::vector<std::uint64_t>& scratch) {
+  scratch.clear();
+  std::set_difference(sorted.begin(), sorted.end(), minus.begin(), minus.end(),
+                      std::back_inserter(scratch));
+  sorted.clear();
+  std::set_union(scratch.begin(), scratch.end(), plus.begin(), plus.end(),
+                 std::back_inserter(sorted));
+}
+
+}  // namespace
+
+void CpuSapPairFinder::keepFullFrame(std::span<const ObjectBounds> objects) {
+  kept_.assign(objects.begin(), objects.begin() + slot_count_);
+  for (const std::uint32_t slot : dirty_) dirty_flag_[slot] = 0;
+  dirty_flag_.resize(slot_count_, 0);
+  moved_flag_.resize(slot_count_, 0);
+  dirty_.clear();
+  layout_.indexForQueries();
+  have_full_frame_ = inverted_.empty();
+}
+
+bool CpuSapPairFinder::findMovedBoxes(std::span<const ObjectBounds> objects) {
+  moved_.clear();
+  if (!have_full_frame_ || objects.size() != kept_.size()) return false;
+  const std::size_t limit = kept_.size() / kDirtyShareDivisor;
+  for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+    if (sameBounds(objects[slot], kept_[slot])) continue;
+    if (inverted(objects[slot])) return false;
+    moved_.push_back(slot);
+    if (dirty_flag_[slot] == 0 && dirty_.size() + moved_.size() > limit) return false;
+  }
+  return true;
+}
+
+void CpuSapPairFinder::layOutDirtyBoxes(std::span<const ObjectBounds> objects,
+                                        sap::SweepLayout& layout) {
+  dirty_entries_.clear();
+  for (const std::uint32_t slot : dirty_) {
+    if (searchable(objects[slot])) {
+      dirty_entries_.push_back(sap::sortEntry(objects[slot], sweep_axis_, slot));
+    }
+  }
+  std::sort(dirty_entries_.begin(), dirty_entries_.end());
+  layout.plan(objects, dirty_entries_, sweep_axis_, slab_axis_, grid_);
+  layout.gather(0, layout.size());
+  layout.indexForQueries();
+}
+
+void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
+  // One side's partners of `slot`: the clean boxes from the full frame's
+  // layout, the dirty ones from that side's own layout; itself and the moved
+  // boxes below it (which report the pair themselves) left out, sorted.
+  const auto partners = [&](std::uint32_t slot, const ObjectBounds& box,
+                            const sap::SweepLayout& dirty, std::vector<std::uint32_t>& hits) {
+    hits.clear();
+    if (!searchable(box)) return;
+    layout_.query(box, grid_, hits);
+    hits.erase(std::remove_if(hits.begin(), hits.end(),
+                              [&](std::uint32_t other) { return dirty_flag_[other] != 0; }),
+               hits.end());
+    dirty.query(box, grid_, hits);
+    hits.erase(std::remove_if(hits.begin(), hits.end(),
+                              [&](std::uint32_t other) {
+                                return other == slot || (moved_flag_[other] != 0 && other < slot);
+                              }),
+               hits.end());
+    std::sort(hits.begin(), hits.end());
+  };
+  for (MovedPairs& pairs : moved_pairs_) {
+    pairs.added.clear();
+    pairs.removed.clear();
+  }
+  forPieces(moved_.size(), kMovedPerPiece, [&](std::size_t first, std::size_t end) {
+    MovedPairs& pairs = moved_pairs_.local();
+    for (std::size_t k = first; k < end; ++k) {
+      const std::uint32_t slot = moved_[k];
+      partners(slot, kept_[slot], dirty_before_, pairs.before);
+      partners(slot, objects[slot], dirty_now_, pairs.now);
+      std::size_t i = 0, j = 0;
+      while (i < pairs.before.size() || j < pairs.now.size()) {
+        if (j == pairs.now.size() || (i < pairs.before.size() && pairs.before[i] < pairs.now[j])) {
+          pairs.removed.push_back(pairKey(slot, pairs.before[i++]));
+        } else if (i == pairs.before.size() || pairs.now[j] < pairs.before[i]) {
+          pairs.added.push_back(pairKey(slot, pairs.now[j++]));
+        } else {
+          ++i;
+          ++j;
+        }
+      }
+    }
+  });
+}
+
+bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects) {
+  const HostStopwatch watch;
+  if (!findMovedBoxes(objects)) return false;
+  for (const std::uint32_t slot : moved_) {
+    moved_flag_[slot] = 1;
+    if (dirty_flag_[slot] == 0) {
+      dirty_flag_[slot] = 1;
+      dirty_.push_back(slot);
+    }
+  }
+  layOutDirtyBoxes(kept_, dirty_before_);
+  layOutDirtyBoxes(objects, dirty_now_);
+  phases_.sort_ms = watch.ms();
+  queryMovedBoxes(objects);
+  phases_.sweep_ms = watch.ms() - phases_.sort_ms;
+
+  std::vector<std::uint64_t> added, removed, scratch;
+  for (const MovedPairs& pairs : moved_pairs_) {
+    added.insert(added.end(), pairs.added.begin(), pairs.added.end());
+    removed.insert(removed.end(), pairs.removed.begin(), pairs.removed.end());
+  }
+  std::sort(added.begin(), added.end());
+  std::sort(removed.begin(), removed.end());
+  added_.clear();
+  removed_.clear();
+  for (const std::uint64_t key : added) {
+    added_.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
+  }
+  for (const std::uint64_t key : removed) {
+    removed_.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
+  }
+  // previous_ + pending is this frame's set: a pair re-added cancels its
+  // pending removal, a pair removed cancels its pending addition.
+  std::vector<std::uint64_t> re_added, new_added, un_added, new_removed;
+  std::set_intersection(added.begin(), added.end(), pending_removed_.begin(),
+                        pending_removed_.end(), std::back_inserter(re_added));
+  std::set_difference(added.begin(), added.end(), re_added.begin(), re_added.end(),
+                      std::back_inserter(new_added));
+  std::set_intersection(removed.begin(), removed.end(), pending_added_.begin(),
+                        pending_added_.end(), std::back_inserter(un_added));
+  std::set_difference(removed.begin(), removed.end(), un_added.begin(), un_added.end(),
+                      std::back_inserter(new_removed));
+  replaceSorted(pending_added_, un_added, new_added, scratch);
+  replaceSorted(pending_removed_, re_added, new_removed, scratch);
+
+  for (const std::uint32_t slot : moved_) {
+    moved_flag_[slot] = 0;
+    kept_[slot] = objects[slot];
+  }
+  phases_.delta_ms = watch.ms() - phases_.sort_ms - phases_.sweep_ms;
+  return true;
+}
+
+void CpuSapPairFinder::applyPendingChanges() {
+  if (pending_added_.empty() && pending_removed_.empty()) return;
+  std::vector<std::uint64_t> keys;
+  keys.reserve(previous_.size() + pending_added_.size());
+  for (std::uint32_t a = 0; a < previous_.slotCount(); ++a) {
+    for (const std::uint32_t b : previous_.partnersOf(a)) keys.push_back(pairKey(a, b));
+  }
+  std::vector<std::uint64_t> scratch;
+  replaceSorted(keys, pending_removed_, pending_added_, scratch);
+  const std::span<const std::uint64_t> batch[] = {keys};
+  previous_.assign(previous_.slotCount(), batch);
+  pending_added_.clear();
+  pending_removed_.clear();
+}
+
+}  // namespace overlap::gpu
