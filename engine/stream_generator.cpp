@@ -24,10 +24,12 @@ using Eigen::Vector3d;
 constexpr double kPileDensity = 0.5;
 // The pressure's stiffness: the deepest pile is squeezed about this much
 // beyond kPileDensity.
-constexpr double kSqueeze = 0.2;
+constexpr double kSqueeze = 0.05;
 // Grid cells this many times the cube root of the mean box volume: enough
-// boxes per cell that their count is smooth.
-constexpr double kCellInBoxes = 2.5;
+// boxes per cell that their count is smooth, and a pile that moves as a few
+// large blocks, as Bullet's does (smaller cells make it flow like a liquid,
+// its boxes changing partners two to three times as often).
+constexpr double kCellInBoxes = 4.0;
 // Substeps: a pressure wave crosses at most this share of a cell per substep.
 constexpr double kCourant = 0.4;
 constexpr int kMaxCellsPerAxis = 256;

@@ -90,6 +90,9 @@ TEST(StreamGeneratorTest, ScenesThreeAndFourSweepADensePile) {
     EXPECT_GT(pile.pairs_per_box, 2.0) << "scene " << number;
     EXPECT_LT(pile.pairs_per_box, 12.0) << "scene " << number;
     EXPECT_GT(pile.changed_pairs, 0.005) << "scene " << number;
+    // The simulated pile changes about 5% of its pairs a frame here
+    // (docs/results/generated_streams.md); a liquid-like pile changes 15%.
+    EXPECT_LT(pile.changed_pairs, 0.1) << "scene " << number;
   }
 }
 
