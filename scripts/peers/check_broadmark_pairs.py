@@ -84,14 +84,14 @@ def main():
             })
 
     header = list(rows[0])
-    print(f"{args.input}: frames 1..{rows[0]['frames']}, exact = overlap pairs --algo cpubf")
+    print(f"{Path(args.input).name}: frames 1..{rows[0]['frames']}, exact = overlap pairs --algo cpubf")
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for row in rows:
         print("| " + " | ".join(f"{v:.1f}" if isinstance(v, float) else str(v) for v in row.values()) + " |")
     if args.out:
         with open(f"{args.out}.csv", "w", newline="") as out:
-            out.write(f"# stream {args.input}; exact set: overlap pairs --algo cpubf; "
+            out.write(f"# stream {Path(args.input).name}; exact set: overlap pairs --algo cpubf; "
                       f"frames 1..{rows[0]['frames']} (0 is Broadmark's Initialize)\n")
             writer = csv.DictWriter(out, fieldnames=header)
             writer.writeheader()

@@ -7,6 +7,9 @@ after the peers) and prints three markdown tables: ms per frame for every
 algorithm and n; cpusap against the fastest peer (frame = update + search +
 Bullet's pair-cache update; search = our sort + sweep + delta only); pairs per
 frame (cpusap's exact count beside each peer's distinct and reported pairs).
+Like for like with Broadmark's frame (AABBs in, full pair list out) is
+cpusap's update + sort + sweep; delta (the pair list turned into changes) and
+the pair-cache update are what a persistent Bullet pair cache adds.
 cpusap's figure in the ratios is the slower of its two runs.  --out PREFIX
 also writes PREFIX.csv and PREFIX.json (one row per n and algorithm).
 
@@ -28,15 +31,17 @@ def load(out_dir):
         data = json.loads(path.read_text())
         entry = runs.setdefault(int(match.group(1)), {"peers": {}, "cpusap": []})
         if "row" in data:  # broadmark_driver
-            row = dict(data["row"], machine=data["machine"])
+            row = dict(data["row"], machine=data["machine"], stream=Path(data["row"]["stream"]).name)
             entry["peers"][row["algorithm"]] = row
         else:  # overlap_bench_broadphase
             row = data["rows"][0]
             entry["cpusap"].append({
-                "run": match.group(2),
+                "run": {"cpusap_a": "before", "cpusap_b": "after"}.get(match.group(2), match.group(2)),
                 "frame_ms": row["median_us"] / 1e3,
                 "update_ms": row["update_us"] / 1e3,
-                "search_ms": (row["sort_us"] + row["sweep_us"] + row["delta_us"]) / 1e3,
+                "sort_ms": row["sort_us"] / 1e3,
+                "sweep_ms": row["sweep_us"] / 1e3,
+                "delta_ms": row["delta_us"] / 1e3,
                 "cache_ms": row["cache_us"] / 1e3,
                 "pairs_mean": row["pairs_mean"],
                 "repeat_medians_ms": [us / 1e3 for us in row["repeat_medians_us"]],
@@ -69,30 +74,27 @@ def main():
         cpusap = ", ".join(fmt(run["frame_ms"]) for run in entry["cpusap"])
         print(f"| {n} | " + " | ".join(cells) + f" | {cpusap} |")
 
-    print("\ncpusap against the fastest peer (cpusap: the slower of its two runs)\n")
-    print("| n | fastest peer | its ms | cpusap frame ms | update | search | pair cache "
-          "| frame / peer | search / peer |")
-    print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("\ncpusap against the fastest peer (cpusap: the slower of its two runs; its phases are "
+          "medians, so they need not add up to the frame)\n")
+    print("| n | fastest peer | its ms | cpusap frame | update | sort | sweep | delta | pair cache "
+          "| frame / peer | (update + sort + sweep) / peer |")
+    print("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     rows = []
     for n, entry in sorted(runs.items()):
         best = min(entry["peers"].values(), key=lambda row: row["median_ms"])
         ours = max(entry["cpusap"], key=lambda run: run["frame_ms"])
+        listed = ours["update_ms"] + ours["sort_ms"] + ours["sweep_ms"]
         print(f"| {n} | {best['algorithm']} | {fmt(best['median_ms'])} | {fmt(ours['frame_ms'])} | "
-              f"{fmt(ours['update_ms'])} | {fmt(ours['search_ms'])} | {fmt(ours['cache_ms'])} | "
-              f"{fmt(ours['frame_ms'] / best['median_ms'], 2)} | "
-              f"{fmt(ours['search_ms'] / best['median_ms'], 2)} |")
+              + " | ".join(fmt(ours[k]) for k in ("update_ms", "sort_ms", "sweep_ms", "delta_ms",
+                                                  "cache_ms"))
+              + f" | {fmt(ours['frame_ms'] / best['median_ms'], 2)} | "
+              f"{fmt(listed / best['median_ms'], 2)} |")
         for run in entry["cpusap"]:
-            rows.append({"n": n, "algorithm": f"cpusap ({run['run']})", "median_ms": run["frame_ms"],
-                         "update_ms": run["update_ms"], "search_ms": run["search_ms"],
-                         "cache_ms": run["cache_ms"], "pairs_mean": run["pairs_mean"],
-                         "distinct_pairs_mean": run["pairs_mean"],
-                         "repeat_medians_ms": run["repeat_medians_ms"]})
+            rows.append(dict(run, n=n, algorithm=f"cpusap ({run['run']})", median_ms=run["frame_ms"],
+                             distinct_pairs_mean=run["pairs_mean"]))
         for row in entry["peers"].values():
-            rows.append({"n": n, "algorithm": row["algorithm"], "median_ms": row["median_ms"],
-                         "update_ms": row["update_ms"], "search_ms": row["search_ms"],
-                         "cache_ms": None, "pairs_mean": row["pairs_mean"],
-                         "distinct_pairs_mean": row["distinct_pairs_mean"],
-                         "repeat_medians_ms": row["repeat_medians_ms"]})
+            rows.append(dict(row, load_average_before=row["machine"]["load_average_before"],
+                             load_average_after=row["machine"]["load_average_after"]))
 
     print("\npairs per measured frame: cpusap (exact) | each peer's distinct (reported, if it differs)\n")
     print("| n | cpusap | " + " | ".join(peers) + " |")
@@ -111,15 +113,23 @@ def main():
         print(f"| {n} | {fmt(entry['cpusap'][0]['pairs_mean'], 1)} | " + " | ".join(cells) + " |")
 
     if args.out:
-        fields = ["n", "algorithm", "median_ms", "update_ms", "search_ms", "cache_ms", "pairs_mean",
-                  "distinct_pairs_mean"]
+        fields = ["n", "algorithm", "median_ms", "update_ms", "sort_ms", "sweep_ms", "delta_ms",
+                  "cache_ms", "structures_ms", "search_ms", "pairs_mean", "distinct_pairs_mean",
+                  "load_average_before", "load_average_after"]
         with open(f"{args.out}.csv", "w", newline="") as out:
-            out.write("# scripts/peers/peers_table.py: ms per frame; cpusap search = sort + sweep + "
-                      "delta, cache = Bullet's pair-cache update; peers: search = SearchOverlaps\n")
+            out.write("# scripts/peers/peers_table.py: ms per frame (median_ms) and its phases; "
+                      "cpusap: update, sort, sweep, delta, cache (Bullet's pair-cache update); "
+                      "peers: update (UpdateObjects), structures (UpdateStructures), search "
+                      "(SearchOverlaps); pairs_mean: reported pairs per frame, "
+                      "distinct_pairs_mean: distinct ones\n")
             writer = csv.DictWriter(out, fieldnames=fields, extrasaction="ignore")
             writer.writeheader()
             writer.writerows(rows)
-        machine = next(iter(next(iter(runs.values()))["peers"].values()))["machine"]
+        machine = {key: value for key, value in
+                   next(iter(next(iter(runs.values()))["peers"].values()))["machine"].items()
+                   if not key.startswith("load_average")}
+        for row in rows:
+            row.pop("machine", None)
         Path(f"{args.out}.json").write_text(json.dumps({"machine": machine, "rows": rows}, indent=2) + "\n")
     return 0
 
