@@ -382,7 +382,7 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
                  " (recorded with bvh and the scene's default substeps)"
            : std::string("streams given by --input (column stream)")) +
           "; warm-up frames " + std::to_string(options.warmup),
-      "time per frame: BroadphaseReplay update (setAabb of every box) + findPairs "
+      "time per frame: BroadphaseReplay update (setAabb of every box that changed) + findPairs "
       "(calculateOverlappingPairs: search and pair-cache update); per repeat (fresh "
       "broadphase) the median of the measured frames; median_us = median over repeats, "
       "min_us/max_us = fastest/slowest repeat",

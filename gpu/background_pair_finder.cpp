@@ -18,6 +18,32 @@ void BackgroundPairFinder::launch(std::span<const ObjectBounds> objects) {
     throw std::runtime_error(std::string(name()) + ": launch() called twice without finish()");
   }
   objects_.assign(objects.begin(), objects.end());
+  changes_known_ = false;
+  start();
+}
+
+void BackgroundPairFinder::launchWithChanges(std::span<const ObjectBounds> objects,
+                                             std::span<const std::uint32_t> changed) {
+  if (in_flight_) {
+    throw std::runtime_error(std::string(name()) + ": launch() called twice without finish()");
+  }
+  changes_known_ = objects.size() == objects_.size();
+  if (changes_known_) {
+    for (const std::uint32_t slot : changed) {
+      if (slot >= objects.size()) {
+        throw std::runtime_error(std::string(name()) + ": changed slot " + std::to_string(slot) +
+                                 " is past the " + std::to_string(objects.size()) + " boxes");
+      }
+      objects_[slot] = objects[slot];
+    }
+    changed_.assign(changed.begin(), changed.end());
+  } else {
+    objects_.assign(objects.begin(), objects.end());
+  }
+  start();
+}
+
+void BackgroundPairFinder::start() {
   error_ = nullptr;
   requested_at_ = std::chrono::steady_clock::now();
   arena_.execute([this] { job_.run([this] { search(); }); });
@@ -47,7 +73,11 @@ void BackgroundPairFinder::search() {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - requested_at_)
           .count();
   try {
-    inner_->launch(objects_);
+    if (changes_known_) {
+      inner_->launchWithChanges(objects_, changed_);
+    } else {
+      inner_->launch(objects_);
+    }
     delta_ = inner_->finish();
   } catch (...) {
     error_ = std::current_exception();  // handed to the caller by finish()

@@ -20,6 +20,7 @@
 #include <oneapi/tbb/task_group.h>
 
 #include <chrono>
+#include <cstdint>
 #include <exception>
 #include <memory>
 #include <vector>
@@ -37,6 +38,9 @@ class BackgroundPairFinder final : public PairFinder {
 
   std::string_view name() const override { return inner_->name(); }
   void launch(std::span<const ObjectBounds> objects) override;
+  // Copies only the changed boxes when the slot count is unchanged.
+  void launchWithChanges(std::span<const ObjectBounds> objects,
+                         std::span<const std::uint32_t> changed) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return inner_->lastSearchMs(); }
   double lastSearchDelayMs() const override { return search_delay_ms_; }
@@ -44,11 +48,14 @@ class BackgroundPairFinder final : public PairFinder {
   double lastLaunchToFinishMs() const override { return launch_to_finish_ms_; }
 
  private:
+  void start();
   void search();
   void join();
 
   std::unique_ptr<PairFinder> inner_;
-  std::vector<ObjectBounds> objects_;
+  std::vector<ObjectBounds> objects_;  // the last launch's boxes
+  std::vector<std::uint32_t> changed_;
+  bool changes_known_ = false;  // changed_ lists what differs from the launch before
   PairDelta delta_;
   std::exception_ptr error_;
   std::chrono::steady_clock::time_point requested_at_;

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstring>
 #include <iterator>
+#include <stdexcept>
+#include <string>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cpu_sap_pair_finder.h"
@@ -65,16 +67,35 @@ void CpuSapPairFinder::keepFullFrame(std::span<const ObjectBounds> objects) {
   have_full_frame_ = inverted_.empty();
 }
 
-bool CpuSapPairFinder::findMovedBoxes(std::span<const ObjectBounds> objects) {
+bool CpuSapPairFinder::noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot,
+                                   std::size_t limit) {
+  if (sameBounds(objects[slot], kept_[slot])) return true;
+  if (inverted(objects[slot])) return false;
+  moved_.push_back(slot);
+  return dirty_flag_[slot] != 0 || dirty_.size() + moved_.size() <= limit;
+}
+
+bool CpuSapPairFinder::findMovedBoxes(std::span<const ObjectBounds> objects,
+                                      const std::span<const std::uint32_t>* changed) {
   moved_.clear();
   if (!have_full_frame_ || objects.size() != kept_.size()) return false;
   const std::size_t limit = kept_.size() / kDirtyShareDivisor;
-  for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
-    if (sameBounds(objects[slot], kept_[slot])) continue;
-    if (inverted(objects[slot])) return false;
-    moved_.push_back(slot);
-    if (dirty_flag_[slot] == 0 && dirty_.size() + moved_.size() > limit) return false;
+  if (changed == nullptr) {
+    for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+      if (!noteIfMoved(objects, slot, limit)) return false;
+    }
+    return true;
   }
+  if (changed->size() > limit) return false;  // a full frame is cheaper
+  for (const std::uint32_t slot : *changed) {
+    if (slot >= slot_count_) {
+      throw std::runtime_error("cpusap: changed slot " + std::to_string(slot) + " is past the " +
+                               std::to_string(slot_count_) + " boxes");
+    }
+    if (!noteIfMoved(objects, slot, limit)) return false;
+  }
+  std::sort(moved_.begin(), moved_.end());  // a slot named twice is queried once
+  moved_.erase(std::unique(moved_.begin(), moved_.end()), moved_.end());
   return true;
 }
 
@@ -137,9 +158,10 @@ void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
   });
 }
 
-bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects) {
+bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects,
+                                        const std::span<const std::uint32_t>* changed) {
   const HostStopwatch watch;
-  if (!findMovedBoxes(objects)) return false;
+  if (!findMovedBoxes(objects, changed)) return false;
   for (const std::uint32_t slot : moved_) {
     moved_flag_[slot] = 1;
     if (dirty_flag_[slot] == 0) {

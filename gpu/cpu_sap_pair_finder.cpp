@@ -284,11 +284,23 @@ void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) 
 }
 
 void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
+  search(objects, nullptr);
+}
+
+void CpuSapPairFinder::launchWithChanges(std::span<const ObjectBounds> objects,
+                                         std::span<const std::uint32_t> changed) {
+  search(objects, &changed);
+}
+
+void CpuSapPairFinder::search(std::span<const ObjectBounds> objects,
+                              const std::span<const std::uint32_t>* changed) {
   if (searched_) throw std::runtime_error("cpusap: launch() called twice without finish()");
   launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
 
-  moved_only_ = searchMovedBoxes(objects);
+  const bool changes_usable = kept_current_;
+  kept_current_ = false;  // until this search has finished
+  moved_only_ = searchMovedBoxes(objects, changes_usable ? changed : nullptr);
   if (!moved_only_) {
     applyPendingChanges();
     const int last_sweep_axis = sweep_axis_;
@@ -304,6 +316,7 @@ void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
     phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
   }
   last_search_ms_ = launch_watch_.ms();
+  kept_current_ = true;
   searched_ = true;
 }
 

@@ -23,12 +23,14 @@
 // (gpu/background_pair_finder.h) for a launch() that returns at once.
 //
 // A frame in which few boxes changed (gpu/cpu_sap_moved_boxes.cpp) skips all
-// of that: the boxes that differ from last frame's are found by comparing
-// them, and only they are queried, each at its old and its new bounds,
+// of that: the boxes that differ from last frame's are found among the
+// caller's changed slots (launchWithChanges) or else by comparing every box,
+// and only they are queried, each at its old and its new bounds,
 // against last full frame's layout (for the boxes unchanged since) and
 // against a small layout of the boxes changed since (the "dirty" ones); the
 // pairs that differ between the two queries are the delta.  Its cost follows
-// the moved boxes and their pairs, plus one comparison of each box's bytes.
+// the moved boxes and their pairs (plus one comparison of each box's bytes
+// when the caller did not say which changed).
 // The full search runs again once the dirty boxes pass a share of all, or
 // when a box is inverted.
 //
@@ -62,6 +64,8 @@ class CpuSapPairFinder final : public PairFinder {
 
   std::string_view name() const override { return "cpusap"; }
   void launch(std::span<const ObjectBounds> objects) override;
+  void launchWithChanges(std::span<const ObjectBounds> objects,
+                         std::span<const std::uint32_t> changed) override;
   PairDelta finish() override;
   double lastSearchMs() const override { return last_search_ms_; }
   double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
@@ -99,8 +103,14 @@ class CpuSapPairFinder final : public PairFinder {
   void testInvertedBoxes(std::span<const ObjectBounds> objects);
   void computeDelta();
   // The moved-box path: true when it found this frame's delta.
-  bool searchMovedBoxes(std::span<const ObjectBounds> objects);
-  bool findMovedBoxes(std::span<const ObjectBounds> objects);
+  // changed: the caller's changed slots, or null to compare every box.
+  void search(std::span<const ObjectBounds> objects, const std::span<const std::uint32_t>* changed);
+  bool searchMovedBoxes(std::span<const ObjectBounds> objects,
+                        const std::span<const std::uint32_t>* changed);
+  bool findMovedBoxes(std::span<const ObjectBounds> objects,
+                      const std::span<const std::uint32_t>* changed);
+  // Whether the slot's box is a moved one; false when the moved-box path cannot take it.
+  bool noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot, std::size_t limit);
   void layOutDirtyBoxes(std::span<const ObjectBounds> objects, sap::SweepLayout& layout);
   void queryMovedBoxes(std::span<const ObjectBounds> objects);
   // After a full search: its boxes become the reference for the next moved-box frame.
@@ -145,7 +155,10 @@ class CpuSapPairFinder final : public PairFinder {
   // The moved-box path's state.
   bool moved_only_ = false;
   bool have_full_frame_ = false;
-  std::vector<ObjectBounds> kept_;             // every slot's bounds as last searched
+  // Every slot's bounds as last searched: the last launch's boxes when it
+  // finished (kept_current_), so its caller's changed slots are all that differ.
+  std::vector<ObjectBounds> kept_;
+  bool kept_current_ = false;
   std::vector<std::uint8_t> dirty_flag_;       // per slot: changed since the full frame
   std::vector<std::uint32_t> dirty_;           // those slots
   std::vector<std::uint8_t> moved_flag_;       // per slot: changed this frame

@@ -77,6 +77,15 @@ class PairFinder {
   virtual std::string_view name() const = 0;
   // Starts this frame's search over objects[0..n).  n must not shrink.
   virtual void launch(std::span<const ObjectBounds> objects) = 0;
+  // launch() from a caller that knows which boxes it changed since its last
+  // launch: every slot whose box differs from that launch's is in `changed`,
+  // each once (a slot that did not change may be there too).  A finder that
+  // re-queries only moved boxes (cpusap) then skips comparing every box, so a
+  // frame where few moved costs in proportion to them (Box2D's move buffer).
+  virtual void launchWithChanges(std::span<const ObjectBounds> objects,
+                                 std::span<const std::uint32_t> /*changed*/) {
+    launch(objects);
+  }
   // Waits for the search started by launch() and returns what changed.
   virtual PairDelta finish() = 0;
   // How long the last finished search took by its own clock: on both GPU

@@ -246,11 +246,12 @@ void SweepLayout::gather(std::uint32_t first, std::uint32_t end) {
 }
 
 void SweepLayout::indexForQueries() {
-  const std::size_t slabs = slab_starts_.size() - 1;
-  longest_.assign(slabs, 0);
-  for (std::size_t slab = 0; slab < slabs; ++slab) {
-    for (std::uint32_t i = slab_starts_[slab]; i + kLanes < slab_starts_[slab + 1]; ++i) {
-      longest_[slab] = std::max(longest_[slab], double{sweep_max_[i]} - double{sweep_min_[i]});
+  reach_.resize(size());
+  for (std::size_t slab = 0; slab + 1 < slab_starts_.size(); ++slab) {
+    float reach = -std::numeric_limits<float>::infinity();
+    for (std::uint32_t i = slab_starts_[slab]; i < slab_starts_[slab + 1]; ++i) {
+      if (slot_[i] != kPaddingSlot) reach = std::max(reach, sweep_max_[i]);
+      reach_[i] = reach;
     }
   }
 }
@@ -260,16 +261,16 @@ void SweepLayout::query(const ObjectBounds& box, const SlabGrid& grid,
   const auto [sweep_axis, slab_axis, third_axis] = axes_;
   const std::uint32_t first_slab = grid.slabOf(box.min[slab_axis]);
   const std::uint32_t last_slab = grid.slabOf(box.max[slab_axis]);
-  for (std::uint32_t slab = first_slab; slab <= last_slab && slab < longest_.size(); ++slab) {
-    const float* const begin = sweep_min_.data() + slab_starts_[slab];
-    const float* const end = sweep_min_.data() + slab_starts_[slab + 1] - kLanes;
-    // A box of this slab that starts before this bound ends before `box`
-    // starts; the margin only widens the scan against rounding.
-    const double reach = double{box.min[sweep_axis]} - longest_[slab] * (1 + 1e-6) - 1e-30;
-    const float* i = std::lower_bound(begin, end, reach,
-                                      [](float value, double bound) { return value < bound; });
-    for (; i != end && *i <= box.max[sweep_axis]; ++i) {
-      const auto k = static_cast<std::size_t>(i - sweep_min_.data());
+  for (std::uint32_t slab = first_slab; slab <= last_slab && slab + 1 < slab_starts_.size();
+       ++slab) {
+    // The boxes before the first whose slab reach gets to `box` all end
+    // before it starts: the scan begins there and ends past `box`'s max.
+    const std::uint32_t slab_end = slab_starts_[slab + 1] - kLanes;
+    const auto first = static_cast<std::uint32_t>(
+        std::lower_bound(reach_.begin() + slab_starts_[slab], reach_.begin() + slab_end,
+                         box.min[sweep_axis]) -
+        reach_.begin());
+    for (std::uint32_t k = first; k < slab_end && sweep_min_[k] <= box.max[sweep_axis]; ++k) {
       const bool pairs_with = (box.min[sweep_axis] <= sweep_max_[k]) &
                               pair_logic::intervalsOverlap(box.min[slab_axis], box.max[slab_axis],
                                                            other_min_[0][k], other_max_[0][k]) &

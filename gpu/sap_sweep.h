@@ -103,7 +103,9 @@ class SweepLayout {
   void sweep(SweepKernel kernel, std::uint32_t first, std::uint32_t end, PairKeys& pairs) const;
 
   // Queries of single boxes (cpusap's moved boxes), after gather():
-  // indexForQueries() notes each slab's longest box on the sweep axis;
+  // indexForQueries() notes, per entry, the furthest its slab's boxes up to
+  // it reach on the sweep axis (non-decreasing, so a binary search finds
+  // where a query's scan begins);
   // query() then appends to `hits` the slot of every laid-out box that pairs
   // with `box` (pair_logic's test on the laid-out bounds), each once.  `box`
   // must have min <= max and no NaN; `grid` is the one plan() was given.
@@ -122,7 +124,7 @@ class SweepLayout {
   std::span<const ObjectBounds> objects_;
   std::array<int, 3> axes_{};               // sweep, slab, third
   std::vector<std::uint32_t> slab_starts_;  // slab s is [starts[s], starts[s + 1] - kLanes)
-  std::vector<double> longest_;             // per slab: indexForQueries()
+  std::vector<float> reach_;                // per entry: indexForQueries()
   std::vector<std::uint32_t> slab_cursor_;  // scratch
   std::vector<std::uint32_t> first_slab_, last_slab_;  // scratch, per sorted box
 };

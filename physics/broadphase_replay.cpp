@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <stdexcept>
 
 #include "physics/broadphase_factory.h"
@@ -16,7 +17,8 @@ struct BroadphaseReplay::Bullet {
   btCollisionDispatcher dispatcher{&collision_config};
   std::unique_ptr<btBroadphaseInterface> broadphase;
   std::vector<btBroadphaseProxy*> proxies;
-  std::vector<int> indices;  // proxies' user pointers point here
+  std::vector<int> indices;   // proxies' user pointers point here
+  std::vector<Aabb> written;  // each proxy's box as last written
 
   ~Bullet() {
     if (broadphase == nullptr) return;  // the factory refused the algorithm or the count
@@ -78,9 +80,13 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::
           corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
           btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher));
     }
+    b.written.assign(boxes.begin(), boxes.end());
     return;
   }
+  // Only the boxes that changed, as a world skips its sleeping bodies.
   for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (std::memcmp(&boxes[i], &b.written[i], sizeof(Aabb)) == 0) continue;
+    b.written[i] = boxes[i];
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
   }
 }
@@ -89,6 +95,7 @@ void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
                                      std::span<const std::uint8_t> present) {
   Bullet& b = *bullet_;
   b.proxies.resize(boxes.size(), nullptr);
+  b.written.assign(boxes.begin(), boxes.end());
   for (std::size_t i = 0; i < boxes.size(); ++i) {
     if (present[i] == 0 && b.proxies[i] != nullptr) {
       b.broadphase->destroyProxy(b.proxies[i], &b.dispatcher);

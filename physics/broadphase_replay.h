@@ -58,8 +58,10 @@ class BroadphaseReplay {
   const std::string& algorithm() const { return algorithm_; }
   const std::string& notice() const { return notice_; }
 
-  // Writes the frame's AABBs (one per object) into the broadphase; the first
-  // call creates the proxies there.  With `present` (one entry per object),
+  // Writes the frame's AABBs (one per object) into the broadphase: only the
+  // boxes that changed since the last frame, as a world skips its sleeping
+  // bodies (a box whose bytes are unchanged is not written); the first call
+  // creates the proxies there.  With `present` (one entry per object),
   // an object whose entry is 0 has no proxy this frame: it is destroyed if it
   // had one, and created again at its box when its entry is 1 again.
   void update(std::span<const Aabb> boxes, std::span<const std::uint8_t> present = {});

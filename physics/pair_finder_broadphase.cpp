@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -61,6 +62,7 @@ btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
     states_.push_back(SlotState::kFree);
     aabb_valid_.push_back(true);
     search_entries_.emplace_back();
+    changed_flags_.push_back(0);
   }
   // A free slot's old proxy has no pairs and no pending results: drop it.
   proxies_[slot] = std::make_unique<btBroadphaseProxy>(aabbMin, aabbMax, userPtr,
@@ -88,7 +90,7 @@ void PairFinderBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* 
   const std::uint32_t slot = liveSlotOf(proxy, "destroyProxy");
   pair_cache_->removeOverlappingPairsContainingProxy(proxy, dispatcher);
   states_[slot] = SlotState::kDestroyed;
-  search_entries_[slot] = gpu::ObjectBounds{};
+  setSearchEntry(slot, gpu::ObjectBounds{});
   destroyed_.push_back(slot);
   --live_count_;
 }
@@ -109,7 +111,6 @@ void PairFinderBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
 
 void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
   const btBroadphaseProxy& proxy = *proxies_[slot];
-  gpu::ObjectBounds& entry = search_entries_[slot];
   if (!isUsableAabb(proxy.m_aabbMin, proxy.m_aabbMax)) {
     if (aabb_valid_[slot]) {
       const btVector3& lo = proxy.m_aabbMin;
@@ -122,16 +123,28 @@ void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
                    double{lo.z()}, double{hi.x()}, double{hi.y()}, double{hi.z()});
     }
     aabb_valid_[slot] = false;
-    entry = gpu::ObjectBounds{};  // group = mask = 0: the search drops its pairs
+    setSearchEntry(slot, gpu::ObjectBounds{});  // group = mask = 0: the search drops its pairs
     return;
   }
   aabb_valid_[slot] = true;
+  gpu::ObjectBounds entry;
   for (int axis = 0; axis < 3; ++axis) {
     entry.min[axis] = static_cast<float>(proxy.m_aabbMin[axis]);
     entry.max[axis] = static_cast<float>(proxy.m_aabbMax[axis]);
   }
   entry.group = proxy.m_collisionFilterGroup;
   entry.mask = proxy.m_collisionFilterMask;
+  setSearchEntry(slot, entry);
+}
+
+void PairFinderBroadphase::setSearchEntry(std::uint32_t slot, const gpu::ObjectBounds& entry) {
+  gpu::ObjectBounds& held = search_entries_[slot];
+  if (std::memcmp(&held, &entry, sizeof entry) == 0) return;
+  held = entry;
+  if (changed_flags_[slot] == 0) {
+    changed_flags_[slot] = 1;
+    changed_slots_.push_back(slot);
+  }
 }
 
 void PairFinderBroadphase::forEachSearchableProxy(
@@ -180,7 +193,9 @@ void PairFinderBroadphase::launchPairSearch() {
   for (const std::uint32_t slot : destroyed_) states_[slot] = SlotState::kDraining;
   draining_.insert(draining_.end(), destroyed_.begin(), destroyed_.end());
   destroyed_.clear();
-  finder_->launch(search_entries_);
+  finder_->launchWithChanges(search_entries_, changed_slots_);
+  for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
+  changed_slots_.clear();
   search_in_flight_ = true;
 }
 

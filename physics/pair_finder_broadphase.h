@@ -97,6 +97,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // Writes the slot's search entry from its proxy, taking it out of the search
   // (with one message) when the AABB is unusable.
   void updateSearchEntry(std::uint32_t slot);
+  void setSearchEntry(std::uint32_t slot, const gpu::ObjectBounds& entry);
   // Live proxies with a usable AABB, the ones queries may report.
   void forEachSearchableProxy(const std::function<void(btBroadphaseProxy&)>& visit);
 
@@ -108,6 +109,10 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<SlotState> states_;
   std::vector<bool> aabb_valid_;
   std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
+  // The slots whose search entry changed since the last launch, each once
+  // (changed_flags_ marks them): the finder's move buffer.
+  std::vector<std::uint32_t> changed_slots_;
+  std::vector<std::uint8_t> changed_flags_;
   std::vector<std::uint32_t> destroyed_;
   std::vector<std::uint32_t> draining_;
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first

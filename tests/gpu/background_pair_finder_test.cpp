@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <stdexcept>
 #include <vector>
 
 #include "gpu/cpu_pair_finder.h"
+#include "gpu/cpu_sap_pair_finder.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::gpu {
@@ -35,6 +37,24 @@ TEST(BackgroundPairFinderTest, GivesCpubfsDeltasFrameAfterFrame) {
     ASSERT_TRUE(testing::samePairs(actual.added, expected.added)) << "frame " << frame;
     ASSERT_TRUE(testing::samePairs(actual.removed, expected.removed)) << "frame " << frame;
   }
+}
+
+TEST(BackgroundPairFinderTest, CopiesOnlyTheChangedSlotsAndStaysExact) {
+  BackgroundPairFinder background(std::make_unique<CpuSapPairFinder>());
+  CpuPairFinder reference;
+  std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 1025, 0);
+  const std::vector<ObjectBounds> elsewhere = testing::makeBoxes(BoxSet::kRandom, 1025, 1);
+  ASSERT_TRUE(testing::sameDeltaAs(background, reference, boxes));
+  for (std::uint32_t frame = 1; frame < 8; ++frame) {
+    std::vector<std::uint32_t> changed;
+    for (std::uint32_t i = frame; i < boxes.size(); i += 97) {
+      boxes[i] = elsewhere[(i * 7 + frame) % elsewhere.size()];
+      changed.push_back(i);
+    }
+    ASSERT_TRUE(testing::sameDeltaAs(background, reference, boxes, changed)) << "frame " << frame;
+  }
+  const std::uint32_t past_the_end[] = {1025};
+  EXPECT_THROW(background.launchWithChanges(boxes, past_the_end), std::runtime_error);
 }
 
 TEST(BackgroundPairFinderTest, RethrowsTheWorkersErrorFromFinishAndGoesOn) {

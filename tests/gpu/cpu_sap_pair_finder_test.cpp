@@ -261,6 +261,39 @@ TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
   EXPECT_TRUE(none.added.empty() && none.removed.empty());
 }
 
+TEST(CpuSapPairFinderTest, TheCallersChangedSlotsAreAllItCompares) {
+  // As above, the caller naming the slots it wrote: the changed ones, some
+  // unchanged ones and one twice.  A box changed but left out of the list
+  // would be missed: the list is the whole truth, so it must be complete.
+  std::vector<ObjectBounds> boxes = pile(3000, 0);
+  const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
+  CpuSapPairFinder sap;
+  CpuPairFinder brute_force;
+  std::mt19937 random(12);
+  int moved_only = 0;
+  for (int frame = 0; frame < 30; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    std::vector<std::uint32_t> changed;
+    const std::size_t moving = frame % 7 == 6 ? 400 : 30;
+    for (std::size_t k = 0; k < moving; ++k) {
+      const auto i = static_cast<std::uint32_t>(random() % boxes.size());
+      if (random() % 5 == 0) {
+        boxes[i] = ObjectBounds{};
+      } else {
+        boxes[i] = elsewhere[random() % elsewhere.size()];
+      }
+      changed.push_back(i);
+    }
+    changed.push_back(changed.front());                              // named twice
+    changed.push_back(static_cast<std::uint32_t>(random() % 3000));  // maybe unchanged
+    ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes, changed));
+    moved_only += sap.lastSearchWasMovedOnly() ? 1 : 0;
+  }
+  EXPECT_GE(moved_only, 20) << "few changed slots should not need the full search";
+  const std::uint32_t past_the_end[] = {3000};
+  EXPECT_THROW(sap.launchWithChanges(boxes, past_the_end), std::runtime_error);
+}
+
 TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   std::vector<ObjectBounds> boxes = pile(1000, 0);
   CpuSapPairFinder sap;

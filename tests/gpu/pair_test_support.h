@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <optional>
 #include <ostream>
 #include <random>
 #include <span>
@@ -226,9 +227,15 @@ inline ::testing::AssertionResult samePairs(std::span<const IndexPair> actual,
 
 // Runs one frame of `boxes` through both finders: `finder` must give
 // `reference`'s delta.
-inline ::testing::AssertionResult sameDeltaAs(PairFinder& finder, PairFinder& reference,
-                                              std::span<const ObjectBounds> boxes) {
-  finder.launch(boxes);
+// With `changed`, `finder` is told which slots changed (launchWithChanges).
+inline ::testing::AssertionResult sameDeltaAs(
+    PairFinder& finder, PairFinder& reference, std::span<const ObjectBounds> boxes,
+    std::optional<std::span<const std::uint32_t>> changed = std::nullopt) {
+  if (changed) {
+    finder.launchWithChanges(boxes, *changed);
+  } else {
+    finder.launch(boxes);
+  }
   reference.launch(boxes);
   const PairDelta expected = reference.finish();
   const PairDelta actual = finder.finish();

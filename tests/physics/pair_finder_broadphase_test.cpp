@@ -344,6 +344,52 @@ TEST_P(PairFinderBroadphaseTest, RejectsMisuse) {
   EXPECT_THROW(broadphase_->launchPairSearch(), std::runtime_error);
 }
 
+// A finder that keeps what launchWithChanges() was told and finds nothing.
+class ChangeRecorder final : public gpu::PairFinder {
+ public:
+  explicit ChangeRecorder(std::vector<std::vector<std::uint32_t>>* heard) : heard_(heard) {}
+  std::string_view name() const override { return "recorder"; }
+  void launch(std::span<const ObjectBounds> /*objects*/) override { heard_->push_back({999}); }
+  void launchWithChanges(std::span<const ObjectBounds> /*objects*/,
+                         std::span<const std::uint32_t> changed) override {
+    heard_->emplace_back(changed.begin(), changed.end());
+    std::sort(heard_->back().begin(), heard_->back().end());
+  }
+  gpu::PairDelta finish() override { return {}; }
+  double lastSearchMs() const override { return 0; }
+  double lastLaunchToFinishMs() const override { return 0; }
+
+ private:
+  std::vector<std::vector<std::uint32_t>>* heard_;
+};
+
+TEST(PairFinderBroadphaseChangesTest, TheFinderHearsOnlyTheSlotsWhoseEntryChanged) {
+  std::vector<std::vector<std::uint32_t>> heard;
+  PairFinderBroadphase broadphase(std::make_unique<ChangeRecorder>(&heard));
+  btDefaultCollisionConfiguration configuration;
+  btCollisionDispatcher dispatcher(&configuration);
+  const auto create = [&](float x) {
+    return broadphase.createProxy(btVector3(x, 0, 0), btVector3(x + 1, 1, 1), BOX_SHAPE_PROXYTYPE,
+                                  nullptr, kDefault, kAll, &dispatcher);
+  };
+  std::vector<btBroadphaseProxy*> proxies = {create(0), create(2), create(4), create(6)};
+  broadphase.calculateOverlappingPairs(&dispatcher);
+  // Slot 0 written with its own box, slot 1 moved twice, slot 2 made
+  // unusable, slot 3 destroyed: 1, 2 and 3 changed, each named once.
+  broadphase.setAabb(proxies[0], btVector3(0, 0, 0), btVector3(1, 1, 1), &dispatcher);
+  broadphase.setAabb(proxies[1], btVector3(3, 0, 0), btVector3(4, 1, 1), &dispatcher);
+  broadphase.setAabb(proxies[1], btVector3(5, 0, 0), btVector3(6, 1, 1), &dispatcher);
+  broadphase.setAabb(proxies[2], btVector3(NAN, 0, 0), btVector3(5, 1, 1), &dispatcher);
+  broadphase.destroyProxy(proxies[3], &dispatcher);
+  broadphase.calculateOverlappingPairs(&dispatcher);
+  // Nothing written: nothing changed.
+  broadphase.calculateOverlappingPairs(&dispatcher);
+  ASSERT_EQ(heard.size(), 3u);
+  EXPECT_EQ(heard[0], (std::vector<std::uint32_t>{0, 1, 2, 3}));
+  EXPECT_EQ(heard[1], (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_TRUE(heard[2].empty());
+}
+
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
                          ::testing::Values(PairFinderKind::kCpuBruteForce,
                                            PairFinderKind::kCpuSweepAndPrune,
