@@ -382,7 +382,9 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
                  " (recorded with bvh and the scene's default substeps)"
            : std::string("streams given by --input (column stream)")) +
           "; warm-up frames " + std::to_string(options.warmup),
-      "time per frame: BroadphaseReplay update (setAabb of every box that changed) + findPairs "
+      "time per frame: BroadphaseReplay update (setAabb of the boxes that changed since the "
+      "frame before, found before the clock starts, as a world knows its awake bodies; with "
+      "churn, of every present box) + findPairs "
       "(calculateOverlappingPairs: search and pair-cache update); per repeat (fresh "
       "broadphase) the median of the measured frames; median_us = median over repeats, "
       "min_us/max_us = fastest/slowest repeat",

@@ -91,6 +91,23 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::
   }
 }
 
+void BroadphaseReplay::updateChanged(std::span<const Aabb> boxes,
+                                     std::span<const std::uint32_t> changed) {
+  Bullet& b = *bullet_;
+  if (boxes.size() != b.indices.size() || b.written.size() != boxes.size()) {
+    throw std::invalid_argument(
+        "replay: updateChanged needs a frame of " + std::to_string(b.indices.size()) +
+        " boxes after the first update, got " + std::to_string(boxes.size()));
+  }
+  for (const std::uint32_t i : changed) {
+    if (i >= boxes.size() || b.proxies[i] == nullptr) {
+      throw std::invalid_argument("replay: changed object " + std::to_string(i) + " has no proxy");
+    }
+    b.written[i] = boxes[i];
+    b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
+  }
+}
+
 void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
                                      std::span<const std::uint8_t> present) {
   Bullet& b = *bullet_;
