@@ -13,11 +13,15 @@
 // once; a caller with work to overlap with the search calls the two halves
 // itself, with that work between them (TimedDynamicsWorld's substep calls
 // them as two phases).  Either way lastSearch() says when the search ran and
-// how long the caller waited.
+// how long the caller waited.  Each launch also tells the finder which slots'
+// boxes changed since the last one (a move buffer, as Box2D keeps), so that
+// cpusap re-queries only the boxes that moved.
 //
 // Invariants:
 // - The cache holds exactly the pairs the finder last reported (minus those
 //   its own overlap filter refused), each once.
+// - The move buffer names every slot whose search entry differs from the last
+//   launch's, each once; a write that leaves the entry as it was adds nothing.
 // - A destroyed proxy's pairs leave the cache at once; its slot is searched as
 //   unused (group = mask = 0) by the next launch and reused only after the
 //   finish that follows, so stale results for it are ignored, never applied
