@@ -31,7 +31,7 @@ physics::PairList presentPairs(const physics::PairList& all,
   physics::PairList kept;
   for (const auto& [a, b] : all) {
     if (present[static_cast<std::size_t>(a)] != 0 && present[static_cast<std::size_t>(b)] != 0) {
-      kept.emplace_back(a, b);
+      kept.push_back({a, b});
     }
   }
   return kept;
@@ -77,7 +77,7 @@ std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& s
     }
     physics::PairList pairs;
     for (const std::uint64_t key : gpu::gridCheckerPairs(bounds)) {
-      pairs.emplace_back(static_cast<int>(key >> 32), static_cast<int>(key & 0xFFFFFFFFu));
+      pairs.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
     }
     reference.push_back(std::move(pairs));
   }

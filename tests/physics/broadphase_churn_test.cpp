@@ -44,7 +44,7 @@ PairList presentOverlaps(const std::vector<Aabb>& boxes, const std::vector<std::
         overlap = overlap && boxes[a].min[axis] <= boxes[b].max[axis] &&
                   boxes[b].min[axis] <= boxes[a].max[axis];
       }
-      if (overlap) pairs.emplace_back(a, b);
+      if (overlap) pairs.push_back(orderedPair(a, b));
     }
   }
   return pairs;
