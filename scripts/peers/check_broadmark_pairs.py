@@ -11,7 +11,7 @@ the exact set (extra: e.g. KD's 0.01 margin, DBVT's fattened leaves) and exact
 pairs it missed (summed over frames); exit 1 if any algorithm missed one.
 
 Example (from the repository's top, after scripts/peers/build_broadmark.sh):
-  scripts/peers/check_broadmark_pairs.py --driver /tmp/bm/broadmark_driver \\
+  scripts/peers/check_broadmark_pairs.py --driver BM_BUILD/broadmark_driver \\
       --overlap build/overlap --input s4_n500_f16.aabbs --out docs/results/peers_pairs_n500
 """
 import argparse

@@ -13,7 +13,7 @@ the pair-cache update are what a persistent Bullet pair cache adds.
 cpusap's figure in the ratios is the slower of its two runs.  --out PREFIX
 also writes PREFIX.csv and PREFIX.json (one row per n and algorithm).
 
-Example: scripts/peers/peers_table.py /work/scratch/peers --out docs/results/peers_broadmark
+Example: scripts/peers/peers_table.py OUT --out docs/results/peers_broadmark
 """
 import argparse
 import csv
