@@ -50,13 +50,25 @@ PairList presentOverlaps(const std::vector<Aabb>& boxes, const std::vector<std::
   return pairs;
 }
 
+// The replay's cache after a frame: every present pair; only those for an
+// exact broadphase.
+void expectPresentPairs(const BroadphaseReplay& replay, const BroadphaseInfo& info,
+                        const std::vector<Aabb>& boxes, const std::vector<std::uint8_t>& present,
+                        int frame) {
+  const PairList wanted = presentOverlaps(boxes, present);
+  const PairList held = replay.pairs();
+  EXPECT_EQ(countMissing(wanted, held), 0u) << "frame " << frame;
+  if (info.exact) {
+    EXPECT_EQ(held, wanted) << "frame " << frame;
+  }
+}
+
 TEST(BroadphaseChurnTest, EveryBroadphaseKeepsThePresentBoxesPairs) {
   const Aabb world{{-5, -5, -5}, {25, 25, 25}};
-  for (const std::string_view name : broadphaseNames()) {
+  for (const BroadphaseInfo& info : broadphaseCatalogue()) {
     for (const double share : {0.01, 0.1}) {
-      SCOPED_TRACE(std::string(name) + ", share " + std::to_string(share));
-      BroadphaseReplay replay(name, world, kObjects);
-      const bool exact = name == "bf" || name.starts_with("cpu") || name.starts_with("gpu");
+      SCOPED_TRACE(std::string(info.name) + ", share " + std::to_string(share));
+      BroadphaseReplay replay(info.name, world, kObjects);
       std::mt19937 random(42);
       std::vector<std::uint8_t> present(kObjects, 1);
       int created = 0, destroyed = 0;
@@ -72,12 +84,7 @@ TEST(BroadphaseChurnTest, EveryBroadphaseKeepsThePresentBoxesPairs) {
         }
         replay.update(boxes, present);
         replay.findPairs();
-        const PairList wanted = presentOverlaps(boxes, present);
-        const PairList held = replay.pairs();
-        EXPECT_EQ(countMissing(wanted, held), 0u) << "frame " << frame;
-        if (exact) {
-          EXPECT_EQ(held, wanted) << "frame " << frame;
-        }
+        expectPresentPairs(replay, info, boxes, present, frame);
       }
       EXPECT_GT(destroyed, 0);
       EXPECT_GT(created, 0);
@@ -88,10 +95,9 @@ TEST(BroadphaseChurnTest, EveryBroadphaseKeepsThePresentBoxesPairs) {
 TEST(BroadphaseChurnTest, WritingOnlyTheChangedBoxesKeepsEveryBroadphaseExact) {
   const Aabb world{{-5, -5, -5}, {25, 25, 25}};
   const std::vector<std::uint8_t> everyone(kObjects, 1);
-  for (const std::string_view name : broadphaseNames()) {
-    SCOPED_TRACE(std::string(name));
-    BroadphaseReplay replay(name, world, kObjects);
-    const bool exact = name == "bf" || name.starts_with("cpu") || name.starts_with("gpu");
+  for (const BroadphaseInfo& info : broadphaseCatalogue()) {
+    SCOPED_TRACE(std::string(info.name));
+    BroadphaseReplay replay(info.name, world, kObjects);
     std::vector<Aabb> boxes;
     for (int i = 0; i < kObjects; ++i) boxes.push_back(movingBox(i, 0));
     EXPECT_THROW(replay.updateChanged(boxes, {}), std::invalid_argument) << "before the first";
@@ -106,12 +112,7 @@ TEST(BroadphaseChurnTest, WritingOnlyTheChangedBoxesKeepsEveryBroadphaseExact) {
       }
       replay.updateChanged(boxes, changed);
       replay.findPairs();
-      const PairList wanted = presentOverlaps(boxes, everyone);
-      const PairList held = replay.pairs();
-      EXPECT_EQ(countMissing(wanted, held), 0u) << "frame " << frame;
-      if (exact) {
-        EXPECT_EQ(held, wanted) << "frame " << frame;
-      }
+      expectPresentPairs(replay, info, boxes, everyone, frame);
     }
     const std::uint32_t past_the_end[] = {kObjects};
     EXPECT_THROW(replay.updateChanged(boxes, past_the_end), std::invalid_argument);
