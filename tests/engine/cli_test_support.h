@@ -21,19 +21,22 @@ struct Result {
   std::string stderr_text;
 };
 
-// Runs the overlap binary with `args` (a shell command line), capturing stderr.
-inline Result runOverlap(const std::string& args) {
+// Runs `command_line` (a shell command line), capturing stderr.
+inline Result runCommand(const std::string& command_line) {
   // One stderr file per test: ctest runs the tests in parallel processes.
   const std::filesystem::path err = overlap::testing::scratchPath(
       "cli_err_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
       ".txt");
-  const std::string command =
-      std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err.string();
-  const int status = std::system(command.c_str());
+  const int status = std::system((command_line + " > /dev/null 2> " + err.string()).c_str());
   std::stringstream text;
   text << std::ifstream(err).rdbuf();
   std::filesystem::remove(err);
   return {WEXITSTATUS(status), text.str()};
+}
+
+// Runs the overlap binary with `args`, capturing stderr.
+inline Result runOverlap(const std::string& args) {
+  return runCommand(std::string(OVERLAP_BINARY) + " " + args);
 }
 
 inline int lineCount(const std::string& text) {
