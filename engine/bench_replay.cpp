@@ -2,11 +2,10 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstring>
-#include <span>
 #include <stdexcept>
 
 #include "engine/cli_errors.h"
+#include "engine/stream_statistics.h"
 #include "gpu/grid_pair_checker.h"
 
 namespace overlap::engine {
@@ -37,17 +36,6 @@ physics::PairList presentPairs(const physics::PairList& all,
   return kept;
 }
 
-// The indices of the boxes of `now` that differ from `before`.
-void changedBoxes(std::span<const physics::Aabb> before, std::span<const physics::Aabb> now,
-                  std::vector<std::uint32_t>& changed) {
-  changed.clear();
-  for (std::size_t i = 0; i < now.size(); ++i) {
-    if (std::memcmp(&before[i], &now[i], sizeof(physics::Aabb)) != 0) {
-      changed.push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-}
-
 }  // namespace
 
 std::vector<std::uint8_t> presentObjects(std::uint64_t seed, int frame, int objects, double churn) {
@@ -65,16 +53,9 @@ std::vector<std::uint8_t> presentObjects(std::uint64_t seed, int frame, int obje
 
 std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& stream) {
   std::vector<physics::PairList> reference;
-  std::vector<gpu::ObjectBounds> bounds(static_cast<std::size_t>(stream.objects));
+  std::vector<gpu::ObjectBounds> bounds;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
-    const auto boxes = stream.frame(frame);
-    for (std::size_t i = 0; i < boxes.size(); ++i) {
-      for (int axis = 0; axis < 3; ++axis) {
-        bounds[i].min[axis] = boxes[i].min[axis];
-        bounds[i].max[axis] = boxes[i].max[axis];
-      }
-      bounds[i].group = bounds[i].mask = 1;
-    }
+    toSearchBounds(stream.frame(frame), bounds);
     physics::PairList pairs;
     for (const std::uint64_t key : gpu::gridCheckerPairs(bounds)) {
       pairs.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});

@@ -16,27 +16,21 @@ StreamStatistics measureStream(const physics::AabbStream& stream, int first_fram
                                 " to measure");
   }
   gpu::CpuSapPairFinder finder;
-  std::vector<gpu::ObjectBounds> bounds(static_cast<std::size_t>(stream.objects));
+  std::vector<gpu::ObjectBounds> bounds;
+  std::vector<std::uint32_t> changed_boxes;
   StreamStatistics statistics;
   const double n = stream.objects;
   double pairs = 0;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
     const auto boxes = stream.frame(frame);
-    double moved = 0;
-    for (std::size_t i = 0; i < boxes.size(); ++i) {
-      gpu::ObjectBounds& entry = bounds[i];
-      const bool same = std::memcmp(entry.min, boxes[i].min, sizeof(entry.min)) == 0 &&
-                        std::memcmp(entry.max, boxes[i].max, sizeof(entry.max)) == 0;
-      moved += same ? 0 : 1;
-      std::memcpy(entry.min, boxes[i].min, sizeof(entry.min));
-      std::memcpy(entry.max, boxes[i].max, sizeof(entry.max));
-      entry.group = entry.mask = 1;
-    }
+    toSearchBounds(boxes, bounds);
     finder.launch(bounds);
     const gpu::PairDelta delta = finder.finish();
     const double changed = static_cast<double>(delta.added.size() + delta.removed.size());
     pairs += static_cast<double>(delta.added.size()) - static_cast<double>(delta.removed.size());
     if (frame < first_frame) continue;
+    changedBoxes(stream.frame(frame - 1), boxes, changed_boxes);
+    const auto moved = static_cast<double>(changed_boxes.size());
     ++statistics.frames;
     statistics.pairs_per_box += pairs / n;
     statistics.changed_pairs += pairs > 0 ? changed / pairs : 0;
@@ -48,6 +42,25 @@ StreamStatistics measureStream(const physics::AabbStream& stream, int first_fram
   statistics.changed_pairs /= statistics.frames;
   statistics.moving_boxes /= statistics.frames;
   return statistics;
+}
+
+void changedBoxes(std::span<const physics::Aabb> before, std::span<const physics::Aabb> now,
+                  std::vector<std::uint32_t>& changed) {
+  changed.clear();
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    if (std::memcmp(&before[i], &now[i], sizeof(physics::Aabb)) != 0) {
+      changed.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+}
+
+void toSearchBounds(std::span<const physics::Aabb> boxes, std::vector<gpu::ObjectBounds>& bounds) {
+  bounds.resize(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    std::memcpy(bounds[i].min, boxes[i].min, sizeof(bounds[i].min));
+    std::memcpy(bounds[i].max, boxes[i].max, sizeof(bounds[i].max));
+    bounds[i].group = bounds[i].mask = 1;
+  }
 }
 
 }  // namespace overlap::engine

@@ -6,6 +6,11 @@
 // filter group.
 #pragma once
 
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "gpu/pair_finder.h"
 #include "physics/aabb_stream.h"
 
 namespace overlap::engine {
@@ -22,5 +27,14 @@ struct StreamStatistics {
 // Over frames [first_frame, stored_frames), first_frame >= 1 (each compares
 // with the frame before).  Throws std::invalid_argument when there is none.
 StreamStatistics measureStream(const physics::AabbStream& stream, int first_frame);
+
+// The indices of the boxes of `now` whose bytes differ from `before`'s (the
+// same frame's boxes, one frame apart).
+void changedBoxes(std::span<const physics::Aabb> before, std::span<const physics::Aabb> now,
+                  std::vector<std::uint32_t>& changed);
+
+// A stream's frame as the pair finders take it: every box in one filter
+// group, so every overlapping pair counts.
+void toSearchBounds(std::span<const physics::Aabb> boxes, std::vector<gpu::ObjectBounds>& bounds);
 
 }  // namespace overlap::engine
