@@ -71,6 +71,22 @@ struct SearchPhases {
   double delta_ms = 0;  // turning them into added and removed pairs
 };
 
+// What the last finished search did on the device and on the host around it,
+// for the benchmark's GPU columns and for counting host work without a GPU.
+// Zero on the CPU finders.  Device times are CUDA events around each stage
+// (what falls outside every stage, e.g. waiting behind other work, is in
+// none); the counts are exact.
+struct DeviceWork {
+  double upload_ms = 0;    // boxes, host to device
+  double kernels_ms = 0;   // from the first kernel's start to the last one's end
+  double download_ms = 0;  // results, device to host
+  std::uint64_t bytes_to_device = 0;
+  std::uint64_t bytes_from_device = 0;
+  std::uint64_t api_calls = 0;            // CUDA runtime calls made by launch() and finish()
+  std::uint64_t host_bytes_copied = 0;    // bytes memcpy'd on the host (staging, list joins)
+  std::uint64_t host_entries_sorted = 0;  // entries sorted on the host
+};
+
 class PairFinder {
  public:
   virtual ~PairFinder() = default;
@@ -107,6 +123,8 @@ class PairFinder {
   virtual double lastSearchDelayMs() const { return 0; }
   // The last finished search's phases.
   virtual SearchPhases lastPhases() const { return {}; }
+  // The last finished search's device stages and host work.
+  virtual DeviceWork lastDeviceWork() const { return {}; }
 };
 
 enum class PairFinderKind {
