@@ -24,15 +24,17 @@ writes the tables, the figures and REPORT.md from whatever results exist:
 
 Every run keeps its own folder under --out; a run whose result exists is not
 redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
-stable job list, so k machines can share the work on one --out folder.  On a
-machine without a CUDA device the GPU algorithms' timing runs are skipped
-(there they would run their CPU fallback, cpusap) and listed in the report as
-needing a GPU; their pairs (the exactness experiment) run through the CUDA
+stable job list, so k machines, or k processes at once, can share the work
+on one --out folder (scripts/study_out_folder.py: what they share, and how
+nothing is lost).  On a machine without a CUDA device the GPU algorithms'
+timing runs are skipped (there they would run their CPU fallback, cpusap)
+and listed in the report as needing a GPU; their pairs (the exactness experiment) run through the CUDA
 emulation build (--emulation, default build-emulation/overlap) when it is
 built: the same .cu files on the CPU, checked pair for pair, never timed.
 
   scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
   scripts/study.py --out out/study --shard 1/2              # half of the full study
+  for i in 1 2 3 4; do scripts/study.py --out out/study --shard $i/4 & done; wait  # 4 at once
   scripts/study.py --out out/study --no-runs --report       # docs/REPORT.md from results
   scripts/study.py --out out/study --experiments overlap    # the overlap-timing study only
 
@@ -44,6 +46,7 @@ import os
 import pathlib
 import subprocess
 import sys
+import tempfile
 import time
 
 import broadphases
@@ -51,6 +54,7 @@ from overlap_runs import run_summary
 import study_physics
 import study_report
 import study_results
+from study_out_folder import InvocationLog, locked, write_atomically
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
@@ -171,13 +175,6 @@ def check_output(command: list) -> str:
     if result.returncode != 0:
         sys.exit(f"study: failed (exit {result.returncode}): {' '.join(command)}\n{result.stderr}")
     return result.stdout
-
-
-def write_atomically(path: pathlib.Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial")
-    partial.write_text(text)
-    partial.replace(path)
 
 
 class RunJob(Job):
@@ -420,16 +417,14 @@ class CaptureJob(Job):
         check_output(self.commands()[0])
 
 
-def gpu_present(overlap: str, out: pathlib.Path) -> tuple:
-    """(whether gpubf runs on a GPU here, the machine's GPU line), from a one-frame run."""
-    probe = out / "gpu_probe"
-    summary = run_summary(overlap, probe, ["--scene", "1", "--algo", "gpubf", "--objects", "8",
-                                           "--frames", "1", "--no-tasks"])
-    present = summary["parameters"]["algorithm"] == "gpubf"
-    # Another machine sharing --out must probe for itself.
-    for name in ("summary.json", "frames.csv", "timeline.json"):
-        (probe / name).unlink(missing_ok=True)
-    return present, summary["machine"]["gpu"]
+def gpu_present(overlap: str) -> tuple:
+    """(whether gpubf runs on a GPU here, the machine's GPU line), from a one-frame run in
+    a folder of this process's own (every shard, on every machine, probes for itself)."""
+    with tempfile.TemporaryDirectory(prefix="overlap_gpu_probe.") as probe:
+        summary = run_summary(overlap, pathlib.Path(probe),
+                              ["--scene", "1", "--algo", "gpubf", "--objects", "8",
+                               "--frames", "1", "--no-tasks"])
+    return summary["parameters"]["algorithm"] == "gpubf", summary["machine"]["gpu"]
 
 
 def format_seconds(seconds: float) -> str:
@@ -447,7 +442,7 @@ def without_a_gpu(pending: list, args) -> tuple:
     runnable = [job for job in pending if not job.gpu_algo]
     exactness = [job for job in gpu_jobs if isinstance(job, PairsJob)]
     if exactness and os.access(args.emulation, os.X_OK):
-        emulated, device = gpu_present(args.emulation, args.out)
+        emulated, device = gpu_present(args.emulation)
         if emulated and "emulation" in device:
             for job in exactness:
                 job.use_emulation(args.emulation, device)
@@ -466,7 +461,7 @@ def run_jobs(jobs: list, args, on_start) -> tuple:
     pending = [job for job in mine if not job.done()]
     gpu_pending = []
     if any(job.gpu_algo for job in pending):
-        present, gpu = gpu_present(args.overlap, args.out)
+        present, gpu = gpu_present(args.overlap)
         if not present:
             pending, gpu_pending = without_a_gpu(pending, args)
             print(f"study: no CUDA device ({gpu}); {len(gpu_pending)} GPU jobs left for a "
@@ -565,21 +560,18 @@ def main(argv: list) -> int:
     invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
         "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": None,
         "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False}
-    log_path = args.out / "study_invocations.json"
-    log = json.loads(log_path.read_text()) if log_path.exists() else []
-
-    def log_invocation():
-        write_atomically(log_path, json.dumps(log + [invocation], indent=1) + "\n")
+    log = InvocationLog(args.out, invocation)
 
     # Logged before the runs and again after them: a stopped study still names its runs;
     # an invocation that runs nothing (everything done) is not logged, so regenerating the
     # report leaves it as it was.
-    ran, gpu_pending = ([], []) if args.no_runs else run_jobs(jobs, args, log_invocation)
+    ran, gpu_pending = ([], []) if args.no_runs else run_jobs(jobs, args, log.write)
     if ran:
         invocation.update(seconds=round(time.time() - started, 1), finished=True,
                           gpu_jobs_pending=len(gpu_pending))
-        log_invocation()
-    failures = study_report.write_everything(args, jobs)
+        log.write()
+    with locked(args.out):  # the shard that takes it last has every other shard's results
+        failures = study_report.write_everything(args, jobs)
     for failure in failures:
         print(f"study: FAILED: {failure}", file=sys.stderr)
     return 1 if failures else 0

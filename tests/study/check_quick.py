@@ -50,15 +50,24 @@ def check(condition: bool, message: str) -> None:
         sys.exit("FAIL: " + message)
 
 
-def main() -> int:
+def arguments_or_skip():
+    """--overlap and --out (emptied), or None after saying why the test skips: this
+    interpreter has no matplotlib, which the study's figures need."""
     parser = argparse.ArgumentParser()
     parser.add_argument("--overlap", required=True)
     parser.add_argument("--out", type=pathlib.Path, required=True)
     args = parser.parse_args()
     if importlib.util.find_spec("matplotlib") is None:
         print(f"SKIP: {sys.executable} has no matplotlib (install python3-matplotlib)")
-        return 77
+        return None
     shutil.rmtree(args.out, ignore_errors=True)
+    return args
+
+
+def main() -> int:
+    args = arguments_or_skip()
+    if args is None:
+        return 77
 
     notes = args.out / "notes"
     notes.mkdir(parents=True)

@@ -1,0 +1,70 @@
+"""The study's --out folder, shared by every shard that runs at once (`--shard i/k`).
+
+Rules, each with its reason:
+  * A job writes only its own paths (its run folder, its CSV): shards split
+    the job list, so no two of them write one job's result.
+  * A file several shards may write (commands.txt, bf_pairs.csv) is written
+    to a temporary of this process's own, then renamed over the name: a
+    reader sees the old file or the whole new one, and two writers never
+    share a temporary (one's rename would find the other's gone).
+  * What every shard reads, changes and writes back (the invocation log) and
+    what is written from all the results (the tables, figures and report) is
+    done under one lock on OUT/.study.lock: no update is lost, and the shard
+    that writes the report last has read every result the others finished.
+  * Nothing a process needs only for itself (the GPU probe's run) is written
+    into --out: another shard's `overlap` could replace it, or remove it.
+"""
+import contextlib
+import fcntl
+import json
+import os
+import pathlib
+import tempfile
+
+LOCK_NAME = ".study.lock"
+LOG_NAME = "study_invocations.json"
+
+
+def write_atomically(path: pathlib.Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+                                       suffix=".partial")
+    try:
+        with os.fdopen(handle, "w") as f:
+            f.write(text)
+        os.replace(partial, path)
+    except BaseException:
+        pathlib.Path(partial).unlink(missing_ok=True)
+        raise
+
+
+@contextlib.contextmanager
+def locked(out: pathlib.Path):
+    """Holds the --out folder's lock (blocking until every other shard has let it go)."""
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / LOCK_NAME, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+class InvocationLog:
+    """This invocation's entry in OUT/study_invocations.json, beside every other shard's:
+    each write re-reads the log under the lock and adds or replaces only this entry (the
+    log is only ever appended to, so its place stays its own)."""
+
+    def __init__(self, out: pathlib.Path, entry: dict):
+        self.out, self.entry, self.index = out, entry, None
+
+    def write(self) -> None:
+        path = self.out / LOG_NAME
+        with locked(self.out):
+            log = json.loads(path.read_text()) if path.exists() else []
+            if self.index is None:
+                self.index = len(log)
+                log.append(self.entry)
+            else:
+                log[self.index] = self.entry
+            write_atomically(path, json.dumps(log, indent=1) + "\n")

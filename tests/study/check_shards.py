@@ -1,0 +1,74 @@
+"""Shards at once: two `scripts/study.py --shard i/2` processes started together into one
+--out must both finish with every job's result there, nothing lost.
+
+The smallest study that touches every path shards share: a sweep with a GPU
+algorithm in each shard's share (each shard probes for a GPU), and the pairs
+experiment split across the shards (both need the one recorded stream and bf's
+pairs); both then write the tables and the report, and the invocation log.
+Exit 77 (ctest's skip) when this interpreter has no matplotlib.
+"""
+import json
+import pathlib
+import shutil
+import subprocess
+import sys
+
+from check_quick import STUDY, arguments_or_skip, check, rows
+
+# Jobs in plan order: sweep bf, bvh, gpubf at 80, then at 120; pairs bf, cpubf.  Shard 1
+# takes 0, 2, 4, 6 and shard 2 takes 1, 3, 5, 7: gpubf and one pairs job in each.
+OBJECTS, ALGOS, PAIRS_ALGOS = [80, 120], ["bf", "bvh", "gpubf"], ["bf", "cpubf"]
+SMALLEST = ["--quick", "--threads", "1", "--experiments", "sweep,pairs", "--scenes", "1",
+            "--objects", ",".join(map(str, OBJECTS)), "--algos", ",".join(ALGOS),
+            "--frames", "3", "--figure-objects", "80", "--pairs-objects", "80",
+            "--pairs-frames", "3", "--pairs-algos", ",".join(PAIRS_ALGOS)]
+SHARDS = 2
+
+
+def main() -> int:
+    args = arguments_or_skip()
+    if args is None:
+        return 77
+    notes = args.out.parent / (args.out.name + "_notes")  # none: the report's own text only
+    shutil.rmtree(notes, ignore_errors=True)
+    notes.mkdir(parents=True)
+    study_out = args.out / "study"
+    # No emulation build: the GPU jobs stay pending here, the same in every build tree.
+    common = [sys.executable, str(STUDY), "--overlap", args.overlap, "--emulation",
+              str(args.out / "no-emulation"), "--out", str(study_out), "--notes", str(notes),
+              *SMALLEST]
+    shards = [subprocess.Popen([*common, "--shard", f"{i}/{SHARDS}"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True) for i in range(1, SHARDS + 1)]
+    outputs = [shard.communicate() for shard in shards]
+    for i, (shard, (_, stderr)) in enumerate(zip(shards, outputs), start=1):
+        check(shard.returncode == 0, f"shard {i}/{SHARDS} exited {shard.returncode}:\n{stderr}")
+        check(f"shard {i}/{SHARDS}:" in stderr, f"shard {i}/{SHARDS} did not plan:\n{stderr}")
+
+    summaries = sorted((study_out / "sweep").glob("*/summary.json"))
+    check(bool(summaries), "no sweep run finished")
+    gpu = json.loads(summaries[0].read_text())["machine"]["gpu"]
+    has_gpu = not gpu.startswith("none") and "emulation" not in gpu
+    expected = {f"s1_n{n}_{a}_r0" for n in OBJECTS for a in ALGOS if has_gpu or a != "gpubf"}
+    done = {path.parent.name for path in summaries}
+    check(done == expected, f"sweep runs {sorted(done)}, expected {sorted(expected)}")
+    for algo in PAIRS_ALGOS:
+        check((study_out / "pairs" / f"{algo}.csv").exists(), f"pairs/{algo}.csv is missing")
+    # The report written last read every shard's results.
+    recorded = {pathlib.Path(run["folder"]).name for run in rows(study_out / "sweep_runs.csv")}
+    check(recorded == expected, f"sweep_runs.csv holds {sorted(recorded)}")
+    check({p["algo"] for p in rows(study_out / "pairs.csv")} == set(PAIRS_ALGOS),
+          "pairs.csv lacks a shard's pairs")
+    log = json.loads((study_out / "study_invocations.json").read_text())
+    check(len(log) == SHARDS and all(entry["finished"] for entry in log),
+          f"the invocation log holds {len(log)} entries, expected {SHARDS} finished:\n{log}")
+    check(sorted(entry["argv"][-1] for entry in log) ==
+          [f"{i}/{SHARDS}" for i in range(1, SHARDS + 1)], "the log lost a shard's entry")
+    left = [p.name for p in study_out.rglob("*") if "partial" in p.name or "probe" in p.name]
+    check(not left, f"temporaries left in --out: {left}")
+    shutil.rmtree(notes)
+    print(f"study.shards: {SHARDS} shards at once, all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
