@@ -3,9 +3,13 @@ the verdict the figures give and the section that holds them.
 
 Every verdict is computed from the same rows the sections print; where the
 runs a claim needs are missing (the GPU's, on a machine without one) the
-verdict says so and the row gives what was measured instead, labelled.
+verdict says so and the row gives what was measured instead, labelled: the
+CPU twin's figure from this report's runs, then the GPU machine's from its
+raw files in docs/results/gpu/ (scripts/gpu_results.py), named as that
+machine's and not this report's, until the study itself runs on a GPU.
 """
 import broadphases
+import gpu_results
 import study_physics
 from study_results import update_and_broadphase_ms
 
@@ -27,6 +31,17 @@ def gpu_measured(cells: list) -> list:
     return [a for a in broadphases.needs_device() if any(c["algo"] == a and not c["fallback"] for c in cells)]
 
 
+def cite_gpu_machine(rows: list, gpu: list) -> list:
+    """Without a GPU in this report's runs, each paper claim's row also gives the GPU
+    machine's figure and verdict (docs/results/gpu/), marked as that machine's."""
+    cited = {} if gpu else gpu_results.claim_figures(NEAR)
+    for number, row in enumerate(rows, start=1):
+        if number in cited:
+            row[1] += ". " + cited[number][0]
+            row[2] += "; " + cited[number][1]
+    return rows
+
+
 def paper_rows(cells: list) -> list:
     rows = []
     gpu = gpu_measured(cells)
@@ -38,7 +53,7 @@ def paper_rows(cells: list) -> list:
                  f"{who}: update + broadphase x{low:.2f}-x{high:.2f} of bf's, faster in "
                  f"{faster} of {compared} cells" if compared else "not run",
                  ("holds" if compared and faster == compared else "does not hold")
-                 + ("" if gpu else " for the CPU twin; untested on a GPU"), "§1"])
+                 + ("" if gpu else " for the CPU twin; untested on a GPU in this study"), "§1"])
     near = []
     for other in ("sap", "bvh"):
         compared, _, low, high = ratio_range(cells, stand_in, other, total)
@@ -49,7 +64,7 @@ def paper_rows(cells: list) -> list:
                  f"{who}: " + "; ".join(f"x{lo:.2f}-x{hi:.2f} of {o}'s" for o, lo, hi in near)
                  if near else "not run",
                  verdict
-                 + ("" if gpu else "; untested on a GPU"), "§1"])
+                 + ("" if gpu else "; untested on a GPU in this study"), "§1"])
     scene4 = [c for c in cells if c["scene"] == 4 and not c["fallback"]]
     if scene4:
         n = max(c["objects"] for c in scene4)
@@ -60,8 +75,8 @@ def paper_rows(cells: list) -> list:
                      f"({best['total_mean']:.0f} ms; next {at_n[1]['algo']} "
                      f"{at_n[1]['total_mean']:.0f})" if len(at_n) > 1 else best["algo"],
                      ("holds" if best["algo"] in broadphases.needs_device() else "does not hold")
-                     + ("" if gpu else " among the algorithms run; untested on a GPU"), "§1"])
-    return rows
+                     + ("" if gpu else " among the algorithms run; untested on a GPU in this study"), "§1"])
+    return cite_gpu_machine(rows, gpu)
 
 
 def async_row(overlap: list) -> list:

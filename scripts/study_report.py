@@ -11,6 +11,7 @@ import pathlib
 import shutil
 
 import broadphases
+import gpu_results
 import study_claims
 import study_notes
 import study_overlap
@@ -444,8 +445,10 @@ def gpu_lines(jobs: list, pairs: list) -> list:
         return []
     lines = ["### What needs a real GPU", ""]
     if left:
-        lines += ["No machine of this project has a GPU, so these figures are not in this "
-                  "report: " + "; ".join(
+        elsewhere = gpu_results.measured_elsewhere()
+        lines += ["The machine that ran this study has no GPU, so these figures are not in "
+                  "this report" + (f" ({elsewhere} and cited in the claims table)"
+                                   if elsewhere else "") + ": " + "; ".join(
                       f"{experiment}: {len(group)} runs of "
                       f"{', '.join(sorted({j.gpu_algo for j in group}))}"
                       for experiment, group in sorted(left.items())) +
