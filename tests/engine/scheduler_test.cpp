@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <stdexcept>
 
 #include "engine/frame_scheduler.h"
@@ -188,8 +189,12 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
 // Issue 12, item 6: a oneTBB cap of N threads (what `overlap run --threads N`
 // sets) bounds every thread of the run, cpubf's search included: the main
 // thread and N - 1 workers.  Counted in /proc/self/task from inside a task,
-// while the tasks and the search run.  Caps grow, as a worker that exists
-// stays.
+// while the tasks and the search run; nothing here asks for a CUDA device,
+// so no thread of the driver's is counted.  Caps grow, as a worker that
+// exists stays, and each is set before the last one goes: between two caps
+// the limit never returns to every hardware thread, when oneTBB could start
+// workers the next cap does not allow (as `overlap run` holds its one cap
+// for the whole run).
 std::size_t threadsNow() {
   return static_cast<std::size_t>(
       std::distance(std::filesystem::directory_iterator("/proc/self/task"),
@@ -201,8 +206,10 @@ TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
     GTEST_SKIP() << threadsNow() << " threads before the test: earlier tests of this process left "
                  << "oneTBB workers; ctest runs each test in a process of its own";
   }
+  std::unique_ptr<tbb::global_control> limit;
   for (const std::size_t cap : {1u, 2u, 3u}) {
-    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, cap);
+    limit =
+        std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, cap);
     physics::SceneConfig config = smallScene();
     config.objects = 400;
     physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
