@@ -28,9 +28,10 @@ stable job list, so k machines, or k processes at once, can share the work
 on one --out folder (scripts/study_out_folder.py: what they share, and how
 nothing is lost).  On a machine without a CUDA device the GPU algorithms'
 timing runs are skipped (there they would run their CPU fallback, cpusap)
-and listed in the report as needing a GPU; their pairs (the exactness experiment) run through the CUDA
-emulation build (--emulation, default build-emulation/overlap) when it is
-built: the same .cu files on the CPU, checked pair for pair, never timed.
+and listed in the report as needing a GPU; their pairs (the exactness
+experiment) run through the CUDA emulation build (--emulation, default
+build-emulation/overlap) when it is built: the same .cu files on the CPU,
+checked pair for pair, never timed.
 
   scripts/study.py --quick --out /tmp/study_quick          # minutes, small version
   scripts/study.py --out out/study --shard 1/2              # half of the full study
