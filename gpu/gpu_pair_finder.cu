@@ -294,8 +294,8 @@ class GpuPairFinder final : public PairFinder {
       findPairsKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
                         stream_>>>(objects_.data(), slot_count_, words_[previous_].data(),
                                    words_[1 - previous_].data(), changeLists());
-      counting_ = 1 - counting_;
       enqueueHeadSort();
+      counting_ = 1 - counting_;
     }
     events_.record(StageEvents::kSearched, stream_, work_.api_calls);
     enqueueBlockCopy();
@@ -431,8 +431,8 @@ class GpuPairFinder final : public PairFinder {
     collectChangesKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
                            stream_>>>(slot_count_, words_[previous_].data(),
                                       words_[1 - previous_].data(), changeLists());
-    counting_ = 1 - counting_;
     enqueueHeadSort();
+    counting_ = 1 - counting_;
     enqueueBlockCopy();
     events_.record(StageEvents::kDone, stream_, work_.api_calls);
     events_.waitDone(work_.api_calls);
