@@ -255,7 +255,10 @@ std::string csvText(const std::vector<Row>& rows, const std::string& command,
   for (const std::string& note : notes) csv += "# " + note + '\n';
   csv +=
       "n,algorithm,frames,repeats,median_us,min_us,max_us,ratio_vs_bvh,pairs_mean,"
-      "extra_pairs_mean,missed_pairs,stream,churn,update_us,sort_us,sweep_us,delta_us,cache_us\n";
+      "extra_pairs_mean,missed_pairs,stream,churn,update_us,sort_us,sweep_us,delta_us,cache_us,"
+      "launch_to_finish_us";
+  for (const char* column : kDeviceColumns) csv += std::string(",") + column;
+  csv += '\n';
   for (const Row& row : rows) {
     const auto [fastest, slowest] =
         std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
@@ -269,6 +272,10 @@ std::string csvText(const std::vector<Row>& rows, const std::string& command,
            fixed(row.churn, 3) + ',' + fixed(median(row.update_us), 1);
     for (const auto* phase : {&row.sort_us, &row.sweep_us, &row.delta_us, &row.cache_us}) {
       csv += ',' + (row.hasPhases() ? fixed(median(*phase), 1) : "");
+    }
+    csv += ',' + (row.hasPhases() ? fixed(median(row.launch_to_finish_us), 1) : "");
+    for (std::size_t column = 0; column < std::size(kDeviceColumns); ++column) {
+      csv += ',' + (row.hasDeviceWork() ? fixed(row.deviceMedian(column), column < 3 ? 1 : 0) : "");
     }
     csv += '\n';
   }
@@ -300,7 +307,17 @@ nlohmann::json rowJson(const Row& row) {
           {"sort_us", optional(row.hasPhases(), median(row.sort_us))},
           {"sweep_us", optional(row.hasPhases(), median(row.sweep_us))},
           {"delta_us", optional(row.hasPhases(), median(row.delta_us))},
-          {"cache_us", optional(row.hasPhases(), median(row.cache_us))}};
+          {"cache_us", optional(row.hasPhases(), median(row.cache_us))},
+          {"launch_to_finish_us", optional(row.hasPhases(), median(row.launch_to_finish_us))}};
+}
+
+// The row's JSON with the GPU columns (null where the finder reports no device work).
+nlohmann::json withDeviceColumns(const Row& row, nlohmann::json json) {
+  for (std::size_t column = 0; column < std::size(kDeviceColumns); ++column) {
+    json[kDeviceColumns[column]] =
+        row.hasDeviceWork() ? nlohmann::json(row.deviceMedian(column)) : nlohmann::json(nullptr);
+  }
+  return json;
 }
 
 // The command line as it reruns from the repository's top: the executable as
@@ -400,7 +417,13 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
       "churn: share of the boxes destroyed and created each frame (0: none); update_us: the "
       "median frame's update (with churn, its destroyProxy and createProxy); sort_us, sweep_us, "
       "delta_us: our finders' search split (cpusap), cache_us: applying its changes to Bullet's "
-      "pair cache (our broadphases only); each the median over measured frames, then repeats"};
+      "pair cache, launch_to_finish_us: the finder's launch() to finish()'s return on the host "
+      "(our broadphases only); each the median over measured frames, then repeats",
+      "GPU finders only (gpubf, gpubf-paper), each the median over measured frames, then "
+      "repeats: upload_us, kernels_us, download_us: CUDA events around the upload, the kernels "
+      "and the copy back; bytes_to_device, bytes_from_device: bytes over the bus; api_calls: "
+      "CUDA runtime calls of launch() and finish(); host_bytes_copied: bytes memcpy'd on the "
+      "host; host_entries_sorted: changes sorted on the host (docs/OUTPUTS.md)"};
   if (!skipped.empty()) notes.push_back(skipped);
   return notes;
 }
@@ -489,7 +512,7 @@ int run(const BenchOptions& options, const std::string& command) {
       {"streams", streams},
       {"run_seconds", std::chrono::duration<double>(Clock::now() - start).count()},
       {"rows", nlohmann::json::array()}};
-  for (const Row& row : rows) json["rows"].push_back(rowJson(row));
+  for (const Row& row : rows) json["rows"].push_back(withDeviceColumns(row, rowJson(row)));
   std::filesystem::path csv_path = options.out, json_path = options.out;
   csv_path += ".csv";
   json_path += ".json";

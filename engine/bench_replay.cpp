@@ -36,7 +36,35 @@ physics::PairList presentPairs(const physics::PairList& all,
   return kept;
 }
 
+// Each column's median over `frames`.
+DeviceFigures columnMedians(const std::vector<DeviceFigures>& frames) {
+  DeviceFigures medians{};
+  std::vector<double> column(frames.size());
+  for (std::size_t c = 0; c < medians.size(); ++c) {
+    for (std::size_t f = 0; f < frames.size(); ++f) column[f] = frames[f][c];
+    medians[c] = median(column);
+  }
+  return medians;
+}
+
 }  // namespace
+
+DeviceFigures deviceFigures(const gpu::DeviceWork& work) {
+  return {1e3 * work.upload_ms,
+          1e3 * work.kernels_ms,
+          1e3 * work.download_ms,
+          static_cast<double>(work.bytes_to_device),
+          static_cast<double>(work.bytes_from_device),
+          static_cast<double>(work.api_calls),
+          static_cast<double>(work.host_bytes_copied),
+          static_cast<double>(work.host_entries_sorted)};
+}
+
+double Row::deviceMedian(std::size_t column) const {
+  std::vector<double> repeats;
+  for (const DeviceFigures& figures : device) repeats.push_back(figures[column]);
+  return median(std::move(repeats));
+}
 
 std::vector<std::uint8_t> presentObjects(std::uint64_t seed, int frame, int objects, double churn) {
   std::vector<std::uint8_t> present(static_cast<std::size_t>(objects), 1);
@@ -83,6 +111,8 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
     throw std::logic_error("replayOnce: a churn replay cannot be the reference");
   }
   std::vector<double> frame_us, update_us, sort_us, sweep_us, delta_us, cache_us;
+  std::vector<double> launch_to_finish_us;
+  std::vector<DeviceFigures> device;
   std::vector<std::uint32_t> changed;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
     std::vector<std::uint8_t> present;
@@ -111,6 +141,8 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
         sweep_us.push_back(1e3 * phases->sweep_ms);
         delta_us.push_back(1e3 * phases->delta_ms);
         cache_us.push_back(1e3 * phases->cache_update_ms);
+        launch_to_finish_us.push_back(1e3 * phases->launch_to_finish_ms);
+        if (phases->device.api_calls > 0) device.push_back(deviceFigures(phases->device));
       }
       row.pairs_sum += static_cast<double>(pairs.size());
     }
@@ -135,7 +167,9 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
     row.sweep_us.push_back(median(std::move(sweep_us)));
     row.delta_us.push_back(median(std::move(delta_us)));
     row.cache_us.push_back(median(std::move(cache_us)));
+    row.launch_to_finish_us.push_back(median(std::move(launch_to_finish_us)));
   }
+  if (!device.empty()) row.device.push_back(columnMedians(device));
 }
 
 }  // namespace overlap::engine

@@ -10,6 +10,7 @@
 // such a frame is the full frame's pairs between two present objects.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -21,6 +22,16 @@
 
 namespace overlap::engine {
 
+// The GPU columns, in the CSV's order: what gpu::DeviceWork reports of a
+// frame (stage times by CUDA events, bytes over the bus, host work).
+inline constexpr const char* kDeviceColumns[] = {
+    "upload_us",         "kernels_us", "download_us",       "bytes_to_device",
+    "bytes_from_device", "api_calls",  "host_bytes_copied", "host_entries_sorted"};
+using DeviceFigures = std::array<double, std::size(kDeviceColumns)>;
+
+// A frame's DeviceWork as the columns' figures (times in microseconds).
+DeviceFigures deviceFigures(const gpu::DeviceWork& work);
+
 struct Row {
   int objects = 0;
   std::string algorithm;
@@ -31,6 +42,11 @@ struct Row {
   // Per repeat, the median measured frame's parts (our broadphases only):
   // update (setAabb), sort, sweep, delta, the pair-cache update.
   std::vector<double> update_us, sort_us, sweep_us, delta_us, cache_us;
+  // Per repeat, the median measured frame's finder launch() to finish() on
+  // the host (our broadphases only), and each GPU column's median over the
+  // measured frames (only finders that report device work: gpubf, gpubf-paper).
+  std::vector<double> launch_to_finish_us;
+  std::vector<DeviceFigures> device;
   std::optional<std::string> reference;  // the exact set's algorithm, if any ran
   double pairs_sum = 0;
   double extra_sum = 0;
@@ -43,6 +59,9 @@ struct Row {
   double extraMean() const { return extra_sum / (frames * static_cast<double>(repeats())); }
   int repeats() const { return static_cast<int>(repeat_medians_us.size()); }
   bool hasPhases() const { return !sort_us.empty(); }
+  bool hasDeviceWork() const { return !device.empty(); }
+  // Column `column`'s median over repeats.
+  double deviceMedian(std::size_t column) const;
   // Whether its pairs were compared with a reference: not the reference's
   // own plain replay.
   bool checked() const { return reference && (algorithm != *reference || churn > 0); }

@@ -45,6 +45,7 @@ class BackgroundPairFinder final : public PairFinder {
   double lastSearchMs() const override { return inner_->lastSearchMs(); }
   double lastSearchDelayMs() const override { return search_delay_ms_; }
   SearchPhases lastPhases() const override { return inner_->lastPhases(); }
+  DeviceWork lastDeviceWork() const override { return inner_->lastDeviceWork(); }
   double lastLaunchToFinishMs() const override { return launch_to_finish_ms_; }
 
  private:

@@ -1,6 +1,8 @@
 // CUDA error checking for the GPU finders (nvcc only).  Every runtime call
 // goes through CUDA_CHECK, which throws std::runtime_error naming the call,
-// the file and line, and CUDA's own description of the error.
+// the file and line, and CUDA's own description of the error;
+// CUDA_CHECK_COUNTED also counts the call, for a finder's count of the calls
+// a frame makes (DeviceWork::api_calls).
 #pragma once
 
 #include <cuda_runtime.h>
@@ -25,4 +27,10 @@ namespace overlap::gpu {
     if (overlap_cuda_status != cudaSuccess) {                                         \
       ::overlap::gpu::throwCudaError(overlap_cuda_status, #call, __FILE__, __LINE__); \
     }                                                                                 \
+  } while (false)
+
+#define CUDA_CHECK_COUNTED(counter, call) \
+  do {                                    \
+    ++(counter);                          \
+    CUDA_CHECK(call);                     \
   } while (false)

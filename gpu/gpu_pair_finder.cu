@@ -13,12 +13,17 @@
 // capacity: an overflow is seen on the host and the changes are collected
 // again, from the two frames' words, into longer lists.
 //
+// A second, one-block-per-list kernel sorts each list's head in place
+// (a bitonic sort in shared memory), so the changes come back sorted and the
+// host sorts nothing unless a list outgrew its head.
+//
 // One frame is: an upload of the boxes from pinned staging (which the caller
-// may fill itself: stagingFor()), the kernel, one copy back of a result block
-// holding both counts and the first kHeadEntries of both lists, and two
-// events; nothing else unless more changed than the block holds.  The kernel
-// zeroes the counts the next counting kernel will use (two pairs of counts,
-// used in turn), so no memset is queued per frame.
+// may fill itself: stagingFor()), the two kernels, one copy back of a result
+// block holding both counts and the first kHeadEntries of both lists, and the
+// four stage events (gpu/stage_events.h); nothing else unless more changed
+// than the block holds.  The kernel zeroes the counts the next counting
+// kernel will use (two pairs of counts, used in turn), so no memset is queued
+// per frame.
 //
 // Memory: two word buffers (last frame's, read; this frame's, written) swap
 // roles every frame; words past the last row are zero, so growing the slot
@@ -31,11 +36,13 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/row_words.h"
+#include "gpu/stage_events.h"
 
 namespace overlap::gpu {
 namespace {
@@ -53,6 +60,8 @@ constexpr std::size_t kHeadEntries = 1u << 12;
 // Each list holds this many entries at first, the head included.
 constexpr std::size_t kInitialListCapacity = 1u << 14;
 constexpr unsigned kFullWarp = 0xFFFFFFFFu;
+// One block sorts one list's head: kHeadEntries keys of shared memory.
+constexpr unsigned kSortThreads = 512;
 
 // What one copy brings back each frame.
 struct ResultBlock {
@@ -175,6 +184,42 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
   });
 }
 
+// Sorts the first counts[counting][list] entries of each list's head by
+// (a, b), block 0 the added list and block 1 the removed one.  A list longer
+// than its head is left to the host, which sorts it whole with its tail.
+__global__ void __launch_bounds__(kSortThreads)
+    sortHeadsKernel(ResultBlock* block, unsigned counting) {
+  __shared__ std::uint64_t keys[kHeadEntries];
+  IndexPair* const list = blockIdx.x == 0 ? block->added : block->removed;
+  const unsigned long long count = block->counts[counting][blockIdx.x];
+  if (count < 2 || count > kHeadEntries) return;  // uniform across the block
+  unsigned size = 2;                              // the power of two the bitonic network spans
+  while (size < count) size *= 2;
+  for (unsigned i = threadIdx.x; i < size; i += kSortThreads) {
+    // (a, b) as one key, a high: keys sort as the pairs do (a < b already).
+    keys[i] = i < count ? (std::uint64_t{list[i].a} << 32) | list[i].b : ~std::uint64_t{0};
+  }
+  __syncthreads();
+  for (unsigned run = 2; run <= size; run *= 2) {
+    for (unsigned stride = run / 2; stride > 0; stride /= 2) {
+      for (unsigned i = threadIdx.x; i < size; i += kSortThreads) {
+        const unsigned partner = i ^ stride;
+        const bool ascending = (i & run) == 0;
+        if (partner > i && (keys[i] > keys[partner]) == ascending) {
+          const std::uint64_t kept = keys[i];
+          keys[i] = keys[partner];
+          keys[partner] = kept;
+        }
+      }
+      __syncthreads();
+    }
+  }
+  for (unsigned i = threadIdx.x; i < count; i += kSortThreads) {
+    list[i] =
+        IndexPair{static_cast<std::uint32_t>(keys[i] >> 32), static_cast<std::uint32_t>(keys[i])};
+  }
+}
+
 unsigned blocksFor(std::uint64_t runs) {
   return static_cast<unsigned>(std::min((runs + kWarpsPerBlock - 1) / kWarpsPerBlock, kMaxBlocks));
 }
@@ -183,9 +228,6 @@ class GpuPairFinder final : public PairFinder {
  public:
   GpuPairFinder() {
     CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    CUDA_CHECK(cudaEventCreate(&search_started_));
-    CUDA_CHECK(cudaEventCreate(&block_ready_));
-    CUDA_CHECK(cudaEventCreate(&lists_ready_));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_block_ = PinnedBuffer<ResultBlock>(1);
     // Once: from here on each counting kernel zeroes the count pair the next
@@ -198,9 +240,6 @@ class GpuPairFinder final : public PairFinder {
   // Waits for work in flight before the buffers go; errors cannot be thrown here.
   ~GpuPairFinder() override {
     cudaStreamSynchronize(stream_);
-    cudaEventDestroy(lists_ready_);
-    cudaEventDestroy(block_ready_);
-    cudaEventDestroy(search_started_);
     cudaStreamDestroy(stream_);
   }
 
@@ -208,8 +247,17 @@ class GpuPairFinder final : public PairFinder {
   GpuPairFinder& operator=(const GpuPairFinder&) = delete;
 
   std::string_view name() const override { return "gpubf"; }
-  double lastSearchMs() const override { return last_search_ms_; }
+  double lastSearchMs() const override {
+    return events_.ms(StageEvents::kStarted, StageEvents::kDone);
+  }
   double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
+  DeviceWork lastDeviceWork() const override {
+    DeviceWork work = last_work_;
+    work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
+    work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
+    work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+    return work;
+  }
 
   std::span<ObjectBounds> stagingFor(std::size_t count) override {
     if (in_flight_)
@@ -221,6 +269,7 @@ class GpuPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf: launch() called twice without finish()");
     launch_watch_ = HostStopwatch();
+    work_ = DeviceWork{};
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
     reserveDiscarding(objects_, objects.size());
@@ -228,21 +277,29 @@ class GpuPairFinder final : public PairFinder {
       // The caller's memory is pageable and may change once we return: stage it.
       reserveDiscarding(staging_, objects.size());
       std::memcpy(staging_.data(), objects.data(), objects.size_bytes());
+      work_.host_bytes_copied += objects.size_bytes();
     }
-    CUDA_CHECK(cudaEventRecord(search_started_, stream_));
+    events_.beginFrame();
+    events_.record(StageEvents::kStarted, stream_, work_.api_calls);
     if (!objects.empty()) {
-      CUDA_CHECK(cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                                 cudaMemcpyHostToDevice, stream_));
+      CUDA_CHECK_COUNTED(work_.api_calls,
+                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
+                                         cudaMemcpyHostToDevice, stream_));
+      work_.bytes_to_device += objects.size_bytes();
     }
+    events_.record(StageEvents::kUploaded, stream_, work_.api_calls);
     reading_ = counting_;
     if (row_words::runCount(slot_count_) > 0) {
+      ++work_.api_calls;
       findPairsKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
                         stream_>>>(objects_.data(), slot_count_, words_[previous_].data(),
                                    words_[1 - previous_].data(), changeLists());
-      CUDA_CHECK(cudaGetLastError());
+      enqueueHeadSort();
       counting_ = 1 - counting_;
     }
+    events_.record(StageEvents::kSearched, stream_, work_.api_calls);
     enqueueBlockCopy();
+    events_.record(StageEvents::kDone, stream_, work_.api_calls);
     in_flight_ = true;
   }
 
@@ -264,31 +321,33 @@ class GpuPairFinder final : public PairFinder {
 
  private:
   PairDelta collectDelta() {
-    CUDA_CHECK(cudaEventSynchronize(block_ready_));
+    events_.waitDone(work_.api_calls);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
     std::size_t removed_count = host_block_.data()->counts[reading_][1];
     IndexPair* added = host_block_.data()->added;
     IndexPair* removed = host_block_.data()->removed;
-    cudaEvent_t done = block_ready_;
     if (std::max(added_count, removed_count) > kHeadEntries) {
-      // More changes than the block holds: fetch the tails too.
+      // More changes than the block holds: fetch the tails too, as part of
+      // the copy back (the done event is recorded again after them).
       const std::size_t needed = std::max(added_count, removed_count) - kHeadEntries;
       if (needed > added_tail_.size()) recollectChanges(needed);
       added = joinHeadAndTail(host_block_.data()->added, added_tail_, host_added_, added_count);
       removed =
           joinHeadAndTail(host_block_.data()->removed, removed_tail_, host_removed_, removed_count);
-      CUDA_CHECK(cudaEventRecord(lists_ready_, stream_));
-      CUDA_CHECK(cudaEventSynchronize(lists_ready_));
-      done = lists_ready_;
+      events_.record(StageEvents::kDone, stream_, work_.api_calls);
+      events_.waitDone(work_.api_calls);
     }
-    float elapsed_ms = 0;
-    CUDA_CHECK(cudaEventElapsedTime(&elapsed_ms, search_started_, done));
-    last_search_ms_ = elapsed_ms;
     previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
-    // Atomics append in no fixed order; sorting restores the contract.
-    std::sort(added, added + added_count);
-    std::sort(removed, removed + removed_count);
+    // The device sorted every head that held its whole list; a list longer
+    // than its head came back in atomic order.
+    for (const auto& [list, count] :
+         {std::pair{added, added_count}, std::pair{removed, removed_count}}) {
+      if (count <= kHeadEntries) continue;
+      std::sort(list, list + count);
+      work_.host_entries_sorted += count;
+    }
+    last_work_ = work_;
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
@@ -300,9 +359,12 @@ class GpuPairFinder final : public PairFinder {
     if (count <= kHeadEntries) return head;
     reserveDiscarding(host, count);
     std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
-    CUDA_CHECK(cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(),
-                               (count - kHeadEntries) * sizeof(IndexPair), cudaMemcpyDeviceToHost,
-                               stream_));
+    work_.host_bytes_copied += kHeadEntries * sizeof(IndexPair);
+    const std::size_t tail_bytes = (count - kHeadEntries) * sizeof(IndexPair);
+    CUDA_CHECK_COUNTED(work_.api_calls,
+                       cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(), tail_bytes,
+                                       cudaMemcpyDeviceToHost, stream_));
+    work_.bytes_from_device += tail_bytes;
     return host.data();
   }
 
@@ -312,9 +374,19 @@ class GpuPairFinder final : public PairFinder {
   }
 
   void enqueueBlockCopy() {
-    CUDA_CHECK(cudaMemcpyAsync(host_block_.data(), block_.data(), sizeof(ResultBlock),
-                               cudaMemcpyDeviceToHost, stream_));
-    CUDA_CHECK(cudaEventRecord(block_ready_, stream_));
+    CUDA_CHECK_COUNTED(work_.api_calls,
+                       cudaMemcpyAsync(host_block_.data(), block_.data(), sizeof(ResultBlock),
+                                       cudaMemcpyDeviceToHost, stream_));
+    work_.bytes_from_device += sizeof(ResultBlock);
+  }
+
+  // Sorts the heads of the lists the last counting kernel filled, after it;
+  // one launch check covers both kernels (a failed launch's error stays
+  // until read).
+  void enqueueHeadSort() {
+    ++work_.api_calls;
+    sortHeadsKernel<<<2, kSortThreads, 0, stream_>>>(block_.data(), reading_);
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
   }
 
   // Both tails are replaced only once both exist: they share one capacity.
@@ -355,26 +427,27 @@ class GpuPairFinder final : public PairFinder {
   void recollectChanges(std::size_t needed) {
     growTails(needed);
     reading_ = counting_;
+    ++work_.api_calls;
     collectChangesKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
                            stream_>>>(slot_count_, words_[previous_].data(),
                                       words_[1 - previous_].data(), changeLists());
-    CUDA_CHECK(cudaGetLastError());
+    enqueueHeadSort();
     counting_ = 1 - counting_;
     enqueueBlockCopy();
-    CUDA_CHECK(cudaEventSynchronize(block_ready_));
+    events_.record(StageEvents::kDone, stream_, work_.api_calls);
+    events_.waitDone(work_.api_calls);
   }
 
   cudaStream_t stream_ = nullptr;
-  cudaEvent_t search_started_ = nullptr;
-  cudaEvent_t block_ready_ = nullptr;
-  cudaEvent_t lists_ready_ = nullptr;
+  StageEvents events_;
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
   bool in_flight_ = false;
   HostStopwatch launch_watch_;
-  double last_search_ms_ = 0;
   double last_launch_to_finish_ms_ = 0;
+  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
+  DeviceWork last_work_;  // ... and the last finished frame's
 
   PinnedBuffer<ObjectBounds> staging_;  // this frame's boxes, from the caller
   DeviceBuffer<ObjectBounds> objects_;  // ... and uploaded from staging_

@@ -19,9 +19,9 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: lastSearchMs() by CUDA events from before the upload to
-// after the copy back (the host's XOR and sort outside it),
-// lastLaunchToFinishMs() on the host's clock (everything).
+// Timed as gpubf is: the stage events of gpu/stage_events.h (lastSearchMs()
+// from before the upload to after the copy back, the host's XOR and sort
+// outside it), lastLaunchToFinishMs() on the host's clock (everything).
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -35,6 +35,7 @@
 #include "gpu/cuda_buffers.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/pair_logic.h"
+#include "gpu/stage_events.h"
 
 namespace overlap::gpu {
 namespace {
@@ -55,14 +56,7 @@ __global__ void paperPairsKernel(const ObjectBounds* __restrict__ objects, std::
 
 class PaperGpuPairFinder final : public PairFinder {
  public:
-  PaperGpuPairFinder() {
-    CUDA_CHECK(cudaEventCreate(&search_started_));
-    CUDA_CHECK(cudaEventCreate(&copied_back_));
-  }
-  ~PaperGpuPairFinder() override {
-    cudaEventDestroy(copied_back_);
-    cudaEventDestroy(search_started_);
-  }
+  PaperGpuPairFinder() = default;
   PaperGpuPairFinder(const PaperGpuPairFinder&) = delete;
   PaperGpuPairFinder& operator=(const PaperGpuPairFinder&) = delete;
 
@@ -71,6 +65,7 @@ class PaperGpuPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
     launch_watch_ = HostStopwatch();
+    work_ = DeviceWork{};
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
     const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
@@ -85,13 +80,18 @@ class PaperGpuPairFinder final : public PairFinder {
     // New pairs had no overlap last frame.
     previous_.resize(pair_count, 0);
     current_.resize(pair_count);
+    events_.beginFrame();
     if (pair_count > 0) {
-      CUDA_CHECK(cudaEventRecord(search_started_));
-      CUDA_CHECK(cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(),
-                            cudaMemcpyHostToDevice));
+      events_.record(StageEvents::kStarted, nullptr, work_.api_calls);
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(objects_.data(), objects.data(),
+                                                     objects.size_bytes(), cudaMemcpyHostToDevice));
+      work_.bytes_to_device += objects.size_bytes();
+      events_.record(StageEvents::kUploaded, nullptr, work_.api_calls);
+      ++work_.api_calls;
       paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
           objects_.data(), slot_count_, results_.data());
-      CUDA_CHECK(cudaGetLastError());
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
+      events_.record(StageEvents::kSearched, nullptr, work_.api_calls);
     }
     // Only a launched search is in flight: after a throw, finish() refuses.
     in_flight_ = true;
@@ -102,28 +102,40 @@ class PaperGpuPairFinder final : public PairFinder {
     in_flight_ = false;
     added_.clear();
     removed_.clear();
-    last_search_ms_ = 0;
+    searched_ = false;
     if (!current_.empty()) {
-      CUDA_CHECK(
-          cudaMemcpy(current_.data(), results_.data(), current_.size(), cudaMemcpyDeviceToHost));
-      CUDA_CHECK(cudaEventRecord(copied_back_));
-      CUDA_CHECK(cudaEventSynchronize(copied_back_));
-      float elapsed_ms = 0;
-      CUDA_CHECK(cudaEventElapsedTime(&elapsed_ms, search_started_, copied_back_));
-      last_search_ms_ = elapsed_ms;
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(current_.data(), results_.data(),
+                                                     current_.size(), cudaMemcpyDeviceToHost));
+      work_.bytes_from_device += current_.size();
+      events_.record(StageEvents::kDone, nullptr, work_.api_calls);
+      events_.waitDone(work_.api_calls);
+      searched_ = true;
       compareWithLastFrame();
       std::swap(current_, previous_);
     }
     // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
     std::sort(added_.begin(), added_.end());
     std::sort(removed_.begin(), removed_.end());
+    work_.host_entries_sorted = added_.size() + removed_.size();
+    last_work_ = work_;
     last_launch_to_finish_ms_ = launch_watch_.ms();
     return PairDelta{added_, removed_};
   }
 
   // With no pairs there is no GPU work: 0.
-  double lastSearchMs() const override { return last_search_ms_; }
+  double lastSearchMs() const override {
+    return searched_ ? events_.ms(StageEvents::kStarted, StageEvents::kDone) : 0;
+  }
   double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
+  DeviceWork lastDeviceWork() const override {
+    DeviceWork work = last_work_;
+    if (searched_) {
+      work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
+      work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
+      work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+    }
+    return work;
+  }
 
  private:
   // The host side XOR, eight bytes at a time so that the unchanged majority
@@ -147,11 +159,12 @@ class PaperGpuPairFinder final : public PairFinder {
 
   std::uint32_t slot_count_ = 0;
   bool in_flight_ = false;
-  cudaEvent_t search_started_ = nullptr;
-  cudaEvent_t copied_back_ = nullptr;
+  bool searched_ = false;  // the last finished frame had pairs, so device work
+  StageEvents events_;
   HostStopwatch launch_watch_;
-  double last_search_ms_ = 0;
   double last_launch_to_finish_ms_ = 0;
+  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
+  DeviceWork last_work_;  // ... and the last finished frame's
   DeviceBuffer<ObjectBounds> objects_;
   DeviceBuffer<std::uint8_t> results_;
   std::vector<std::uint8_t> current_;  // pageable, as in the paper

@@ -114,8 +114,12 @@ class PairFinder {
   virtual double lastLaunchToFinishMs() const = 0;
   // Room for `count` boxes that the caller may fill and then pass to
   // launch(), which then copies nothing on the host (gpubf: its pinned
-  // staging).  Empty where the finder has none.  Write all `count` boxes each
-  // frame, and only between finish() (or construction) and launch().
+  // staging).  Empty where the finder has none.  Write boxes only between
+  // finish() (or construction) and launch().  While every launch passes the
+  // staging, it keeps what the caller wrote: a call with a count no larger
+  // than the last one's returns the same memory, contents and all, so the
+  // caller need rewrite only the boxes that changed; a larger count may move
+  // it and drop its contents (write all `count` boxes then).
   virtual std::span<ObjectBounds> stagingFor(std::size_t /*count*/) { return {}; }
   // How long after launch() the last finished search began.  A GPU stream
   // starts at once; a CPU worker that has to wake up (or wait for a core) may

@@ -140,8 +140,13 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   const auto ms = [](std::chrono::steady_clock::duration span) {
     return std::chrono::duration<double, std::milli>(span).count();
   };
-  return ReplayPhases{ms(times.searched), split.sort_ms, split.sweep_ms, split.delta_ms,
-                      ms(times.finished - times.answered)};
+  return ReplayPhases{ms(times.searched),
+                      split.sort_ms,
+                      split.sweep_ms,
+                      split.delta_ms,
+                      ms(times.finished - times.answered),
+                      ours->lastLaunchToFinishMs(),
+                      ours->lastDeviceWork()};
 }
 
 void BroadphaseReplay::findPairs() {

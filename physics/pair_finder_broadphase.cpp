@@ -141,6 +141,14 @@ void PairFinderBroadphase::setSearchEntry(std::uint32_t slot, const gpu::ObjectB
   gpu::ObjectBounds& held = search_entries_[slot];
   if (std::memcmp(&held, &entry, sizeof entry) == 0) return;
   held = entry;
+  if (slot < staging_.size()) {
+    // The staging is the finder's between a finish and the next launch.
+    if (search_in_flight_) {
+      staging_stale_ = true;
+    } else {
+      staging_[slot] = entry;
+    }
+  }
   if (changed_flags_[slot] == 0) {
     changed_flags_[slot] = 1;
     changed_slots_.push_back(slot);
@@ -193,10 +201,27 @@ void PairFinderBroadphase::launchPairSearch() {
   for (const std::uint32_t slot : destroyed_) states_[slot] = SlotState::kDraining;
   draining_.insert(draining_.end(), destroyed_.begin(), destroyed_.end());
   destroyed_.clear();
-  finder_->launchWithChanges(search_entries_, changed_slots_);
+  launchFromStaging();
   for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
   changed_slots_.clear();
   search_in_flight_ = true;
+}
+
+void PairFinderBroadphase::launchFromStaging() {
+  const std::span<gpu::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
+  if (staging.empty()) {
+    staging_ = {};
+    finder_->launchWithChanges(search_entries_, changed_slots_);
+    return;
+  }
+  // Same or fewer slots: the same memory, holding what was written to it.
+  const bool kept = !staging_stale_ && staging.size() <= staging_.size();
+  const std::size_t current = kept ? staging.size() : 0;
+  std::copy(search_entries_.begin() + static_cast<std::ptrdiff_t>(current), search_entries_.end(),
+            staging.begin() + static_cast<std::ptrdiff_t>(current));
+  staging_ = staging;
+  staging_stale_ = false;
+  finder_->launchWithChanges(staging_, changed_slots_);
 }
 
 void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {

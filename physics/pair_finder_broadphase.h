@@ -15,13 +15,20 @@
 // them as two phases).  Either way lastSearch() says when the search ran and
 // how long the caller waited.  Each launch also tells the finder which slots'
 // boxes changed since the last one (a move buffer, as Box2D keeps), so that
-// cpusap re-queries only the boxes that moved.
+// cpusap re-queries only the boxes that moved.  Where the finder has a
+// staging area (gpubf's pinned memory, PairFinder::stagingFor), each search
+// entry is written there as well when it changes, so a launch copies no boxes
+// on the host.
 //
 // Invariants:
 // - The cache holds exactly the pairs the finder last reported (minus those
 //   its own overlap filter refused), each once.
 // - The move buffer names every slot whose search entry differs from the last
 //   launch's, each once; a write that leaves the entry as it was adds nothing.
+// - Between a finish and the next launch, the finder's staging (if any) holds
+//   every search entry of its first staging_.size() slots, unless
+//   staging_stale_ says an entry was written while a search was in flight;
+//   a launch rewrites all of it when slots were added or an entry went stale.
 // - A destroyed proxy's pairs leave the cache at once; its slot is searched as
 //   unused (group = mask = 0) by the next launch and reused only after the
 //   finish that follows, so stale results for it are ignored, never applied
@@ -38,6 +45,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "gpu/pair_finder.h"
@@ -86,6 +94,10 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   const SearchTimes& lastSearch() const { return last_search_; }
   // The finder's split of its last search (cpusap's sort, sweep and delta).
   gpu::SearchPhases lastPhases() const { return finder_->lastPhases(); }
+  // The finder's own launch() to finish() on the host clock, and its device
+  // stages and host work (zero on the CPU finders).
+  double lastLaunchToFinishMs() const { return finder_->lastLaunchToFinishMs(); }
+  gpu::DeviceWork lastDeviceWork() const { return finder_->lastDeviceWork(); }
   bool searchInFlight() const { return search_in_flight_; }
 
  private:
@@ -98,6 +110,9 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
 
   // The proxy's slot; throws unless it is a live proxy of this broadphase.
   std::uint32_t liveSlotOf(const btBroadphaseProxy* proxy, const char* caller) const;
+  // Launches the finder over the search entries, through its staging when it
+  // has one (bringing the staging up to date first).
+  void launchFromStaging();
   // Writes the slot's search entry from its proxy, taking it out of the search
   // (with one message) when the AABB is unusable.
   void updateSearchEntry(std::uint32_t slot);
@@ -113,6 +128,9 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<SlotState> states_;
   std::vector<bool> aabb_valid_;
   std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
+  // The finder's staging as the last launch passed it; empty if it has none.
+  std::span<gpu::ObjectBounds> staging_;
+  bool staging_stale_ = false;  // an entry changed while the staging was not writable
   // The slots whose search entry changed since the last launch, each once
   // (changed_flags_ marks them): the finder's move buffer.
   std::vector<std::uint32_t> changed_slots_;

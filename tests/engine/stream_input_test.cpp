@@ -1,13 +1,16 @@
 // The streams as a user handles them: `overlap generate` writes a stream
 // that `overlap pairs` and `overlap_bench_broadphase --input` read, and the
-// benchmark refuses a bad stream with exit 2, naming it, writing nothing.
+// benchmark refuses a bad stream with exit 2, naming it, writing nothing; its
+// GPU columns are filled for the GPU finders only.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
+#include "gpu/pair_finder.h"
 #include "tests/engine/cli_test_support.h"
 
 namespace overlap::testing {
@@ -41,6 +44,38 @@ TEST_F(StreamInputTest, AGeneratedStreamIsTimedByEveryAskedBroadphase) {
     rows += line.starts_with("300,") || line.starts_with("200,");
   EXPECT_EQ(rows, 12) << csv.str();
   EXPECT_EQ(runCommand(bench("--input " + a.string() + " --stream-stats --warmup 1")).exit_code, 0);
+}
+
+TEST_F(StreamInputTest, TheGpuColumnsHoldWhatTheGpuFindersDidAndNothingForTheOthers) {
+  std::string why;
+  if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  const std::filesystem::path a = out_ / "a.aabbs";
+  ASSERT_EQ(runOverlap("generate --scene 4 --objects 300 --frames 3 --out " + a.string()).exit_code,
+            0);
+  const Result result = runCommand(bench(
+      "--input " + a.string() + " --algos bvh,cpubf,gpubf,gpubf-paper --warmup 1 --repeats 1"));
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  std::ifstream json_file(out_ / "bench.json");
+  const nlohmann::json rows = nlohmann::json::parse(json_file)["rows"];
+  ASSERT_EQ(rows.size(), 4u);
+  for (const nlohmann::json& row : rows) {
+    SCOPED_TRACE(row["algorithm"].get<std::string>());
+    const bool gpu = row["algorithm"] == "gpubf" || row["algorithm"] == "gpubf-paper";
+    EXPECT_EQ(row["launch_to_finish_us"].is_null(), row["algorithm"] == "bvh");
+    for (const char* column :
+         {"upload_us", "kernels_us", "download_us", "bytes_to_device", "bytes_from_device",
+          "api_calls", "host_bytes_copied", "host_entries_sorted"}) {
+      EXPECT_EQ(row[column].is_null(), !gpu) << column;
+    }
+    if (!gpu) continue;
+    EXPECT_EQ(row["bytes_to_device"], 32 * 300);  // every box, every frame
+    EXPECT_GT(row["api_calls"].get<double>(), 0);
+  }
+  // gpubf: the broadphase fills its staging and the device sorts the changes.
+  EXPECT_EQ(rows[2]["host_bytes_copied"], 0);
+  EXPECT_EQ(rows[2]["host_entries_sorted"], 0);
+  // gpubf-paper: a byte per pair back.
+  EXPECT_EQ(rows[3]["bytes_from_device"], 300 * 299 / 2);
 }
 
 TEST_F(StreamInputTest, ABadStreamExitsWith2NamingItAndWritesNothing) {

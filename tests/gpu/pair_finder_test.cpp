@@ -194,6 +194,23 @@ TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   }
 }
 
+TEST(CpuPairFinderTest, ReportNoDeviceWork) {
+  for (const PairFinderKind kind :
+       {PairFinderKind::kCpuBruteForce, PairFinderKind::kCpuSweepAndPrune}) {
+    SCOPED_TRACE(testing::finderName(kind));
+    const auto finder = makePairFinder(kind);
+    for (int frame = 0; frame < 2; ++frame) {
+      finder->launch(testing::makeBoxes(BoxSet::kRandom, 100, frame));
+      EXPECT_FALSE(finder->finish().added.empty() && frame == 0);
+    }
+    const DeviceWork work = finder->lastDeviceWork();
+    EXPECT_EQ(work.upload_ms + work.kernels_ms + work.download_ms, 0.0);
+    EXPECT_EQ(work.bytes_to_device + work.bytes_from_device + work.api_calls +
+                  work.host_bytes_copied + work.host_entries_sorted,
+              0u);
+  }
+}
+
 TEST(CheckedSlotCountTest, AcceptsGrowthAndRejectsShrinkingOrOversizedCountsByName) {
   constexpr std::size_t kMaxSlots = std::numeric_limits<std::uint32_t>::max();
   EXPECT_EQ(checkedSlotCount("cpubf", 3, 3), 3u);
