@@ -1,7 +1,7 @@
 // `overlap run`'s frame options as a user runs them: --threads N (the
 // process never has more than N threads: main, oneTBB's workers, cpubf's
-// search, the renderer, counted in /proc/<pid>/task while it runs; issue 12,
-// item 6) and --task-load X (the tasks sized from the scene, recorded).
+// search, the renderer, counted in /proc/<pid>/task while it runs) and
+// --task-load X (the tasks sized from the scene, recorded).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>

@@ -1,4 +1,4 @@
-// The lean frame of gpubf (project issue 29), counted by the CUDA emulation:
+// The lean frame of gpubf, counted by the CUDA emulation:
 // one upload, one kernel, one copy back, no memset; and the copies' bytes.
 #include "tests/gpu/frame_cost.h"
 
