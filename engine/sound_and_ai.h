@@ -14,7 +14,7 @@
 //   them out), so a NaN box never reaches the sound or the AI.
 // - The sound checksum folds each frame's mix in frame order: the same run
 //   gives the same checksum, whichever threads ran it.
-// Audio_ai_stubs/ cannot hold this: turning contacts into impacts needs the
+// It lives in engine/, not audio_ai_stubs/: turning contacts into impacts needs the
 // physics world, which the stubs do not link.
 #pragma once
 
