@@ -1,4 +1,4 @@
-// overlap_bench_broadphase: project issue 3's broadphase benchmark.
+// overlap_bench_broadphase: the broadphase benchmark.
 //
 // Every broadphase replays the same recorded scene-4 AABB streams
 // (engine/recorded_streams.h) through physics::BroadphaseReplay, in one process,
@@ -532,10 +532,9 @@ int run(const BenchOptions& options, const std::string& command) {
 
 int main(int argc, char** argv) {
   using namespace overlap::engine;
-  CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams (project issue 3)",
-               kProgram};
+  CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams", kProgram};
   app.footer(
-      "cpusap's results (issue 13, docs/results/broadphase_cpusap.md): "
+      "cpusap's results (docs/results/broadphase_cpusap.md): "
       "scripts/cpusap_table.py --streams DIR runs this with --objects "
       "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
       "--big-algos cpubf,cpusap --repeats 5 and records the load average.");

@@ -1,24 +1,30 @@
 // The asynchronous frame: the game loop this project is named for.
 //
-// Frame N is a small graph of jobs, run by FrameScheduler::runFrame() in this
-// order; each names what it depends on.  Bullet is only ever called from the
-// main thread.
-//   1. snapshot  main      frame N-1's boxes and new contacts, copied into
-//                          plain arrays                (depends on: frame N-1)
-//   2. tasks     workers   sound, AI and any added task, each reading only
-//                          the snapshot                (depends on: 1)
-//   3. physics   main      Bullet's step, all K substeps: update, search,
-//                          narrowphase, solver, integrate
-//                                                      (depends on: 1, which
-//                          must copy the state before the step changes it)
-//   4. join      main      wait for every task         (depends on: 2, 3)
-// The tasks run beside the whole step.  Inside each substep the broadphase
-// launches its search (on its CUDA stream, or as a oneTBB job off the main
-// thread) and joins it right before that substep's narrowphase: physics/
-// does that on its own and reports when; the scheduler only draws it.
-// With `sync`, the same jobs run one after another on the main thread:
-// snapshot, each task, physics.  Both orders give the same pairs, state and
-// sound: the tasks only read the snapshot, and physics never reads the tasks.
+// A frame is a graph of named jobs (engine/job_graph.h) that the scheduler
+// runs once per runFrame(): the physics step, which the scheduler adds
+// itself, and the jobs other owners register (engine/sound_and_ai.h adds a
+// snapshot, the sound and the AI).  For the demo's frame N:
+//   snapshot  main     frame N-1's boxes and new contacts, copied into
+//                      plain arrays                (after: frame N-1)
+//   sound, ai workers  each reading only the snapshot
+//                                                  (after: snapshot)
+//   physics   main     Bullet's step, all K substeps: update, search,
+//                      narrowphase, solver, integrate
+//                                                  (after: every job added
+//                      with addBeforeStep, which copies the state first)
+//   join      main     wait for every task         (after: all of them)
+// Rules, each with its reason:
+// - Bullet is only ever called from the main thread: it is not thread-safe.
+// - The tasks run beside the whole step.  Inside each substep the broadphase
+//   launches its search (on its CUDA stream, or as a oneTBB job off the main
+//   thread) and joins it right before that substep's narrowphase: physics/
+//   does that on its own and reports when; the scheduler only draws it.
+// - With `sync`, the same jobs run one after another on the main thread in
+//   the order added (the demo: snapshot, sound, ai, physics).  Both orders
+//   give the same pairs, state and sound: a task reads only what a job
+//   before the step copied, and physics never reads the tasks.
+// - Jobs are registered before the first frame: the step is added then,
+//   after every job registered before it.
 //
 // Threads: the main thread runs Bullet; oneTBB's workers run the tasks
 // (first: their arena has the higher priority) and a CPU search.  A
@@ -33,20 +39,13 @@
 // leaves runFrame().
 #pragma once
 
-#include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
-
-#include <filesystem>
 #include <functional>
-#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "audio_ai_stubs/ai.h"
-#include "audio_ai_stubs/sound.h"
-#include "audio_ai_stubs/wav_writer.h"
+#include "engine/job_graph.h"
 #include "engine/timeline.h"
 #include "physics/world.h"
 
@@ -54,15 +53,10 @@ namespace overlap::engine {
 
 struct SchedulerOptions {
   bool sync = false;  // run the jobs one after another instead of the tasks beside physics
-  bool tasks = true;  // false: physics only (the paper's measurements)
-  stubs::SoundConfig sound;
-  stubs::AiConfig ai;
-  OutputFile* wav = nullptr;  // the whole run's mix, finished by close(); the caller publishes it
 };
 
-// The tasks the scheduler adds itself, first, by these names.
-inline constexpr std::string_view kSoundTask = "sound";
-inline constexpr std::string_view kAiTask = "ai";
+// The timeline's name of the step's job.
+inline constexpr std::string_view kPhysicsJob = "physics";
 
 // One task's run in a frame, on whatever thread ran it.
 struct TaskRun {
@@ -74,10 +68,10 @@ struct TaskRun {
 // timeline convert them where they write them.
 struct ScheduledFrame {
   physics::FrameReport physics;
-  Interval whole;  // the whole frame, snapshot to join
-  Interval step;   // job 3, physics
-  // Job 2 as one: launch to join beside the step, or with `sync` the first
-  // task's start to the last one's end.  None without tasks.
+  Interval whole;  // the whole frame, first job to join
+  Interval step;   // the physics step
+  // The tasks as one: launch to join beside the step, or with `sync` the
+  // first task's start to the last one's end.  None without tasks.
   std::optional<Interval> tasks;
   std::optional<Interval> wait;    // the main thread waiting for the tasks (not with `sync`)
   std::vector<TaskRun> task_runs;  // in the order the tasks were added
@@ -93,53 +87,31 @@ class FrameScheduler {
   FrameScheduler(physics::PhysicsWorld& world, const SchedulerOptions& options, Timeline& timeline);
   ~FrameScheduler();
 
-  // A game system of the caller's, run each frame as a task beside physics
-  // (it must read only what the snapshot-taking caller gave it).
-  void addTask(std::string name, std::function<void()> work);
+  // A job on the main thread before the step, which waits for it: it may
+  // read the world, to copy what the tasks will read.  Registered before the
+  // first frame (std::logic_error otherwise).
+  JobId addBeforeStep(std::string name, std::function<void()> work);
+  // A game system run each frame as a task beside the step, once the jobs
+  // `after` have ended; it must read only what those jobs copied for it.
+  // Registered before the first frame (std::logic_error otherwise).
+  JobId addTask(std::string name, std::function<void()> work, std::vector<JobId> after = {});
 
   ScheduledFrame runFrame();
-  // Finishes the WAV file, if any.
-  void close();
-
-  std::uint64_t soundChecksum() const { return sound_checksum_; }
-  std::uint64_t aiChecksum() const;
-  // The tasks' own work counters; null when the tasks are off.
-  const stubs::SoundWork* soundWork() const { return sound_ ? &sound_->work() : nullptr; }
-  const stubs::AiWork* aiWork() const { return ai_ ? &ai_->work() : nullptr; }
 
  private:
-  struct Task {
-    std::string name;
-    std::function<void()> work;
-    Interval run{};     // this frame's
-    std::string error;  // this frame's, empty if none
-  };
-  class TasksBeside;
-
-  void snapshot();
-  void runSound();
-  void runAi();
-  void runTask(Task& task);
+  void refuseAfterFirstFrame(const std::string& name) const;
   // The tasks' runs and how much of them the step hid, into `frame`.
   void measureTasks(ScheduledFrame& frame) const;
 
   physics::PhysicsWorld& world_;
   SchedulerOptions options_;
   Timeline& timeline_;
-  std::unique_ptr<stubs::SoundMixer> sound_;
-  std::unique_ptr<stubs::AgentCrowd> ai_;
-  std::unique_ptr<stubs::WavWriter> wav_;
-  std::vector<stubs::ImpactEvent> impacts_;
-  std::vector<stubs::Obstacle> obstacles_;
-  std::uint64_t sound_checksum_;
+  JobGraph jobs_;
+  std::vector<JobId> before_step_;
+  std::vector<JobId> tasks_;
+  std::optional<JobId> step_;  // added by the first frame
+  physics::FrameReport step_report_;
   int frame_ = 0;
-  // Each task writes only its own entry while it runs.
-  std::vector<Task> tasks_;
-  // High priority: the workers serve the tasks first.  Nobody else can run
-  // them before the join, while the main thread runs a search itself when
-  // every worker is busy (a search's arena has normal priority).
-  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
-  tbb::task_group group_;
 };
 
 }  // namespace overlap::engine

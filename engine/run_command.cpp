@@ -1,5 +1,13 @@
 // `overlap run`: steps a scene through the frame scheduler and writes
 // frames.csv, summary.json and timeline.json.
+//
+// Three stages, each reading only what the one before produced:
+//   resolve  the parsed arguments become a RunPlan: every default filled in,
+//            the world's options and the tasks' sizes checked once, so a bad
+//            choice fails before any output;
+//   step     the plan's world(s) stepped frame by frame into RunResults;
+//   write    the results and the plan into the output folder, published
+//            together.
 #include <oneapi/tbb/global_control.h>
 
 #include <cstdio>
@@ -23,8 +31,10 @@
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
+#include "engine/sound_and_ai.h"
 #include "engine/statistics.h"
 #include "engine/task_load.h"
+#include "gpu/base/checksum.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/world.h"
@@ -43,40 +53,68 @@ constexpr int kPaperFrames = 2048;
 // PNGs the demo writes when --capture-every is not given: frames 0, F/4, F/2, 3F/4.
 constexpr int kDefaultKeyframes = 4;
 
-struct RunOptions {
+// The documented bounds of the task sizes (docs/CLI.md): a voice or an agent
+// costs a few hundred bytes and its share of every frame.
+constexpr int kMostVoices = 100'000;
+constexpr int kMostAgents = 100'000;
+
+// The command line's values as parsed: nothing filled in or checked between options.
+struct RunArguments {
   SceneOptions scene;
   std::string algorithm;
   int frames = kDemoFrames;
   bool paper = false;
   PhysicsOptions physics;
+  bool sync = false;
   bool compare_sync = false;
   int threads = 0;  // 0: every hardware thread
   std::optional<double> task_load;
-  SchedulerOptions scheduler;
+  stubs::SoundConfig sound;
+  stubs::AiConfig ai;
   std::filesystem::path out = "out";
   std::optional<int> capture_every;  // unset: kDefaultKeyframes pictures; 0: none
   std::string capture_size = "800x600";
   std::optional<std::filesystem::path> wav;  // unset: OUT/sound.wav
   bool no_wav = false;
   bool no_tasks = false;
-  std::optional<std::filesystem::path> wav_file;  // resolved: the WAV the run writes, if any
-  // For the checks between options (refuseConflicts).
-  CLI::Option* frames_option = nullptr;
-  CLI::Option* paper_option = nullptr;
-  CLI::Option* sync_option = nullptr;
-  CLI::Option* compare_sync_option = nullptr;
-  CLI::Option* no_tasks_option = nullptr;
-  CLI::Option* wav_option = nullptr;
-  CLI::Option* no_wav_option = nullptr;
-  CLI::Option* task_options[3] = {};  // --voices, --background-voices, --agents
-  CLI::Option* capture_every_option = nullptr;
-  CLI::Option* capture_size_option = nullptr;
 };
 
-// The documented bounds of the task sizes (docs/CLI.md): a voice or an agent
-// costs a few hundred bytes and its share of every frame.
-constexpr int kMostVoices = 100'000;
-constexpr int kMostAgents = 100'000;
+// The options as CLI11 made them, for the checks between options.
+struct RunOptionHandles {
+  CLI::Option* frames = nullptr;
+  CLI::Option* sync = nullptr;
+  CLI::Option* compare_sync = nullptr;
+  CLI::Option* no_tasks = nullptr;
+  CLI::Option* wav = nullptr;
+  CLI::Option* no_wav = nullptr;
+  CLI::Option* voices = nullptr;
+  CLI::Option* background_voices = nullptr;
+  CLI::Option* agents = nullptr;
+  CLI::Option* capture_every = nullptr;
+  CLI::Option* capture_size = nullptr;
+};
+
+// What the run does, every default filled in and checked: the stages after
+// resolvePlan() read only this.
+struct RunPlan {
+  physics::SceneConfig config;
+  std::string algorithm_requested;
+  physics::WorldOptions world;
+  int frames = 0;
+  bool sync = false;
+  bool compare_sync = false;
+  int threads = 0;
+  bool tasks = true;  // false: physics only (the paper's measurements)
+  stubs::SoundConfig sound;
+  stubs::AiConfig ai;
+  std::optional<double> task_load;
+  std::optional<TaskLoadCalibration> calibration;  // set by calibrateTasks()
+  std::filesystem::path out;
+  int capture_every = 0;  // 0: no PNGs
+  std::string capture_size;
+  std::optional<std::filesystem::path> wav_file;  // the WAV the run writes, if any
+  const char* wav_option = "--out";               // the option that named it
+};
 
 struct FrameRow {
   ScheduledFrame frame;
@@ -155,6 +193,103 @@ std::string hex(std::uint64_t value) {
   return text.str();
 }
 
+// ---- resolve ----
+
+// Options that conflict, or that the run would ignore, refused once parsing
+// is done and before any work, naming both.
+void refuseConflicts(const RunArguments& arguments, const RunOptionHandles& given) {
+  refuseTogether(given.wav, given.no_wav, "--no-wav writes no WAV");
+  refuseTogether(given.sync, given.compare_sync,
+                 "--compare-sync runs a --sync run beside the async one itself");
+  for (const CLI::Option* ignored :
+       {given.wav, given.voices, given.background_voices, given.agents}) {
+    refuseTogether(ignored, given.no_tasks,
+                   "--no-tasks runs no sound and no AI, so the first would be ignored");
+  }
+  if (arguments.capture_every && *arguments.capture_every == 0) {
+    refuseTogether(given.capture_size, given.capture_every,
+                   "--capture-every 0 writes no PNG, so --capture-size would be ignored");
+  }
+  if (arguments.paper && arguments.scene.objectsGiven() && given.frames->count() > 0) {
+    throw UsageError(
+        "--paper with --objects and --frames: both of its numbers are given, so --paper would "
+        "be ignored");
+  }
+  const stubs::SoundConfig& sound = arguments.sound;
+  if (sound.background_voices > sound.voices) {
+    throw UsageError("--background-voices " + std::to_string(sound.background_voices) +
+                     (given.background_voices->count() > 0 ? "" : " (its default)") +
+                     " must be at most --voices " + std::to_string(sound.voices));
+  }
+}
+
+// The arguments with what --paper, --capture-every and --wav leave unsaid
+// filled in, and every choice checked: a bad one is a UsageError.
+RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given) {
+  RunPlan plan;
+  plan.config = arguments.scene.resolve();
+  plan.frames = arguments.frames;
+  if (arguments.paper) {
+    if (!arguments.scene.objectsGiven()) plan.config.objects = kPaperObjects;
+    if (given.frames->count() == 0) plan.frames = kPaperFrames;
+  }
+  plan.algorithm_requested = arguments.algorithm;
+  plan.world = arguments.physics.resolve(arguments.algorithm, plan.config);
+  plan.sync = arguments.sync;
+  plan.compare_sync = arguments.compare_sync;
+  plan.threads = arguments.threads;
+  plan.tasks = !arguments.no_tasks;
+  plan.sound = arguments.sound;
+  plan.ai = arguments.ai;
+  try {
+    plan.sound.validate();
+    plan.ai.validate();
+  } catch (const std::invalid_argument& error) {
+    throw UsageError(std::string("task options: ") + error.what());
+  }
+  plan.task_load = arguments.task_load;
+  plan.out = arguments.out;
+  plan.capture_every = arguments.capture_every.value_or(
+      std::max(1, (plan.frames + kDefaultKeyframes - 1) / kDefaultKeyframes));
+  plan.capture_size = arguments.capture_size;
+  if (!arguments.no_wav && plan.tasks) {
+    plan.wav_file = arguments.wav.value_or(plan.out / "sound.wav");
+    plan.wav_option = arguments.wav ? "--wav" : "--out";
+  }
+  return plan;
+}
+
+// Every output the run will write, checked before any work: a name that is
+// a folder, or a folder that cannot be written, is a UsageError.
+void checkOutputs(const RunPlan& plan) {
+  prepareOutputDirectory(plan.out, "--out");
+  for (const char* name : {"frames.csv", "summary.json", "timeline.json"}) {
+    prepareOutputFile(plan.out / name, "--out");
+  }
+  if (plan.wav_file) prepareOutputFile(*plan.wav_file, plan.wav_option);
+  if (plan.capture_every > 0) {
+    prepareOutputDirectory(plan.out / "frames", "--out");
+    for (int frame = 0; frame < plan.frames; frame += plan.capture_every) {
+      prepareOutputFile(plan.out / "frames" / pngName(plan.config.scene, frame), "--out");
+    }
+  }
+}
+
+// --task-load: the tasks sized against the scene's physics step, measured now.
+void calibrateTasks(RunPlan& plan) {
+  if (!plan.task_load || !plan.tasks) return;
+  plan.calibration =
+      calibrateTaskLoad(*plan.task_load, plan.frames, plan.config, plan.world, plan.sound, plan.ai);
+  const TaskLoadCalibration& calibration = *plan.calibration;
+  std::fprintf(stderr,
+               "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
+               "frames) -> %d voices (%d always sounding), %d agents\n",
+               *plan.task_load, calibration.physics_ms, calibration.physics_frames,
+               calibration.voices, calibration.background_voices, calibration.agents);
+}
+
+// ---- step ----
+
 struct RunResult {
   std::vector<FrameRow> rows;
   std::string algorithm;
@@ -165,19 +300,19 @@ struct RunResult {
   physics::SceneLayout layout;
 };
 
-physics::WorldOptions worldOptions(const RunOptions& options, const physics::SceneConfig& config) {
-  return options.physics.resolve(options.algorithm, config);
-}
-
-// A run in progress: one world and its scheduler, stepped a frame at a time.
-// --compare-sync steps a sync and an async run in turn, frame by frame, so a
-// change in the machine's load or clock during the run reaches both alike.
+// A run in progress: one world, its scheduler and its tasks, stepped a frame
+// at a time.  --compare-sync steps a sync and an async run in turn, frame by
+// frame, so a change in the machine's load or clock during the run reaches
+// both alike.
 class SteppedRun {
  public:
-  SteppedRun(const RunOptions& options, const physics::SceneConfig& config,
-             const SchedulerOptions& scheduler_options, Timeline& timeline)
-      : world_(makeWorld(config, worldOptions(options, config))),
-        scheduler_(*world_, scheduler_options, timeline) {}
+  SteppedRun(const RunPlan& plan, bool sync, OutputFile* wav, Timeline& timeline)
+      : world_(makeWorld(plan.config, plan.world)), scheduler_(*world_, {sync}, timeline) {
+    if (plan.tasks) {
+      tasks_ = std::make_unique<SoundAndAi>(*world_, SoundAndAiOptions{plan.sound, plan.ai, wav},
+                                            scheduler_);
+    }
+  }
 
   const physics::PhysicsWorld& world() const { return *world_; }
 
@@ -187,44 +322,90 @@ class SteppedRun {
   }
 
   RunResult finish(double seconds) {
-    scheduler_.close();
-    return {std::move(rows_),        world_->algorithm(),
-            world_->stateHash(),     scheduler_.soundChecksum(),
-            scheduler_.aiChecksum(), seconds,
+    if (tasks_) tasks_->close();
+    return {std::move(rows_),
+            world_->algorithm(),
+            world_->stateHash(),
+            tasks_ ? tasks_->soundChecksum() : kFnv1aOffsetBasis,
+            tasks_ ? tasks_->aiChecksum() : 0,
+            seconds,
             world_->layout()};
   }
 
  private:
   std::unique_ptr<physics::PhysicsWorld> world_;
   FrameScheduler scheduler_;
+  std::unique_ptr<SoundAndAi> tasks_;
   std::vector<FrameRow> rows_;
 };
 
-nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& config,
-                         const RunResult& run,
-                         const std::optional<TaskLoadCalibration>& calibration) {
-  nlohmann::json parameters = toJson(config);
-  parameters["algorithm_requested"] = options.algorithm;
-  parameters["algorithm"] = run.algorithm;
-  parameters["frames"] = options.frames;
-  parameters.update(toJson(options.physics.resolve(options.algorithm, config)));
-  parameters["sync"] = options.scheduler.sync;
-  parameters["threads"] = options.threads;
-  parameters["tasks"] = options.scheduler.tasks;
-  parameters["voices"] = options.scheduler.sound.voices;
-  parameters["background_voices"] = options.scheduler.sound.background_voices;
-  parameters["agents"] = options.scheduler.ai.agents;
-  if (options.task_load) parameters["task_load"] = *options.task_load;
-  if (calibration) parameters["task_load_calibration"] = toJson(*calibration);
-  parameters["capture_every"] = *options.capture_every;
+std::unique_ptr<FrameCapture> openCamera(const RunPlan& plan, OutputFolder& outputs) {
+  if (plan.capture_every == 0) return nullptr;
+  // --threads bounds the renderer too: OSMesa's llvmpipe draws on the
+  // calling thread and keeps no shader-cache thread (unless the user's
+  // environment says otherwise).
+  setenv("LP_NUM_THREADS", "0", 0);
+  setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
+  return openCapture(outputs, plan.out / "frames", plan.capture_size,
+                     render::ColourMode::kSizeClass);
+}
 
+struct SteppedRuns {
+  RunResult async_run;                // or the --sync run, with --sync
+  std::optional<RunResult> sync_run;  // --compare-sync's
+};
+
+SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
+                     Timeline& timeline) {
+  std::optional<SteppedRun> sync_stepper;
+  Timeline sync_timeline;  // not written: timeline.json is the async run's
+  if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr, sync_timeline);
+  SteppedRun stepper(plan, plan.sync, wav, timeline);
+  Progress progress(plan.compare_sync ? "overlap run (sync and async)" : "overlap run",
+                    plan.frames);
+  for (int frame = 0; frame < plan.frames; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(plan.frames));
+    if (sync_stepper) sync_stepper->step();
+    FrameRow& row = stepper.step();
+    if (camera != nullptr && frame % plan.capture_every == 0) {
+      row.render_ms = camera->capture(stepper.world(), frame);
+    }
+    progress.update(frame + 1);
+  }
+  progress.finish();
+  std::optional<RunResult> sync_run;
+  if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
+  return {stepper.finish(progress.seconds()), std::move(sync_run)};
+}
+
+// ---- write ----
+
+nlohmann::json parametersJson(const RunPlan& plan, const RunResult& run) {
+  nlohmann::json parameters = toJson(plan.config);
+  parameters["algorithm_requested"] = plan.algorithm_requested;
+  parameters["algorithm"] = run.algorithm;
+  parameters["frames"] = plan.frames;
+  parameters.update(toJson(plan.world));
+  parameters["sync"] = plan.sync;
+  parameters["threads"] = plan.threads;
+  parameters["tasks"] = plan.tasks;
+  parameters["voices"] = plan.sound.voices;
+  parameters["background_voices"] = plan.sound.background_voices;
+  parameters["agents"] = plan.ai.agents;
+  if (plan.task_load) parameters["task_load"] = *plan.task_load;
+  if (plan.calibration) parameters["task_load_calibration"] = toJson(*plan.calibration);
+  parameters["capture_every"] = plan.capture_every;
+  return parameters;
+}
+
+nlohmann::json summarize(const RunPlan& plan, const RunResult& run) {
   nlohmann::json errors = columnStatistics(run.rows, false);
   errors["escaped_final"] = run.rows.back().frame.physics.escaped;
   errors["sunk_final"] = run.rows.back().frame.physics.sunk;
   const double mean_substeps = errors["substeps"]["mean"];
-  errors["substeps_x_boxes"] = mean_substeps * config.objects;  // a load-free cost proxy
+  errors["substeps_x_boxes"] = mean_substeps * plan.config.objects;  // a load-free cost proxy
   return {{"command", "run"},
-          {"parameters", parameters},
+          {"parameters", parametersJson(plan, run)},
           {"layout",
            {{"interior_half_extent", run.layout.half_extent},
             {"wall_thickness", run.layout.wall_thickness}}},
@@ -237,65 +418,32 @@ nlohmann::json summarize(const RunOptions& options, const physics::SceneConfig& 
           {"machine", machineInfo()}};
 }
 
-// What --paper, --capture-every and --wav leave unsaid, filled in.
-RunOptions resolveDefaults(RunOptions options, physics::SceneConfig& config) {
-  if (options.paper) {
-    if (!options.scene.objectsGiven()) config.objects = kPaperObjects;
-    if (options.frames_option->count() == 0) options.frames = kPaperFrames;
-  }
-  if (!options.capture_every) {
-    options.capture_every =
-        std::max(1, (options.frames + kDefaultKeyframes - 1) / kDefaultKeyframes);
-  }
-  options.scheduler.tasks = !options.no_tasks;
-  if (!options.no_wav && !options.no_tasks) {
-    options.wav_file = options.wav.value_or(options.out / "sound.wav");
-  }
-  return options;
-}
-
-// Options that conflict, or that the run would ignore, refused once parsing
-// is done and before any work, naming both.
-void refuseConflicts(const RunOptions& options) {
-  refuseTogether(options.wav_option, options.no_wav_option, "--no-wav writes no WAV");
-  refuseTogether(options.sync_option, options.compare_sync_option,
-                 "--compare-sync runs a --sync run beside the async one itself");
-  for (const CLI::Option* ignored : {options.wav_option, options.task_options[0],
-                                     options.task_options[1], options.task_options[2]}) {
-    refuseTogether(ignored, options.no_tasks_option,
-                   "--no-tasks runs no sound and no AI, so the first would be ignored");
-  }
-  if (options.capture_every && *options.capture_every == 0) {
-    refuseTogether(options.capture_size_option, options.capture_every_option,
-                   "--capture-every 0 writes no PNG, so --capture-size would be ignored");
-  }
-  if (options.paper && options.scene.objectsGiven() && options.frames_option->count() > 0) {
-    throw UsageError(
-        "--paper with --objects and --frames: both of its numbers are given, so --paper would "
-        "be ignored");
-  }
-  const stubs::SoundConfig& sound = options.scheduler.sound;
-  if (sound.background_voices > sound.voices) {
-    throw UsageError("--background-voices " + std::to_string(sound.background_voices) +
-                     (options.task_options[1]->count() > 0 ? "" : " (its default)") +
-                     " must be at most --voices " + std::to_string(sound.voices));
-  }
-}
-
-// Every output the run will write, checked before any work: a name that is
-// a folder, or a folder that cannot be written, is a UsageError.
-void checkOutputs(const RunOptions& options, const physics::SceneConfig& config) {
-  prepareOutputDirectory(options.out, "--out");
-  for (const char* name : {"frames.csv", "summary.json", "timeline.json"}) {
-    prepareOutputFile(options.out / name, "--out");
-  }
-  if (options.wav_file) prepareOutputFile(*options.wav_file, options.wav ? "--wav" : "--out");
-  if (*options.capture_every > 0) {
-    prepareOutputDirectory(options.out / "frames", "--out");
-    for (int frame = 0; frame < options.frames; frame += *options.capture_every) {
-      prepareOutputFile(options.out / "frames" / pngName(config.scene, frame), "--out");
-    }
-  }
+// --compare-sync's figures: the sync run against the async one.
+nlohmann::json compareSyncJson(const RunResult& sync_run, const RunResult& async_run) {
+  const auto medianOf = [](const std::vector<FrameRow>& rows, auto value) {
+    std::vector<double> values;
+    for (const FrameRow& row : rows) values.push_back(value(row.frame));
+    return median(values);
+  };
+  const auto frameMs = [](const ScheduledFrame& f) { return toMilliseconds(f.whole.length()); };
+  const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
+  const auto tasksMs = [](const ScheduledFrame& f) {
+    return toMilliseconds(f.taskTime(kSoundTask) + f.taskTime(kAiTask));
+  };
+  const double sync_ms = medianOf(sync_run.rows, frameMs);
+  const double async_ms = medianOf(async_run.rows, frameMs);
+  return {{"sync_total_ms_median", sync_ms},
+          {"async_total_ms_median", async_ms},
+          {"speedup", sync_ms / async_ms},
+          // The sync run's parts: what the async frame overlaps.
+          {"sync_physics_ms_median", medianOf(sync_run.rows, physicsMs)},
+          {"sync_tasks_ms_median", medianOf(sync_run.rows, tasksMs)},
+          {"async_physics_ms_median", medianOf(async_run.rows, physicsMs)},
+          {"async_tasks_ms_median", medianOf(async_run.rows, tasksMs)},
+          {"sync_state_hash", hex(sync_run.state_hash)},
+          {"identical_state", sync_run.state_hash == async_run.state_hash},
+          {"identical_tasks", sync_run.sound_checksum == async_run.sound_checksum &&
+                                  sync_run.ai_checksum == async_run.ai_checksum}};
 }
 
 // The closing line: every file the run wrote, where.
@@ -315,104 +463,33 @@ std::string writtenLine(const std::filesystem::path& out,
   return line;
 }
 
-void run(const RunOptions& given) {
-  physics::SceneConfig config = given.scene.resolve();
-  RunOptions options = resolveDefaults(given, config);
-  options.physics.resolve(options.algorithm, config);  // a bad choice fails before any output
-  // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
-  const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
-  try {
-    options.scheduler.sound.validate();
-    options.scheduler.ai.validate();
-  } catch (const std::invalid_argument& error) {
-    throw UsageError(std::string("task options: ") + error.what());
-  }
-  checkOutputs(options, config);
-  // Everything goes to temporaries, published together at the end.
-  OutputFolder outputs(options.out);
-  if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
-  std::optional<TaskLoadCalibration> calibration;
-  if (options.task_load && options.scheduler.tasks) {
-    calibration =
-        calibrateTaskLoad(*options.task_load, options.frames, config, worldOptions(options, config),
-                          options.scheduler.sound, options.scheduler.ai);
-    std::fprintf(stderr,
-                 "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
-                 "frames) -> %d voices (%d always sounding), %d agents\n",
-                 *options.task_load, calibration->physics_ms, calibration->physics_frames,
-                 calibration->voices, calibration->background_voices, calibration->agents);
-  }
-  std::unique_ptr<FrameCapture> camera;
-  if (*options.capture_every > 0) {
-    // --threads bounds the renderer too: OSMesa's llvmpipe draws on the
-    // calling thread and keeps no shader-cache thread (unless the user's
-    // environment says otherwise).
-    setenv("LP_NUM_THREADS", "0", 0);
-    setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
-    camera = openCapture(outputs, options.out / "frames", options.capture_size,
-                         render::ColourMode::kSizeClass);
-  }
-
-  std::optional<SteppedRun> sync_stepper;
-  Timeline sync_timeline;  // not written: timeline.json is the async run's
-  if (options.compare_sync) {
-    SchedulerOptions sync_options = options.scheduler;
-    sync_options.sync = true;
-    sync_options.wav = nullptr;
-    sync_stepper.emplace(options, config, sync_options, sync_timeline);
-  }
-  Timeline timeline;
-  SteppedRun stepper(options, config, options.scheduler, timeline);
-  Progress progress(options.compare_sync ? "overlap run (sync and async)" : "overlap run",
-                    options.frames);
-  for (int frame = 0; frame < options.frames; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
-    if (sync_stepper) sync_stepper->step();
-    FrameRow& row = stepper.step();
-    if (camera != nullptr && frame % *options.capture_every == 0) {
-      row.render_ms = camera->capture(stepper.world(), frame);
-    }
-    progress.update(frame + 1);
-  }
-  progress.finish();
-  std::optional<RunResult> sync_run;
-  if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
-  const RunResult result = stepper.finish(progress.seconds());
-
-  nlohmann::json summary = summarize(options, config, result, calibration);
-  if (sync_run) {
-    const auto medianOf = [](const std::vector<FrameRow>& rows, auto value) {
-      std::vector<double> values;
-      for (const FrameRow& row : rows) values.push_back(value(row.frame));
-      return median(values);
-    };
-    const auto frameMs = [](const ScheduledFrame& f) { return toMilliseconds(f.whole.length()); };
-    const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
-    const auto tasksMs = [](const ScheduledFrame& f) {
-      return toMilliseconds(f.taskTime(kSoundTask) + f.taskTime(kAiTask));
-    };
-    const double sync_ms = medianOf(sync_run->rows, frameMs);
-    const double async_ms = medianOf(result.rows, frameMs);
-    summary["compare_sync"] = {
-        {"sync_total_ms_median", sync_ms},
-        {"async_total_ms_median", async_ms},
-        {"speedup", sync_ms / async_ms},
-        // The sync run's parts: what the async frame overlaps.
-        {"sync_physics_ms_median", medianOf(sync_run->rows, physicsMs)},
-        {"sync_tasks_ms_median", medianOf(sync_run->rows, tasksMs)},
-        {"async_physics_ms_median", medianOf(result.rows, physicsMs)},
-        {"async_tasks_ms_median", medianOf(result.rows, tasksMs)},
-        {"sync_state_hash", hex(sync_run->state_hash)},
-        {"identical_state", sync_run->state_hash == result.state_hash},
-        {"identical_tasks", sync_run->sound_checksum == result.sound_checksum &&
-                                sync_run->ai_checksum == result.ai_checksum}};
-  }
-  outputs.open(options.out / "frames.csv").write(framesCsv(result.rows));
-  outputs.open(options.out / "timeline.json").write(timeline.json());
-  outputs.open(options.out / "summary.json").write(summary.dump(2) + "\n");
+void writeOutputs(const RunPlan& plan, const SteppedRuns& runs, const Timeline& timeline,
+                  OutputFolder& outputs) {
+  nlohmann::json summary = summarize(plan, runs.async_run);
+  if (runs.sync_run) summary["compare_sync"] = compareSyncJson(*runs.sync_run, runs.async_run);
+  outputs.open(plan.out / "frames.csv").write(framesCsv(runs.async_run.rows));
+  outputs.open(plan.out / "timeline.json").write(timeline.json());
+  outputs.open(plan.out / "summary.json").write(summary.dump(2) + "\n");
   outputs.commit();
-  std::fprintf(stderr, "%s\n", writtenLine(options.out, options.wav_file, camera.get()).c_str());
 }
+
+void run(const RunArguments& arguments, const RunOptionHandles& given) {
+  RunPlan plan = resolvePlan(arguments, given);
+  // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
+  const std::optional<tbb::global_control> thread_cap = capThreads(plan.threads);
+  checkOutputs(plan);
+  // Everything goes to temporaries, published together at the end.
+  OutputFolder outputs(plan.out);
+  OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
+  calibrateTasks(plan);
+  const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
+  Timeline timeline;
+  const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);
+  writeOutputs(plan, runs, timeline, outputs);
+  std::fprintf(stderr, "%s\n", writtenLine(plan.out, plan.wav_file, camera.get()).c_str());
+}
+
+// ---- the command line ----
 
 // A flag that is off unless given.
 CLI::Option* addFlag(CLI::App& command, const std::string& name, bool& value,
@@ -420,10 +497,77 @@ CLI::Option* addFlag(CLI::App& command, const std::string& name, bool& value,
   return command.add_flag(name, value, description)->default_str("off");
 }
 
+// What the frame runs: --sync, --threads, --compare-sync.
+void addFrameOptions(CLI::App& command, RunArguments& arguments, RunOptionHandles& given) {
+  given.sync = addFlag(command, "--sync", arguments.sync,
+                       "run the frame's jobs one after another: the sound and AI tasks, then the "
+                       "physics step (default: the tasks beside the whole step)");
+  addThreadsOption(command, arguments.threads);
+  given.compare_sync =
+      addFlag(command, "--compare-sync", arguments.compare_sync,
+              "step a --sync run and the async run in turn, frame by frame, in one process, "
+              "and report the speed-up");
+}
+
+// The sound and AI tasks: --task-load, --no-tasks, --voices, --background-voices, --agents.
+void addTaskOptions(CLI::App& command, RunArguments& arguments, RunOptionHandles& given) {
+  CLI::Option* task_load =
+      command
+          .add_option("--task-load", arguments.task_load,
+                      "size the sound and AI tasks to cost X times the physics step, measured "
+                      "on the scene's first frames (instead of --voices, --background-voices, "
+                      "--agents)")
+          ->check(realNumberIn(0.0, 100.0))
+          ->default_str("unset: --voices and --agents");
+  given.no_tasks = addFlag(command, "--no-tasks", arguments.no_tasks,
+                           "physics only: no sound or AI tasks (the paper's measurements)");
+  given.voices = command.add_option("--voices", arguments.sound.voices, "sound: voices mixed")
+                     ->check(wholeNumberIn(0, kMostVoices))
+                     ->capture_default_str();
+  given.background_voices =
+      command
+          .add_option("--background-voices", arguments.sound.background_voices,
+                      "sound: of the voices, always sounding (at most --voices)")
+          ->check(wholeNumberIn(0, kMostVoices))
+          ->capture_default_str();
+  given.agents = command.add_option("--agents", arguments.ai.agents, "AI: steering agents")
+                     ->check(wholeNumberIn(0, kMostAgents))
+                     ->capture_default_str();
+  // The knob sizes the tasks itself: with the tasks off, or sized by hand, it is a mistake.
+  for (CLI::Option* other : {given.no_tasks, given.voices, given.background_voices, given.agents}) {
+    task_load->excludes(other);
+  }
+}
+
+// Where the run writes: --wav, --no-wav, --out, --capture-every, --capture-size.
+void addOutputOptions(CLI::App& command, RunArguments& arguments, RunOptionHandles& given) {
+  given.wav = command
+                  .add_option("--wav", arguments.wav,
+                              "the WAV file the run's sound mix goes to (a FIFO or device is "
+                              "written through)")
+                  ->default_str("OUT/sound.wav");
+  given.no_wav = addFlag(command, "--no-wav", arguments.no_wav, "write no WAV");
+  command
+      .add_option("--out", arguments.out,
+                  "output folder; a run replaces the outputs of the last run there, and only "
+                  "those")
+      ->capture_default_str();
+  given.capture_every =
+      command
+          .add_option("--capture-every", arguments.capture_every,
+                      "write every K-th frame as a PNG under OUT/frames (0: none)")
+          ->check(wholeNumberIn(0, kMostFrames))
+          ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
+  given.capture_size =
+      command.add_option("--capture-size", arguments.capture_size, "PNG size WIDTHxHEIGHT")
+          ->capture_default_str();
+}
+
 }  // namespace
 
 void addRunCommand(CLI::App& app) {
-  auto options = std::make_shared<RunOptions>();
+  auto arguments = std::make_shared<RunArguments>();
+  auto given = std::make_shared<RunOptionHandles>();
   CLI::App* command = app.add_subcommand(
       "run",
       "step a scene through the frame scheduler; write frames.csv, summary.json, "
@@ -431,88 +575,27 @@ void addRunCommand(CLI::App& app) {
       "with " +
           std::to_string(kDemoObjects) + " boxes for " + std::to_string(kDemoFrames) +
           " frames (its time on two cores: see README.md); --paper for the paper's full run");
-  options->scene.addTo(*command, kDemoObjects);
-  addAlgorithmOption(*command, options->algorithm);
-  options->frames_option =
-      command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
+  arguments->scene.addTo(*command, kDemoObjects);
+  addAlgorithmOption(*command, arguments->algorithm);
+  given->frames =
+      command->add_option("--frames", arguments->frames, "frames to run, each --frame-time long")
           ->check(wholeNumberIn(1, kMostFrames))
           ->capture_default_str();
-  options->paper_option =
-      addFlag(*command, "--paper", options->paper,
-              "the paper's full run: --objects " + std::to_string(kPaperObjects) + " --frames " +
-                  std::to_string(kPaperFrames) +
-                  " (about half an hour on two cores without a GPU); either given "
-                  "explicitly wins");
-  options->physics.addTo(*command);
-  options->sync_option =
-      addFlag(*command, "--sync", options->scheduler.sync,
-              "run the frame's jobs one after another: the sound and AI tasks, then the "
-              "physics step (default: the tasks beside the whole step)");
-  addThreadsOption(*command, options->threads);
-  options->compare_sync_option =
-      addFlag(*command, "--compare-sync", options->compare_sync,
-              "step a --sync run and the async run in turn, frame by frame, in one process, "
-              "and report the speed-up");
-  CLI::Option* task_load =
-      command
-          ->add_option("--task-load", options->task_load,
-                       "size the sound and AI tasks to cost X times the physics step, measured "
-                       "on the scene's first frames (instead of --voices, --background-voices, "
-                       "--agents)")
-          ->check(realNumberIn(0.0, 100.0))
-          ->default_str("unset: --voices and --agents");
-  CLI::Option* no_tasks = addFlag(*command, "--no-tasks", options->no_tasks,
-                                  "physics only: no sound or AI tasks (the paper's measurements)");
-  CLI::Option* voices =
-      command->add_option("--voices", options->scheduler.sound.voices, "sound: voices mixed")
-          ->check(wholeNumberIn(0, kMostVoices))
-          ->capture_default_str();
-  CLI::Option* background_voices =
-      command
-          ->add_option("--background-voices", options->scheduler.sound.background_voices,
-                       "sound: of the voices, always sounding (at most --voices)")
-          ->check(wholeNumberIn(0, kMostVoices))
-          ->capture_default_str();
-  CLI::Option* agents =
-      command->add_option("--agents", options->scheduler.ai.agents, "AI: steering agents")
-          ->check(wholeNumberIn(0, kMostAgents))
-          ->capture_default_str();
-  // The knob sizes the tasks itself: with the tasks off, or sized by hand, it is a mistake.
-  for (CLI::Option* other : {no_tasks, voices, background_voices, agents}) {
-    task_load->excludes(other);
-  }
-  options->no_tasks_option = no_tasks;
-  options->task_options[0] = voices;
-  options->task_options[1] = background_voices;
-  options->task_options[2] = agents;
-  options->wav_option =
-      command
-          ->add_option("--wav", options->wav,
-                       "the WAV file the run's sound mix goes to (a FIFO or device is written "
-                       "through)")
-          ->default_str("OUT/sound.wav");
-  options->no_wav_option = addFlag(*command, "--no-wav", options->no_wav, "write no WAV");
-  command
-      ->add_option("--out", options->out,
-                   "output folder; a run replaces the outputs of the last run there, and only "
-                   "those")
-      ->capture_default_str();
-  options->capture_every_option =
-      command
-          ->add_option("--capture-every", options->capture_every,
-                       "write every K-th frame as a PNG under OUT/frames (0: none)")
-          ->check(wholeNumberIn(0, kMostFrames))
-          ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
-  options->capture_size_option =
-      command->add_option("--capture-size", options->capture_size, "PNG size WIDTHxHEIGHT")
-          ->capture_default_str();
+  addFlag(*command, "--paper", arguments->paper,
+          "the paper's full run: --objects " + std::to_string(kPaperObjects) + " --frames " +
+              std::to_string(kPaperFrames) +
+              " (about half an hour on two cores without a GPU); either given explicitly wins");
+  arguments->physics.addTo(*command);
+  addFrameOptions(*command, *arguments, *given);
+  addTaskOptions(*command, *arguments, *given);
+  addOutputOptions(*command, *arguments, *given);
   command->footer(
       "Examples:\n"
       "  overlap run                                  # the demo, into ./out\n"
       "  overlap run --paper --algo bvh --out paper   # the paper's scene 4 with Bullet's BVH\n"
       "  overlap run --scene 2 --objects 1000 --frames 300 --no-tasks --out s2");
-  command->parse_complete_callback([options] { refuseConflicts(*options); });
-  command->callback([options] { run(*options); });
+  command->parse_complete_callback([arguments, given] { refuseConflicts(*arguments, *given); });
+  command->callback([arguments, given] { run(*arguments, *given); });
 }
 
 }  // namespace overlap::engine

@@ -1,7 +1,4 @@
-// cpusap's moved-box path (gpu/cpu_sap_pair_finder.h): a frame in which few
-// boxes changed costs in proportion to them and their pairs.
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
+#include "gpu/cpu_sap_moved_boxes.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +8,7 @@
 #include <string>
 
 #include "gpu/base/stopwatch.h"
-#include "gpu/cpu_sap_pair_finder.h"
+#include "gpu/for_pieces.h"
 #include "gpu/pair_logic.h"
 
 namespace overlap::gpu {
@@ -28,7 +25,7 @@ bool sameBounds(const ObjectBounds& a, const ObjectBounds& b) {
   return std::memcmp(&a, &b, sizeof(ObjectBounds)) == 0;
 }
 
-// Swept by the layouts: used, no NaN, min <= max (what sortOutBoxes() calls regular).
+// Swept by the layouts: used, no NaN, min <= max (what the full search calls regular).
 bool searchable(const ObjectBounds& box) {
   bool fine = box.group != 0 && box.mask != 0;
   for (int axis = 0; axis < 3; ++axis) fine &= box.min[axis] <= box.max[axis];
@@ -57,40 +54,40 @@ void replaceSorted(std::vector<std::uint64_t>& sorted, const std::vector<std::ui
 
 }  // namespace
 
-void CpuSapPairFinder::keepFullFrame(std::span<const ObjectBounds> objects) {
-  kept_.assign(objects.begin(), objects.begin() + slot_count_);
+void SapMovedBoxes::keepFullFrame(std::span<const ObjectBounds> objects, bool any_inverted) {
+  kept_.assign(objects.begin(), objects.end());
   for (const std::uint32_t slot : dirty_) dirty_flag_[slot] = 0;
-  dirty_flag_.resize(slot_count_, 0);
-  moved_flag_.resize(slot_count_, 0);
+  dirty_flag_.resize(objects.size(), 0);
+  moved_flag_.resize(objects.size(), 0);
   dirty_.clear();
-  layout_.indexForQueries();
-  have_full_frame_ = inverted_.empty();
+  have_full_frame_ = !any_inverted;
 }
 
-bool CpuSapPairFinder::noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot,
-                                   std::size_t limit) {
+bool SapMovedBoxes::noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot,
+                                std::size_t limit) {
   if (sameBounds(objects[slot], kept_[slot])) return true;
   if (inverted(objects[slot])) return false;
   moved_.push_back(slot);
   return dirty_flag_[slot] != 0 || dirty_.size() + moved_.size() <= limit;
 }
 
-bool CpuSapPairFinder::findMovedBoxes(std::span<const ObjectBounds> objects,
-                                      const std::span<const std::uint32_t>* changed) {
+bool SapMovedBoxes::findMovedBoxes(std::span<const ObjectBounds> objects,
+                                   const std::span<const std::uint32_t>* changed) {
   moved_.clear();
   if (!have_full_frame_ || objects.size() != kept_.size()) return false;
+  const auto slot_count = static_cast<std::uint32_t>(objects.size());
   const std::size_t limit = kept_.size() / kDirtyShareDivisor;
   if (changed == nullptr) {
-    for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
+    for (std::uint32_t slot = 0; slot < slot_count; ++slot) {
       if (!noteIfMoved(objects, slot, limit)) return false;
     }
     return true;
   }
   if (changed->size() > limit) return false;  // a full frame is cheaper
   for (const std::uint32_t slot : *changed) {
-    if (slot >= slot_count_) {
+    if (slot >= slot_count) {
       throw std::runtime_error("cpusap: changed slot " + std::to_string(slot) + " is past the " +
-                               std::to_string(slot_count_) + " boxes");
+                               std::to_string(slot_count) + " boxes");
     }
     if (!noteIfMoved(objects, slot, limit)) return false;
   }
@@ -99,21 +96,21 @@ bool CpuSapPairFinder::findMovedBoxes(std::span<const ObjectBounds> objects,
   return true;
 }
 
-void CpuSapPairFinder::layOutDirtyBoxes(std::span<const ObjectBounds> objects,
-                                        sap::SweepLayout& layout) {
+void SapMovedBoxes::layOutDirtyBoxes(std::span<const ObjectBounds> objects, const FullFrame& full,
+                                     sap::SweepLayout& layout) {
   dirty_entries_.clear();
   for (const std::uint32_t slot : dirty_) {
     if (searchable(objects[slot])) {
-      dirty_entries_.push_back(sap::sortEntry(objects[slot], sweep_axis_, slot));
+      dirty_entries_.push_back(sap::sortEntry(objects[slot], full.sweep_axis, slot));
     }
   }
   std::sort(dirty_entries_.begin(), dirty_entries_.end());
-  layout.plan(objects, dirty_entries_, sweep_axis_, slab_axis_, grid_);
+  layout.plan(objects, dirty_entries_, full.sweep_axis, full.slab_axis, full.grid);
   layout.gather(0, layout.size());
   layout.indexForQueries();
 }
 
-void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
+void SapMovedBoxes::queryMovedBoxes(std::span<const ObjectBounds> objects, const FullFrame& full) {
   // One side's partners of `slot`: the clean boxes from the full frame's
   // layout, the dirty ones from that side's own layout; itself and the moved
   // boxes below it (which report the pair themselves) left out, sorted.
@@ -121,11 +118,11 @@ void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
                             const sap::SweepLayout& dirty, std::vector<std::uint32_t>& hits) {
     hits.clear();
     if (!searchable(box)) return;
-    layout_.query(box, grid_, hits);
+    full.layout.query(box, full.grid, hits);
     hits.erase(std::remove_if(hits.begin(), hits.end(),
                               [&](std::uint32_t other) { return dirty_flag_[other] != 0; }),
                hits.end());
-    dirty.query(box, grid_, hits);
+    dirty.query(box, full.grid, hits);
     hits.erase(std::remove_if(hits.begin(), hits.end(),
                               [&](std::uint32_t other) {
                                 return other == slot || (moved_flag_[other] != 0 && other < slot);
@@ -137,7 +134,7 @@ void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
     pairs.added.clear();
     pairs.removed.clear();
   }
-  forPieces(moved_.size(), kMovedPerPiece, [&](std::size_t first, std::size_t end) {
+  forPieces(arena_, moved_.size(), kMovedPerPiece, [&](std::size_t first, std::size_t end) {
     MovedPairs& pairs = moved_pairs_.local();
     for (std::size_t k = first; k < end; ++k) {
       const std::uint32_t slot = moved_[k];
@@ -158,10 +155,14 @@ void CpuSapPairFinder::queryMovedBoxes(std::span<const ObjectBounds> objects) {
   });
 }
 
-bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects,
-                                        const std::span<const std::uint32_t>* changed) {
+bool SapMovedBoxes::search(std::span<const ObjectBounds> objects,
+                           const std::span<const std::uint32_t>* changed, const FullFrame& full,
+                           std::vector<IndexPair>& added, std::vector<IndexPair>& removed,
+                           SearchPhases& phases) {
+  const bool changes_usable = kept_current_;
+  kept_current_ = false;  // until this search has finished
   const HostStopwatch watch;
-  if (!findMovedBoxes(objects, changed)) return false;
+  if (!findMovedBoxes(objects, changes_usable ? changed : nullptr)) return false;
   for (const std::uint32_t slot : moved_) {
     moved_flag_[slot] = 1;
     if (dirty_flag_[slot] == 0) {
@@ -169,12 +170,22 @@ bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects,
       dirty_.push_back(slot);
     }
   }
-  layOutDirtyBoxes(kept_, dirty_before_);
-  layOutDirtyBoxes(objects, dirty_now_);
-  phases_.sort_ms = watch.ms();
-  queryMovedBoxes(objects);
-  phases_.sweep_ms = watch.ms() - phases_.sort_ms;
+  layOutDirtyBoxes(kept_, full, dirty_before_);
+  layOutDirtyBoxes(objects, full, dirty_now_);
+  phases.sort_ms = watch.ms();
+  queryMovedBoxes(objects, full);
+  phases.sweep_ms = watch.ms() - phases.sort_ms;
+  collectDelta(added, removed);
+  for (const std::uint32_t slot : moved_) {
+    moved_flag_[slot] = 0;
+    kept_[slot] = objects[slot];
+  }
+  phases.delta_ms = watch.ms() - phases.sort_ms - phases.sweep_ms;
+  return true;
+}
 
+void SapMovedBoxes::collectDelta(std::vector<IndexPair>& added_pairs,
+                                 std::vector<IndexPair>& removed_pairs) {
   std::vector<std::uint64_t> added, removed, scratch;
   for (const MovedPairs& pairs : moved_pairs_) {
     added.insert(added.end(), pairs.added.begin(), pairs.added.end());
@@ -182,15 +193,16 @@ bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects,
   }
   std::sort(added.begin(), added.end());
   std::sort(removed.begin(), removed.end());
-  added_.clear();
-  removed_.clear();
+  added_pairs.clear();
+  removed_pairs.clear();
   for (const std::uint64_t key : added) {
-    added_.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
+    added_pairs.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
   }
   for (const std::uint64_t key : removed) {
-    removed_.push_back({static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
+    removed_pairs.push_back(
+        {static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)});
   }
-  // previous_ + pending is this frame's set: a pair re-added cancels its
+  // The full set + pending is this frame's set: a pair re-added cancels its
   // pending removal, a pair removed cancels its pending addition.
   std::vector<std::uint64_t> re_added, new_added, un_added, new_removed;
   std::set_intersection(added.begin(), added.end(), pending_removed_.begin(),
@@ -203,26 +215,19 @@ bool CpuSapPairFinder::searchMovedBoxes(std::span<const ObjectBounds> objects,
                       std::back_inserter(new_removed));
   replaceSorted(pending_added_, un_added, new_added, scratch);
   replaceSorted(pending_removed_, re_added, new_removed, scratch);
-
-  for (const std::uint32_t slot : moved_) {
-    moved_flag_[slot] = 0;
-    kept_[slot] = objects[slot];
-  }
-  phases_.delta_ms = watch.ms() - phases_.sort_ms - phases_.sweep_ms;
-  return true;
 }
 
-void CpuSapPairFinder::applyPendingChanges() {
+void SapMovedBoxes::applyPendingChanges(PairSet& pairs) {
   if (pending_added_.empty() && pending_removed_.empty()) return;
   std::vector<std::uint64_t> keys;
-  keys.reserve(previous_.size() + pending_added_.size());
-  for (std::uint32_t a = 0; a < previous_.slotCount(); ++a) {
-    for (const std::uint32_t b : previous_.partnersOf(a)) keys.push_back(pairKey(a, b));
+  keys.reserve(pairs.size() + pending_added_.size());
+  for (std::uint32_t a = 0; a < pairs.slotCount(); ++a) {
+    for (const std::uint32_t b : pairs.partnersOf(a)) keys.push_back(pairKey(a, b));
   }
   std::vector<std::uint64_t> scratch;
   replaceSorted(keys, pending_removed_, pending_added_, scratch);
   const std::span<const std::uint64_t> batch[] = {keys};
-  previous_.assign(previous_.slotCount(), batch);
+  pairs.assign(pairs.slotCount(), batch);
   pending_added_.clear();
   pending_removed_.clear();
 }

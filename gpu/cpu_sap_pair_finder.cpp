@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "gpu/base/stopwatch.h"
+#include "gpu/for_pieces.h"
 #include "gpu/pair_logic.h"
 
 namespace overlap::gpu {
@@ -238,7 +239,7 @@ void CpuSapPairFinder::radixSort() {
 
 void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
   layout_.plan(objects, entries_, sweep_axis_, slab_axis_, grid_);
-  forPieces(layout_.size(), kMinEntriesPerGather, [&](std::size_t first, std::size_t end) {
+  forPieces(arena_, layout_.size(), kMinEntriesPerGather, [&](std::size_t first, std::size_t end) {
     layout_.gather(static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(end));
   });
 }
@@ -297,27 +298,28 @@ void CpuSapPairFinder::search(std::span<const ObjectBounds> objects,
   if (searched_) throw std::runtime_error("cpusap: launch() called twice without finish()");
   launch_watch_ = HostStopwatch();
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
-
-  const bool changes_usable = kept_current_;
-  kept_current_ = false;  // until this search has finished
-  moved_only_ = searchMovedBoxes(objects, changes_usable ? changed : nullptr);
-  if (!moved_only_) {
-    applyPendingChanges();
-    const int last_sweep_axis = sweep_axis_;
-    chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
-    sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
-    phases_.sort_ms = launch_watch_.ms();
-    layOut(objects);             // 4
-    sweep();                     // 5
-    testInvertedBoxes(objects);  // 6
-    phases_.sweep_ms = launch_watch_.ms() - phases_.sort_ms;
-    computeDelta();  // 7
-    keepFullFrame(objects);
-    phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
-  }
+  const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
+  moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, phases_);
+  if (!moved_only_) searchAll(objects);
   last_search_ms_ = launch_watch_.ms();
-  kept_current_ = true;
+  moved_boxes_.searchFinished();
   searched_ = true;
+}
+
+void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
+  moved_boxes_.applyPendingChanges(previous_);
+  const int last_sweep_axis = sweep_axis_;
+  chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
+  sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
+  phases_.sort_ms = launch_watch_.ms();
+  layOut(objects);             // 4
+  sweep();                     // 5
+  testInvertedBoxes(objects);  // 6
+  phases_.sweep_ms = launch_watch_.ms() - phases_.sort_ms;
+  computeDelta();  // 7
+  layout_.indexForQueries();
+  moved_boxes_.keepFullFrame(objects.first(slot_count_), !inverted_.empty());
+  phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
 }
 
 void CpuSapPairFinder::computeDelta() {
@@ -344,7 +346,7 @@ void CpuSapPairFinder::computeDelta() {
   const auto bound = [&](std::size_t part) {
     return static_cast<std::uint32_t>(std::uint64_t{slot_count_} * part / parts);
   };
-  forPieces(parts, 1, [&](std::size_t first, std::size_t end) {
+  forPieces(arena_, parts, 1, [&](std::size_t first, std::size_t end) {
     for (std::size_t part = first; part < end; ++part) {
       delta_parts_[part].added.clear();
       delta_parts_[part].removed.clear();

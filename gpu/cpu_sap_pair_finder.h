@@ -22,17 +22,11 @@
 // finish() only hands the delta over; run it on its own thread
 // (gpu/background_pair_finder.h) for a launch() that returns at once.
 //
-// A frame in which few boxes changed (gpu/cpu_sap_moved_boxes.cpp) skips all
-// of that: the boxes that differ from last frame's are found among the
-// caller's changed slots (launchWithChanges) or else by comparing every box,
-// and only they are queried, each at its old and its new bounds,
-// against last full frame's layout (for the boxes unchanged since) and
-// against a small layout of the boxes changed since (the "dirty" ones); the
-// pairs that differ between the two queries are the delta.  Its cost follows
-// the moved boxes and their pairs (plus one comparison of each box's bytes
-// when the caller did not say which changed).
-// The full search runs again once the dirty boxes pass a share of all, or
-// when a box is inverted.
+// A frame in which few boxes changed skips all of that: the moved-box path
+// (gpu/cpu_sap_moved_boxes.h, owned by the finder) queries only the boxes
+// that changed against this search's last layout.  The full search runs
+// again when that path declines: too many boxes changed since, or a box is
+// inverted.
 //
 // Invariants: the same inclusive test and filters as gpu/pair_logic.h, so
 // every frame's pairs are exactly cpubf's (its brute-force twin, kept as the
@@ -40,9 +34,7 @@
 // never the answer.  A launch() that throws keeps last frame's pairs.
 #pragma once
 
-#include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
 #include <array>
@@ -50,6 +42,7 @@
 #include <vector>
 
 #include "gpu/base/stopwatch.h"
+#include "gpu/cpu_sap_moved_boxes.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
 #include "gpu/sap_sweep.h"
@@ -102,25 +95,10 @@ class CpuSapPairFinder final : public PairFinder {
   void sweep();
   void testInvertedBoxes(std::span<const ObjectBounds> objects);
   void computeDelta();
-  // The moved-box path: true when it found this frame's delta.
   // changed: the caller's changed slots, or null to compare every box.
   void search(std::span<const ObjectBounds> objects, const std::span<const std::uint32_t>* changed);
-  bool searchMovedBoxes(std::span<const ObjectBounds> objects,
-                        const std::span<const std::uint32_t>* changed);
-  bool findMovedBoxes(std::span<const ObjectBounds> objects,
-                      const std::span<const std::uint32_t>* changed);
-  // Whether the slot's box is a moved one; false when the moved-box path cannot take it.
-  bool noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot, std::size_t limit);
-  void layOutDirtyBoxes(std::span<const ObjectBounds> objects, sap::SweepLayout& layout);
-  void queryMovedBoxes(std::span<const ObjectBounds> objects);
-  // After a full search: its boxes become the reference for the next moved-box frame.
-  void keepFullFrame(std::span<const ObjectBounds> objects);
-  // Folds the moved-box frames' changes into previous_.
-  void applyPendingChanges();
-  // Runs body(first, end) over pieces of [0, count), on the finder's threads
-  // when it has several and there are at least two pieces of `grain`.
-  template <typename Body>
-  void forPieces(std::size_t count, std::size_t grain, const Body& body);
+  // Steps 1 to 7, after which the moved-box path queries this frame's layout.
+  void searchAll(std::span<const ObjectBounds> objects);
 
   tbb::task_arena arena_;
   sap::SweepKernel kernel_;
@@ -152,40 +130,10 @@ class CpuSapPairFinder final : public PairFinder {
   double last_search_ms_ = 0;
   SearchPhases phases_;
 
-  // The moved-box path's state.
   bool moved_only_ = false;
-  bool have_full_frame_ = false;
-  // Every slot's bounds as last searched: the last launch's boxes when it
-  // finished (kept_current_), so its caller's changed slots are all that differ.
-  std::vector<ObjectBounds> kept_;
-  bool kept_current_ = false;
-  std::vector<std::uint8_t> dirty_flag_;       // per slot: changed since the full frame
-  std::vector<std::uint32_t> dirty_;           // those slots
-  std::vector<std::uint8_t> moved_flag_;       // per slot: changed this frame
-  std::vector<std::uint32_t> moved_;           // those slots
-  sap::SweepLayout dirty_before_, dirty_now_;  // the dirty boxes at kept_ and now
-  std::vector<std::uint64_t> dirty_entries_;
-  struct MovedPairs {
-    std::vector<std::uint32_t> before, now;  // one query's hits
-    std::vector<std::uint64_t> added, removed;
-  };
-  tbb::enumerable_thread_specific<MovedPairs> moved_pairs_;
-  std::vector<std::uint64_t> pending_added_, pending_removed_;  // since previous_ was built
+  SapMovedBoxes moved_boxes_{arena_};
   HostStopwatch launch_watch_;
   double last_launch_to_finish_ms_ = 0;
 };
-
-template <typename Body>
-void CpuSapPairFinder::forPieces(std::size_t count, std::size_t grain, const Body& body) {
-  if (arena_.max_concurrency() <= 1 || count < 2 * grain) {
-    body(std::size_t{0}, count);
-    return;
-  }
-  arena_.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, count, grain),
-        [&](const tbb::blocked_range<std::size_t>& range) { body(range.begin(), range.end()); });
-  });
-}
 
 }  // namespace overlap::gpu

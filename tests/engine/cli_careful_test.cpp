@@ -1,5 +1,5 @@
-// Project issue 25's table, row by row: each test makes the mess a row
-// describes and checks what a careful user expects (docs/CLI.md).  A FIFO
+// A careful user's expectations, one mess per test: each test makes the mess
+// and checks what docs/CLI.md promises for it.  A FIFO
 // and a symlink stand in for a device node where the tests run without root.
 #include <fcntl.h>
 #include <gtest/gtest.h>

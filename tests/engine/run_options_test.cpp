@@ -1,9 +1,9 @@
 // `overlap run`'s frame options as a user runs them: --threads N (the
 // process never has more than N threads of its own: main, oneTBB's workers,
 // cpubf's search, the renderer, counted in /proc/<pid>/task while it runs;
-// issue 12, item 6; the CUDA driver's threads, on a machine with a device,
-// are not the run's: docs/DESIGN.md, "Threads") and --task-load X (the tasks
-// sized from the scene, recorded).
+// the CUDA driver's threads, on a machine with a device, are not the run's:
+// docs/DESIGN.md, "Threads") and --task-load X (the tasks sized from the
+// scene, recorded).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>

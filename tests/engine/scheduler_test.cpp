@@ -12,7 +12,6 @@
 #include <memory>
 #include <stdexcept>
 
-#include "engine/frame_scheduler.h"
 #include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
@@ -39,17 +38,17 @@ Outcome runFrames(const std::string& algorithm, bool sync, int frames,
                   int substeps = physics::kAutoSubsteps,
                   physics::CcdMode ccd = physics::CcdMode::kAuto) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{algorithm, substeps, ccd});
-  Timeline timeline;
-  FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+  testing::DemoFrame demo(world, sync);
+  FrameScheduler& scheduler = demo.scheduler;
   Outcome outcome;
   for (int frame = 0; frame < frames; ++frame) {
     scheduler.runFrame();
     outcome.pairs.push_back(world.cachedPairs());
   }
   outcome.state_hash = world.stateHash();
-  outcome.sound_checksum = scheduler.soundChecksum();
-  outcome.ai_checksum = scheduler.aiChecksum();
-  outcome.impacts = scheduler.soundWork()->impacts_started;
+  outcome.sound_checksum = demo.tasks.soundChecksum();
+  outcome.ai_checksum = demo.tasks.aiChecksum();
+  outcome.impacts = demo.tasks.soundWork().impacts_started;
   return outcome;
 }
 
@@ -65,19 +64,19 @@ std::map<std::string, std::vector<Span>> spansOfFrame(const Timeline& timeline, 
 TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowphase) {
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-    Timeline timeline;
-    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+    testing::DemoFrame demo(world, sync);
+    FrameScheduler& scheduler = demo.scheduler;
     constexpr int kFrames = 25;
     std::vector<std::size_t> substeps_of_frame;  // K varies frame by frame (--substeps auto)
     for (int frame = 0; frame < kFrames; ++frame) {
       substeps_of_frame.push_back(static_cast<std::size_t>(scheduler.runFrame().physics.substeps));
     }
-    EXPECT_EQ(scheduler.soundWork()->frames, kFrames) << "sync " << sync;
-    EXPECT_EQ(scheduler.aiWork()->frames, kFrames) << "sync " << sync;
+    EXPECT_EQ(demo.tasks.soundWork().frames, kFrames) << "sync " << sync;
+    EXPECT_EQ(demo.tasks.aiWork().frames, kFrames) << "sync " << sync;
     for (int frame = 0; frame < kFrames; ++frame) {
       const std::size_t substeps = substeps_of_frame[static_cast<std::size_t>(frame)];
       ASSERT_GT(substeps, 1u);
-      auto spans = spansOfFrame(timeline, frame);
+      auto spans = spansOfFrame(demo.timeline, frame);
       for (const char* once : {"frame", "physics", "tasks", "sound", "ai"}) {
         EXPECT_EQ(spans[once].size(), 1u) << once << " in frame " << frame << ", sync " << sync;
       }
@@ -101,11 +100,11 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
     SCOPED_TRACE(sync ? "sync" : "async");
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     ASSERT_TRUE(world.broadphaseRunsInBackground());
-    Timeline timeline;
-    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+    testing::DemoFrame demo(world, sync);
+    FrameScheduler& scheduler = demo.scheduler;
     for (int frame = 0; frame < 20; ++frame) {
       scheduler.runFrame();
-      auto spans = spansOfFrame(timeline, frame);
+      auto spans = spansOfFrame(demo.timeline, frame);
       const Span& tasks = spans["tasks"].front();
       const Span& physics = spans["physics"].front();
       const std::vector<Span>& substeps = spans["substep"];
@@ -134,36 +133,41 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
   }
 }
 
-// Issue 12, item 7: frames.csv's join_ms is the frame's joins summed over
-// the substeps; the timeline draws each substep's join, so they add up.
-TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
+// frames.csv's timings are the physics' own clock readings; the scheduler
+// times the step on its own.  Each part must fit in its whole: the join in
+// the broadphase (join_ms is part of broadphase_ms), the phases in the
+// physics' total, that total in the step the scheduler saw.  A part counted
+// twice, in the wrong unit or outside its phase breaks one of these.
+TEST(FrameScheduler, TheStepsTimedPartsFitInsideTheStepTheSchedulerTimed) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-  Timeline timeline;
-  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
+  testing::DemoFrame demo(world, false);
+  double joins_ms = 0;
   for (int frame = 0; frame < 10; ++frame) {
-    const ScheduledFrame scheduled = scheduler.runFrame();
-    Clock::duration drawn{};
-    int joins = 0;
-    auto spans = spansOfFrame(timeline, frame);  // a named map: the loop reads into it
-    for (const Span& span : spans["join"]) {
-      drawn += span.at.length();
-      ++joins;
-    }
-    EXPECT_EQ(joins, scheduled.physics.substeps);
-    EXPECT_NEAR(toMilliseconds(drawn), scheduled.physics.timings.join_ms, 1e-9)
+    const ScheduledFrame scheduled = demo.scheduler.runFrame();
+    const physics::FrameTimings& t = scheduled.physics.timings;
+    constexpr double kRounding = 1e-6;  // ms: the sums' floating-point rounding
+    EXPECT_LE(t.join_ms, t.broadphase_ms + kRounding) << "frame " << frame;
+    EXPECT_LE(t.update_ms + t.broadphase_ms + t.narrowphase_ms + t.solver_ms + t.integrate_ms,
+              t.total_ms + kRounding)
         << "frame " << frame;
+    EXPECT_LE(t.total_ms, toMilliseconds(scheduled.step.length()) + kRounding) << "frame " << frame;
+    EXPECT_EQ(spansOfFrame(demo.timeline, frame)["join"].size(),
+              static_cast<std::size_t>(scheduled.physics.substeps))
+        << "frame " << frame;
+    joins_ms += t.join_ms;
   }
+  EXPECT_GT(joins_ms, 0) << "the main thread applies each search's changes at its join";
 }
 
-// Issue 12, item 3: a task that throws leaves nothing in flight.  The step
+// A task that throws leaves nothing in flight.  The step
 // finishes (its searches joined), every other task finishes, the error names
 // the task, the frame and the cause, and the next frames run normally.
 TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
   for (const bool sync : {false, true}) {
     SCOPED_TRACE(sync ? "sync" : "async");
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-    Timeline timeline;
-    FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
+    testing::DemoFrame demo(world, sync);
+    FrameScheduler& scheduler = demo.scheduler;
     int calls = 0;
     scheduler.addTask("physics-free game logic", [&calls] {
       if (++calls == 4) throw std::runtime_error("the script divided by zero");
@@ -179,14 +183,14 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
     const auto& broadphase = dynamic_cast<const physics::PairFinderBroadphase&>(world.broadphase());
     EXPECT_FALSE(broadphase.searchInFlight());
     EXPECT_EQ(world.framesDone(), 4);
-    EXPECT_EQ(scheduler.soundWork()->frames, 4u) << "the other tasks ran to the end";
-    EXPECT_EQ(scheduler.aiWork()->frames, 4u);
+    EXPECT_EQ(demo.tasks.soundWork().frames, 4u) << "the other tasks ran to the end";
+    EXPECT_EQ(demo.tasks.aiWork().frames, 4u);
     for (int frame = 0; frame < 3; ++frame) EXPECT_NO_THROW(scheduler.runFrame());
     EXPECT_EQ(world.framesDone(), 7);
   }
 }
 
-// Issue 12, item 6: a oneTBB cap of N threads (what `overlap run --threads N`
+// A oneTBB cap of N threads (what `overlap run --threads N`
 // sets) bounds every thread of the run, cpubf's search included: the main
 // thread and N - 1 workers.  Counted in /proc/self/task from inside a task,
 // while the tasks and the search run; nothing here asks for a CUDA device,
@@ -213,8 +217,8 @@ TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
     physics::SceneConfig config = smallScene();
     config.objects = 400;
     physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
-    Timeline timeline;
-    FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
+    testing::DemoFrame demo(world, false);
+    FrameScheduler& scheduler = demo.scheduler;
     std::atomic<std::size_t> most{0};
     scheduler.addTask("count threads", [&most] {
       for (int i = 0; i < 200; ++i) {
@@ -243,7 +247,7 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSamePairsStateAndTasks) {
   }
 }
 
-// Issue 12, item 5: impact sounds start where contacts begin (a manifold's
+// Impact sounds start where contacts begin (a manifold's
 // first point), not where a broadphase's AABBs first overlap, so every
 // broadphase gives the same sound where it gives the same physics.
 TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
@@ -277,30 +281,39 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
 
 TEST(FrameScheduler, NewContactsBecomeImpactSounds) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"bvh"});
-  Timeline timeline;
-  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
+  testing::DemoFrame demo(world, false);
+  FrameScheduler& scheduler = demo.scheduler;
   std::size_t contacts = 0;
   for (int frame = 0; frame < 30; ++frame) {
     scheduler.runFrame();
     contacts += world.newContacts().size();
   }
   EXPECT_GT(contacts, 0u);
-  EXPECT_GT(scheduler.soundWork()->impacts_started, 0u);
+  EXPECT_GT(demo.tasks.soundWork().impacts_started, 0u);
 }
 
+// Without registered jobs the frame is the step alone: nothing to join.
 TEST(FrameScheduler, PhysicsOnlyRunsNoTasks) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
   Timeline timeline;
-  SchedulerOptions options;
-  options.tasks = false;
-  FrameScheduler scheduler(world, options, timeline);
+  FrameScheduler scheduler(world, SchedulerOptions{}, timeline);
   const ScheduledFrame frame = scheduler.runFrame();
-  EXPECT_EQ(scheduler.soundWork(), nullptr);
   EXPECT_FALSE(frame.tasks);
+  EXPECT_FALSE(frame.wait);
   EXPECT_TRUE(frame.task_runs.empty());
   EXPECT_EQ(frame.taskTime(kSoundTask) + frame.taskTime(kAiTask) + frame.waitTime(),
             Clock::duration::zero());
   EXPECT_GT(frame.physics.pairs, 0);
+}
+
+// The step is added after every job registered before the first frame, so
+// one registered later could not be ordered before it.
+TEST(FrameScheduler, JobsAreRegisteredBeforeTheFirstFrame) {
+  physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
+  testing::DemoFrame demo(world, false);
+  demo.scheduler.runFrame();
+  EXPECT_THROW(demo.scheduler.addTask("late", [] {}), std::logic_error);
+  EXPECT_THROW(demo.scheduler.addBeforeStep("late", [] {}), std::logic_error);
 }
 
 TEST(OverlapOf, IsTheTimeTwoIntervalsShare) {

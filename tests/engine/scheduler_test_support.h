@@ -1,18 +1,31 @@
-// Scheduler options for tests: the sound and AI tasks at a small size, so a
-// scheduled run of a small scene costs about what its physics does.
+// The demo's frame for tests: a scheduler with the sound and AI tasks at a
+// small size, so a scheduled run of a small scene costs about what its
+// physics does.
 #pragma once
 
 #include "engine/frame_scheduler.h"
+#include "engine/sound_and_ai.h"
+#include "engine/timeline.h"
 
 namespace overlap::engine::testing {
 
-inline SchedulerOptions smallTasks(bool sync) {
-  SchedulerOptions options;
-  options.sync = sync;
+inline SoundAndAiOptions smallTasks() {
+  SoundAndAiOptions options;
   options.sound.voices = 8;
   options.sound.background_voices = 4;
   options.ai.agents = 32;
   return options;
 }
+
+// `world`'s frame with the small tasks registered; sync runs the jobs one
+// after another.
+struct DemoFrame {
+  DemoFrame(physics::PhysicsWorld& world, bool sync)
+      : scheduler(world, SchedulerOptions{sync}, timeline), tasks(world, smallTasks(), scheduler) {}
+
+  Timeline timeline;
+  FrameScheduler scheduler;
+  SoundAndAi tasks;
+};
 
 }  // namespace overlap::engine::testing

@@ -12,7 +12,6 @@
 #include <tuple>
 #include <vector>
 
-#include "engine/frame_scheduler.h"
 #include "physics/broadphase_factory.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
@@ -119,7 +118,7 @@ INSTANTIATE_TEST_SUITE_P(ScenesAndBroadphases, BadValuesMidRun,
                                                               "cpusap")),
                          sceneAndAlgorithm);
 
-// Issue 12, item 1: a box made NaN between two scheduled frames is out of
+// A box made NaN between two scheduled frames is out of
 // every consumer from the next frame on: the AI and sound tasks (which would
 // throw on a NaN obstacle), the poses a renderer draws, the speeds, the AABBs
 // a recorder writes.  The run goes on and the other boxes' pairs stay exact.
@@ -129,8 +128,8 @@ TEST(BadValuesThroughTheScheduler, ANaNBoxLeavesEveryConsumerAndTheRunCompletes)
     physics::SceneConfig config = physics::SceneConfig::forScene(4);
     config.objects = kBoxes;
     physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
-    engine::Timeline timeline;
-    engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
+    engine::testing::DemoFrame demo(world, sync);
+    engine::FrameScheduler& scheduler = demo.scheduler;
     for (int frame = 0; frame < kFramesToSettle; ++frame) scheduler.runFrame();
 
     int victim = -1;
@@ -160,7 +159,7 @@ TEST(BadValuesThroughTheScheduler, ANaNBoxLeavesEveryConsumerAndTheRunCompletes)
       const physics::Aabb gone = world.aabbs()[static_cast<std::size_t>(victim)];
       EXPECT_GT(gone.min[0], gone.max[0]) << "a removed box's AABB overlaps nothing";
     }
-    EXPECT_EQ(scheduler.aiWork()->frames,
+    EXPECT_EQ(demo.tasks.aiWork().frames,
               static_cast<std::uint64_t>(kFramesToSettle + kFramesAfterEach));
   }
 }

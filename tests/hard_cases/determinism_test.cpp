@@ -21,7 +21,6 @@
 #include <utility>
 #include <vector>
 
-#include "engine/frame_scheduler.h"
 #include "gpu/base/checksum.h"
 #include "gpu/pair_finder.h"
 #include "physics/pair_finder_broadphase.h"
@@ -123,8 +122,8 @@ struct ScheduledRun {
 
 ScheduledRun scheduledRun(bool sync) {
   physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
-  engine::Timeline timeline;
-  engine::FrameScheduler scheduler(world, engine::testing::smallTasks(sync), timeline);
+  engine::testing::DemoFrame demo(world, sync);
+  engine::FrameScheduler& scheduler = demo.scheduler;
   ScheduledRun run;
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
@@ -134,9 +133,9 @@ ScheduledRun scheduledRun(bool sync) {
     run.pairs_digest = fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
   run.state_hash = world.stateHash();
-  run.sound_checksum = scheduler.soundChecksum();
-  run.ai_checksum = scheduler.aiChecksum();
-  run.impacts = scheduler.soundWork()->impacts_started;
+  run.sound_checksum = demo.tasks.soundChecksum();
+  run.ai_checksum = demo.tasks.aiChecksum();
+  run.impacts = demo.tasks.soundWork().impacts_started;
   return run;
 }
 
