@@ -1,5 +1,6 @@
 #include "physics/timed_world.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "gpu/base/stopwatch.h"
@@ -64,6 +65,40 @@ void applySolverSettings(btContactSolverInfo& info, SolverMode mode) {
 
 TimedDynamicsWorld::~TimedDynamicsWorld() {
   releasePredictiveContacts();
+}
+
+void TimedDynamicsWorld::removeBody(btRigidBody& body) {
+  const auto names = [&body](const btPersistentManifold& manifold) {
+    return manifold.getBody0() == &body || manifold.getBody1() == &body;
+  };
+  std::vector<const btCollisionObject*> touched;
+  for (int m = 0; m < m_dispatcher1->getNumManifolds(); ++m) {
+    const btPersistentManifold& manifold = *m_dispatcher1->getManifoldByIndexInternal(m);
+    if (!names(manifold) || manifold.getNumContacts() == 0) continue;
+    touched.push_back(manifold.getBody0() == &body ? manifold.getBody1() : manifold.getBody0());
+  }
+  for (int i = 0; i < m_collisionObjects.size() && !touched.empty(); ++i) {
+    btCollisionObject& object = *m_collisionObjects[i];
+    if (std::find(touched.begin(), touched.end(), &object) != touched.end() &&
+        !object.isStaticOrKinematicObject()) {
+      object.activate(true);
+    }
+  }
+  for (int m = m_predictiveManifolds.size() - 1; m >= 0; --m) {
+    btPersistentManifold* manifold = m_predictiveManifolds[m];
+    if (!names(*manifold)) continue;
+    m_dispatcher1->releaseManifold(manifold);
+    m_predictiveManifolds.removeAtIndex(m);
+  }
+  for (int c = getNumConstraints() - 1; c >= 0; --c) {
+    btTypedConstraint* constraint = getConstraint(c);
+    if (&constraint->getRigidBodyA() == &body || &constraint->getRigidBodyB() == &body) {
+      removeConstraint(constraint);
+    }
+  }
+  removeRigidBody(&body);
+  body.setIslandTag(-1);
+  body.setCompanionId(-1);
 }
 
 template <typename Phase>

@@ -65,6 +65,16 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::function<void()> after_aabb_update;            // in phase 3, before the search reads them
   std::function<void()> after_narrowphase;            // after phase 6, before the solver
 
+  // Takes `body` out of the world at any point of a substep, leaving nothing
+  // in Bullet that still names it: its pairs and their contacts
+  // (removeRigidBody, through the pair cache and the dispatcher), its CCD
+  // contacts of this substep (predictive manifolds, which Bullet keeps apart
+  // and the solver's deterministic manifold sort would read through the
+  // body's removed broadphase proxy), the constraints that name it, and its
+  // island and solver marks.  The bodies it touched are woken: what rested
+  // on it must not sleep in mid-air.
+  void removeBody(btRigidBody& body);
+
  protected:
   // One substep: the phases above, in order.
   void internalSingleStepSimulation(btScalar dt) override;

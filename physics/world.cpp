@@ -396,7 +396,7 @@ void PhysicsWorld::removeBrokenBoxes() {
     if (!disabled && !lost) continue;
     // Out now, before the narrowphase meets its state: a NaN contact would
     // spread to every box it touches through the solver.
-    b.world->removeRigidBody(&body);
+    b.world->removeBody(body);
     b.removed[i] = true;
     std::fprintf(
         stderr, "overlap: box %zu left the simulation at frame %d: centre (%g, %g, %g) is %s\n", i,
