@@ -19,7 +19,7 @@ stubs::ImpactEvent impactOf(const physics::NewContact& contact, double half_exte
   return {contact.closing_speed, pan, pitch_hint};
 }
 
-// The frame's jobs on the timeline, each substep's search, join and
+// The frame's jobs on the timeline, each substep's pair search and
 // narrowphase among them.
 void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
   const auto add = [&](std::string_view name, std::string_view lane, const Interval& at,
@@ -33,10 +33,7 @@ void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
     const physics::SubstepReport& substep = substeps[k];
     const int at = static_cast<int>(k);
     add("substep", "main", {substep.start, substep.end}, at);
-    if (const auto& search = substep.search) {
-      add("search", "broadphase", {search->started, search->started + search->searched}, at);
-      add("join", "main", {search->joined, search->finished}, at);
-    }
+    add("broadphase", "main", {substep.broadphase_start, substep.narrowphase_start}, at);
     add("narrowphase", "main", {substep.narrowphase_start, substep.narrowphase_end}, at);
   }
   if (frame.tasks) add("tasks", "tasks", *frame.tasks);
@@ -168,8 +165,8 @@ ScheduledFrame FrameScheduler::runFrame() {
       for (Task& task : tasks_) runTask(task);  // sync: here, one after another
     }
     // 3. physics, main thread.  Depends on: 1 (the snapshot copied the state
-    // the step changes).  Every substep's search is launched and joined
-    // inside, before that substep's narrowphase.
+    // the step changes).  Every substep searches its pairs inside, before
+    // that substep's narrowphase.
     frame.step.start = Clock::now();
     frame.physics = world_.stepFrame();
     frame.step.end = Clock::now();

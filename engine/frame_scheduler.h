@@ -13,9 +13,9 @@
 //                          must copy the state before the step changes it)
 //   4. join      main      wait for every task         (depends on: 2, 3)
 // The tasks run beside the whole step.  Inside each substep the broadphase
-// launches its search (on its CUDA stream, or as a oneTBB job off the main
-// thread) and joins it right before that substep's narrowphase: physics/
-// does that on its own and reports when; the scheduler only draws it.
+// searches (on its CUDA stream, or on the CPU with oneTBB's threads) right
+// before that substep's narrowphase, which needs its pairs: physics/ does
+// that on its own and reports when; the scheduler only draws it.
 // With `sync`, the same jobs run one after another on the main thread:
 // snapshot, each task, physics.  Both orders give the same pairs, state and
 // sound: the tasks only read the snapshot, and physics never reads the tasks.
@@ -24,8 +24,8 @@
 // (first: their arena has the higher priority) and a CPU search.  A
 // oneTBB thread cap of N (`overlap run --threads N`, tbb::global_control)
 // leaves N - 1 workers, so the run uses N threads in all.  A main thread
-// that waits (for a search, or for the tasks at the join) runs what nobody
-// has taken yet, so no core idles while work is queued.
+// that waits (for a CPU search's threads, or for the tasks at the join) runs
+// what nobody has taken yet, so no core idles while work is queued.
 //
 // A task that throws does not stop the frame: the step finishes, every task
 // is joined, then runFrame() throws one error naming the task, the frame
@@ -136,8 +136,8 @@ class FrameScheduler {
   // Each task writes only its own entry while it runs.
   std::vector<Task> tasks_;
   // High priority: the workers serve the tasks first.  Nobody else can run
-  // them before the join, while the main thread runs a search itself when
-  // every worker is busy (a search's arena has normal priority).
+  // them before the join, while the main thread searches alone when every
+  // worker is busy (a CPU search's parallel loop has normal priority).
   tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
   tbb::task_group group_;
 };

@@ -90,12 +90,12 @@ inline std::uint32_t chunkBits(const Columns& columns, const Slot& b, std::uint3
 
 }  // namespace
 
-CpuPairFinder::CpuPairFinder(int threads) {
+CpuPairFinder::CpuPairFinder(int threads)
+    : arena_(threads > 0 ? threads : tbb::task_arena::automatic) {
   if (threads < 0) {
     throw std::runtime_error("CpuPairFinder: thread count " + std::to_string(threads) +
                              " is negative (0 means all hardware threads)");
   }
-  if (threads > 0) arena_.emplace(threads);
 }
 
 void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
@@ -182,11 +182,7 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
                         }
                       });
   };
-  if (arena_) {
-    arena_->execute(search);
-  } else {
-    search();
-  }
+  arena_.execute(search);
 
   result_.added.clear();
   result_.removed.clear();

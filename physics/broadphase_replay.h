@@ -22,7 +22,7 @@
 #include <utility>
 #include <vector>
 
-#include "physics/world.h"
+#include "physics/aabb.h"
 
 namespace overlap::physics {
 

@@ -14,7 +14,6 @@
 #include "engine/frame_scheduler.h"
 #include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
-#include "physics/pair_finder_broadphase.h"
 #include "tests/engine/scheduler_test_support.h"
 
 namespace overlap::engine {
@@ -61,7 +60,7 @@ std::map<std::string, std::vector<Span>> spansOfFrame(const Timeline& timeline, 
   return spans;
 }
 
-TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowphase) {
+TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchAndNarrowphase) {
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     Timeline timeline;
@@ -80,7 +79,7 @@ TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowpha
       for (const char* once : {"frame", "physics", "tasks", "sound", "ai"}) {
         EXPECT_EQ(spans[once].size(), 1u) << once << " in frame " << frame << ", sync " << sync;
       }
-      for (const char* each : {"substep", "search", "join", "narrowphase"}) {
+      for (const char* each : {"substep", "broadphase", "narrowphase"}) {
         ASSERT_EQ(spans[each].size(), substeps) << each << " in frame " << frame;
         for (std::size_t k = 0; k < substeps; ++k) {
           EXPECT_EQ(spans[each][k].substep, static_cast<int>(k)) << each << " in frame " << frame;
@@ -93,13 +92,12 @@ TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowpha
 // The frame's graph, read back from the timeline: the tasks are launched
 // before the first substep and joined after the last; every task runs
 // inside that window; each substep's search starts after its substep does
-// and is joined before that substep's narrowphase.  In sync, every task is
+// and ends before that substep's narrowphase.  In sync, every task is
 // done before the physics starts.
 TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
   for (const bool sync : {false, true}) {
     SCOPED_TRACE(sync ? "sync" : "async");
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-    ASSERT_TRUE(world.broadphaseRunsInBackground());
     Timeline timeline;
     FrameScheduler scheduler(world, testing::smallTasks(sync), timeline);
     for (int frame = 0; frame < 20; ++frame) {
@@ -121,41 +119,19 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
         EXPECT_GE(tasks.at.end, substeps.back().at.end) << "frame " << frame;
       }
       for (std::size_t k = 0; k < substeps.size(); ++k) {
-        const Span& search = spans["search"][k];
-        const Span& join = spans["join"][k];
+        const Span& search = spans["broadphase"][k];
         const Span& narrowphase = spans["narrowphase"][k];
         EXPECT_GE(search.at.start, substeps[k].at.start) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(search.at.end, join.at.end) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(join.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.at.start, search.at.end) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
         EXPECT_LE(narrowphase.at.end, substeps[k].at.end) << "frame " << frame << ", substep " << k;
       }
     }
   }
 }
 
-// Issue 12, item 7: frames.csv's join_ms is the frame's joins summed over
-// the substeps; the timeline draws each substep's join, so they add up.
-TEST(FrameScheduler, JoinTimeIsTheSumOfTheSubstepsJoinSpans) {
-  physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-  Timeline timeline;
-  FrameScheduler scheduler(world, testing::smallTasks(false), timeline);
-  for (int frame = 0; frame < 10; ++frame) {
-    const ScheduledFrame scheduled = scheduler.runFrame();
-    Clock::duration drawn{};
-    int joins = 0;
-    auto spans = spansOfFrame(timeline, frame);  // a named map: the loop reads into it
-    for (const Span& span : spans["join"]) {
-      drawn += span.at.length();
-      ++joins;
-    }
-    EXPECT_EQ(joins, scheduled.physics.substeps);
-    EXPECT_NEAR(toMilliseconds(drawn), scheduled.physics.timings.join_ms, 1e-9)
-        << "frame " << frame;
-  }
-}
-
 // Issue 12, item 3: a task that throws leaves nothing in flight.  The step
-// finishes (its searches joined), every other task finishes, the error names
+// finishes, every other task finishes, the error names
 // the task, the frame and the cause, and the next frames run normally.
 TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
   for (const bool sync : {false, true}) {
@@ -175,8 +151,6 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
       EXPECT_STREQ(error.what(),
                    "task 'physics-free game logic' failed in frame 3: the script divided by zero");
     }
-    const auto& broadphase = dynamic_cast<const physics::PairFinderBroadphase&>(world.broadphase());
-    EXPECT_FALSE(broadphase.searchInFlight());
     EXPECT_EQ(world.framesDone(), 4);
     EXPECT_EQ(scheduler.soundWork()->frames, 4u) << "the other tasks ran to the end";
     EXPECT_EQ(scheduler.aiWork()->frames, 4u);

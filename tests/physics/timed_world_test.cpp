@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace overlap::physics {
@@ -26,6 +27,14 @@ struct FallingPair {
   template <class World>
   explicit FallingPair(std::type_identity<World>)
       : world(std::make_unique<World>(&dispatcher, &broadphase, &solver, &config)) {
+    addBoth();
+  }
+  explicit FallingPair(TimedWorldSetup setup)
+      : world(std::make_unique<TimedDynamicsWorld>(&dispatcher, &broadphase, &solver, &config,
+                                                   std::move(setup))) {
+    addBoth();
+  }
+  void addBoth() {
     world->setGravity(btVector3(0, -50 * 9.798f, 0));
     shape.setMargin(0.04f);
     applySolverSettings(world->getSolverInfo(), SolverMode::kPile);
@@ -110,29 +119,32 @@ TEST(TimedDynamicsWorld, ABodyRemovedMidSubstepLeavesNoContactOrConstraintNaming
   // keeps them apart from the pairs, so removeRigidBody alone leaves them.
   // In the first substep the search has not run yet, so every manifold then
   // is a predictive one.
-  FallingPair pair(std::type_identity<TimedDynamicsWorld>{});
-  auto& world = static_cast<TimedDynamicsWorld&>(*pair.world);
-  world.getDispatchInfo().m_deterministicOverlappingPairs = true;  // as PhysicsWorld sets it
-  btRigidBody& leaving = *pair.bodies[1];
-  btRigidBody& staying = *pair.bodies[0];
-  btPoint2PointConstraint link(leaving, staying, btVector3(0, 0, 0), btVector3(0, 2, 0));
-  world.addConstraint(&link);
+  TimedDynamicsWorld* world = nullptr;
+  btRigidBody* leaving = nullptr;
   int named_before = -1;
   int named_after = -1;
-  world.after_aabb_update = [&] {
+  TimedWorldSetup setup;
+  setup.after_aabb_update = [&] {
     if (named_before >= 0) return;  // the first substep only
-    named_before = manifoldsNaming(*world.getDispatcher(), &leaving);
-    world.removeBody(leaving);
-    named_after = manifoldsNaming(*world.getDispatcher(), &leaving);
+    named_before = manifoldsNaming(*world->getDispatcher(), leaving);
+    world->removeBody(*leaving);
+    named_after = manifoldsNaming(*world->getDispatcher(), leaving);
   };
-  for (int k = 0; k < 8; ++k) world.stepSimulation(1.0f / 240, 0);
+  FallingPair pair(std::move(setup));
+  world = static_cast<TimedDynamicsWorld*>(pair.world.get());
+  world->getDispatchInfo().m_deterministicOverlappingPairs = true;  // as PhysicsWorld sets it
+  leaving = pair.bodies[1].get();
+  btRigidBody& staying = *pair.bodies[0];
+  btPoint2PointConstraint link(*leaving, staying, btVector3(0, 0, 0), btVector3(0, 2, 0));
+  world->addConstraint(&link);
+  for (int k = 0; k < 8; ++k) world->stepSimulation(1.0f / 240, 0);
 
   ASSERT_GT(named_before, 0) << "the test needs a predictive contact naming the body";
   EXPECT_EQ(named_after, 0);
-  EXPECT_EQ(manifoldsNaming(*world.getDispatcher(), &leaving), 0);
-  EXPECT_EQ(world.getNumConstraints(), 0);
-  EXPECT_EQ(world.getNumCollisionObjects(), 1);
-  EXPECT_EQ(leaving.getBroadphaseHandle(), nullptr);
+  EXPECT_EQ(manifoldsNaming(*world->getDispatcher(), leaving), 0);
+  EXPECT_EQ(world->getNumConstraints(), 0);
+  EXPECT_EQ(world->getNumCollisionObjects(), 1);
+  EXPECT_EQ(leaving->getBroadphaseHandle(), nullptr);
   const btVector3& centre = staying.getWorldTransform().getOrigin();
   EXPECT_TRUE(std::isfinite(centre.x()) && std::isfinite(centre.y()) && std::isfinite(centre.z()));
 }
