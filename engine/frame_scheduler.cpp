@@ -5,7 +5,7 @@
 namespace overlap::engine {
 namespace {
 
-// The frame's jobs on the timeline, each substep's search, join and
+// The frame's jobs on the timeline, each substep's pair search and
 // narrowphase among them.
 void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
   const auto add = [&](std::string_view name, std::string_view lane, const Interval& at,
@@ -19,10 +19,7 @@ void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
     const physics::SubstepReport& substep = substeps[k];
     const int at = static_cast<int>(k);
     add("substep", "main", {substep.start, substep.end}, at);
-    if (const auto& search = substep.search) {
-      add("search", "broadphase", {search->started, search->started + search->searched}, at);
-      add("join", "main", {search->joined, search->finished}, at);
-    }
+    add("broadphase", "main", {substep.broadphase_start, substep.narrowphase_start}, at);
     add("narrowphase", "main", {substep.narrowphase_start, substep.narrowphase_end}, at);
   }
   if (frame.tasks) add("tasks", "tasks", *frame.tasks);

@@ -16,9 +16,9 @@
 // Rules, each with its reason:
 // - Bullet is only ever called from the main thread: it is not thread-safe.
 // - The tasks run beside the whole step.  Inside each substep the broadphase
-//   launches its search (on its CUDA stream, or as a oneTBB job off the main
-//   thread) and joins it right before that substep's narrowphase: physics/
-//   does that on its own and reports when; the scheduler only draws it.
+//   searches (on its CUDA stream, or on the CPU with oneTBB's threads) right
+//   before that substep's narrowphase, which needs its pairs: physics/ does
+//   that on its own and reports when; the scheduler only draws it.
 // - With `sync`, the same jobs run one after another on the main thread in
 //   the order added (the demo: snapshot, sound, ai, physics).  Both orders
 //   give the same pairs, state and sound: a task reads only what a job
@@ -30,8 +30,8 @@
 // (first: their arena has the higher priority) and a CPU search.  A
 // oneTBB thread cap of N (`overlap run --threads N`, tbb::global_control)
 // leaves N - 1 workers, so the run uses N threads in all.  A main thread
-// that waits (for a search, or for the tasks at the join) runs what nobody
-// has taken yet, so no core idles while work is queued.
+// that waits (for a CPU search's threads, or for the tasks at the join) runs
+// what nobody has taken yet, so no core idles while work is queued.
 //
 // A task that throws does not stop the frame: the step finishes, every task
 // is joined, then runFrame() throws one error naming the task, the frame

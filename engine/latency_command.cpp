@@ -44,6 +44,7 @@
 #include "engine/scene_options.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
+#include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
 #include "physics/world.h"
 
@@ -107,16 +108,17 @@ FrameSearches searchAll(Studied& studied, const std::vector<physics::Aabb>& now,
   return result;
 }
 
-// The boxes' AABBs (walls dropped); fails if a box has left the simulation,
-// since its AABB would be empty in one frame and not in the other.
-std::vector<physics::Aabb> boxAabbs(const physics::PhysicsWorld& world, int frame) {
+// The boxes' AABBs (walls dropped).  A box that has left the simulation is
+// parked as a recorded stream stores it (physics::parkedBox): it pairs with
+// nothing from then on, and a late search that still has it at its last
+// AABB counts its pairs as extra.
+std::vector<physics::Aabb> boxAabbs(const physics::PhysicsWorld& world,
+                                    const physics::Aabb& bounds) {
   std::vector<physics::Aabb> all = world.aabbs();
   all.resize(static_cast<std::size_t>(world.config().objects));
   for (std::size_t i = 0; i < all.size(); ++i) {
     if (!std::isfinite(all[i].min[0]) || !std::isfinite(all[i].max[0])) {
-      throw std::runtime_error("latency: box " + std::to_string(i) +
-                               " left the simulation by frame " + std::to_string(frame) +
-                               "; the late and exact pairs are no longer comparable");
+      all[i] = physics::parkedBox(bounds, static_cast<int>(i), world.config().objects);
     }
   }
   return all;
@@ -170,13 +172,13 @@ void measureLatency(const LatencyOptions& options) {
   csv << "frame,algo,growth,exact_pairs,on_time_pairs,late_pairs,missed,extra,on_time_ms,"
          "late_ms\n";
   const auto frame_time = static_cast<float>(config.frame_time);
-  std::vector<physics::Aabb> last = boxAabbs(world, 0);
+  std::vector<physics::Aabb> last = boxAabbs(world, bounds);
   std::vector<float> last_speeds = world.boxSpeeds();
   Progress progress("overlap latency", options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
     world.stepFrame();
-    const std::vector<physics::Aabb> now = boxAabbs(world, frame);
+    const std::vector<physics::Aabb> now = boxAabbs(world, bounds);
     const Pairs exact = search(oracle, now).pairs;
     std::vector<std::vector<physics::Aabb>> late_boxes;  // one per growth
     for (const double growth : options.growths) {

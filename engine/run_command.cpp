@@ -143,8 +143,6 @@ const std::vector<Column>& columns() {
       {"ai_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kAiTask)); }, true},
       {"tasks_wait_ms", [](R r) { return toMilliseconds(r.frame.waitTime()); }, true},
       {"tasks_hidden", [](R r) { return r.frame.tasks_hidden; }, true},
-      {"search_ms", [](R r) { return r.frame.physics.timings.search_ms; }, true},
-      {"join_ms", [](R r) { return r.frame.physics.timings.join_ms; }, true},
       {"render_ms", [](R r) { return r.render_ms; }, true},
       {"pairs", [](R r) { return r.frame.physics.pairs; }, false},
       {"escaped", [](R r) { return r.frame.physics.escaped; }, false},

@@ -1,6 +1,6 @@
-// The frame timeline: named spans on named lanes (main thread, broadphase
-// search, tasks, sound, AI), each tagged with its frame and, for a
-// substep's spans (substep, search, join, narrowphase), its substep; written
+// The frame timeline: named spans on named lanes (main thread, tasks,
+// sound, AI), each tagged with its frame and, for a substep's spans
+// (substep, broadphase, narrowphase), its substep; written
 // in the Chrome trace event format, which Perfetto (ui.perfetto.dev) and
 // chrome://tracing open.  Spans are kept as points on the steady clock and
 // written as microseconds since the run started.

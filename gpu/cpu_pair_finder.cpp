@@ -22,8 +22,8 @@ using pair_logic::kBitsPerWord;
 constexpr std::uint64_t kBlockWords = 256;
 
 // On x86-64 the search is built twice, for the baseline and for AVX2, and the
-// loader picks one: eight float lanes instead of four took a frame at n = 3500
-// from 3.8 ms to 2.2 ms on the project's 2-core development machine.  Not
+// loader picks one: the box tests are vectorized, so eight float lanes do in
+// one step what four do in two (docs/HISTORY.md has the figure).  Not
 // under ThreadSanitizer: GCC's instrumented ifunc resolver runs before the
 // TSan runtime is up and crashes the program before main.
 #if defined(__x86_64__) && !defined(__SANITIZE_THREAD__)
@@ -90,12 +90,12 @@ inline std::uint32_t chunkBits(const Columns& columns, const Slot& b, std::uint3
 
 }  // namespace
 
-CpuPairFinder::CpuPairFinder(int threads) {
+CpuPairFinder::CpuPairFinder(int threads)
+    : arena_(threads > 0 ? threads : tbb::task_arena::automatic) {
   if (threads < 0) {
     throw std::runtime_error("CpuPairFinder: thread count " + std::to_string(threads) +
                              " is negative (0 means all hardware threads)");
   }
-  if (threads > 0) arena_.emplace(threads);
 }
 
 void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
@@ -182,11 +182,7 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
                         }
                       });
   };
-  if (arena_) {
-    arena_->execute(search);
-  } else {
-    search();
-  }
+  arena_.execute(search);
 
   result_.added.clear();
   result_.removed.clear();

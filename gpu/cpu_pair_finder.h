@@ -6,16 +6,16 @@
 // the test of one object against 32 others compiles to vector code, and the
 // words are split into blocks that oneTBB spreads over the threads; a block
 // owns its words, so no two threads write the same word.  The whole search
-// runs inside launch(); finish() only hands the result over.  With a thread
-// count it searches in an arena of that many threads; without one, in the
-// caller's arena, so whoever waits for the search there can help it.
+// runs inside launch(); finish() only hands the result over.  It searches in
+// an arena of its own, of that many threads or of as many as oneTBB allows,
+// so that its demand for workers ends with it (a oneTBB thread cap lifted
+// after the finder is gone starts no worker for it), as cpusap's does.
 #pragma once
 
 #include <oneapi/tbb/enumerable_thread_specific.h>
 #include <oneapi/tbb/task_arena.h>
 
 #include <cstdint>
-#include <optional>
 #include <vector>
 
 #include "gpu/base/stopwatch.h"
@@ -25,7 +25,7 @@ namespace overlap::gpu {
 
 class CpuPairFinder final : public PairFinder {
  public:
-  // threads = 0: the caller's arena (every thread oneTBB allows it).
+  // threads = 0: every thread oneTBB allows.
   explicit CpuPairFinder(int threads = 0);
 
   std::string_view name() const override { return "cpubf"; }
@@ -44,7 +44,7 @@ class CpuPairFinder final : public PairFinder {
   // Recomputes words [first_word, end_word) and records the pairs that changed.
   void searchWords(std::uint64_t first_word, std::uint64_t end_word, Changes& changes);
 
-  std::optional<tbb::task_arena> arena_;  // with a thread count only
+  tbb::task_arena arena_;
   tbb::enumerable_thread_specific<Changes> thread_changes_;
 
   std::uint32_t slot_count_ = 0;

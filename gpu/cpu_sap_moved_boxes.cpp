@@ -25,20 +25,9 @@ bool sameBounds(const ObjectBounds& a, const ObjectBounds& b) {
   return std::memcmp(&a, &b, sizeof(ObjectBounds)) == 0;
 }
 
-// Swept by the layouts: used, no NaN, min <= max (what the full search calls regular).
+// Swept by the layouts: used, no NaN, min <= max (pair_logic::BoxUse::kOrdered).
 bool searchable(const ObjectBounds& box) {
-  bool fine = box.group != 0 && box.mask != 0;
-  for (int axis = 0; axis < 3; ++axis) fine &= box.min[axis] <= box.max[axis];
-  return fine;
-}
-
-bool inverted(const ObjectBounds& box) {
-  bool any = false, nan = false;
-  for (int axis = 0; axis < 3; ++axis) {
-    any |= box.min[axis] > box.max[axis];
-    nan |= std::isnan(box.min[axis]) | std::isnan(box.max[axis]);
-  }
-  return any && !nan;
+  return pair_logic::boxUse(box) == pair_logic::BoxUse::kOrdered;
 }
 
 // sorted := (sorted \ minus) u plus, all sorted, `plus` disjoint from `sorted`.
@@ -66,7 +55,7 @@ void SapMovedBoxes::keepFullFrame(std::span<const ObjectBounds> objects, bool an
 bool SapMovedBoxes::noteIfMoved(std::span<const ObjectBounds> objects, std::uint32_t slot,
                                 std::size_t limit) {
   if (sameBounds(objects[slot], kept_[slot])) return true;
-  if (inverted(objects[slot])) return false;
+  if (pair_logic::boxUse(objects[slot]) == pair_logic::BoxUse::kInverted) return false;
   moved_.push_back(slot);
   return dirty_flag_[slot] != 0 || dirty_.size() + moved_.size() <= limit;
 }

@@ -51,16 +51,6 @@ constexpr std::size_t kMinSlotsPerDeltaPart = 1024;
 // Step 7 counts the threads' pair batches in parallel when each holds this many.
 constexpr std::size_t kMinPairsPerParallelBatch = 8192;
 
-bool hasNaN(const ObjectBounds& box) {
-  bool nan = false;
-  for (int axis = 0; axis < 3; ++axis) nan |= std::isnan(box.min[axis]) | std::isnan(box.max[axis]);
-  return nan;
-}
-
-bool isOrdered(const ObjectBounds& box) {
-  return (box.min[0] <= box.max[0]) & (box.min[1] <= box.max[1]) & (box.min[2] <= box.max[2]);
-}
-
 sap::SweepKernel resolveKernel(sap::SweepKernel kernel) {
   if (kernel == sap::SweepKernel::kFastest) {
     return sap::avx2Available() ? sap::SweepKernel::kAvx2 : sap::SweepKernel::kScalar;
@@ -86,13 +76,16 @@ CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBo
   inverted_.clear();
   placed_.assign(slot_count_, 0);
   for (std::uint32_t slot = 0; slot < slot_count_; ++slot) {
-    const ObjectBounds& box = objects[slot];
-    if (box.group == 0 || box.mask == 0) continue;  // pairs with nothing
-    if (isOrdered(box)) {
-      regular_.push_back(slot);
-      placed_[slot] = 1;        // swept, not yet placed by step 3
-    } else if (!hasNaN(box)) {  // NaN pairs with nothing
-      inverted_.push_back(slot);
+    switch (pair_logic::boxUse(objects[slot])) {
+      case pair_logic::BoxUse::kOrdered:
+        regular_.push_back(slot);
+        placed_[slot] = 1;  // swept, not yet placed by step 3
+        break;
+      case pair_logic::BoxUse::kInverted:
+        inverted_.push_back(slot);
+        break;
+      case pair_logic::BoxUse::kNone:
+        break;
     }
   }
 

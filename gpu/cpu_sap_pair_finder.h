@@ -19,8 +19,7 @@
 //   6. test the inverted boxes against every box, one by one;
 //   7. group the pairs by lower slot (gpu/pair_set.h) and merge them with
 //      last frame's: the delta, sorted, with no help from Bullet.
-// finish() only hands the delta over; run it on its own thread
-// (gpu/background_pair_finder.h) for a launch() that returns at once.
+// finish() only hands the delta over.
 //
 // A frame in which few boxes changed skips all of that: the moved-box path
 // (gpu/cpu_sap_moved_boxes.h, owned by the finder) queries only the boxes

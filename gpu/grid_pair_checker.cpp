@@ -30,20 +30,18 @@ struct Grid {
   }
 };
 
+// On the grid: ordered as a sweep needs it (pair_logic::boundsOrdered) and
+// finite, so that it has cells.  Any other box is tested one by one.
 bool placeable(const ObjectBounds& box) {
-  bool fine = true;
+  bool finite = true;
   for (int axis = 0; axis < 3; ++axis) {
-    fine &= std::isfinite(box.min[axis]) && std::isfinite(box.max[axis]) &&
-            box.min[axis] <= box.max[axis];
+    finite &= std::isfinite(box.min[axis]) && std::isfinite(box.max[axis]);
   }
-  return fine;
+  return finite && pair_logic::boundsOrdered(box);
 }
 
-}  // namespace
-
-std::vector<std::uint64_t> gridCheckerPairs(std::span<const ObjectBounds> objects) {
-  const auto count = static_cast<std::uint32_t>(objects.size());
-  // The grid spans the placeable boxes; its cell is a few mean extents.
+// The grid spans the placeable boxes; its cell is a few mean extents.
+Grid gridOver(std::span<const ObjectBounds> objects) {
   double lowest[3] = {INFINITY, INFINITY, INFINITY}, highest[3] = {-INFINITY, -INFINITY, -INFINITY};
   double extents = 0;
   std::size_t placed = 0;
@@ -61,7 +59,14 @@ std::vector<std::uint64_t> gridCheckerPairs(std::span<const ObjectBounds> object
     cell = std::max(cell, (highest[axis] - lowest[axis]) / kMostCellsPerAxis);
   }
   if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
-  const Grid grid{{lowest[0], lowest[1], lowest[2]}, 1.0 / cell};
+  return Grid{{lowest[0], lowest[1], lowest[2]}, 1.0 / cell};
+}
+
+}  // namespace
+
+std::vector<std::uint64_t> gridCheckerPairs(std::span<const ObjectBounds> objects) {
+  const auto count = static_cast<std::uint32_t>(objects.size());
+  const Grid grid = gridOver(objects);
 
   std::vector<std::pair<std::uint64_t, std::uint32_t>> listed;  // (cell, box)
   std::vector<std::uint32_t> loose;                             // tested one by one

@@ -8,11 +8,14 @@
 // that started overlapping and the pairs that stopped.  An unused slot has
 // group = mask = 0 and so pairs with nothing.
 //
-// The work is split so the caller can overlap it with other work: launch()
-// uploads the boxes and starts the search (it returns at once on the GPU);
-// finish() waits and returns the changes.  Both are called from one thread,
-// strictly alternating; launch() copies what it needs, so the caller may
-// change its boxes as soon as launch() returns.
+// A search has two calls: launch() takes the boxes and starts the search
+// (the GPU finders queue it on their CUDA stream and return; the CPU finders
+// search inside launch()); finish() waits for it and returns the changes.
+// Both are called from one thread, strictly alternating; launch() copies
+// what it needs, so the caller may change its boxes as soon as launch()
+// returns.  The split lets a caller put work between the two or time the
+// whole (the benchmark times launch to finish); the Bullet adapter,
+// physics/pair_finder_broadphase.h, calls them back to back.
 //
 // Invariants: added and removed are sorted by (a, b), hold no duplicates, and
 // are disjoint; the slot count may grow between frames (new slots start with
@@ -121,10 +124,6 @@ class PairFinder {
   // caller need rewrite only the boxes that changed; a larger count may move
   // it and drop its contents (write all `count` boxes then).
   virtual std::span<ObjectBounds> stagingFor(std::size_t /*count*/) { return {}; }
-  // How long after launch() the last finished search began.  A GPU stream
-  // starts at once; a CPU worker that has to wake up (or wait for a core) may
-  // not, and a measure of what overlapped the search must start it there.
-  virtual double lastSearchDelayMs() const { return 0; }
   // The last finished search's phases.
   virtual SearchPhases lastPhases() const { return {}; }
   // The last finished search's device stages and host work.

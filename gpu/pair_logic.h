@@ -101,6 +101,34 @@ OVERLAP_HD constexpr bool objectsPair(const ObjectBounds& x, const ObjectBounds&
   return boxesOverlap(x, y) & filtersAccept(x.group, x.mask, y.group, y.mask);
 }
 
+// Whether a box can be placed by a sweep: min <= max on every axis (a NaN
+// coordinate fails the test).  Bullet's AABBs always are; a box that is not
+// is an error where it comes from Bullet (physics/pair_finder_broadphase.h).
+OVERLAP_HD constexpr bool boundsOrdered(const ObjectBounds& box) {
+  return (box.min[0] <= box.max[0]) & (box.min[1] <= box.max[1]) & (box.min[2] <= box.max[2]);
+}
+
+OVERLAP_HD constexpr bool hasNaN(const ObjectBounds& box) {
+  bool nan = false;
+  for (int axis = 0; axis < 3; ++axis)
+    nan |= (box.min[axis] != box.min[axis]) | (box.max[axis] != box.max[axis]);
+  return nan;
+}
+
+// How a search entry takes part in objectsPair's rule, the one answer to
+// "is this box usable?" for every finder that treats boxes apart:
+// - kNone: pairs with nothing (a filter is zero: an unused slot; or a
+//   coordinate is NaN, which fails every comparison);
+// - kInverted: min > max on some axis, no NaN: it still pairs where
+//   objectsPair says so, but a sweep cannot place it;
+// - kOrdered: what a sweep sorts.
+enum class BoxUse : std::uint8_t { kNone, kInverted, kOrdered };
+
+OVERLAP_HD constexpr BoxUse boxUse(const ObjectBounds& box) {
+  if ((box.group == 0) | (box.mask == 0) | hasNaN(box)) return BoxUse::kNone;
+  return boundsOrdered(box) ? BoxUse::kOrdered : BoxUse::kInverted;
+}
+
 // Given one word of last frame's bits and the same word of this frame's.
 OVERLAP_HD constexpr std::uint32_t addedBits(std::uint32_t previous, std::uint32_t current) {
   return (previous ^ current) & current;

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "physics/world.h"
+#include "physics/aabb.h"
 
 namespace overlap::physics {
 

@@ -8,7 +8,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "gpu/background_pair_finder.h"
 #include "physics/ccd_query_broadphase.h"
 #include "physics/pair_finder_broadphase.h"
 
@@ -38,12 +37,6 @@ constexpr std::array<std::string_view, kCatalogue.size()> kNames = [] {
 
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
-
-// The CPU finders search on a worker thread, so the frame's CPU tasks can
-// overlap them as they overlap the GPU's search.
-std::unique_ptr<gpu::PairFinder> cpuFinder(gpu::PairFinderKind kind) {
-  return std::make_unique<gpu::BackgroundPairFinder>(gpu::makePairFinder(kind));
-}
 
 }  // namespace
 
@@ -85,11 +78,11 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   } else if (name == "bvh") {
     choice.broadphase = std::make_unique<btDbvtBroadphase>();
   } else if (name == "cpubf") {
-    choice.broadphase =
-        std::make_unique<PairFinderBroadphase>(cpuFinder(gpu::PairFinderKind::kCpuBruteForce));
+    choice.broadphase = std::make_unique<PairFinderBroadphase>(
+        gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));
   } else if (name == "cpusap") {
-    choice.broadphase =
-        std::make_unique<PairFinderBroadphase>(cpuFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
+    choice.broadphase = std::make_unique<PairFinderBroadphase>(
+        gpu::makePairFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
   } else if (info.needs_device) {
     std::string why;
     if (gpu::cudaDeviceAvailable(&why)) {

@@ -3,7 +3,6 @@
 #include <btBulletCollisionCommon.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstring>
 #include <stdexcept>
 
@@ -136,15 +135,10 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
   if (ours == nullptr) return std::nullopt;
   const gpu::SearchPhases split = ours->lastPhases();
-  const SearchTimes& times = ours->lastSearch();
-  const auto ms = [](std::chrono::steady_clock::duration span) {
-    return std::chrono::duration<double, std::milli>(span).count();
-  };
-  return ReplayPhases{ms(times.searched),
-                      split.sort_ms,
+  return ReplayPhases{ours->lastSearchMs(),          split.sort_ms,
                       split.sweep_ms,
                       split.delta_ms,
-                      ms(times.finished - times.answered),
+                      ours->lastCacheUpdateMs(),
                       ours->lastLaunchToFinishMs(),
                       ours->lastDeviceWork()};
 }

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "physics/world.h"
+#include "physics/aabb.h"
 
 namespace overlap::physics {
 

@@ -1,8 +1,6 @@
 #include "physics/pair_finder_broadphase.h"
 
 #include <algorithm>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -11,38 +9,15 @@
 #include <string>
 
 #include "gpu/base/stopwatch.h"
+#include "gpu/pair_logic.h"
 
 namespace overlap::physics {
-namespace {
-
-bool isUsableAabb(const btVector3& aabb_min, const btVector3& aabb_max) {
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!std::isfinite(aabb_min[axis]) || !std::isfinite(aabb_max[axis]) ||
-        aabb_min[axis] > aabb_max[axis]) {
-      return false;
-    }
-  }
-  return true;
-}
-
-}  // namespace
-
 PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder)
     : finder_(std::move(finder)), pair_cache_(std::make_unique<btHashedOverlappingPairCache>()) {
   if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
 }
 
-PairFinderBroadphase::~PairFinderBroadphase() {
-  if (!search_in_flight_) return;
-  // Join, so the finder's search never outlives the boxes it reads; with no
-  // dispatcher here its answer is dropped with the cache.
-  try {
-    finder_->finish();
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "PairFinderBroadphase: the search joined at destruction failed: %s\n",
-                 error.what());
-  }
-}
+PairFinderBroadphase::~PairFinderBroadphase() = default;
 
 btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
                                                      const btVector3& aabbMax, int /*shapeType*/,
@@ -111,12 +86,19 @@ void PairFinderBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
 
 void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
   const btBroadphaseProxy& proxy = *proxies_[slot];
-  if (!isUsableAabb(proxy.m_aabbMin, proxy.m_aabbMax)) {
+  gpu::ObjectBounds entry;
+  for (int axis = 0; axis < 3; ++axis) {
+    entry.min[axis] = static_cast<float>(proxy.m_aabbMin[axis]);
+    entry.max[axis] = static_cast<float>(proxy.m_aabbMax[axis]);
+  }
+  entry.group = proxy.m_collisionFilterGroup;
+  entry.mask = proxy.m_collisionFilterMask;
+  if (!gpu::pair_logic::boundsOrdered(entry)) {
     if (aabb_valid_[slot]) {
       const btVector3& lo = proxy.m_aabbMin;
       const btVector3& hi = proxy.m_aabbMax;
       std::fprintf(stderr,
-                   "PairFinderBroadphase: object %d (client object %p) has a non-finite or "
+                   "PairFinderBroadphase: object %d (client object %p) has a NaN or "
                    "inverted AABB min (%g, %g, %g) max (%g, %g, %g); it is left out of pair "
                    "finding until it gets a valid AABB\n",
                    proxy.m_uniqueId, proxy.m_clientObject, double{lo.x()}, double{lo.y()},
@@ -127,13 +109,6 @@ void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
     return;
   }
   aabb_valid_[slot] = true;
-  gpu::ObjectBounds entry;
-  for (int axis = 0; axis < 3; ++axis) {
-    entry.min[axis] = static_cast<float>(proxy.m_aabbMin[axis]);
-    entry.max[axis] = static_cast<float>(proxy.m_aabbMax[axis]);
-  }
-  entry.group = proxy.m_collisionFilterGroup;
-  entry.mask = proxy.m_collisionFilterMask;
   setSearchEntry(slot, entry);
 }
 
@@ -141,14 +116,8 @@ void PairFinderBroadphase::setSearchEntry(std::uint32_t slot, const gpu::ObjectB
   gpu::ObjectBounds& held = search_entries_[slot];
   if (std::memcmp(&held, &entry, sizeof entry) == 0) return;
   held = entry;
-  if (slot < staging_.size()) {
-    // The staging is the finder's between a finish and the next launch.
-    if (search_in_flight_) {
-      staging_stale_ = true;
-    } else {
-      staging_[slot] = entry;
-    }
-  }
+  // Between searches the staging is ours to write (PairFinder::stagingFor).
+  if (slot < staging_.size()) staging_[slot] = entry;
   if (changed_flags_[slot] == 0) {
     changed_flags_[slot] = 1;
     changed_slots_.push_back(slot);
@@ -188,52 +157,13 @@ void PairFinderBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& a
 }
 
 void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
-  launchPairSearch();
-  finishPairSearch(dispatcher);
-}
-
-void PairFinderBroadphase::launchPairSearch() {
-  if (search_in_flight_) {
-    throw std::runtime_error("PairFinderBroadphase: launchPairSearch() called twice");
-  }
-  last_search_ = SearchTimes{};
-  last_search_.launched = std::chrono::steady_clock::now();
-  for (const std::uint32_t slot : destroyed_) states_[slot] = SlotState::kDraining;
-  draining_.insert(draining_.end(), destroyed_.begin(), destroyed_.end());
-  destroyed_.clear();
   launchFromStaging();
   for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
   changed_slots_.clear();
-  search_in_flight_ = true;
-}
-
-void PairFinderBroadphase::launchFromStaging() {
-  const std::span<gpu::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
-  if (staging.empty()) {
-    staging_ = {};
-    finder_->launchWithChanges(search_entries_, changed_slots_);
-    return;
-  }
-  // Same or fewer slots: the same memory, holding what was written to it.
-  const bool kept = !staging_stale_ && staging.size() <= staging_.size();
-  const std::size_t current = kept ? staging.size() : 0;
-  std::copy(search_entries_.begin() + static_cast<std::ptrdiff_t>(current), search_entries_.end(),
-            staging.begin() + static_cast<std::ptrdiff_t>(current));
-  staging_ = staging;
-  staging_stale_ = false;
-  finder_->launchWithChanges(staging_, changed_slots_);
-}
-
-void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
-  if (!search_in_flight_) {
-    throw std::runtime_error("PairFinderBroadphase: finishPairSearch() without launchPairSearch()");
-  }
-  last_search_.joined = std::chrono::steady_clock::now();
-  search_in_flight_ = false;
   const gpu::PairDelta delta = finder_->finish();
-  last_search_.answered = std::chrono::steady_clock::now();
-  // A pair with a destroyed proxy already left the cache with it, and one it
-  // gained after launch is stale: only pairs of two live proxies apply.
+  const HostStopwatch cache_watch;
+  // A pair with a destroyed proxy already left the cache with it: only pairs
+  // of two live proxies apply.
   const auto bothLive = [&](const gpu::IndexPair& pair) {
     return states_[pair.a] == SlotState::kLive && states_[pair.b] == SlotState::kLive;
   };
@@ -248,14 +178,32 @@ void PairFinderBroadphase::finishPairSearch(btDispatcher* dispatcher) {
       pair_cache_->addOverlappingPair(proxies_[pair.a].get(), proxies_[pair.b].get());
     }
   }
-  for (const std::uint32_t slot : draining_) {
+  // The search saw the destroyed slots unused, so the finder holds no pair of
+  // theirs any more: they may take new proxies.
+  for (const std::uint32_t slot : destroyed_) {
     states_[slot] = SlotState::kFree;
     free_slots_.push_back(slot);
   }
-  draining_.clear();
-  last_search_.finished = std::chrono::steady_clock::now();
-  last_search_.started = last_search_.launched + fromMilliseconds(finder_->lastSearchDelayMs());
-  last_search_.searched = fromMilliseconds(finder_->lastSearchMs());
+  destroyed_.clear();
+  last_cache_update_ms_ = cache_watch.ms();
+}
+
+// Hands the boxes to the finder through its staging where it has one: only
+// the slots added since the last search are copied there, the rest were
+// written as they changed.
+void PairFinderBroadphase::launchFromStaging() {
+  const std::span<gpu::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
+  if (staging.empty()) {
+    staging_ = {};
+    finder_->launchWithChanges(search_entries_, changed_slots_);
+    return;
+  }
+  // Same or fewer slots: the same memory, holding what was written to it.
+  const std::size_t current = staging.size() <= staging_.size() ? staging.size() : 0;
+  std::copy(search_entries_.begin() + static_cast<std::ptrdiff_t>(current), search_entries_.end(),
+            staging.begin() + static_cast<std::ptrdiff_t>(current));
+  staging_ = staging;
+  finder_->launchWithChanges(staging_, changed_slots_);
 }
 
 void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
@@ -279,7 +227,7 @@ void PairFinderBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabb
 }
 
 void PairFinderBroadphase::resetPool(btDispatcher* /*dispatcher*/) {
-  if (live_count_ != 0 || !destroyed_.empty() || !draining_.empty()) return;
+  if (live_count_ != 0 || !destroyed_.empty()) return;
   std::sort(free_slots_.begin(), free_slots_.end(), std::greater<>());
 }
 

@@ -3,40 +3,31 @@
 // btCollisionWorld / btDiscreteDynamicsWorld.
 //
 // Each proxy owns a slot of the finder; its m_uniqueId is its slot index, so
-// the same sequence of calls numbers proxies the same way on every run.  A
-// search has two halves: launchPairSearch() hands the current boxes to the
-// finder (which searches on its CUDA stream, or off this thread on the CPU),
-// finishPairSearch() joins it and applies what changed to the owned
+// the same sequence of calls numbers proxies the same way on every run.
+// calculateOverlappingPairs() is one search: it hands the current boxes to
+// the finder, waits for its answer and applies what changed to the owned
 // btHashedOverlappingPairCache (removals through the dispatcher, which frees
 // the pair's algorithm; a pair that stays keeps its cache entry untouched).
-// calculateOverlappingPairs(), what Bullet's own step calls, does both at
-// once; a caller with work to overlap with the search calls the two halves
-// itself, with that work between them (TimedDynamicsWorld's substep calls
-// them as two phases).  Either way lastSearch() says when the search ran and
-// how long the caller waited.  Each launch also tells the finder which slots'
-// boxes changed since the last one (a move buffer, as Box2D keeps), so that
-// cpusap re-queries only the boxes that moved.  Where the finder has a
-// staging area (gpubf's pinned memory, PairFinder::stagingFor), each search
-// entry is written there as well when it changes, so a launch copies no boxes
-// on the host.
+// Each search also tells the finder which slots' boxes changed since the
+// last one (a move buffer, as Box2D keeps), so that cpusap re-queries only
+// the boxes that moved.  Where the finder has a staging area (gpubf's pinned
+// memory, PairFinder::stagingFor), each search entry is written there as
+// well when it changes, so a search copies no boxes on the host.
 //
 // Invariants:
 // - The cache holds exactly the pairs the finder last reported (minus those
 //   its own overlap filter refused), each once.
 // - The move buffer names every slot whose search entry differs from the last
-//   launch's, each once; a write that leaves the entry as it was adds nothing.
-// - Between a finish and the next launch, the finder's staging (if any) holds
-//   every search entry of its first staging_.size() slots, unless
-//   staging_stale_ says an entry was written while a search was in flight;
-//   a launch rewrites all of it when slots were added or an entry went stale.
+//   search's, each once; a write that leaves the entry as it was adds nothing.
+// - Between searches, the finder's staging (if any) holds every search entry
+//   of its first staging_.size() slots; a search rewrites all of it when
+//   slots were added since the last.
 // - A destroyed proxy's pairs leave the cache at once; its slot is searched as
-//   unused (group = mask = 0) by the next launch and reused only after the
-//   finish that follows, so stale results for it are ignored, never applied
-//   to a new proxy.
-// - A proxy whose AABB is non-finite or inverted is out of the search (its
-//   pairs are removed, one message on stderr) until it gets a valid AABB.
-// - A launched search is always joined: by finishPairSearch(), or, on a path
-//   that skips it (an exception), by the destructor.
+//   unused (group = mask = 0) by the next search and reused only after it, so
+//   the finder never carries a destroyed proxy's pairs over to a new one.
+// - A proxy whose AABB is not ordered (gpu::pair_logic::boundsOrdered: a NaN,
+//   or min > max on some axis) is out of the search (its pairs are removed,
+//   one message on stderr) until it gets an ordered AABB.
 // Like the rest of Bullet, it is not thread-safe: call it from one thread.
 #pragma once
 
@@ -49,7 +40,6 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "physics/search_times.h"
 
 namespace overlap::physics {
 
@@ -72,7 +62,8 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
                const btVector3& aabbMax = btVector3(0, 0, 0)) override;
   void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                 btBroadphaseAabbCallback& callback) override;
-  // launchPairSearch() then finishPairSearch(dispatcher).
+  // One search: the finder's answer for the boxes as they are now, applied
+  // to the pair cache.
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
   btOverlappingPairCache* getOverlappingPairCache() override { return pair_cache_.get(); }
   const btOverlappingPairCache* getOverlappingPairCache() const override {
@@ -84,27 +75,21 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void resetPool(btDispatcher* dispatcher) override;
   void printStats() override;
 
-  // The search's two halves, for a late join.  Starts the search over the
-  // boxes as they are now; returns at once on the GPU.
-  void launchPairSearch();
-  // Waits for the search and brings the pair cache up to date.
-  void finishPairSearch(btDispatcher* dispatcher);
-
-  // The last finished search's times.
-  const SearchTimes& lastSearch() const { return last_search_; }
+  // The last search by the finder's own clock (gpu::PairFinder::lastSearchMs).
+  double lastSearchMs() const { return finder_->lastSearchMs(); }
+  // The last search's time applying the finder's changes to the pair cache.
+  double lastCacheUpdateMs() const { return last_cache_update_ms_; }
   // The finder's split of its last search (cpusap's sort, sweep and delta).
   gpu::SearchPhases lastPhases() const { return finder_->lastPhases(); }
   // The finder's own launch() to finish() on the host clock, and its device
   // stages and host work (zero on the CPU finders).
   double lastLaunchToFinishMs() const { return finder_->lastLaunchToFinishMs(); }
   gpu::DeviceWork lastDeviceWork() const { return finder_->lastDeviceWork(); }
-  bool searchInFlight() const { return search_in_flight_; }
 
  private:
   enum class SlotState : std::uint8_t {
     kLive,
-    kDestroyed,  // waiting for a launch to search it as unused
-    kDraining,   // searched as unused by the launch in flight; free at its finish
+    kDestroyed,  // waiting for a search to see it unused; free after that search
     kFree,
   };
 
@@ -128,19 +113,16 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<SlotState> states_;
   std::vector<bool> aabb_valid_;
   std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
-  // The finder's staging as the last launch passed it; empty if it has none.
+  // The finder's staging as the last search passed it; empty if it has none.
   std::span<gpu::ObjectBounds> staging_;
-  bool staging_stale_ = false;  // an entry changed while the staging was not writable
-  // The slots whose search entry changed since the last launch, each once
+  // The slots whose search entry changed since the last search, each once
   // (changed_flags_ marks them): the finder's move buffer.
   std::vector<std::uint32_t> changed_slots_;
   std::vector<std::uint8_t> changed_flags_;
   std::vector<std::uint32_t> destroyed_;
-  std::vector<std::uint32_t> draining_;
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
   std::size_t live_count_ = 0;
-  bool search_in_flight_ = false;
-  SearchTimes last_search_;
+  double last_cache_update_ms_ = 0;
 };
 
 }  // namespace overlap::physics

@@ -2,8 +2,8 @@
 // sleep and the contact solver's settings, each chosen by one small function
 // whose rule is stated beside it.  docs/REPORT.md section 3.2 measures the
 // rules as shipped; the measurements that chose them, with their commits,
-// are in docs/HISTORY.md ("The step policy's measurements" and issue 14's
-// measurement).
+// are in docs/HISTORY.md ("The step policy's measurements" and the record
+// of the report's first section 3.2).
 //
 // The functions read plain numbers (speeds, edges, gravity, times) and never
 // touch Bullet, so they are deterministic by construction: the same state

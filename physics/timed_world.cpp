@@ -1,10 +1,11 @@
 #include "physics/timed_world.h"
 
+#include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "gpu/base/stopwatch.h"
 #include "physics/ccd_query_broadphase.h"
-#include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 namespace {
@@ -62,8 +63,66 @@ void applySolverSettings(btContactSolverInfo& info, SolverMode mode) {
   info.m_splitImpulse = solver.split_impulse ? 1 : 0;
 }
 
+TimedDynamicsWorld::TimedDynamicsWorld(btDispatcher* dispatcher, btBroadphaseInterface* broadphase,
+                                       btConstraintSolver* solver, btCollisionConfiguration* config,
+                                       TimedWorldSetup setup)
+    : btDiscreteDynamicsWorld(dispatcher, broadphase, solver, config), setup_(std::move(setup)) {}
+
 TimedDynamicsWorld::~TimedDynamicsWorld() {
   releasePredictiveContacts();
+}
+
+void TimedDynamicsWorld::removeBody(btRigidBody& body) {
+  const auto names = [&body](const btPersistentManifold& manifold) {
+    return manifold.getBody0() == &body || manifold.getBody1() == &body;
+  };
+  std::vector<const btCollisionObject*> touched;
+  for (int m = 0; m < m_dispatcher1->getNumManifolds(); ++m) {
+    const btPersistentManifold& manifold = *m_dispatcher1->getManifoldByIndexInternal(m);
+    if (!names(manifold) || manifold.getNumContacts() == 0) continue;
+    touched.push_back(manifold.getBody0() == &body ? manifold.getBody1() : manifold.getBody0());
+  }
+  for (int i = 0; i < m_collisionObjects.size() && !touched.empty(); ++i) {
+    btCollisionObject& object = *m_collisionObjects[i];
+    if (std::find(touched.begin(), touched.end(), &object) != touched.end() &&
+        !object.isStaticOrKinematicObject()) {
+      object.activate(true);
+    }
+  }
+  for (int m = m_predictiveManifolds.size() - 1; m >= 0; --m) {
+    btPersistentManifold* manifold = m_predictiveManifolds[m];
+    if (!names(*manifold)) continue;
+    m_dispatcher1->releaseManifold(manifold);
+    m_predictiveManifolds.removeAtIndex(m);
+  }
+  for (int c = getNumConstraints() - 1; c >= 0; --c) {
+    btTypedConstraint* constraint = getConstraint(c);
+    if (&constraint->getRigidBodyA() == &body || &constraint->getRigidBodyB() == &body) {
+      removeConstraint(constraint);
+    }
+  }
+  removeRigidBody(&body);
+  body.setIslandTag(-1);
+  body.setCompanionId(-1);
+}
+
+void TimedDynamicsWorld::beginFrame() {
+  timings_ = {};
+  substeps_.clear();
+}
+
+void TimedDynamicsWorld::stepReported(btScalar dt) {
+  substeps_.push_back(SubstepReport{std::chrono::steady_clock::now(), {}, {}, {}, {}});
+  reporting_ = true;
+  try {
+    // maxSubSteps = 0: exactly one step of dt, no accumulator rounding.
+    stepSimulation(dt, 0);
+  } catch (...) {
+    reporting_ = false;
+    throw;
+  }
+  reporting_ = false;
+  substeps_.back().end = std::chrono::steady_clock::now();
 }
 
 template <typename Phase>
@@ -72,7 +131,7 @@ void TimedDynamicsWorld::timePhase(double& column, Phase&& phase) {
   const double queries_before = ccdQueryMs();
   phase();
   const double queries = ccdQueryMs() - queries_before;
-  timings.ccd_query_ms += queries;
+  timings_.ccd_query_ms += queries;
   column += watch.ms() - queries;
 }
 
@@ -82,60 +141,49 @@ void TimedDynamicsWorld::timePhase(double& column, Phase&& phase) {
 void TimedDynamicsWorld::internalSingleStepSimulation(btScalar dt) {
   if (m_internalPreTickCallback != nullptr) (*m_internalPreTickCallback)(this, dt);
   // 1. predict
-  timePhase(timings.integrate_ms, [&] { predictUnconstraintMotion(dt); });
+  timePhase(timings_.integrate_ms, [&] { predictUnconstraintMotion(dt); });
   btDispatcherInfo& dispatch = getDispatchInfo();
   dispatch.m_timeStep = dt;
   dispatch.m_stepCount = 0;
   dispatch.m_debugDraw = getDebugDrawer();
   // 2. CCD's predictive contacts
-  timePhase(timings.narrowphase_ms, [&] { createPredictiveContacts(dt); });
+  timePhase(timings_.narrowphase_ms, [&] { createPredictiveContacts(dt); });
   // 3. update
-  timePhase(timings.update_ms, [&] {
+  timePhase(timings_.update_ms, [&] {
     updateAabbs();
-    if (after_aabb_update) after_aabb_update();
+    if (setup_.after_aabb_update) setup_.after_aabb_update();
   });
-  // 4. search, 5. join
+  // 4. search
   searchPairs();
-  // 6. narrowphase
-  timePhase(timings.narrowphase_ms, [&] {
+  // 5. narrowphase
+  timePhase(timings_.narrowphase_ms, [&] {
     m_dispatcher1->dispatchAllCollisionPairs(m_broadphasePairCache->getOverlappingPairCache(),
                                              dispatch, m_dispatcher1);
   });
-  if (!substeps.empty()) substeps.back().narrowphase_end = std::chrono::steady_clock::now();
-  if (after_narrowphase) after_narrowphase();
-  // 7. solver
-  timePhase(timings.solver_ms, [&] {
+  if (SubstepReport* substep = reported())
+    substep->narrowphase_end = std::chrono::steady_clock::now();
+  if (setup_.after_narrowphase) setup_.after_narrowphase();
+  // 6. solver
+  timePhase(timings_.solver_ms, [&] {
     calculateSimulationIslands();
     getSolverInfo().m_timeStep = dt;
     solveConstraints(getSolverInfo());
   });
-  // 8. integrate, with CCD's motion clamp
-  timePhase(timings.integrate_ms, [&] { integrateTransforms(dt); });
-  // 9. bookkeeping
+  // 7. integrate, with CCD's motion clamp
+  timePhase(timings_.integrate_ms, [&] { integrateTransforms(dt); });
+  // 8. bookkeeping
   updateActions(dt);
   updateActivationState(dt);
   if (m_internalTickCallback != nullptr) (*m_internalTickCallback)(this, dt);
 }
 
 void TimedDynamicsWorld::searchPairs() {
+  SubstepReport* substep = reported();
+  if (substep != nullptr) substep->broadphase_start = std::chrono::steady_clock::now();
   const HostStopwatch watch;
-  if (background_search != nullptr) {
-    // Launched and joined at once: the narrowphase needs the pairs.  Work to
-    // overlap with the search would go between the two.
-    background_search->launchPairSearch();
-    background_search->finishPairSearch(m_dispatcher1);
-  } else {
-    m_broadphasePairCache->calculateOverlappingPairs(m_dispatcher1);
-  }
-  timings.broadphase_ms += watch.ms();
-  if (substeps.empty()) return;  // a step from outside stepFrame(): not reported
-  SubstepReport& substep = substeps.back();
-  if (background_search != nullptr) {
-    const SearchTimes& search = substep.search.emplace(background_search->lastSearch());
-    timings.search_ms += toMilliseconds(search.searched);
-    timings.join_ms += toMilliseconds(search.finished - search.joined);
-  }
-  substep.narrowphase_start = std::chrono::steady_clock::now();
+  m_broadphasePairCache->calculateOverlappingPairs(m_dispatcher1);
+  timings_.broadphase_ms += watch.ms();
+  if (substep != nullptr) substep->narrowphase_start = std::chrono::steady_clock::now();
 }
 
 void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
@@ -146,7 +194,7 @@ void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
 }
 
 double TimedDynamicsWorld::ccdQueryMs() const {
-  return ccd_queries != nullptr ? ccd_queries->queryMs() : 0;
+  return setup_.ccd_queries != nullptr ? setup_.ccd_queries->queryMs() : 0;
 }
 
 void TimedDynamicsWorld::integrateBody(btRigidBody& body, btScalar dt) {

@@ -19,7 +19,6 @@
 #include "gpu/base/stopwatch.h"
 #include "physics/broadphase_factory.h"
 #include "physics/ccd_query_broadphase.h"
-#include "physics/pair_finder_broadphase.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -53,8 +52,7 @@ std::uint64_t hashVector(const btVector3& v, std::uint64_t hash) {
 struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
-  std::unique_ptr<btBroadphaseInterface> broadphase;  // a CcdQueryBroadphase
-  CcdQueryBroadphase* ccd_queries = nullptr;          // the same, as what it is
+  std::unique_ptr<CcdQueryBroadphase> broadphase;  // the pair search, CCD's queries apart
   btSequentialImpulseConstraintSolver solver;
   std::unique_ptr<TimedDynamicsWorld> world;
   std::vector<std::unique_ptr<btBoxShape>> shapes;
@@ -80,6 +78,24 @@ struct PhysicsWorld::Bullet {
     return index >= 0 && static_cast<std::size_t>(index) < bodies.size() &&
            bodies[static_cast<std::size_t>(index)].get() == object;
   }
+  // Visits each contact manifold between two of the world's own bodies (a
+  // user object's are left out), CCD's predictive ones included, in the
+  // dispatcher's order.
+  template <typename Visit>
+  void forEachManifold(Visit&& visit) const {
+    for (int m = 0; m < dispatcher.getNumManifolds(); ++m) {
+      const btPersistentManifold& manifold = *dispatcher.getManifoldByIndexInternal(m);
+      if (owns(manifold.getBody0()) && owns(manifold.getBody1())) visit(manifold);
+    }
+  }
+  // The edge of the smaller of two bodies, a wall's being infinite.
+  double smallerEdge(int index0, int index1) const {
+    const auto edgeOf = [&](int index) {
+      return static_cast<std::size_t>(index) < edges.size() ? edges[static_cast<std::size_t>(index)]
+                                                            : INFINITY;
+    };
+    return std::min(edgeOf(index0), edgeOf(index1));
+  }
 };
 
 PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& options)
@@ -90,36 +106,47 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
       ccd_(options.ccd),
       bullet_(std::make_unique<Bullet>()) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
+  buildWorld(options);
+  addBoxes(sleepAllowed(config, options.sleep));
+  addWalls();
+}
+
+// The broadphase asked for, Bullet's world around it, the solver's settings
+// and the scene's gravity.
+void PhysicsWorld::buildWorld(const WorldOptions& options) {
   Bullet& b = *bullet_;
-  const bool sleep = sleepAllowed(config, options.sleep);
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
-  // Every broadphase answers CCD's sweeps through one shared tree: the same
-  // queries for all (physics/ccd_query_broadphase.h).
   BroadphaseChoice choice =
-      makeWorldBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
-  b.ccd_queries = static_cast<CcdQueryBroadphase*>(choice.broadphase.get());
-  b.broadphase = std::move(choice.broadphase);
+      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
+  // Every broadphase answers CCD's sweeps through one shared tree: the same
+  // queries for all (physics/ccd_query_broadphase.h), as makeWorldBroadphase() builds it.
+  b.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 
+  TimedWorldSetup setup;
+  setup.ccd_queries = b.broadphase.get();
+  setup.after_aabb_update = [this] { removeBrokenBoxes(); };
+  setup.after_narrowphase = [this] { noteContactsStarted(); };
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
-                                                 &b.collision_config);
+                                                 &b.collision_config, std::move(setup));
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
   applySolverSettings(b.world->getSolverInfo(), options.solver);
   // Bullet's ghost objects (btGhostObject, character controllers) need the
   // pair cache's one ghost-pair slot; the world itself does not use it.
   b.broadphase->getOverlappingPairCache()->setInternalGhostPairCallback(&b.ghost_pairs);
-  b.world->background_search = dynamic_cast<PairFinderBroadphase*>(&b.ccd_queries->pairSearch());
-  b.world->ccd_queries = b.ccd_queries;
-  b.world->after_aabb_update = [this] { removeBrokenBoxes(); };
-  b.world->after_narrowphase = [this] { noteContactsStarted(); };
-  b.gravity = GravityRotation(config.g * config.gravity_scale, config.rotation_per_frame);
+  b.gravity = GravityRotation(config_.g * config_.gravity_scale, config_.rotation_per_frame);
   b.world->setGravity(toBullet(b.gravity.gravity()));
   // A separate stream for the kicks, so scene 2's start equals the others'.
-  b.kick_random = SeededRandom(config.seed ^ 0x9e3779b97f4a7c15ULL);
+  b.kick_random = SeededRandom(config_.seed ^ 0x9e3779b97f4a7c15ULL);
+}
 
+// Box i of the layout as rigid body i.
+void PhysicsWorld::addBoxes(bool sleep) {
+  Bullet& b = *bullet_;
+  const auto n = static_cast<int>(layout_.boxes.size());
   b.bodies.reserve(static_cast<std::size_t>(n + kWallCount));
   for (int i = 0; i < n; ++i) {
     const BoxStart& start = layout_.boxes[static_cast<std::size_t>(i)];
@@ -146,10 +173,14 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
     b.shapes.push_back(std::move(shape));
     b.bodies.push_back(std::move(body));
   }
-
   b.typical_edge = typicalEdge(b.edges);
+}
 
-  // Six walls just outside the interior, overlapping at the edges.
+// Six walls just outside the interior, overlapping at the edges, numbered
+// after the boxes.
+void PhysicsWorld::addWalls() {
+  Bullet& b = *bullet_;
+  const auto n = static_cast<int>(layout_.boxes.size());
   const double h = layout_.half_extent;
   const double t = layout_.wall_thickness;
   for (int w = 0; w < kWallCount; ++w) {
@@ -198,28 +229,24 @@ void PhysicsWorld::applySceneForces() {
 FrameReport PhysicsWorld::stepFrame() {
   Bullet& b = *bullet_;
   const HostStopwatch frame_watch;
-  b.world->timings = {};
-  b.world->substeps.clear();
+  b.world->beginFrame();
   b.new_contacts.clear();
   applySceneForces();
   FrameReport report;
   planFrame(report);
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
-  for (int k = 0; k < substeps_; ++k) {
-    b.world->substeps.push_back(SubstepReport{std::chrono::steady_clock::now(), {}, {}, {}, {}});
-    // maxSubSteps = 0: exactly one step of dt, no accumulator rounding.
-    b.world->stepSimulation(dt, 0);
-    b.world->substeps.back().end = std::chrono::steady_clock::now();
-  }
+  for (int k = 0; k < substeps_; ++k) b.world->stepReported(dt);
   // The last substep's solver and integration may have broken a box: out now,
   // so that nothing reads it between frames (the next update would be late).
   removeBrokenBoxes();
   report.frame = frame_++;
-  report.timings = b.world->timings;
-  report.substep_reports = std::exchange(b.world->substeps, {});
+  report.timings = b.world->timings();
+  report.substep_reports = b.world->takeSubsteps();
   report.timings.total_ms = frame_watch.ms();
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
   measureContainment(report);
+  measureEnergy(report);
+  report.max_penetration = deepestPenetration();
   return report;
 }
 
@@ -261,6 +288,7 @@ void PhysicsWorld::planFrame(FrameReport& report) {
   }
 }
 
+// Boxes out of the simulation, asleep, beyond a wall's outer face, outside the interior.
 void PhysicsWorld::measureContainment(FrameReport& report) const {
   const Bullet& b = *bullet_;
   const double h = layout_.half_extent;
@@ -276,6 +304,16 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
     const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
     if (reach > outer) ++report.escaped;
     if (reach > h) ++report.sunk;
+  }
+}
+
+// The kinetic and potential energy of the boxes in the simulation.
+void PhysicsWorld::measureEnergy(FrameReport& report) const {
+  const Bullet& b = *bullet_;
+  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
+    if (b.removed[i]) continue;
+    const btRigidBody& body = *b.bodies[i];
+    const btVector3& c = body.getWorldTransform().getOrigin();
     const double mass = 1.0 / body.getInvMass();
     const btVector3 spin = body.getAngularVelocity() * body.getWorldTransform().getBasis();
     const btVector3 rotational = body.getLocalInertia() * spin * spin;  // I w^2 per local axis
@@ -283,22 +321,20 @@ void PhysicsWorld::measureContainment(FrameReport& report) const {
                                     rotational.y() + rotational.z());
     report.potential_energy -= mass * b.world->getGravity().dot(c);
   }
-  const auto n = static_cast<int>(layout_.boxes.size());
-  auto edgeOf = [&](const btCollisionObject* object) {
-    const int index = object->getUserIndex();
-    return index < n ? b.edges[static_cast<std::size_t>(index)] : INFINITY;
-  };
-  const btDispatcher& dispatcher = b.dispatcher;
-  for (int m = 0; m < dispatcher.getNumManifolds(); ++m) {
-    const btPersistentManifold* manifold =
-        const_cast<btDispatcher&>(dispatcher).getManifoldByIndexInternal(m);
-    if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
-    const double edge = std::min(edgeOf(manifold->getBody0()), edgeOf(manifold->getBody1()));
-    for (int p = 0; p < manifold->getNumContacts(); ++p) {
-      const double depth = -manifold->getContactPoint(p).getDistance();
-      report.max_penetration = std::max(report.max_penetration, depth / edge);
+}
+
+// The deepest contact overlap over the smaller box's edge.
+double PhysicsWorld::deepestPenetration() const {
+  const Bullet& b = *bullet_;
+  double deepest = 0;
+  b.forEachManifold([&](const btPersistentManifold& manifold) {
+    const double edge =
+        b.smallerEdge(manifold.getBody0()->getUserIndex(), manifold.getBody1()->getUserIndex());
+    for (int p = 0; p < manifold.getNumContacts(); ++p) {
+      deepest = std::max(deepest, -manifold.getContactPoint(p).getDistance() / edge);
     }
-  }
+  });
+  return deepest;
 }
 
 std::uint64_t PhysicsWorld::stateHash() const {
@@ -318,19 +354,17 @@ std::vector<BoxPose> PhysicsWorld::boxPoses() const {
   const Bullet& b = *bullet_;
   const auto n = layout_.boxes.size();
   std::vector<bool> touching(n, false);
-  for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
-    const btPersistentManifold* manifold =
-        const_cast<btCollisionDispatcher&>(b.dispatcher).getManifoldByIndexInternal(m);
+  b.forEachManifold([&](const btPersistentManifold& manifold) {
     bool contact = false;
-    for (int p = 0; p < manifold->getNumContacts(); ++p) {
-      contact = contact || manifold->getContactPoint(p).getDistance() < kContactDistance;
+    for (int p = 0; p < manifold.getNumContacts(); ++p) {
+      contact = contact || manifold.getContactPoint(p).getDistance() < kContactDistance;
     }
-    if (!contact) continue;
-    for (const btCollisionObject* object : {manifold->getBody0(), manifold->getBody1()}) {
+    if (!contact) return;
+    for (const btCollisionObject* object : {manifold.getBody0(), manifold.getBody1()}) {
       const auto index = static_cast<std::size_t>(object->getUserIndex());
       if (index < n) touching[index] = true;
     }
-  }
+  });
   std::vector<BoxPose> poses;
   poses.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -396,7 +430,7 @@ void PhysicsWorld::removeBrokenBoxes() {
     if (!disabled && !lost) continue;
     // Out now, before the narrowphase meets its state: a NaN contact would
     // spread to every box it touches through the solver.
-    b.world->removeRigidBody(&body);
+    b.world->removeBody(body);
     b.removed[i] = true;
     std::fprintf(
         stderr, "overlap: box %zu left the simulation at frame %d: centre (%g, %g, %g) is %s\n", i,
@@ -418,13 +452,11 @@ void PhysicsWorld::removeBrokenBoxes() {
 void PhysicsWorld::noteContactsStarted() {
   Bullet& b = *bullet_;
   PairList touching;
-  for (int m = 0; m < b.dispatcher.getNumManifolds(); ++m) {
-    const btPersistentManifold* manifold = b.dispatcher.getManifoldByIndexInternal(m);
-    if (manifold->getNumContacts() == 0) continue;
-    if (!b.owns(manifold->getBody0()) || !b.owns(manifold->getBody1())) continue;  // a ghost's
+  b.forEachManifold([&](const btPersistentManifold& manifold) {
+    if (manifold.getNumContacts() == 0) return;
     touching.push_back(
-        orderedPair(manifold->getBody0()->getUserIndex(), manifold->getBody1()->getUserIndex()));
-  }
+        orderedPair(manifold.getBody0()->getUserIndex(), manifold.getBody1()->getUserIndex()));
+  });
   std::sort(touching.begin(), touching.end());
   touching.erase(std::unique(touching.begin(), touching.end()), touching.end());
   PairList began;
@@ -433,9 +465,6 @@ void PhysicsWorld::noteContactsStarted() {
   b.touching = std::move(touching);
 
   const auto n = static_cast<int>(layout_.boxes.size());
-  const auto edgeOf = [&](int index) {
-    return index < n ? static_cast<float>(b.edges[static_cast<std::size_t>(index)]) : INFINITY;
-  };
   for (const gpu::IndexPair& pair : began) {
     const auto index0 = static_cast<int>(pair.a);
     const auto index1 = static_cast<int>(pair.b);
@@ -458,16 +487,12 @@ void PhysicsWorld::noteContactsStarted() {
                                         index1,
                                         std::max(0.0f, closing),
                                         {c0.x(), c0.y(), c0.z()},
-                                        std::min(edgeOf(index0), edgeOf(index1))});
+                                        static_cast<float>(b.smallerEdge(index0, index1))});
   }
 }
 
 const std::vector<NewContact>& PhysicsWorld::newContacts() const {
   return bullet_->new_contacts;
-}
-
-bool PhysicsWorld::broadphaseRunsInBackground() const {
-  return bullet_->world->background_search != nullptr;
 }
 
 void PhysicsWorld::injectBoxPosition(int box, const Eigen::Vector3d& position) {
@@ -484,7 +509,7 @@ btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {
   return *bullet_->world;
 }
 btBroadphaseInterface& PhysicsWorld::broadphase() {
-  return bullet_->ccd_queries->pairSearch();
+  return bullet_->broadphase->pairSearch();
 }
 
 }  // namespace overlap::physics

@@ -7,10 +7,15 @@
 // reports what the frame cost and what it got wrong.  Each substep runs its
 // phases in the order physics/timed_world.h lists them; each phase's time is
 // summed over the substeps, and each substep reports when it ran, when its
-// narrowphase ran and, for a broadphase that searches off the main thread,
-// when its search ran and how long the step waited for it.  Bullet is not
+// pair search ran and when its narrowphase ran.  Bullet is not
 // thread-safe here: one PhysicsWorld is used from one thread; it starts no
-// task of its own.
+// task of its own (a CPU finder's search may use oneTBB's workers inside
+// the call).
+//
+// A box whose state breaks (not finite, an AABB too large for Bullet, too
+// far away) leaves the simulation where it is found, with one message:
+// nothing in Bullet names it after that (TimedDynamicsWorld::removeBody),
+// and it is out of every report.
 //
 // Invariants: box i of the layout is rigid body i; the walls come after the
 // boxes; the same config and options give bit-identical runs (stateHash()).
@@ -20,13 +25,12 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "physics/aabb.h"
 #include "physics/scene.h"
-#include "physics/search_times.h"
 #include "physics/step_policy.h"
 
 class btBroadphaseInterface;
@@ -44,9 +48,7 @@ struct WorldOptions {
 
 struct FrameTimings {
   double update_ms = 0;       // AABBs written into the broadphase
-  double broadphase_ms = 0;   // pair search and pair-cache update, as the main thread saw it
-  double search_ms = 0;       // a background broadphase's searches by their own clock
-  double join_ms = 0;         // of broadphase_ms: waiting for those searches, applying changes
+  double broadphase_ms = 0;   // pair search and pair-cache update, one call per substep
   double narrowphase_ms = 0;  // contact generation for the cached pairs
   double solver_ms = 0;       // constraint solver
   double integrate_ms = 0;    // motion prediction and integration
@@ -57,12 +59,10 @@ struct FrameTimings {
 // One substep, as the main thread lived it.
 struct SubstepReport {
   std::chrono::steady_clock::time_point start;
+  std::chrono::steady_clock::time_point broadphase_start;   // the pair search called
   std::chrono::steady_clock::time_point narrowphase_start;  // the pairs are in the cache
   std::chrono::steady_clock::time_point narrowphase_end;
   std::chrono::steady_clock::time_point end;
-  // A broadphase that searches in the background (cpubf, gpubf, gpubf-paper):
-  // its search, launched and joined inside this substep before the narrowphase.
-  std::optional<SearchTimes> search;
 };
 
 struct FrameReport {
@@ -104,19 +104,6 @@ struct NewContact {
   float edge;           // the smaller box's edge
 };
 
-struct Aabb {
-  float min[3];
-  float max[3];
-};
-
-// Object-index pairs (a < b), sorted: the world's cached pairs, a replay's.
-using PairList = std::vector<gpu::IndexPair>;
-
-// The pair of two object indices (>= 0) given in either order.
-inline gpu::IndexPair orderedPair(int x, int y) {
-  return {static_cast<std::uint32_t>(x < y ? x : y), static_cast<std::uint32_t>(x < y ? y : x)};
-}
-
 class PhysicsWorld {
  public:
   PhysicsWorld(const SceneConfig& config, const WorldOptions& options);
@@ -152,8 +139,6 @@ class PhysicsWorld {
 
   // Contacts that began during the last frame, by substep, then by (a, b).
   const std::vector<NewContact>& newContacts() const;
-  // True when the broadphase can search while other work runs.
-  bool broadphaseRunsInBackground() const;
 
   // Puts box `box` at `position` (any value, NaN included), for hard cases:
   // a box whose state is unusable leaves the simulation at once, with a
@@ -173,9 +158,14 @@ class PhysicsWorld {
 
  private:
   struct Bullet;
+  void buildWorld(const WorldOptions& options);
+  void addBoxes(bool sleep);
+  void addWalls();
   void applySceneForces();
   void planFrame(FrameReport& report);
   void measureContainment(FrameReport& report) const;
+  void measureEnergy(FrameReport& report) const;
+  double deepestPenetration() const;
   void removeBrokenBoxes();
   void noteContactsStarted();
 

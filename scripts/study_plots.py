@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first
 COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
            "cpubf": "#ff7f0e", "cpusap": "#8c564b", "gpubf": "#d62728", "gpubf-paper": "#9467bd"}
 LANE_COLOURS = {"frame": "#eeeeee", "physics": "#cccccc", "substep": "#aaaaaa",
-                "join": "#555555", "narrowphase": "#9467bd", "search": "#d62728",
+                "broadphase": "#d62728", "narrowphase": "#9467bd",
                 "tasks": "#dddddd", "sound": "#1f77b4", "ai": "#2ca02c",
                 "wait for tasks": "#ff7f0e"}
 
@@ -101,13 +101,14 @@ def timeline(frame: int, algo: str, spans: list, folder: pathlib.Path) -> str:
     """One frame of the async loop: each lane's spans against time since the frame began.
 
     Left the whole frame, right a zoom on its first substep, where the first
-    search, its join and the narrowphase that follows are wide enough to see.
-    Nested spans of the main lane (frame > physics > substep > join,
+    search and the narrowphase that follows are wide enough to see.
+    Nested spans of the main lane (frame > physics > substep > broadphase,
     narrowphase) are drawn ever thinner, so each stays visible.
     """
-    lanes = ["main", "broadphase", "tasks", "sound", "ai"]
+    lanes = ["main", "tasks", "sound", "ai"]
     lanes += sorted({lane for lane, *_ in spans} - set(lanes))
-    heights = {"frame": 0.9, "physics": 0.75, "substep": 0.6, "join": 0.4, "narrowphase": 0.4}
+    heights = {"frame": 0.9, "physics": 0.75, "substep": 0.6, "broadphase": 0.4,
+               "narrowphase": 0.4}
     first_substep = next(((start, duration) for _, name, start, duration in spans
                           if name == "substep"), None)
     figure, axes = plt.subplots(1, 2, figsize=(13, 3.2), gridspec_kw={"width_ratios": [1, 1.4]})

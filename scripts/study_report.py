@@ -21,7 +21,7 @@ import study_results
 from overlap_runs import portable
 
 # The spans whose per-frame totals the timeline section quotes.
-TIMELINE_TOTALS = ("frame", "physics", "search", "join", "sound", "ai", "wait for tasks")
+TIMELINE_TOTALS = ("frame", "physics", "broadphase", "sound", "ai", "wait for tasks")
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -529,10 +529,10 @@ def timeline_section(args, jobs: list, figures: dict) -> list:
             + ", ".join(f"{name} {fmt(ms)} ms" for name, ms in sorted(by_name.items())) + ".", "",
             "![timeline](report/fig_timeline.png)", "",
             "The timeline draws every substep: on the main lane the physics step, each substep "
-            "and, inside it, that substep's join and narrowphase; each substep's search on the "
-            "broadphase lane; the sound and AI tasks beside the whole step. The search and join "
-            "figures above are the frame's, summed over its substeps (as frames.csv's search_ms "
-            "and join_ms).", ""]
+            "and, inside it, that substep's broadphase (the pair search and the pair-cache "
+            "update) and narrowphase; the sound and AI tasks beside the whole step. The "
+            "broadphase figure above is the frame's, summed over its substeps (as frames.csv's "
+            "broadphase_ms).", ""]
 
 
 def write_everything(args, jobs: list) -> list:

@@ -14,7 +14,6 @@
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
-#include "physics/pair_finder_broadphase.h"
 #include "tests/engine/scheduler_test_support.h"
 
 namespace overlap::engine {
@@ -61,7 +60,7 @@ std::map<std::string, std::vector<Span>> spansOfFrame(const Timeline& timeline, 
   return spans;
 }
 
-TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowphase) {
+TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchAndNarrowphase) {
   for (const bool sync : {false, true}) {
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
     testing::DemoFrame demo(world, sync);
@@ -80,7 +79,7 @@ TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowpha
       for (const char* once : {"frame", "physics", "tasks", "sound", "ai"}) {
         EXPECT_EQ(spans[once].size(), 1u) << once << " in frame " << frame << ", sync " << sync;
       }
-      for (const char* each : {"substep", "search", "join", "narrowphase"}) {
+      for (const char* each : {"substep", "broadphase", "narrowphase"}) {
         ASSERT_EQ(spans[each].size(), substeps) << each << " in frame " << frame;
         for (std::size_t k = 0; k < substeps; ++k) {
           EXPECT_EQ(spans[each][k].substep, static_cast<int>(k)) << each << " in frame " << frame;
@@ -93,13 +92,12 @@ TEST(FrameScheduler, EveryTaskOncePerFrameAndEverySubstepsSearchJoinAndNarrowpha
 // The frame's graph, read back from the timeline: the tasks are launched
 // before the first substep and joined after the last; every task runs
 // inside that window; each substep's search starts after its substep does
-// and is joined before that substep's narrowphase.  In sync, every task is
+// and ends before that substep's narrowphase.  In sync, every task is
 // done before the physics starts.
 TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
   for (const bool sync : {false, true}) {
     SCOPED_TRACE(sync ? "sync" : "async");
     physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
-    ASSERT_TRUE(world.broadphaseRunsInBackground());
     testing::DemoFrame demo(world, sync);
     FrameScheduler& scheduler = demo.scheduler;
     for (int frame = 0; frame < 20; ++frame) {
@@ -121,12 +119,11 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
         EXPECT_GE(tasks.at.end, substeps.back().at.end) << "frame " << frame;
       }
       for (std::size_t k = 0; k < substeps.size(); ++k) {
-        const Span& search = spans["search"][k];
-        const Span& join = spans["join"][k];
+        const Span& search = spans["broadphase"][k];
         const Span& narrowphase = spans["narrowphase"][k];
         EXPECT_GE(search.at.start, substeps[k].at.start) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(search.at.end, join.at.end) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(join.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.at.start, search.at.end) << "frame " << frame << ", substep " << k;
+        EXPECT_LE(search.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
         EXPECT_LE(narrowphase.at.end, substeps[k].at.end) << "frame " << frame << ", substep " << k;
       }
     }
@@ -134,33 +131,32 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
 }
 
 // frames.csv's timings are the physics' own clock readings; the scheduler
-// times the step on its own.  Each part must fit in its whole: the join in
-// the broadphase (join_ms is part of broadphase_ms), the phases in the
-// physics' total, that total in the step the scheduler saw.  A part counted
-// twice, in the wrong unit or outside its phase breaks one of these.
+// times the step on its own.  Each part must fit in its whole: the phases in
+// the physics' total, that total in the step the scheduler saw; and every
+// substep draws one broadphase span.  A part counted twice, in the wrong unit
+// or outside its phase breaks one of these.
 TEST(FrameScheduler, TheStepsTimedPartsFitInsideTheStepTheSchedulerTimed) {
   physics::PhysicsWorld world(smallScene(), physics::WorldOptions{"cpubf"});
   testing::DemoFrame demo(world, false);
-  double joins_ms = 0;
+  double broadphase_ms = 0;
   for (int frame = 0; frame < 10; ++frame) {
     const ScheduledFrame scheduled = demo.scheduler.runFrame();
     const physics::FrameTimings& t = scheduled.physics.timings;
     constexpr double kRounding = 1e-6;  // ms: the sums' floating-point rounding
-    EXPECT_LE(t.join_ms, t.broadphase_ms + kRounding) << "frame " << frame;
     EXPECT_LE(t.update_ms + t.broadphase_ms + t.narrowphase_ms + t.solver_ms + t.integrate_ms,
               t.total_ms + kRounding)
         << "frame " << frame;
     EXPECT_LE(t.total_ms, toMilliseconds(scheduled.step.length()) + kRounding) << "frame " << frame;
-    EXPECT_EQ(spansOfFrame(demo.timeline, frame)["join"].size(),
+    EXPECT_EQ(spansOfFrame(demo.timeline, frame)["broadphase"].size(),
               static_cast<std::size_t>(scheduled.physics.substeps))
         << "frame " << frame;
-    joins_ms += t.join_ms;
+    broadphase_ms += t.broadphase_ms;
   }
-  EXPECT_GT(joins_ms, 0) << "the main thread applies each search's changes at its join";
+  EXPECT_GT(broadphase_ms, 0) << "every substep searches its pairs";
 }
 
 // A task that throws leaves nothing in flight.  The step
-// finishes (its searches joined), every other task finishes, the error names
+// finishes, every other task finishes, the error names
 // the task, the frame and the cause, and the next frames run normally.
 TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
   for (const bool sync : {false, true}) {
@@ -180,8 +176,6 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
       EXPECT_STREQ(error.what(),
                    "task 'physics-free game logic' failed in frame 3: the script divided by zero");
     }
-    const auto& broadphase = dynamic_cast<const physics::PairFinderBroadphase&>(world.broadphase());
-    EXPECT_FALSE(broadphase.searchInFlight());
     EXPECT_EQ(world.framesDone(), 4);
     EXPECT_EQ(demo.tasks.soundWork().frames, 4u) << "the other tasks ran to the end";
     EXPECT_EQ(demo.tasks.aiWork().frames, 4u);

@@ -108,7 +108,7 @@ TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce
 }
 
 // The engine's frame: the sound and AI tasks beside the whole physics step,
-// cpubf's searches launched and joined inside it (async), or the same jobs
+// cpubf searching inside every substep (async), or the same jobs
 // one after another (sync).  Every frame's pairs, the final state, the sound
 // and the AI must be bit-identical over the full 2048 frames.
 struct ScheduledRun {

@@ -125,7 +125,7 @@ TEST_P(PairFinderBroadphaseTest, CacheMatchesOracleWhileObjectsMove) {
   }
 }
 
-TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoEvenDuringASearch) {
+TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoBetweenSearches) {
   std::mt19937 random(7);
   std::uniform_real_distribution<float> position(0.0f, 12.0f);
   const auto randomBox = [&] {
@@ -147,9 +147,8 @@ TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoEvenDuringASearch) {
   };
   for (int frame = 0; frame < 30; ++frame) {
     churn();
-    broadphase_->launchPairSearch();
-    churn();  // while the search runs
-    broadphase_->finishPairSearch(&dispatcher_);
+    broadphase_->calculateOverlappingPairs(&dispatcher_);
+    churn();  // destroyed slots may be taken again only after a search
     std::set<int> ids;
     for (const btBroadphaseProxy* proxy : live) {
       EXPECT_TRUE(ids.insert(proxy->m_uniqueId).second) << "two live proxies share an id";
@@ -163,7 +162,7 @@ TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoEvenDuringASearch) {
   }
 }
 
-TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextFinish) {
+TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextSearch) {
   const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
   btBroadphaseProxy* keep = create(unit);
   btBroadphaseProxy* gone = create(unit);
@@ -172,14 +171,13 @@ TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextFinish) {
   broadphase_->destroyProxy(gone, &dispatcher_);
   EXPECT_EQ(broadphase_->getOverlappingPairCache()->getNumOverlappingPairs(), 0);
   EXPECT_NE(create(unit)->m_uniqueId, gone_id);
-  broadphase_->launchPairSearch();
-  EXPECT_NE(create(unit)->m_uniqueId, gone_id);
-  broadphase_->finishPairSearch(&dispatcher_);
+  broadphase_->calculateOverlappingPairs(&dispatcher_);
+  // The finder saw the slot unused: a new proxy there gets its pairs anew.
   btBroadphaseProxy* reused = create(unit);
   EXPECT_EQ(reused->m_uniqueId, gone_id);
   broadphase_->calculateOverlappingPairs(&dispatcher_);
   EXPECT_NE(broadphase_->getOverlappingPairCache()->findPair(keep, reused), nullptr);
-  EXPECT_EQ(cachedPairs().size(), 6u);  // four overlapping unit boxes
+  EXPECT_EQ(cachedPairs().size(), 3u);  // three overlapping unit boxes
 }
 
 TEST_P(PairFinderBroadphaseTest, StayingPairKeepsItsCacheEntry) {
@@ -340,9 +338,6 @@ TEST_P(PairFinderBroadphaseTest, RejectsMisuse) {
   btBroadphaseProxy* proxy = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
   broadphase_->destroyProxy(proxy, &dispatcher_);
   EXPECT_THROW(broadphase_->destroyProxy(proxy, &dispatcher_), std::runtime_error);
-  EXPECT_THROW(broadphase_->finishPairSearch(&dispatcher_), std::runtime_error);
-  broadphase_->launchPairSearch();
-  EXPECT_THROW(broadphase_->launchPairSearch(), std::runtime_error);
 }
 
 // A finder that keeps what launchWithChanges() was told and finds nothing.
@@ -472,11 +467,10 @@ TEST(PairFinderBroadphaseStagingTest, TheStagingHoldsEveryEntryAtEachLaunch) {
   move(0, 7);
   broadphase.calculateOverlappingPairs(&dispatcher);
   expectSeenMatches("after new slots");
-  broadphase.launchPairSearch();
-  move(2, 30);  // while the search is in flight: not into the staging
-  broadphase.finishPairSearch(&dispatcher);
+  move(2, 30);
+  move(2, 31);  // twice between searches: the staging holds the last
   broadphase.calculateOverlappingPairs(&dispatcher);
-  expectSeenMatches("after a move during a search");
+  expectSeenMatches("after two moves of one box");
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
