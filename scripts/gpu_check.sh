@@ -250,8 +250,8 @@ step_study() {
     PYTHONUNBUFFERED=1 "$GC_PYTHON" scripts/study.py "${options[@]}" --overlap "$ROOT/$GC_BUILD/overlap" \
       --out "$out" --shard "$i/$shards" >"$log" 2>&1 &
     pids+=($!)
-    local tries=0 # one GPU probe at a time (header's rules)
-    until grep -q "study: shard $i/$shards:" "$log" || ! kill -0 "$!" 2>/dev/null || ((tries++ > 600)); do
+    local tries=0 # one GPU probe at a time (header's rules): a shard prints nothing before it
+    until [[ -s "$log" ]] || ! kill -0 "$!" 2>/dev/null || ((tries++ > 300)); do
       sleep 0.1
     done
     echo "study: shard $i/$shards started at $(date +%T)"
@@ -289,10 +289,13 @@ PY
 
 step_archive() {
   local archive="$OUT/gpu_check.tar.xz" limit=$((16 * 1024 * 1024)) excluded=""
-  tar -C "$GC_WORK" -cf - . | xz -6 -T0 >"$archive" || die "tar failed"
+  # Streams are made again in seconds; a run's timeline only if the archive needs the room.
+  local leave_out=(--no-wildcards-match-slash --exclude='*.aabbs')
+  tar -C "$GC_WORK" "${leave_out[@]}" -cf - . | xz -6 -T0 >"$archive" || die "tar failed"
   if (($(stat -c %s "$archive") > limit)); then
-    excluded="timeline.json files"
-    tar -C "$GC_WORK" --exclude=timeline.json -cf - . | xz -6 -T0 >"$archive" || die "tar failed"
+    excluded="runs' timeline.json (but the study's timeline run)"
+    leave_out+=(--exclude='./study/*/*/timeline.json' --exclude='./frames/*/timeline.json')
+    tar -C "$GC_WORK" "${leave_out[@]}" -cf - . | xz -6 -T0 >"$archive" || die "tar failed"
   fi
   local size
   size="$(stat -c %s "$archive")"
@@ -336,7 +339,7 @@ else
   export GC_BUILD=build-emulation GC_CTEST_JOBS=2 GC_SMALL="50 90" GC_BIG="200" GC_HUGE="400"
   export GC_SMALL_FRAMES=6 GC_BIG_FRAMES=4 GC_HUGE_REPEATS=1 GC_HUGE_LIMIT_US=1e12
   export GC_FRAME_OPTIONS="--scene 4 --objects 60 --frames 4" GC_DEMO_OPTIONS="--objects 60 --frames 10"
-  deadline_s="${DEADLINE_S:-3600}" paper=(1 1) big=(1 1) scale=4 GC_STUDY_SHARDS="${STUDY_SHARDS:-2}"
+  deadline_s="${DEADLINE_S:-7200}" paper=(1 1) big=(1 1) scale=10 GC_STUDY_SHARDS="${STUDY_SHARDS:-2}"
 fi
 started="$(date +%s)"
 readonly started
@@ -347,6 +350,7 @@ trap 'rm -rf "$GC_SCRATCH"' EXIT
 readonly summary="$OUT/gpu_check_summary.txt"
 table=()
 failures=0
+reserve=0
 
 write_summary() {
   {
@@ -365,7 +369,7 @@ start_step() {
     return 0
   fi
   ((budget *= scale))
-  local left=$((deadline - $(date +%s) - ${reserve:-0}))
+  local left=$((deadline - $(date +%s) - reserve))
   ((budget > left)) && budget=$left
   if ((budget < 5)); then
     record "$name" skip 0 0 "no time left before the deadline"
@@ -395,7 +399,7 @@ finish_steps() {
 
 record() {
   local line
-  line="$(printf '%-18s %-7s %4s s of %4s  %s' "$1" "$2" "$3" "$4" "${5:0:150}")"
+  line="$(printf '%-20s %-7s %4s s of %4s  %s' "$1" "$2" "$3" "$4" "${5:0:150}")"
   [[ "$2" == pass ]] || failures=$((failures + 1))
   table+=("$line")
   echo "gpu_check: $line"
@@ -444,6 +448,7 @@ fi
 GC_STUDY_OPTIONS="$(tr -s " \n" "  " <<<"$STUDY_OPTIONS")"
 export GC_STUDY_OPTIONS
 
+reserve=90 # the study-report's and the archive's budgets, kept from every step before them
 run_step info 30 step_info
 run_step gpu-tests 90 step_gpu_tests
 for tool in memcheck racecheck synccheck initcheck; do
@@ -460,7 +465,6 @@ for algo in $(tr , '\n' <<<"gpubf,cpusap,$GC_GPU_FINDERS" | awk '!seen[$0]++'); 
   run_step "frames-$algo" 50 step_frames "$algo" "$algo" $GC_FRAME_OPTIONS --algo "$algo" \
     --task-load 1 --compare-sync --capture-every 0 --no-wav
 done
-reserve=90
 if [[ -n "$GC_PYTHON" ]]; then
   run_step study 9999 step_study
   reserve=30

@@ -113,7 +113,7 @@ for file in "${executables[@]}"; do
   cat >"$staged" <<WRAPPER
 #!/bin/bash
 # scripts/gpu_pack.sh's wrapper: $(basename "$file").real with the carried libraries.
-here="\${BASH_SOURCE[0]%/*}"
+here="\$(cd "\$(dirname "\${BASH_SOURCE[0]}")" && pwd)"
 export LD_LIBRARY_PATH="\$here/$lib_path\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
 exec -a "\$0" "\$here/$(basename "$file").real" "\$@"
 WRAPPER
@@ -144,7 +144,7 @@ check="$CARRY/check"
 mkdir -p "$check"
 tar -C "$check" -xJf "$PACK"
 for file in "${executables[@]}"; do
-  outside="$(LD_LIBRARY_PATH="$check/$build_dir/gpu-pack/lib" ldd "$check/$file.real" |
+  outside="$(LD_LIBRARY_PATH="$ROOT/$check/$build_dir/gpu-pack/lib" ldd "$ROOT/$check/$file.real" |
     awk -v root="$ROOT/" '$2 == "=>" && index($3, root) != 1 { print $1 " => " $3 }' |
     grep -Ev "$RUNTIME_LIBS" || true)"
   [[ -z "$outside" ]] || fail "$file loads from outside the pack: $outside"
