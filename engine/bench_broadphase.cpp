@@ -47,10 +47,12 @@
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
 #include "engine/number_options.h"
+#include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/stream_statistics.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase_factory.h"
@@ -210,7 +212,12 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
   for (int repeat = 0; repeat < options.repeats; ++repeat) {
     std::string line;
     for (Row* row : run_order) {
+      Progress replaying(std::string(kProgram) + ": n=" + std::to_string(stream.objects) + " " +
+                             row->algorithm + ", repeat " + std::to_string(repeat + 1) + " of " +
+                             std::to_string(options.repeats),
+                         0);
       replayOnce(stream, options.warmup, options.seed, reference, has_reference, *row);
+      replaying.finish();
       char figure[96];
       std::snprintf(figure, sizeof(figure), " %s%s %.1f us", row->algorithm.c_str(),
                     row->churn > 0 ? (" churn " + fixed(row->churn, 3)).c_str() : "",
@@ -518,6 +525,7 @@ int main(int argc, char** argv) {
       "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
   BenchOptions options;
   addOptions(app, options);
+  overlap::catchInterrupts();
   try {
     app.parse(argc, argv);
     return run(options, quotedCommand(argc, argv));
@@ -529,6 +537,8 @@ int main(int argc, char** argv) {
   } catch (const UsageError& error) {
     std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
     return 2;
+  } catch (const overlap::Interrupted& stop) {
+    return overlap::reportInterrupted(kProgram, stop);
   } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
     std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
     return 2;

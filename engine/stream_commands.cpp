@@ -6,12 +6,12 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
-#include "engine/interrupt.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
@@ -50,8 +50,10 @@ struct PairsOptions {
 // Frame by frame, so a stream without a size (a pipe) needs memory for one
 // frame only.  A file with a size is checked whole first: a bad box in it
 // leaves stdout empty.  From a pipe, the rows of the frames before a bad one
-// are printed already; the exit status says the stream was bad.
+// are printed before the error; the exit status says the stream was bad.
 void printPairs(const PairsOptions& options) {
+  std::string csv = "frame,a,b\n";
+  int frame = 0;
   try {
     physics::AabbStreamReader reader(options.input);
     if (reader.sized()) reader.checkAll();
@@ -63,8 +65,7 @@ void printPairs(const PairsOptions& options) {
     physics::BroadphaseReplay replay(options.algorithm, header.world, header.objects);
     if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
 
-    std::string csv = "frame,a,b\n";
-    int frame = 0;
+    Progress progress("overlap pairs", header.stored_frames);
     do {
       stopIfInterrupted("frame " + std::to_string(frame) + " of " +
                         std::to_string(header.stored_frames));
@@ -77,10 +78,13 @@ void printPairs(const PairsOptions& options) {
         writeStandardOutput(csv);
         csv.clear();
       }
-      ++frame;
+      progress.update(++frame);
     } while (reader.next(boxes));
+    progress.finish();
     writeStandardOutput(csv);
   } catch (const physics::AabbStreamError& error) {
+    // From a pipe, the frames before the bad one (a file was checked first).
+    if (frame > 0) writeStandardOutput(csv);
     throw UsageError(error.what());
   }
 }
