@@ -46,6 +46,7 @@
 #include "engine/bench_replay.h"
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
+#include "engine/memory_bound.h"
 #include "engine/number_options.h"
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
@@ -85,6 +86,7 @@ struct BenchOptions {
   bool grid_check = false;
   std::vector<double> churn;
   bool stream_stats = false;
+  std::uint64_t max_memory_mb = 0;  // 0: engine/memory_bound.h's default
 };
 
 // One n of the run: its stream's length and the algorithms measured on it.
@@ -182,6 +184,11 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
                          const BenchOptions& options, Clock::time_point run_start) {
   std::vector<double> churns = {0};
   churns.insert(churns.end(), options.churn.begin(), options.churn.end());
+  for (const std::string& algorithm : workload.algorithms) {
+    requireMemory(replayBytes(algorithm, static_cast<std::uint64_t>(stream.objects)),
+                  options.max_memory_mb,
+                  "n=" + std::to_string(stream.objects) + " with --algos " + algorithm);
+  }
   std::vector<Row> rows;
   for (const double churn : churns) {
     for (const std::string& algorithm : workload.algorithms) {
@@ -375,6 +382,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
                  "frame (e.g. 0.01,0.1)")
       ->delimiter(',')
       ->check(realNumberIn(0.0, 0.25, true));
+  addMaxMemoryOption(app, options.max_memory_mb);
   app.add_flag("--stream-stats", options.stream_stats,
                "print each --input's pairs per box, pairs changed and boxes moved per frame "
                "(after --warmup), and stop");

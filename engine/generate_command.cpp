@@ -34,6 +34,10 @@ struct GenerateOptions {
 void generate(const GenerateOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   prepareOutputFile(options.out, "--out");
+  physics::AabbStreamHeader counts;
+  counts.objects = config.objects;
+  counts.stored_frames = options.frames + 1;
+  requireFreeSpace(options.out, physics::aabbStreamBytes(counts), "--out");
   const auto start = std::chrono::steady_clock::now();
   std::optional<StreamGenerator> generator;
   try {
@@ -42,7 +46,6 @@ void generate(const GenerateOptions& options) {
     throw UsageError(std::string("--") + error.what());
   }
   const physics::AabbStreamHeader& header = generator->header();
-  requireFreeSpace(options.out, physics::aabbStreamBytes(header), "--out");
   physics::AabbStreamWriter writer(options.out, header);
   const int steps = options.skip + options.frames;
   Progress progress("overlap generate", steps);

@@ -6,6 +6,7 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/memory_bound.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
@@ -45,6 +46,7 @@ void record(const RecordOptions& options) {
 struct PairsOptions {
   std::string algorithm;
   std::filesystem::path input;
+  std::uint64_t max_memory_mb = 0;
 };
 
 // Frame by frame, so a stream without a size (a pipe) needs memory for one
@@ -58,6 +60,10 @@ void printPairs(const PairsOptions& options) {
     physics::AabbStreamReader reader(options.input);
     if (reader.sized()) reader.checkAll();
     const physics::AabbStreamHeader& header = reader.header();
+    requireMemory(replayBytes(options.algorithm, static_cast<std::uint64_t>(header.objects)),
+                  options.max_memory_mb,
+                  "--input " + options.input.string() + ": a frame of " +
+                      std::to_string(header.objects) + " boxes with --algo " + options.algorithm);
     // The broadphase is sized once a whole frame has arrived: a header's
     // count alone never allocates.
     std::vector<physics::Aabb> boxes;
@@ -118,6 +124,7 @@ void addPairsCommand(CLI::App& app) {
       ->add_option("--input", options->input,
                    "a Broadmark .aabbs file, or a pipe or device streaming one")
       ->required();
+  addMaxMemoryOption(*command, options->max_memory_mb);
   command->footer(
       "Example:\n"
       "  overlap pairs --algo cpubf --input scene4.aabbs > pairs.csv");

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -164,6 +165,83 @@ TEST_F(SignalsCliTest, Row5SighupStopsARunAndStaleTemporariesAreCleared) {
   EXPECT_EQ(next.exit_code, 0) << next.stderr_text;
   for (const std::string& name : stale) EXPECT_FALSE(fs::exists(folder / name)) << name;
   for (const std::string& name : kept) EXPECT_EQ(fileText(folder / name), "mine") << name;
+}
+
+// Row 6: memory bounds checked before allocating, exit 2 naming the input
+// or option and the memory it needs; generate writes as it goes (frame 0
+// arrives while later frames are still being made) and refuses a file its
+// disk cannot hold.
+TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
+  std::string huge = lineStream(2, 1).substr(0, 304 + 64);
+  const std::int32_t most = 2147483647;
+  std::memcpy(huge.data() + 256, &most, sizeof(most));
+  const fs::path header = write("huge.bin", huge);
+  const fs::path line = write("line5k.aabbs", lineStream(5000, 1));
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"cat " + header.string() + " | " + OVERLAP_BINARY +
+           " pairs --algo bf --max-memory 1000 --input /dev/stdin",
+       "--input /dev/stdin: a frame of 2147483647 boxes with --algo bf needs 68.7 GB, above the "
+       "memory limit 1.0 GB (--max-memory)"},
+      {std::string(OVERLAP_BINARY) + " pairs --algo cpubf --max-memory 1 --input " + line.string(),
+       "a frame of 5000 boxes with --algo cpubf needs 1.7 MB"},
+      {std::string(OVERLAP_BENCH_BINARY) +
+           " --algos cpubf --warmup 0 --repeats 1 --max-memory 1 "
+           "--input " +
+           line.string() + " --out " + (out_ / "b").string(),
+       "n=5000 with --algos cpubf needs 1.7 MB"},
+      {std::string(OVERLAP_BINARY) + " generate --objects 10000000 --frames 1000000 --out " +
+           (out_ / "g.aabbs").string(),
+       "g.aabbs: needs 320.0 TB, and its folder has"},
+  };
+  for (const auto& [command, message] : refused) {
+    const Result result = runCommand(command);
+    EXPECT_EQ(result.exit_code, 2) << command << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(message), std::string::npos) << result.stderr_text;
+  }
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+  EXPECT_FALSE(fs::exists(out_ / "g.aabbs"));
+
+  const fs::path stream = fifo("g.fifo");
+  Started generate("generate --objects 2000 --frames 1000000 --out " + stream.string(),
+                   out_ / "err.txt");
+  const int fd = ::open(stream.c_str(), O_RDONLY);
+  std::string frame0(304 + 2000 * 32, '\0');
+  std::size_t got = 0;
+  while (got < frame0.size()) {
+    const ssize_t read = ::read(fd, frame0.data() + got, frame0.size() - got);
+    if (read <= 0) break;
+    got += static_cast<std::size_t>(read);
+  }
+  EXPECT_EQ(got, frame0.size()) << "frame 0 arrives before the millionth frame is made";
+  generate.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(generate.wait(), 130)) << generate.stderrText();
+  ::close(fd);
+}
+
+// Row 7: cpusap on identical boxes (every pair overlaps): memory bounded per
+// pair, as docs/CLI.md states (about 120 bytes a pair; 250 allowed here).
+TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
+  std::string identical = lineStream(1000, 1);
+  for (std::size_t box = 304; box < identical.size(); box += 32) {
+    const float same[8] = {0, 0, 0, 0, 1, 1, 1, 0};
+    std::memcpy(identical.data() + box, same, sizeof(same));
+  }
+  const fs::path many = write("ident1k.aabbs", identical);
+  const fs::path few = write("line2.aabbs", lineStream(2, 1));
+  const auto peakBytes = [&](const fs::path& input) {
+    const std::string command = "exec " + std::string(OVERLAP_BINARY) +
+                                " pairs --algo cpusap --input " + input.string() + " > /dev/null";
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    pid_t pid = 0;
+    EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+    int status = 0;
+    rusage usage{};
+    ::wait4(pid, &status, 0, &usage);
+    EXPECT_TRUE(exitedWith(status, 0));
+    return static_cast<double>(usage.ru_maxrss) * 1024;  // kB on Linux
+  };
+  const double pairs = 1000.0 * 999 / 2;
+  EXPECT_LT(peakBytes(many) - peakBytes(few), 250 * pairs);
 }
 
 // Row 16: sap32 on 30000 boxes shows progress while its first frame (n^2
