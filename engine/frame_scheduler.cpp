@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "gpu/base/checksum.h"
+#include "gpu/base/interrupt.h"
 
 namespace overlap::engine {
 namespace {
@@ -180,6 +181,9 @@ ScheduledFrame FrameScheduler::runFrame() {
   }
   for (const Task& task : tasks_) {
     if (!task.error.empty()) {
+      // A signal that stopped a task's write (a --wav FIFO's slow reader)
+      // is the run's stop, not the task's failure.
+      stopIfInterrupted("frame " + std::to_string(frame_));
       ++frame_;  // the step is done: the next frame is the next one
       throw std::runtime_error("task '" + task.name + "' failed in frame " +
                                std::to_string(frame_ - 1) + ": " + task.error);

@@ -38,7 +38,8 @@ void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb) {
       .add_option("--max-memory", limit_mb,
                   "MB the run may allocate for its boxes and cpubf's pair bits, checked before it "
                   "does (default: the machine's memory, or ulimit -v if lower)")
-      ->check(wholeNumberIn(1, kMostMegabytes));
+      ->check(wholeNumberIn(1, kMostMegabytes))
+      ->default_str(std::to_string(defaultMemoryLimit() / kMegabyte));
 }
 
 std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects) {
