@@ -7,7 +7,7 @@
 #include "engine/algorithm_list.h"
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
-#include "engine/interrupt.h"
+#include "gpu/base/interrupt.h"
 #include "overlap_build_info.h"
 
 namespace overlap::engine {
@@ -65,11 +65,7 @@ int runCommandLine(int argc, char** argv) {
     std::fprintf(stderr, "overlap: %s\n", error.what());
     return 2;
   } catch (const Interrupted& stop) {
-    std::fprintf(stderr,
-                 "overlap: stopped by %s; kept nothing of this run: its temporaries are removed "
-                 "and the outputs hold what they held before\n",
-                 stop.what());
-    return 128 + stop.signal;
+    return reportInterrupted("overlap", stop);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "overlap: error: %s\n", error.what());
     return 1;

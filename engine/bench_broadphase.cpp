@@ -46,11 +46,14 @@
 #include "engine/bench_replay.h"
 #include "engine/cli_errors.h"
 #include "engine/machine_info.h"
+#include "engine/memory_bound.h"
 #include "engine/number_options.h"
+#include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/stream_statistics.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase_factory.h"
@@ -83,6 +86,7 @@ struct BenchOptions {
   bool grid_check = false;
   std::vector<double> churn;
   bool stream_stats = false;
+  std::uint64_t max_memory_mb = 0;  // 0: engine/memory_bound.h's default
 };
 
 // One n of the run: its stream's length and the algorithms measured on it.
@@ -180,6 +184,11 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
                          const BenchOptions& options, Clock::time_point run_start) {
   std::vector<double> churns = {0};
   churns.insert(churns.end(), options.churn.begin(), options.churn.end());
+  for (const std::string& algorithm : workload.algorithms) {
+    requireMemory(replayBytes(algorithm, static_cast<std::uint64_t>(stream.objects)),
+                  options.max_memory_mb,
+                  "n=" + std::to_string(stream.objects) + " with --algos " + algorithm);
+  }
   std::vector<Row> rows;
   for (const double churn : churns) {
     for (const std::string& algorithm : workload.algorithms) {
@@ -210,7 +219,12 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
   for (int repeat = 0; repeat < options.repeats; ++repeat) {
     std::string line;
     for (Row* row : run_order) {
+      Progress replaying(std::string(kProgram) + ": n=" + std::to_string(stream.objects) + " " +
+                             row->algorithm + ", repeat " + std::to_string(repeat + 1) + " of " +
+                             std::to_string(options.repeats),
+                         0);
       replayOnce(stream, options.warmup, options.seed, reference, has_reference, *row);
+      replaying.finish();
       char figure[96];
       std::snprintf(figure, sizeof(figure), " %s%s %.1f us", row->algorithm.c_str(),
                     row->churn > 0 ? (" churn " + fixed(row->churn, 3)).c_str() : "",
@@ -385,6 +399,7 @@ void addOptions(CLI::App& app, BenchOptions& options) {
                  "frame (e.g. 0.01,0.1)")
       ->delimiter(',')
       ->check(realNumberIn(0.0, 0.25, true));
+  addMaxMemoryOption(app, options.max_memory_mb);
   app.add_flag("--stream-stats", options.stream_stats,
                "print each --input's pairs per box, pairs changed and boxes moved per frame "
                "(after --warmup), and stop");
@@ -540,6 +555,7 @@ int main(int argc, char** argv) {
       "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
   BenchOptions options;
   addOptions(app, options);
+  overlap::catchInterrupts();
   try {
     app.parse(argc, argv);
     return run(options, quotedCommand(argc, argv));
@@ -551,6 +567,8 @@ int main(int argc, char** argv) {
   } catch (const UsageError& error) {
     std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
     return 2;
+  } catch (const overlap::Interrupted& stop) {
+    return overlap::reportInterrupted(kProgram, stop);
   } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
     std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
     return 2;

@@ -6,6 +6,7 @@
 
 #include "engine/cli_errors.h"
 #include "engine/stream_statistics.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/grid_pair_checker.h"
 
 namespace overlap::engine {
@@ -115,6 +116,10 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
   std::vector<DeviceFigures> device;
   std::vector<std::uint32_t> changed;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
+    if (pendingInterrupt() != 0) {  // before the clock starts
+      stopIfInterrupted("n=" + std::to_string(stream.objects) + " " + row.algorithm + ", frame " +
+                        std::to_string(frame) + " of " + std::to_string(stream.stored_frames));
+    }
     std::vector<std::uint8_t> present;
     if (row.churn > 0) present = presentObjects(seed, frame, stream.objects, row.churn);
     // The boxes that changed, found before the clock starts: a world knows

@@ -76,7 +76,8 @@ std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& s
 // Replays the whole stream once in a fresh broadphase and adds one repeat to
 // `row`.  With `has_reference` and `reference` empty it fills it (this
 // algorithm is the reference; only without churn); otherwise every frame is
-// checked against it.  Throws UsageError for a count the algorithm cannot hold.
+// checked against it.  Throws UsageError for a count the algorithm cannot hold,
+// Interrupted (gpu/base/interrupt.h) for a signal, checked before each frame.
 void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
                 std::vector<physics::PairList>& reference, bool has_reference, Row& row);
 

@@ -7,7 +7,7 @@
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
-#include "engine/interrupt.h"
+#include "gpu/base/interrupt.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"

@@ -4,12 +4,13 @@
 // main() prints it as one line and exits with code 2, before any work starts.
 // Anything else thrown is a failure while working and exits with code 1
 // (OutputError: an output that could not be written, named).
-// engine/interrupt.h's Interrupted exits 128 + the signal.  Either way
+// gpu/base/interrupt.h's Interrupted exits 128 + the signal.  Either way
 // nothing half-written is left behind: outputs go through
 // gpu/base/output_file.h.
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,16 @@ void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view o
 // The same for a file to be written (outputFileProblem): an empty
 // name, a folder, an unwritable folder are UsageErrors.
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option);
+
+// Throws UsageError naming the option when `file`'s folder has less free
+// space than `bytes` (a regular file or a new name; nothing for a device or
+// FIFO, which stores nothing).  The old file stays until the new one is
+// whole, so the new one needs all of `bytes`.
+void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
+                      std::string_view option);
+
+// "3.2 GB": a size a user reads at a glance (decimal units).
+std::string readableBytes(std::uint64_t bytes);
 
 // "--size": an option's name as the user typed it, hidden options included.
 std::string optionName(const CLI::Option* option);

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "gpu/base/interrupt.h"
+
 namespace overlap::engine {
 namespace {
 
@@ -73,6 +75,9 @@ ScheduledFrame FrameScheduler::runFrame() {
   frame.wait = jobs_.lastJoin();
   for (const JobId task : tasks_) {
     if (!jobs_.lastError(task).empty()) {
+      // A signal that stopped a task's work (a --wav FIFO's slow reader) is
+      // the run's stop, not the task's failure.
+      stopIfInterrupted("frame " + std::to_string(frame_));
       ++frame_;  // the step is done: the next frame is the next one
       throw std::runtime_error("task '" + jobs_.name(task) + "' failed in frame " +
                                std::to_string(frame_ - 1) + ": " + jobs_.lastError(task));

@@ -4,13 +4,17 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/number_options.h"
+#include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/stream_generator.h"
+#include "gpu/base/interrupt.h"
 #include "physics/aabb_stream.h"
 
 namespace overlap::engine {
@@ -24,22 +28,45 @@ struct GenerateOptions {
   std::filesystem::path out;
 };
 
+// Frame by frame into the output: memory for the model and one frame, a
+// signal stops it at a frame boundary (the old file kept), and progress is
+// shown from the first second.
 void generate(const GenerateOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
   prepareOutputFile(options.out, "--out");
+  physics::AabbStreamHeader counts;
+  counts.objects = config.objects;
+  counts.stored_frames = options.frames + 1;
+  requireFreeSpace(options.out, physics::aabbStreamBytes(counts), "--out");
   const auto start = std::chrono::steady_clock::now();
-  physics::AabbStream stream;
+  std::optional<StreamGenerator> generator;
   try {
-    stream = generateStream(config, options.frames, options.skip, options.moving);
+    generator.emplace(config, options.frames, options.skip, options.moving);
   } catch (const std::invalid_argument& error) {  // a scene the options cannot build
     throw UsageError(std::string("--") + error.what());
   }
-  physics::writeAabbStream(options.out, stream);
+  const physics::AabbStreamHeader& header = generator->header();
+  physics::AabbStreamWriter writer(options.out, header);
+  const int steps = options.skip + options.frames;
+  Progress progress("overlap generate", steps);
+  std::vector<physics::Aabb> boxes;
+  for (int step = 0; step <= steps; ++step) {
+    if (step > 0) {
+      stopIfInterrupted("frame " + std::to_string(step) + " of " + std::to_string(steps + 1));
+      generator->step();
+      progress.update(step);
+    }
+    if (step < options.skip) continue;
+    generator->frame(boxes);
+    writer.write(boxes);
+  }
+  progress.finish();
+  writer.commit();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr,
                "overlap generate: wrote %s (%d objects, the start and %d frames) in %.1f s\n",
-               options.out.string().c_str(), stream.objects, stream.stored_frames - 1, seconds);
+               options.out.string().c_str(), header.objects, header.stored_frames - 1, seconds);
 }
 
 }  // namespace

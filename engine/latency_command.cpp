@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "engine/commands.h"
-#include "engine/interrupt.h"
+#include "gpu/base/interrupt.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/interrupt.h"
+#include "gpu/base/interrupt.h"
 #include "engine/progress.h"
 #include "physics/world.h"
 

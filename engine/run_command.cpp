@@ -25,7 +25,7 @@
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
 #include "engine/frame_scheduler.h"
-#include "engine/interrupt.h"
+#include "gpu/base/interrupt.h"
 #include "engine/machine_info.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"

@@ -6,12 +6,13 @@
 
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
-#include "engine/interrupt.h"
+#include "engine/memory_bound.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "physics/aabb_stream.h"
 #include "physics/broadphase_replay.h"
@@ -45,17 +46,24 @@ void record(const RecordOptions& options) {
 struct PairsOptions {
   std::string algorithm;
   std::filesystem::path input;
+  std::uint64_t max_memory_mb = 0;
 };
 
 // Frame by frame, so a stream without a size (a pipe) needs memory for one
 // frame only.  A file with a size is checked whole first: a bad box in it
 // leaves stdout empty.  From a pipe, the rows of the frames before a bad one
-// are printed already; the exit status says the stream was bad.
+// are printed before the error; the exit status says the stream was bad.
 void printPairs(const PairsOptions& options) {
+  std::string csv = "frame,a,b\n";
+  int frame = 0;
   try {
     physics::AabbStreamReader reader(options.input);
     if (reader.sized()) reader.checkAll();
     const physics::AabbStreamHeader& header = reader.header();
+    requireMemory(replayBytes(options.algorithm, static_cast<std::uint64_t>(header.objects)),
+                  options.max_memory_mb,
+                  "--input " + options.input.string() + ": a frame of " +
+                      std::to_string(header.objects) + " boxes with --algo " + options.algorithm);
     // The broadphase is sized once a whole frame has arrived: a header's
     // count alone never allocates.
     std::vector<physics::Aabb> boxes;
@@ -63,8 +71,7 @@ void printPairs(const PairsOptions& options) {
     physics::BroadphaseReplay replay(options.algorithm, header.world, header.objects);
     if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
 
-    std::string csv = "frame,a,b\n";
-    int frame = 0;
+    Progress progress("overlap pairs", header.stored_frames);
     do {
       stopIfInterrupted("frame " + std::to_string(frame) + " of " +
                         std::to_string(header.stored_frames));
@@ -77,10 +84,13 @@ void printPairs(const PairsOptions& options) {
         writeStandardOutput(csv);
         csv.clear();
       }
-      ++frame;
+      progress.update(++frame);
     } while (reader.next(boxes));
+    progress.finish();
     writeStandardOutput(csv);
   } catch (const physics::AabbStreamError& error) {
+    // From a pipe, the frames before the bad one (a file was checked first).
+    if (frame > 0) writeStandardOutput(csv);
     throw UsageError(error.what());
   }
 }
@@ -114,6 +124,7 @@ void addPairsCommand(CLI::App& app) {
       ->add_option("--input", options->input,
                    "a Broadmark .aabbs file, or a pipe or device streaming one")
       ->required();
+  addMaxMemoryOption(*command, options->max_memory_mb);
   command->footer(
       "Example:\n"
       "  overlap pairs --algo cpubf --input scene4.aabbs > pairs.csv");

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 #include "physics/step_policy.h"
 
@@ -61,6 +62,9 @@ struct Box {
   bool asleep = false;
 };
 
+}  // namespace
+
+// The model itself (see the header).
 class GranularModel {
  public:
   explicit GranularModel(const physics::SceneConfig& config)
@@ -99,13 +103,19 @@ class GranularModel {
 
   double outerHalfExtent() const { return layout_.outerHalfExtent(); }
 
-  void step() {
+  // One frame; a signal stops it between substeps (a strong gravity makes
+  // a frame millions of substeps long).  `frame` is for the message.
+  void step(int frame) {
     const Vector3d gravity = config_.rotatingGravity()
                                  ? gravity_rotation_.gravity()
                                  : Vector3d(0, -config_.g * config_.gravity_scale, 0);
     if (config_.kicks()) kick();
     const double dt = config_.frame_time / substeps_;
     for (int substep = 0; substep < substeps_; ++substep) {
+      if (pendingInterrupt() != 0) {
+        stopIfInterrupted("frame " + std::to_string(frame) + ", substep " +
+                          std::to_string(substep) + " of " + std::to_string(substeps_));
+      }
       countVolume();
       pushApart();
       forBoxes([&](Box& box) { move(box, gravity, dt); });
@@ -311,45 +321,71 @@ class GranularModel {
   std::vector<Eigen::Vector3f> gradient_;
 };
 
-}  // namespace
-
 std::string generatedSceneName(const physics::SceneConfig& config) {
   return "overlap generate scene " + std::to_string(config.scene) + " seed " +
          std::to_string(config.seed) + " (granular model, no Bullet)";
 }
 
-physics::AabbStream generateStream(const physics::SceneConfig& config, int frames, int skip,
-                                   double moving_share) {
+StreamGenerator::StreamGenerator(const physics::SceneConfig& config, int frames, int skip,
+                                 double moving_share)
+    : frames_(frames), skip_(skip) {
   if (frames < 1) throw std::invalid_argument("frames: must be at least 1");
   if (skip < 0) throw std::invalid_argument("skip: must not be negative");
   if (!(moving_share >= 0 && moving_share <= 1)) {
     throw std::invalid_argument("moving: must be in [0, 1]");
   }
-  GranularModel model(config);
-  for (int frame = 0; frame < skip; ++frame) model.step();
-
-  physics::AabbStream stream;
-  stream.scene_name = generatedSceneName(config);
-  stream.object_type = "box";
-  stream.objects = config.objects;
-  stream.stored_frames = frames + 1;
-  const auto outer = static_cast<float>(model.outerHalfExtent());
-  stream.world = physics::Aabb{{-outer, -outer, -outer}, {outer, outer, outer}};
-  stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
-  model.appendBoxes(stream.boxes);
-  std::vector<std::uint8_t> moving(static_cast<std::size_t>(config.objects), 1);
+  model_ = std::make_unique<GranularModel>(config);
+  header_.scene_name = generatedSceneName(config);
+  header_.object_type = "box";
+  header_.objects = config.objects;
+  header_.stored_frames = frames + 1;
+  const auto outer = static_cast<float>(model_->outerHalfExtent());
+  header_.world = physics::Aabb{{-outer, -outer, -outer}, {outer, outer, outer}};
+  moving_.assign(static_cast<std::size_t>(config.objects), 1);
   if (moving_share < 1) {
     SeededRandom draw(config.seed ^ 0x6d6f76696e67ull);  // "moving"
-    for (std::uint8_t& box : moving) box = draw.unit() < moving_share ? 1 : 0;
+    for (std::uint8_t& box : moving_) box = draw.unit() < moving_share ? 1 : 0;
   }
-  const std::size_t n = moving.size();
-  for (int frame = 0; frame < frames; ++frame) {
-    model.step();
-    model.appendBoxes(stream.boxes);
-    const std::size_t first = stream.boxes.size() - n;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (moving[i] == 0) stream.boxes[first + i] = stream.boxes[i];
-    }
+}
+
+StreamGenerator::~StreamGenerator() = default;
+
+void StreamGenerator::step() {
+  if (done()) throw std::logic_error("StreamGenerator: stepped past the last frame");
+  if (steps_ == skip_ && start_.empty()) {
+    throw std::logic_error("StreamGenerator: stepped before frame 0 was taken");
+  }
+  model_->step(steps_ + 1);
+  ++steps_;
+}
+
+void StreamGenerator::frame(std::vector<physics::Aabb>& boxes) {
+  if (steps_ < skip_) throw std::logic_error("StreamGenerator: frame() before the skipped steps");
+  boxes.clear();
+  model_->appendBoxes(boxes);
+  if (steps_ == skip_) {
+    start_ = boxes;  // the boxes that do not move keep these
+    return;
+  }
+  for (std::size_t i = 0; i < moving_.size(); ++i) {
+    if (moving_[i] == 0) boxes[i] = start_[i];
+  }
+}
+
+physics::AabbStream generateStream(const physics::SceneConfig& config, int frames, int skip,
+                                   double moving_share) {
+  StreamGenerator generator(config, frames, skip, moving_share);
+  physics::AabbStream stream;
+  static_cast<physics::AabbStreamHeader&>(stream) = generator.header();
+  stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);
+  std::vector<physics::Aabb> boxes;
+  while (generator.stepsToStart() > 0) generator.step();
+  generator.frame(boxes);
+  stream.boxes.insert(stream.boxes.end(), boxes.begin(), boxes.end());
+  while (!generator.done()) {
+    generator.step();
+    generator.frame(boxes);
+    stream.boxes.insert(stream.boxes.end(), boxes.begin(), boxes.end());
   }
   return stream;
 }

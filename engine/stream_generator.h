@@ -28,7 +28,10 @@
 // yet it calls nothing of Bullet's.
 #pragma once
 
+#include <cstdint>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "physics/aabb_stream.h"
 #include "physics/scene.h"
@@ -38,12 +41,47 @@ namespace overlap::engine {
 // "overlap generate scene S seed X (granular model, no Bullet)".
 std::string generatedSceneName(const physics::SceneConfig& config);
 
-// The start and `frames` frames after it, the first `skip` frames (after the
-// start) run but not stored: frame 0 of the stream is the scene after `skip`
-// frames.  With `moving_share` below 1, only that share of the boxes (a
-// seeded draw) moves in the stored frames; the others keep frame 0's AABB
-// (a stream for "work in proportion to what moved").  Throws
+// The stream one frame at a time, so a writer holds one frame, not the
+// whole stream: the start and `frames` frames after it, the first `skip`
+// frames (after the start) run but not stored: frame 0 of the stream is the
+// scene after `skip` frames.  With `moving_share` below 1, only that share of
+// the boxes (a seeded draw) moves in the stored frames; the others keep
+// frame 0's AABB (a stream for "work in proportion to what moved").  Throws
 // std::invalid_argument for a config generateScene() refuses.
+// Use: step() stepsToStart() times, frame() (frame 0), then step() and
+// frame() until done(); each step is one frame of the model, so a caller
+// checks for signals and shows progress between them.  A signal
+// (gpu/base/interrupt.h) also stops a step between its substeps, with
+// Interrupted: a strong gravity makes one frame millions of substeps.
+class GranularModel;  // engine/stream_generator.cpp
+
+class StreamGenerator {
+ public:
+  StreamGenerator(const physics::SceneConfig& config, int frames, int skip = 0,
+                  double moving_share = 1.0);
+  ~StreamGenerator();
+  StreamGenerator(const StreamGenerator&) = delete;
+  StreamGenerator& operator=(const StreamGenerator&) = delete;
+
+  const physics::AabbStreamHeader& header() const { return header_; }
+  int stepsToStart() const { return steps_ < skip_ ? skip_ - steps_ : 0; }
+  bool done() const { return steps_ == skip_ + frames_; }
+  // Runs the model one frame on.
+  void step();
+  // The boxes of the stored frame the model is at, into `boxes`.
+  void frame(std::vector<physics::Aabb>& boxes);
+
+ private:
+  int frames_;
+  int skip_;
+  int steps_ = 0;
+  physics::AabbStreamHeader header_;
+  std::unique_ptr<GranularModel> model_;
+  std::vector<std::uint8_t> moving_;  // per box: 1 if it moves after frame 0
+  std::vector<physics::Aabb> start_;  // frame 0's boxes
+};
+
+// The whole stream in memory, through StreamGenerator.
 physics::AabbStream generateStream(const physics::SceneConfig& config, int frames, int skip = 0,
                                    double moving_share = 1.0);
 

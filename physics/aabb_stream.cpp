@@ -1,6 +1,7 @@
 #include "physics/aabb_stream.h"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 #include <cstring>
 #include <limits>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 
 namespace overlap::physics {
@@ -80,6 +82,11 @@ void encodeAabb(const Aabb& box, char* bytes) {
 
 }  // namespace
 
+std::uint64_t aabbStreamBytes(const AabbStreamHeader& header) {
+  return kHeaderBytes + static_cast<std::uint64_t>(header.objects) *
+                            static_cast<std::uint64_t>(header.stored_frames) * kAabbBytes;
+}
+
 Aabb parkedBox(const Aabb& world, int object, int objects) {
   const auto columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(objects))));
   const int row = object / columns;
@@ -95,8 +102,11 @@ Aabb parkedBox(const Aabb& world, int object, int objects) {
 }
 
 AabbStreamReader::AabbStreamReader(const std::filesystem::path& path) : path_(path) {
-  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Not blocking in open(): a FIFO without a writer is waited for in
+  // awaitData(), where a signal stops the wait.
+  fd_ = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd_ < 0) fail(std::string("cannot open: ") + std::strerror(errno));
+  ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);
   // A refused header throws from here, where no destructor will close the file.
   try {
     checkHeader();
@@ -161,11 +171,33 @@ void AabbStreamReader::fail(const std::string& problem) const {
   ::overlap::physics::fail(path_, problem);
 }
 
+std::string AabbStreamReader::position() const {
+  if (header_.stored_frames == 0) return "the header of " + path_.string();
+  return "frame " + std::to_string(frames_read_) + " of " + std::to_string(header_.stored_frames) +
+         " of " + path_.string();
+}
+
+void AabbStreamReader::awaitData() const {
+  waitUntil(
+      [this](int timeout_ms) {
+        pollfd watched{fd_, POLLIN, 0};
+        const int ready = ::poll(&watched, 1, timeout_ms);
+        // Data, the writer gone, or an error that read() will report.
+        return ready > 0 || (ready < 0 && errno != EINTR);
+      },
+      "waiting for data on " + path_.string() + " (its writer has sent nothing for a second)",
+      position() + ", waiting for data");
+}
+
 std::size_t AabbStreamReader::readUpTo(char* bytes, std::size_t count) {
   std::size_t got = 0;
   while (got < count) {
+    if (!sized_) awaitData();
     const ssize_t read = ::read(fd_, bytes + got, count - got);
-    if (read < 0 && errno == EINTR) continue;
+    if (read < 0 && errno == EINTR) {
+      stopIfInterrupted(position());
+      continue;
+    }
     if (read < 0) fail(std::string("cannot read: ") + std::strerror(errno));
     if (read == 0) break;
     got += static_cast<std::size_t>(read);
@@ -234,34 +266,82 @@ AabbStream readAabbStream(const std::filesystem::path& path) {
   return stream;
 }
 
+namespace {
+
+std::string boxProblemAt(const Aabb& box, std::size_t frame, std::size_t object) {
+  const std::string problem = aabbProblem(box);
+  if (problem.empty()) return problem;
+  return "box to write at frame " + std::to_string(frame) + ", object " + std::to_string(object) +
+         ": " + problem;
+}
+
+}  // namespace
+
+AabbStreamWriter::AabbStreamWriter(const std::filesystem::path& path,
+                                   const AabbStreamHeader& header)
+    : header_(header) {
+  if (header.objects <= 0 || header.stored_frames < 2) {
+    fail(path, "inconsistent stream to write");
+  }
+  if (const std::string problem = aabbProblem(header.world); !problem.empty()) {
+    fail(path, "world AABB to write: " + problem);
+  }
+  std::vector<char> bytes(kHeaderBytes, 0);
+  std::memcpy(bytes.data(), header.scene_name.data(),
+              std::min(header.scene_name.size(), kNameBytes - 1));
+  std::memcpy(bytes.data() + kNameBytes, header.object_type.data(),
+              std::min(header.object_type.size(), kNameBytes - 1));
+  const std::int32_t counts[4] = {header.objects, header.stored_frames - 1, 0, 0};
+  std::memcpy(bytes.data() + 2 * kNameBytes, counts, sizeof(counts));
+  encodeAabb(header.world, bytes.data() + 2 * kNameBytes + sizeof(counts));
+  file_ = std::make_unique<OutputFile>(path);
+  file_->write(std::string_view(bytes.data(), bytes.size()));
+}
+
+AabbStreamWriter::~AabbStreamWriter() = default;
+
+void AabbStreamWriter::write(std::span<const Aabb> boxes) {
+  const std::filesystem::path& path = file_->path();
+  if (boxes.size() != static_cast<std::size_t>(header_.objects) ||
+      frames_written_ == header_.stored_frames) {
+    fail(path, "inconsistent stream to write");
+  }
+  bytes_.resize(boxes.size() * kAabbBytes);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (const std::string problem = boxProblemAt(boxes[i], frames_written_, i); !problem.empty()) {
+      fail(path, problem);
+    }
+    encodeAabb(boxes[i], bytes_.data() + i * kAabbBytes);
+  }
+  file_->write(std::string_view(bytes_.data(), bytes_.size()));
+  ++frames_written_;
+}
+
+void AabbStreamWriter::commit() {
+  if (frames_written_ != header_.stored_frames) {
+    fail(file_->path(), "inconsistent stream to write: " + std::to_string(frames_written_) +
+                            " of " + std::to_string(header_.stored_frames) + " frames written");
+  }
+  file_->commit();
+}
+
 void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream) {
   if (stream.objects <= 0 || stream.stored_frames < 2 ||
       stream.boxes.size() != static_cast<std::size_t>(stream.objects) * stream.stored_frames) {
     throw AabbStreamError(path.string() + ": inconsistent stream to write");
   }
-  // Every box readAabbStream() would refuse is refused here, before a byte is written.
-  if (const std::string problem = aabbProblem(stream.world); !problem.empty()) {
-    fail(path, "world AABB to write: " + problem);
-  }
+  // Every box readAabbStream() would refuse is refused here, before a byte
+  // is written (a FIFO keeps what it was sent).
   for (std::size_t i = 0; i < stream.boxes.size(); ++i) {
-    if (const std::string problem = aabbProblem(stream.boxes[i]); !problem.empty()) {
-      fail(path, "box to write at frame " + std::to_string(i / stream.objects) + ", object " +
-                     std::to_string(i % stream.objects) + ": " + problem);
+    const std::size_t objects = static_cast<std::size_t>(stream.objects);
+    if (const std::string problem = boxProblemAt(stream.boxes[i], i / objects, i % objects);
+        !problem.empty()) {
+      fail(path, problem);
     }
   }
-  std::vector<char> bytes(kHeaderBytes + stream.boxes.size() * kAabbBytes, 0);
-  std::memcpy(bytes.data(), stream.scene_name.data(),
-              std::min(stream.scene_name.size(), kNameBytes - 1));
-  std::memcpy(bytes.data() + kNameBytes, stream.object_type.data(),
-              std::min(stream.object_type.size(), kNameBytes - 1));
-  const std::int32_t counts[4] = {stream.objects, stream.stored_frames - 1, 0, 0};
-  std::memcpy(bytes.data() + 2 * kNameBytes, counts, sizeof(counts));
-  encodeAabb(stream.world, bytes.data() + 2 * kNameBytes + sizeof(counts));
-  for (std::size_t i = 0; i < stream.boxes.size(); ++i) {
-    encodeAabb(stream.boxes[i], bytes.data() + kHeaderBytes + i * kAabbBytes);
-  }
-
-  writeFileAtomically(path, std::string_view(bytes.data(), bytes.size()));
+  AabbStreamWriter writer(path, stream);
+  for (int frame = 0; frame < stream.stored_frames; ++frame) writer.write(stream.frame(frame));
+  writer.commit();
 }
 
 }  // namespace overlap::physics

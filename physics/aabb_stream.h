@@ -21,13 +21,19 @@
 // simulation's pair cache does.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "physics/aabb.h"
+
+namespace overlap {
+class OutputFile;  // gpu/base/output_file.h
+}
 
 namespace overlap::physics {
 
@@ -54,11 +60,17 @@ struct AabbStream : AabbStreamHeader {
   }
 };
 
+// The bytes of a stream with `header`'s counts, header included.
+std::uint64_t aabbStreamBytes(const AabbStreamHeader& header);
+
 // The box stored for `object` of `objects` once it has left the simulation.
 Aabb parkedBox(const Aabb& world, int object, int objects);
 
 // Reads a stream a frame at a time.  Every error is an AabbStreamError
-// naming the file and the first problem (with its frame and object).
+// naming the file and the first problem (with its frame and object).  A
+// stream without a size is waited for through gpu/base/interrupt.h's
+// waitUntil(): a FIFO without a writer or a stalled writer is said on stderr
+// after a second, and a signal stops the wait (Interrupted).
 class AabbStreamReader {
  public:
   // Opens `path` and reads and checks the header (and the size, if it has one).
@@ -81,6 +93,8 @@ class AabbStreamReader {
  private:
   void checkHeader();  // reads and checks the header, sized files against their size
   std::size_t readUpTo(char* bytes, std::size_t count);  // short only at the end
+  void awaitData() const;                                // until a read will not block
+  std::string position() const;                          // "frame 3 of 31 of FILE"
   [[noreturn]] void fail(const std::string& problem) const;
 
   std::filesystem::path path_;
@@ -94,9 +108,32 @@ class AabbStreamReader {
 // The whole stream in memory, through AabbStreamReader.
 AabbStream readAabbStream(const std::filesystem::path& path);
 
-// Writes through gpu/base/output_file.h; throws AabbStreamError for an
-// inconsistent stream or a box the reader would refuse (naming its frame and
-// object), std::runtime_error when the file cannot be written.
+// Writes a stream a frame at a time through gpu/base/output_file.h, so a
+// writer holds one frame, not the whole stream: the header at construction,
+// then write() each of its stored frames, then commit() publishes the file.
+// Destroyed before commit(), it leaves the old file as it was (its
+// temporary is removed).  Throws AabbStreamError for an inconsistent stream
+// or a box the reader would refuse (naming its frame and object),
+// OutputError when the file cannot be written.
+class AabbStreamWriter {
+ public:
+  AabbStreamWriter(const std::filesystem::path& path, const AabbStreamHeader& header);
+  ~AabbStreamWriter();
+  AabbStreamWriter(const AabbStreamWriter&) = delete;
+  AabbStreamWriter& operator=(const AabbStreamWriter&) = delete;
+
+  void write(std::span<const Aabb> boxes);  // the next stored frame, `header.objects` boxes
+  void commit();                            // after the last frame
+
+ private:
+  AabbStreamHeader header_;
+  std::unique_ptr<OutputFile> file_;
+  int frames_written_ = 0;
+  std::vector<char> bytes_;  // one frame, encoded
+};
+
+// The whole stream through AabbStreamWriter, every box checked before a
+// byte is written.
 void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream);
 
 }  // namespace overlap::physics

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "gpu/base/interrupt.h"
 #include "physics/broadphase_factory.h"
 #include "physics/pair_finder_broadphase.h"
 
@@ -27,6 +28,14 @@ struct BroadphaseReplay::Bullet {
       bool processOverlap(btBroadphasePair& /*pair*/) override { return true; }
     } remove_every;
     broadphase->getOverlappingPairCache()->processAllOverlappingPairs(&remove_every, &dispatcher);
+    // A sweep and prune keeps its handles in one array, which its destructor
+    // frees whole (makeBroadphase() gives it no ray-test tree of proxies of
+    // its own); removing them one by one would sort each handle's edges to
+    // the end of every axis, n^2 in all.
+    if (dynamic_cast<btAxisSweep3Internal<unsigned short>*>(broadphase.get()) != nullptr ||
+        dynamic_cast<btAxisSweep3Internal<unsigned int>*>(broadphase.get()) != nullptr) {
+      return;
+    }
     for (btBroadphaseProxy* proxy : proxies) {
       if (proxy != nullptr) broadphase->destroyProxy(proxy, &dispatcher);
     }
@@ -34,6 +43,8 @@ struct BroadphaseReplay::Bullet {
 };
 
 namespace {
+
+constexpr std::size_t kProxiesBetweenChecks = 256;
 
 btVector3 corner(const float (&xyz)[3]) {
   return {xyz[0], xyz[1], xyz[2]};
@@ -75,6 +86,12 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::
   if (b.proxies.empty()) {
     b.proxies.reserve(boxes.size());
     for (std::size_t i = 0; i < boxes.size(); ++i) {
+      // A sweep and prune inserts a proxy in time proportional to those it
+      // holds: creating many is a long step, stopped by a signal within it.
+      if (i % kProxiesBetweenChecks == 0 && pendingInterrupt() != 0) {
+        stopIfInterrupted("the first frame, creating box " + std::to_string(i) + " of " +
+                          std::to_string(boxes.size()) + " in the broadphase");
+      }
       b.proxies.push_back(b.broadphase->createProxy(
           corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
           btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher));

@@ -66,7 +66,9 @@ class BroadphaseReplay {
   // bodies (a box whose bytes are unchanged is not written); the first call
   // creates the proxies there.  With `present` (one entry per object),
   // an object whose entry is 0 has no proxy this frame: it is destroyed if it
-  // had one, and created again at its box when its entry is 1 again.
+  // had one, and created again at its box when its entry is 1 again.  A signal
+  // (gpu/base/interrupt.h) stops the first call's creation of the proxies,
+  // which a sweep and prune does in time n^2, with Interrupted.
   void update(std::span<const Aabb> boxes, std::span<const std::uint8_t> present = {});
   // Writes only the boxes named in `changed` (object indices) and leaves the
   // others as last written, as a world writes only its awake bodies: a

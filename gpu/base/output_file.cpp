@@ -1,14 +1,22 @@
 #include "gpu/base/output_file.h"
 
 #include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <mutex>
 #include <system_error>
+
+#include "gpu/base/interrupt.h"
 
 namespace overlap {
 namespace {
@@ -53,16 +61,98 @@ void syncFolder(const fs::path& folder) {
   ::close(fd);
 }
 
-void writeAll(int fd, std::string_view bytes, const std::function<void()>& on_error) {
+// `name` is the output's, for the message of a signal that stops a write
+// blocked on a slow reader.
+void writeAll(int fd, std::string_view bytes, const std::string& name,
+              const std::function<void()>& on_error) {
   while (!bytes.empty()) {
     const ssize_t wrote = ::write(fd, bytes.data(), bytes.size());
-    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote < 0 && errno == EINTR) {
+      stopIfInterrupted("the write to " + name);
+      continue;
+    }
     if (wrote <= 0) {
       if (wrote == 0) errno = EIO;
       on_error();
     }
     bytes.remove_prefix(static_cast<std::size_t>(wrote));
   }
+}
+
+// A temporary's name: ".NAME.overlap-PID-XXXXXX", the PID its writer's, so a
+// later run can tell a dead writer's temporary from a live one's.
+constexpr std::string_view kTemporaryMark = ".overlap-";
+constexpr std::size_t kUniqueChars = 6;  // mkostemp's XXXXXX
+
+// The PID in a name of the temporaries' pattern, else 0.
+pid_t temporaryOwner(std::string_view name) {
+  if (name.size() < kUniqueChars + 1 || name[0] != '.') return 0;
+  const std::string_view unique = name.substr(name.size() - kUniqueChars);
+  const bool unique_ok = std::all_of(unique.begin(), unique.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0;
+  });
+  if (!unique_ok || name[name.size() - kUniqueChars - 1] != '-') return 0;
+  const std::string_view named =
+      name.substr(0, name.size() - kUniqueChars - 1);  // ".NAME.overlap-PID"
+  const std::size_t mark = named.rfind(kTemporaryMark);
+  if (mark == std::string_view::npos || mark < 2) return 0;  // "." and at least one character
+  const std::string_view pid = named.substr(mark + kTemporaryMark.size());
+  const bool pid_ok =
+      !pid.empty() && pid.size() <= 9 &&
+      std::all_of(pid.begin(), pid.end(), [](char c) { return c >= '0' && c <= '9'; });
+  return pid_ok ? static_cast<pid_t>(std::stoi(std::string(pid))) : 0;
+}
+
+// A temporary is stale when its writer is gone: no process has its PID
+// (ESRCH; a live process of another user answers EPERM and is kept) and no
+// one holds the lock every writer keeps on its temporary while it writes
+// (a writer in another PID namespace).
+bool staleTemporary(const fs::path& path, pid_t owner) {
+  if (owner == ::getpid() || ::kill(owner, 0) == 0 || errno != ESRCH) return false;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return false;
+  struct stat info {};
+  const bool stale = ::fstat(fd, &info) == 0 && S_ISREG(info.st_mode) &&
+                     info.st_uid == ::geteuid() && ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);
+  return stale;
+}
+
+// Removes, once per folder per process, the temporaries that dead writers
+// of this program left in `folder` (a run killed by SIGKILL or a second
+// signal).  Only names of the temporaries' pattern are looked at.
+void removeStaleTemporaries(const fs::path& folder) {
+  static std::mutex mutex;
+  static std::set<std::string> cleared;
+  std::error_code error;
+  const fs::path key = fs::weakly_canonical(folder, error);
+  {
+    const std::lock_guard lock(mutex);
+    if (!cleared.insert(key.string()).second) return;
+  }
+  for (fs::directory_iterator entry(folder, error), end; !error && entry != end;
+       entry.increment(error)) {
+    const pid_t owner = temporaryOwner(entry->path().filename().string());
+    if (owner > 0 && staleTemporary(entry->path(), owner)) ::unlink(entry->path().c_str());
+  }
+}
+
+// Opens a device, FIFO or socket to write through.  A FIFO without a reader
+// is waited for (saying so after a second, stopped by a signal), not opened
+// blocking: a blocking open() cannot be told apart from a hang.
+int openWrittenThrough(const fs::path& target, const fs::path& shown) {
+  int fd = -1;
+  waitUntil(
+      [&](int timeout_ms) {
+        fd = ::open(target.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+        if (fd >= 0 || errno != ENXIO) return true;  // ENXIO: a FIFO with no reader yet
+        ::poll(nullptr, 0, timeout_ms);
+        return false;
+      },
+      "waiting for a reader to open " + shown.string(),
+      "the wait for a reader of " + shown.string());
+  if (fd >= 0) ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  return fd;
 }
 
 // A manifest entry: a plain relative path that stays inside the folder.
@@ -108,16 +198,19 @@ OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLi
   const bool exists = ::stat(target_.c_str(), &info) == 0;
   if (exists && S_ISDIR(info.st_mode)) fail("is a directory, not a file");
   if (exists && !S_ISREG(info.st_mode)) {
-    fd_ = ::open(target_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    fd_ = openWrittenThrough(target_, path_);
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
     return;
   }
+  removeStaleTemporaries(folderOf(target_));
   std::string hidden = ".";  // appended, not "." + name: GCC 12 warns falsely (-Wrestrict)
   hidden += target_.filename().string();
-  hidden += ".overlap-XXXXXX";
+  hidden += kTemporaryMark;
+  hidden += std::to_string(::getpid()) + "-XXXXXX";
   std::string name = (folderOf(target_) / hidden).string();
   fd_ = ::mkostemp(name.data(), O_CLOEXEC);  // O_CREAT | O_EXCL: a name of its own
   if (fd_ < 0) fail("cannot create a temporary file beside it: " + lastError());
+  ::flock(fd_, LOCK_SH);  // while it is open, no other run takes it for stale
   temporary_ = name;
   // A replaced file keeps its permissions; a new one gets the umask's.
   ::fchmod(fd_, exists ? (info.st_mode & 07777) : newFileMode());
@@ -146,7 +239,7 @@ void OutputFile::fail(const std::string& what) const {
 
 void OutputFile::write(std::string_view bytes) {
   if (fd_ < 0) fail("written after it was finished");
-  writeAll(fd_, bytes, [this] { fail("cannot write: " + lastError()); });
+  writeAll(fd_, bytes, path_.string(), [this] { fail("cannot write: " + lastError()); });
 }
 
 void OutputFile::rewrite(std::uint64_t offset, std::string_view bytes) {
@@ -193,7 +286,7 @@ void writeFileAtomically(const fs::path& path, std::string_view contents) {
 }
 
 void writeStandardOutput(std::string_view bytes) {
-  writeAll(STDOUT_FILENO, bytes,
+  writeAll(STDOUT_FILENO, bytes, "standard output",
            [] { throw OutputError("standard output: cannot write: " + lastError()); });
 }
 

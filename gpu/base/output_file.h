@@ -4,14 +4,23 @@
 //     say why a path cannot be written (empty, a folder, an unwritable
 //     parent), so a command refuses it before it starts.
 //   * A regular file, or a name that does not exist yet, is written to a
-//     unique temporary ".<name>.overlap-XXXXXX" in the same folder, created
-//     exclusively (O_EXCL), then flushed, synced and renamed over the name:
-//     a reader sees the old file or the whole new one, and two writers of
-//     one name never share a temporary.  A symlink is followed: its target
-//     is replaced, the link stays a link.
+//     unique temporary ".<name>.overlap-<pid>-XXXXXX" in the same folder,
+//     created exclusively (O_EXCL) and locked (flock) while open, then
+//     flushed, synced and renamed over the name: a reader sees the old file
+//     or the whole new one, and two writers of one name never share a
+//     temporary.  A symlink is followed: its target is replaced, the link
+//     stays a link.
+//   * The first output opened in a folder removes the temporaries of that
+//     pattern that dead writers left there (a run killed by SIGKILL): the
+//     PID is no process's and no one holds the lock.  A live writer's
+//     temporary and every other name are left alone.
 //   * Anything else that exists (a device, a FIFO, a socket) is written
-//     through, never replaced by a regular file.
-//   * A write that fails (disk full, I/O error) throws OutputError naming
+//     through, never replaced by a regular file.  A FIFO without a reader is
+//     waited for through interrupt.h's waitUntil() (said after a second,
+//     stopped by a signal); a write blocked on a slow reader is stopped by a
+//     signal too (Interrupted).
+//   * A write that fails (disk full, I/O error, EPIPE from a reader that
+//     has gone: interrupt.h ignores SIGPIPE) throws OutputError naming
 //     the output; an output destroyed before it is published leaves nothing
 //     but what was there before (its temporary is removed).
 //   * OutputFolder keeps a folder of one run's outputs whole: everything is

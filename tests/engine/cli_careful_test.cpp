@@ -22,8 +22,6 @@
 
 #include "tests/engine/cli_test_support.h"
 
-extern char** environ;
-
 namespace {
 
 using namespace overlap::testing;
@@ -39,74 +37,6 @@ std::map<std::string, std::string> snapshot(const fs::path& folder) {
   }
   return files;
 }
-
-// A hidden ".NAME.overlap-XXXXXX" temporary left anywhere under `folder`.
-bool holdsTemporaries(const fs::path& folder) {
-  for (const auto& entry : fs::recursive_directory_iterator(folder)) {
-    const std::string name = entry.path().filename().string();
-    if (name.front() == '.' && name.find(".overlap-") != std::string::npos &&
-        name != ".overlap-outputs") {
-      return true;
-    }
-  }
-  return false;
-}
-
-// A shell command's stdout and exit code.
-std::string shellStdout(const std::string& command, int* exit_code) {
-  std::string output;
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    output.append(buffer, got);
-  }
-  *exit_code = WEXITSTATUS(pclose(pipe));
-  return output;
-}
-
-// `overlap ARGS` started in the background, stderr to a file.
-class Started {
- public:
-  Started(const std::string& args, fs::path err) : err_(std::move(err)) {
-    const std::string command =
-        "exec " + std::string(OVERLAP_BINARY) + " " + args + " > /dev/null 2> " + err_.string();
-    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
-    EXPECT_EQ(posix_spawn(&pid_, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ),
-              0);
-  }
-  ~Started() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-    fs::remove(err_);
-  }
-  // Waits (at most a minute) until stderr holds `text`; false if the process
-  // ended first.
-  bool waitFor(const std::string& text) {
-    for (int i = 0; i < 600; ++i) {
-      if (stderrText().find(text) != std::string::npos) return true;
-      if (::waitpid(pid_, &status_, WNOHANG) == pid_) {
-        pid_ = 0;
-        return stderrText().find(text) != std::string::npos;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    return false;
-  }
-  void signal(int number) const { ::kill(pid_, number); }
-  int wait() {
-    if (pid_ > 0) ::waitpid(pid_, &status_, 0);
-    pid_ = 0;
-    return status_;
-  }
-  std::string stderrText() const { return fileText(err_); }
-
- private:
-  fs::path err_;
-  pid_t pid_ = 0;
-  int status_ = 0;
-};
 
 class CarefulCliTest : public CliTest {
  protected:

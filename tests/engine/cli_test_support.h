@@ -2,17 +2,24 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <utility>
 
 #include "tests/scratch_path.h"
+
+extern char** environ;
 
 namespace overlap::testing {
 
@@ -78,5 +85,77 @@ inline std::string fileText(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), {}};
 }
+
+// A hidden ".NAME.overlap-PID-XXXXXX" temporary left anywhere under `folder`.
+inline bool holdsTemporaries(const std::filesystem::path& folder) {
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.front() == '.' && name.find(".overlap-") != std::string::npos &&
+        name != ".overlap-outputs") {
+      return true;
+    }
+  }
+  return false;
+}
+
+// A shell command's stdout and exit code.
+inline std::string shellStdout(const std::string& command, int* exit_code) {
+  std::string output;
+  FILE* pipe = popen(command.c_str(), "r");
+  char buffer[4096];
+  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
+    output.append(buffer, got);
+  }
+  *exit_code = WEXITSTATUS(pclose(pipe));
+  return output;
+}
+
+// A program started in the background, stderr to a file.
+class Started {
+ public:
+  // `binary` ARGS: the overlap binary unless another is named.
+  Started(const std::string& args, std::filesystem::path err,
+          const std::string& binary = OVERLAP_BINARY)
+      : err_(std::move(err)) {
+    const std::string command = "exec " + binary + " " + args + " > /dev/null 2> " + err_.string();
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    EXPECT_EQ(posix_spawn(&pid_, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ),
+              0);
+  }
+  ~Started() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    std::filesystem::remove(err_);
+  }
+  // Waits (at most a minute) until stderr holds `text`; false if the process
+  // ended first.
+  bool waitFor(const std::string& text) {
+    for (int i = 0; i < 600; ++i) {
+      if (stderrText().find(text) != std::string::npos) return true;
+      if (::waitpid(pid_, &status_, WNOHANG) == pid_) {
+        pid_ = 0;
+        return stderrText().find(text) != std::string::npos;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return false;
+  }
+  void signal(int number) const {
+    if (pid_ > 0) ::kill(pid_, number);  // never 0: that would signal the test too
+  }
+  int wait() {
+    if (pid_ > 0) ::waitpid(pid_, &status_, 0);
+    pid_ = 0;
+    return status_;
+  }
+  std::string stderrText() const { return fileText(err_); }
+
+ private:
+  std::filesystem::path err_;
+  pid_t pid_ = 0;
+  int status_ = 0;
+};
 
 }  // namespace overlap::testing

@@ -1,0 +1,90 @@
+#include "gpu/base/interrupt.h"
+
+#include <atomic>
+#include <cerrno>  // program_invocation_short_name
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <string>
+
+namespace overlap {
+namespace {
+
+std::atomic<int> received{0};
+static_assert(std::atomic<int>::is_always_lock_free, "the handler stores into it");
+
+extern "C" void onSignal(int signal_number) {
+  received.store(signal_number, std::memory_order_relaxed);
+}
+
+const char* signalName(int signal_number) {
+  switch (signal_number) {
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGHUP:
+      return "SIGHUP";
+    default:
+      return "a signal";
+  }
+}
+
+// A wait this long is said on stderr: shorter ones are a pipe's normal pace.
+constexpr auto kSilentWait = std::chrono::seconds(1);
+// The longest a wait goes without looking at the flag (a signal that lands
+// just before a blocking call is seen within this).
+constexpr int kCheckEveryMs = 100;
+
+}  // namespace
+
+Interrupted::Interrupted(int signal_number, const std::string& where)
+    : std::runtime_error(std::string(signalName(signal_number)) + " at " + where),
+      signal(signal_number) {}
+
+void catchInterrupts() {
+  struct sigaction action {};
+  action.sa_handler = onSignal;
+  sigemptyset(&action.sa_mask);
+  // No SA_RESTART: a blocking read, write or open returns EINTR, so the wait
+  // it was in sees the flag at once.
+  action.sa_flags = SA_RESETHAND;  // a second signal ends the process at once
+  for (const int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+    sigaction(signal_number, &action, nullptr);
+  }
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+int pendingInterrupt() {
+  return received.load(std::memory_order_relaxed);
+}
+
+void stopIfInterrupted(const std::string& where) {
+  if (const int signal_number = pendingInterrupt(); signal_number != 0) {
+    throw Interrupted(signal_number, where);
+  }
+}
+
+void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::string& waiting,
+               const std::string& where) {
+  const auto start = std::chrono::steady_clock::now();
+  bool said = false;
+  while (true) {
+    stopIfInterrupted(where);
+    if (ready(kCheckEveryMs)) return;
+    if (!said && std::chrono::steady_clock::now() - start >= kSilentWait) {
+      std::fprintf(stderr, "%s: %s\n", program_invocation_short_name, waiting.c_str());
+      said = true;
+    }
+  }
+}
+
+int reportInterrupted(const char* program, const Interrupted& stop) {
+  std::fprintf(stderr,
+               "%s: stopped by %s; kept nothing of this run: its temporaries are removed and the "
+               "outputs hold what they held before\n",
+               program, stop.what());
+  return 128 + stop.signal;
+}
+
+}  // namespace overlap

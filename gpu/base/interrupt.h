@@ -1,0 +1,55 @@
+// The one signal path (docs/CLI.md, "Signals").  SIGINT, SIGTERM and SIGHUP
+// only set a flag; every long loop calls stopIfInterrupted() at each frame
+// boundary, and every wait (a FIFO without its reader or writer, a pipe
+// whose writer stalls) goes through waitUntil(), which throws Interrupted.
+// Unwinding removes every temporary (output_file.h) and publishes nothing,
+// so the outputs hold what they held before; reportInterrupted() says so in
+// one line, and the program exits 128 + the signal (129, 130, 143).
+//
+// Rules:
+//   * A second signal ends the process at once (the handler is reset after
+//     the first): a stuck run can always be stopped; only hidden
+//     temporaries (".NAME.overlap-PID-XXXXXX") are then left beside the
+//     untouched outputs, and the next run writing into that folder removes
+//     them (output_file.h).
+//   * SIGPIPE is ignored: a write to a pipe or FIFO whose reader has gone
+//     fails with EPIPE like any failed write, so the writer names the output,
+//     removes its temporaries and exits 1 instead of dying silently.
+//   * The handlers only store the signal's number: nothing else is
+//     async-signal-safe to do there.
+#pragma once
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace overlap {
+
+// what(): the signal's name and where it stopped ("SIGINT at frame 12 of 300").
+struct Interrupted : std::runtime_error {
+  Interrupted(int signal_number, const std::string& where);
+  int signal;
+};
+
+// Installs the handlers for SIGINT, SIGTERM and SIGHUP and ignores SIGPIPE.
+void catchInterrupts();
+
+// The signal that arrived (SIGINT, SIGTERM, SIGHUP), or 0: a check cheap
+// enough for a timed loop, which then builds its `where` only when needed.
+int pendingInterrupt();
+
+// Throws Interrupted if a signal arrived; `where` ("frame 12 of 300") goes
+// into the message.
+void stopIfInterrupted(const std::string& where);
+
+// Waits until `ready(timeout_ms)` (which waits at most that long) says yes.
+// Between tries it stops for a signal (Interrupted at `where`), and once
+// the wait has passed a second it says on stderr, once, "PROGRAM: `waiting`".
+void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::string& waiting,
+               const std::string& where);
+
+// Prints the one "stopped by" line for `program` and returns the exit code,
+// 128 + the signal.
+int reportInterrupted(const char* program, const Interrupted& stop);
+
+}  // namespace overlap

@@ -1,0 +1,338 @@
+// Signals, pipes and temporaries (docs/CLI.md, "Signals", "Outputs"): each
+// test makes the mess one row of project issue 36's table describes, small
+// enough to run in a second or two, and checks what a careful user expects.
+// A FIFO stands in for a slow or vanished reader or writer.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/engine/cli_test_support.h"
+
+namespace {
+
+using namespace overlap::testing;
+namespace fs = std::filesystem;
+
+// A .aabbs stream of `frames` + 1 frames of the "line" scene: box i is
+// (0.5 i, 0, 0)-(0.5 i + 1, 1, 1), so i pairs with i + 1; `nan_last`
+// makes the last frame's object 1 have min.x NaN.
+std::string lineStream(int objects, int frames, bool nan_last = false) {
+  std::string bytes(304, '\0');
+  std::memcpy(bytes.data(), "line", 4);
+  std::memcpy(bytes.data() + 128, "box", 3);
+  const std::int32_t counts[4] = {objects, frames, 0, 0};
+  std::memcpy(bytes.data() + 256, counts, sizeof(counts));
+  const float world[8] = {-1, -1, -1, 0, 0.5f * static_cast<float>(objects) + 2, 2, 2, 0};
+  std::memcpy(bytes.data() + 272, world, sizeof(world));
+  for (int frame = 0; frame <= frames; ++frame) {
+    for (int i = 0; i < objects; ++i) {
+      const float x = 0.5f * static_cast<float>(i);
+      float box[8] = {x, 0, 0, 0, x + 1, 1, 1, 0};
+      if (nan_last && frame == frames && i == 1) box[0] = std::nanf("");
+      bytes.append(reinterpret_cast<const char*>(box), sizeof(box));
+    }
+  }
+  return bytes;
+}
+
+bool exitedWith(int status, int code) {
+  return WIFEXITED(status) && WEXITSTATUS(status) == code;
+}
+
+// A PID no process has: a child that has been waited for.
+pid_t deadPid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ::waitpid(child, nullptr, 0);
+  return child;
+}
+
+class SignalsCliTest : public CliTest {
+ protected:
+  void SetUp() override {
+    CliTest::SetUp();
+    fs::create_directories(out_);
+  }
+  fs::path write(const std::string& name, const std::string& bytes) {
+    std::ofstream(out_ / name, std::ios::binary) << bytes;
+    return out_ / name;
+  }
+  fs::path fifo(const std::string& name) {
+    const fs::path path = out_ / name;
+    EXPECT_EQ(::mkfifo(path.c_str(), 0600), 0);
+    return path;
+  }
+};
+
+// Row 2: generate stops at a frame boundary on SIGINT, and within a frame of
+// millions of substeps on SIGTERM; the old file is kept either way.
+TEST_F(SignalsCliTest, Row2GenerateStopsOnSignalsAndKeepsTheOldFile) {
+  const fs::path out = write("g.aabbs", "old\n");
+  const std::vector<std::tuple<std::string, int, int, std::string>> cases = {
+      {"--objects 200 --frames 1000000", SIGINT, 130, "overlap generate: "},
+      {"--gravity 1e6 --gravity-scale 1e6 --frame-time 1 --objects 200 --frames 20", SIGTERM, 143,
+       "the first frame still running"},
+  };
+  for (const auto& [args, signal_number, code, progress] : cases) {
+    Started generate("generate " + args + " --out " + out.string(), out_ / "err.txt");
+    ASSERT_TRUE(generate.waitFor(progress)) << generate.stderrText();
+    generate.signal(signal_number);
+    const int status = generate.wait();
+    EXPECT_TRUE(exitedWith(status, code)) << args << ": " << generate.stderrText();
+    EXPECT_NE(generate.stderrText().find("stopped by SIG"), std::string::npos)
+        << generate.stderrText();
+    EXPECT_EQ(fileText(out), "old\n") << args;
+    EXPECT_FALSE(holdsTemporaries(out_)) << args;
+  }
+}
+
+// Row 4: a FIFO whose reader goes away: exit 1 naming the output, every
+// temporary removed (not a silent death by SIGPIPE).
+TEST_F(SignalsCliTest, Row4AReaderThatLeavesEndsTheRunWithExit1) {
+  const fs::path wav = fifo("w.fifo");
+  const fs::path stream = fifo("s.fifo");
+  const std::vector<std::pair<std::string, fs::path>> cases = {
+      {"run --objects 100 --frames 30 --capture-every 2 --capture-size 32x24 --wav " +
+           wav.string() + " --out " + (out_ / "rf").string(),
+       wav},
+      {"generate --objects 2000 --frames 20 --out " + stream.string(), stream},
+  };
+  for (const auto& [args, output] : cases) {
+    std::thread reader([path = output] {
+      const int fd = ::open(path.c_str(), O_RDONLY);
+      char head[100];
+      for (std::size_t got = 0; got < sizeof(head);) {
+        const ssize_t read = ::read(fd, head + got, sizeof(head) - got);
+        if (read <= 0) break;
+        got += static_cast<std::size_t>(read);
+      }
+      ::close(fd);
+    });
+    const Result result = runOverlap(args);
+    reader.join();
+    EXPECT_EQ(result.exit_code, 1) << args << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(output.string() + ": cannot write: Broken pipe"),
+              std::string::npos)
+        << result.stderr_text;
+    EXPECT_FALSE(holdsTemporaries(out_)) << args;
+  }
+}
+
+// Row 5: SIGHUP stops a run like SIGTERM; a run clears the temporaries that
+// a killed run of the program left (dead writer), and nothing else: not a
+// live writer's, not a file of another pattern.
+TEST_F(SignalsCliTest, Row5SighupStopsARunAndStaleTemporariesAreCleared) {
+  const fs::path folder = out_ / "rk";
+  Started run("run --objects 100 --frames 100000 --capture-every 1 --capture-size 32x24 --out " +
+                  folder.string(),
+              out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("frames,")) << run.stderrText();
+  run.signal(SIGHUP);
+  const int status = run.wait();
+  EXPECT_TRUE(exitedWith(status, 129)) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("stopped by SIGHUP at frame "), std::string::npos)
+      << run.stderrText();
+  EXPECT_FALSE(holdsTemporaries(folder));
+
+  const std::string dead = std::to_string(deadPid());
+  const std::string live = std::to_string(::getpid());
+  const std::vector<std::string> stale = {
+      ".sound.wav.overlap-" + dead + "-a1B2c3",
+      "frames/.scene4_frame0000.png.overlap-" + dead + "-Zz9yY8",
+      "frames/.scene4_frame0400.png.overlap-" + dead + "-q1w2e3"};
+  const std::vector<std::string> kept = {
+      ".frames.csv.overlap-" + live + "-a1B2c3", ".notes.overlap-" + dead,
+      "notes.overlap-" + dead + "-abcdef", "frames/.mine.overlap-" + dead + "-abc"};
+  fs::create_directories(folder / "frames");
+  for (const std::string& name : stale) write("rk/" + name, "stale");
+  for (const std::string& name : kept) write("rk/" + name, "mine");
+  const Result next =
+      runOverlap("run --objects 50 --frames 2 --capture-every 1 --capture-size 32x24 --out " +
+                 folder.string());
+  EXPECT_EQ(next.exit_code, 0) << next.stderr_text;
+  for (const std::string& name : stale) EXPECT_FALSE(fs::exists(folder / name)) << name;
+  for (const std::string& name : kept) EXPECT_EQ(fileText(folder / name), "mine") << name;
+}
+
+// Row 6: memory bounds checked before allocating, exit 2 naming the input
+// or option and the memory it needs; generate writes as it goes (frame 0
+// arrives while later frames are still being made) and refuses a file its
+// disk cannot hold.
+TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
+  std::string huge = lineStream(2, 1).substr(0, 304 + 64);
+  const std::int32_t most = 2147483647;
+  std::memcpy(huge.data() + 256, &most, sizeof(most));
+  const fs::path header = write("huge.bin", huge);
+  const fs::path line = write("line5k.aabbs", lineStream(5000, 1));
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"cat " + header.string() + " | " + OVERLAP_BINARY +
+           " pairs --algo bf --max-memory 1000 --input /dev/stdin",
+       "--input /dev/stdin: a frame of 2147483647 boxes with --algo bf needs 68.7 GB, above the "
+       "memory limit 1.0 GB (--max-memory)"},
+      {std::string(OVERLAP_BINARY) + " pairs --algo cpubf --max-memory 1 --input " + line.string(),
+       "a frame of 5000 boxes with --algo cpubf needs 1.7 MB"},
+      {std::string(OVERLAP_BENCH_BINARY) +
+           " --algos cpubf --warmup 0 --repeats 1 --max-memory 1 "
+           "--input " +
+           line.string() + " --out " + (out_ / "b").string(),
+       "n=5000 with --algos cpubf needs 1.7 MB"},
+      {std::string(OVERLAP_BINARY) + " generate --objects 10000000 --frames 1000000 --out " +
+           (out_ / "g.aabbs").string(),
+       "g.aabbs: needs 320.0 TB, and its folder has"},
+  };
+  for (const auto& [command, message] : refused) {
+    const Result result = runCommand(command);
+    EXPECT_EQ(result.exit_code, 2) << command << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(message), std::string::npos) << result.stderr_text;
+  }
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+  EXPECT_FALSE(fs::exists(out_ / "g.aabbs"));
+
+  const fs::path stream = fifo("g.fifo");
+  Started generate("generate --objects 2000 --frames 1000000 --out " + stream.string(),
+                   out_ / "err.txt");
+  const int fd = ::open(stream.c_str(), O_RDONLY);
+  std::string frame0(304 + 2000 * 32, '\0');
+  std::size_t got = 0;
+  while (got < frame0.size()) {
+    const ssize_t read = ::read(fd, frame0.data() + got, frame0.size() - got);
+    if (read <= 0) break;
+    got += static_cast<std::size_t>(read);
+  }
+  EXPECT_EQ(got, frame0.size()) << "frame 0 arrives before the millionth frame is made";
+  generate.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(generate.wait(), 130)) << generate.stderrText();
+  ::close(fd);
+}
+
+// Row 7: cpusap on identical boxes (every pair overlaps): memory bounded per
+// pair, as docs/CLI.md states (about 120 bytes a pair; 250 allowed here).
+TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
+  std::string identical = lineStream(1000, 1);
+  for (std::size_t box = 304; box < identical.size(); box += 32) {
+    const float same[8] = {0, 0, 0, 0, 1, 1, 1, 0};
+    std::memcpy(identical.data() + box, same, sizeof(same));
+  }
+  const fs::path many = write("ident1k.aabbs", identical);
+  const fs::path few = write("line2.aabbs", lineStream(2, 1));
+  const auto peakBytes = [&](const fs::path& input) {
+    const std::string command = "exec " + std::string(OVERLAP_BINARY) +
+                                " pairs --algo cpusap --input " + input.string() + " > /dev/null";
+    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+    pid_t pid = 0;
+    EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+    int status = 0;
+    rusage usage{};
+    ::wait4(pid, &status, 0, &usage);
+    EXPECT_TRUE(exitedWith(status, 0));
+    return static_cast<double>(usage.ru_maxrss) * 1024;  // kB on Linux
+  };
+  const double pairs = 1000.0 * 999 / 2;
+  EXPECT_LT(peakBytes(many) - peakBytes(few), 250 * pairs);
+}
+
+// Row 16: sap32 on 30000 boxes shows progress while its first frame (n^2
+// insertions) runs, and a SIGINT stops it within that frame.
+TEST_F(SignalsCliTest, Row16ALongFirstFrameShowsProgressAndStopsOnSigint) {
+  const fs::path stream = out_ / "g30k.aabbs";
+  ASSERT_EQ(runOverlap("generate --objects 30000 --frames 1 --out " + stream.string()).exit_code,
+            0);
+  Started pairs("pairs --algo sap32 --input " + stream.string(), out_ / "err.txt");
+  ASSERT_TRUE(pairs.waitFor("overlap pairs: 0/2 frames")) << pairs.stderrText();
+  pairs.signal(SIGINT);
+  const int status = pairs.wait();
+  EXPECT_TRUE(exitedWith(status, 130)) << pairs.stderrText();
+  EXPECT_NE(pairs.stderrText().find("stopped by SIGINT at "), std::string::npos)
+      << pairs.stderrText();
+}
+
+// Row 17: from a pipe, the frames before a bad one are printed, then exit 2.
+TEST_F(SignalsCliTest, Row17APipeGetsTheFramesBeforeABadOne) {
+  const fs::path bad = write("badlast.aabbs", lineStream(2, 2, true));
+  int exit_code = -1;
+  const std::string piped = shellStdout(
+      "cat " + bad.string() + " | " + OVERLAP_BINARY + " pairs --algo bf --input /dev/stdin",
+      &exit_code);
+  EXPECT_EQ(exit_code, 2);
+  EXPECT_EQ(piped, "frame,a,b\n0,0,1\n1,0,1\n");
+  EXPECT_EQ(stdoutOf("pairs --algo bf --input " + bad.string(), &exit_code), "");
+  EXPECT_EQ(exit_code, 2);
+}
+
+// Row 18: a FIFO with no writer, a writer that stalls, a --wav FIFO with no
+// reader: each wait is said on stderr, and the first SIGINT ends it with
+// the "stopped by SIGINT" line and 130.
+TEST_F(SignalsCliTest, Row18WaitsOnFifosSayTheyWaitAndStopOnSigint) {
+  const fs::path input = fifo("in.fifo");
+  const std::string header = lineStream(4, 2).substr(0, 304 + 32);  // a header and one box
+  int writer = -1;
+  std::thread stalling([&] {
+    writer = ::open(input.c_str(), O_WRONLY);
+    ASSERT_EQ(::write(writer, header.data(), header.size()), static_cast<ssize_t>(header.size()));
+  });
+  Started pairs("pairs --algo bf --input " + input.string(), out_ / "pairs.txt");
+  stalling.join();
+  ASSERT_TRUE(pairs.waitFor("waiting for data on " + input.string())) << pairs.stderrText();
+  pairs.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(pairs.wait(), 130)) << pairs.stderrText();
+  EXPECT_NE(pairs.stderrText().find("stopped by SIGINT at frame 0 of 3"), std::string::npos)
+      << pairs.stderrText();
+  ::close(writer);
+
+  const fs::path wav = fifo("nobody.fifo");
+  Started run("run --objects 20 --frames 2 --capture-every 0 --wav " + wav.string() + " --out " +
+                  (out_ / "r").string(),
+              out_ / "run.txt");
+  ASSERT_TRUE(run.waitFor("waiting for a reader to open " + wav.string())) << run.stderrText();
+  run.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(run.wait(), 130)) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("stopped by SIGINT at the wait for a reader of"),
+            std::string::npos)
+      << run.stderrText();
+  EXPECT_FALSE(holdsTemporaries(out_));
+}
+
+// Row 19: stdout closed early (`| head`): exit 1 naming standard output,
+// not a silent death by SIGPIPE.
+TEST_F(SignalsCliTest, Row19AClosedStandardOutputExits1) {
+  const fs::path stream = write("line.aabbs", lineStream(20000, 1));  // 40000 rows
+  const Result result =
+      runCommand("bash -c '" + std::string(OVERLAP_BINARY) + " pairs --algo cpusap --input " +
+                 stream.string() + " | head -c 1 > /dev/null; exit ${PIPESTATUS[0]}'");
+  EXPECT_EQ(result.exit_code, 1) << result.stderr_text;
+  EXPECT_NE(result.stderr_text.find("standard output: cannot write: Broken pipe"),
+            std::string::npos)
+      << result.stderr_text;
+}
+
+// Row 21: the benchmark keeps the signal promise: the "stopped" line, 130,
+// nothing written.
+TEST_F(SignalsCliTest, Row21TheBenchmarkStopsOnSigint) {
+  const fs::path stream = write("s.aabbs", lineStream(200, 8));
+  Started bench("--input " + stream.string() + " --algos bf --warmup 0 --repeats 1000 --out " +
+                    (out_ / "b").string(),
+                out_ / "err.txt", OVERLAP_BENCH_BINARY);
+  ASSERT_TRUE(bench.waitFor("repeat 1/")) << bench.stderrText();
+  bench.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(bench.wait(), 130)) << bench.stderrText();
+  EXPECT_NE(bench.stderrText().find("overlap_bench_broadphase: stopped by SIGINT at n=200"),
+            std::string::npos)
+      << bench.stderrText();
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+  EXPECT_FALSE(holdsTemporaries(out_));
+}
+
+}  // namespace
