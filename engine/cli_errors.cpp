@@ -1,7 +1,5 @@
 #include "engine/cli_errors.h"
 
-#include "gpu/base/output_file.h"
-
 namespace overlap::engine {
 namespace {
 
@@ -19,6 +17,28 @@ void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view o
 
 void prepareOutputFile(const std::filesystem::path& file, std::string_view option) {
   if (const std::string problem = outputFileProblem(file); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
+  }
+}
+
+std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
+                                                      const std::vector<std::string>& suffixes,
+                                                      std::string_view option) {
+  if (const std::string problem = outputNameProblem(prefix); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) + ": " + problem);
+  }
+  std::vector<std::filesystem::path> files;
+  for (const std::string& suffix : suffixes) {
+    files.push_back(prefix);
+    files.back() += suffix;
+    prepareOutputFile(files.back(), option);
+  }
+  return files;
+}
+
+void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
+                   std::string_view option) {
+  if (const std::string problem = outputs.declare(file); !problem.empty()) {
     throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
   }
 }

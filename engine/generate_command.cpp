@@ -11,6 +11,7 @@
 #include "engine/number_options.h"
 #include "engine/scene_options.h"
 #include "engine/stream_generator.h"
+#include "engine/wording.h"
 #include "physics/aabb_stream.h"
 
 namespace overlap::engine {
@@ -37,9 +38,9 @@ void generate(const GenerateOptions& options) {
   physics::writeAabbStream(options.out, stream);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::fprintf(stderr,
-               "overlap generate: wrote %s (%d objects, the start and %d frames) in %.1f s\n",
-               options.out.string().c_str(), stream.objects, stream.stored_frames - 1, seconds);
+  std::fprintf(stderr, "overlap generate: wrote %s (%s, the start and %s) in %.1f s\n",
+               options.out.string().c_str(), counted(stream.objects, "object").c_str(),
+               counted(stream.stored_frames - 1, "frame").c_str(), seconds);
 }
 
 }  // namespace

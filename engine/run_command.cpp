@@ -25,6 +25,7 @@
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/task_load.h"
+#include "engine/wording.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/world.h"
@@ -282,20 +283,22 @@ void refuseConflicts(const RunOptions& options) {
   }
 }
 
-// Every output the run will write, checked before any work: a name that is
-// a folder, or a folder that cannot be written, is a UsageError.
-void checkOutputs(const RunOptions& options, const physics::SceneConfig& config) {
+// Every output the run will write, declared before any work: a name that is
+// a folder, a folder that cannot be written, or two outputs that are one
+// file is a UsageError.
+void declareOutputs(OutputFolder& outputs, const RunOptions& options,
+                    const physics::SceneConfig& config) {
   prepareOutputDirectory(options.out, "--out");
   for (const char* name : {"frames.csv", "summary.json", "timeline.json"}) {
-    prepareOutputFile(options.out / name, "--out");
+    declareOutput(outputs, options.out / name, "--out");
   }
-  if (options.wav_file) prepareOutputFile(*options.wav_file, options.wav ? "--wav" : "--out");
   if (*options.capture_every > 0) {
     prepareOutputDirectory(options.out / "frames", "--out");
     for (int frame = 0; frame < options.frames; frame += *options.capture_every) {
-      prepareOutputFile(options.out / "frames" / pngName(config.scene, frame), "--out");
+      declareOutput(outputs, options.out / "frames" / pngName(config.scene, frame), "--out");
     }
   }
+  if (options.wav_file) declareOutput(outputs, *options.wav_file, options.wav ? "--wav" : "--out");
 }
 
 // The closing line: every file the run wrote, where.
@@ -307,7 +310,7 @@ std::string writtenLine(const std::filesystem::path& out,
                      " (open in https://ui.perfetto.dev)";
   if (wav) line += ", " + wav->string();
   if (camera != nullptr && !camera->written().empty()) {
-    line += ", " + std::to_string(camera->written().size()) + " PNGs in " +
+    line += ", " + counted(static_cast<long long>(camera->written().size()), "PNG") + " in " +
             camera->written().front().parent_path().string() + " (" +
             camera->written().front().filename().string() + " to " +
             camera->written().back().filename().string() + ")";
@@ -327,9 +330,9 @@ void run(const RunOptions& given) {
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string("task options: ") + error.what());
   }
-  checkOutputs(options, config);
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(options.out);
+  declareOutputs(outputs, options, config);
   if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
   std::optional<TaskLoadCalibration> calibration;
   if (options.task_load && options.scheduler.tasks) {

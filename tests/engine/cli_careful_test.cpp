@@ -52,18 +52,6 @@ bool holdsTemporaries(const fs::path& folder) {
   return false;
 }
 
-// A shell command's stdout and exit code.
-std::string shellStdout(const std::string& command, int* exit_code) {
-  std::string output;
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    output.append(buffer, got);
-  }
-  *exit_code = WEXITSTATUS(pclose(pipe));
-  return output;
-}
-
 // `overlap ARGS` started in the background, stderr to a file.
 class Started {
  public:

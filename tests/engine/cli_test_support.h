@@ -62,16 +62,21 @@ class CliTest : public ::testing::Test {
   std::filesystem::path out_;
 };
 
-// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
-inline std::string stdoutOf(const std::string& args, int* exit_code) {
+// A shell command's stdout and exit code.
+inline std::string shellStdout(const std::string& command, int* exit_code) {
   std::string output;
-  FILE* pipe = popen((std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
+  FILE* pipe = popen(command.c_str(), "r");
   char buffer[4096];
   for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
     output.append(buffer, got);
   }
   *exit_code = WEXITSTATUS(pclose(pipe));
   return output;
+}
+
+// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
+inline std::string stdoutOf(const std::string& args, int* exit_code) {
+  return shellStdout(std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null", exit_code);
 }
 
 inline std::string fileText(const std::filesystem::path& path) {
