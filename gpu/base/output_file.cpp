@@ -236,7 +236,13 @@ OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLi
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
     return;
   }
-  std::error_code error;  // the checks before any work created no folder
+  // The checks before any work created no folder: the first output made
+  // there does, and removes them again if it is never published.
+  std::error_code error;
+  for (fs::path folder = folderOf(target_); !folder.empty() && !fs::exists(folder, error);
+       folder = folder.parent_path()) {
+    created_folders_.push_back(folder);  // deepest first
+  }
   fs::create_directories(folderOf(target_), error);
   if (error) fail("cannot create its folder: " + error.message());
   std::string name = temporaryPattern(target_);
@@ -253,15 +259,19 @@ OutputFile::OutputFile(OutputFile&& other) noexcept
       temporary_(std::move(other.temporary_)),
       fd_(other.fd_),
       finished_(other.finished_),
-      published_(other.published_) {
+      published_(other.published_),
+      created_folders_(std::move(other.created_folders_)) {
   other.fd_ = -1;
   other.temporary_.clear();
   other.published_ = true;
+  other.created_folders_.clear();
 }
 
 OutputFile::~OutputFile() {
   if (fd_ >= 0) ::close(fd_);
-  if (!published_ && !temporary_.empty()) ::unlink(temporary_.c_str());
+  if (published_) return;
+  if (!temporary_.empty()) ::unlink(temporary_.c_str());
+  for (const fs::path& folder : created_folders_) ::rmdir(folder.c_str());  // only if empty
 }
 
 void OutputFile::fail(const std::string& what) const {
@@ -319,6 +329,11 @@ void writeFileAtomically(const fs::path& path, std::string_view contents) {
 void writeStandardOutput(std::string_view bytes) {
   writeAll(STDOUT_FILENO, bytes,
            [] { throw OutputError("standard output: cannot write: " + lastError()); });
+}
+
+OutputFolder::~OutputFolder() {
+  // Last opened first: a folder an earlier output made is empty by its turn.
+  while (!files_.empty()) files_.pop_back();
 }
 
 OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {

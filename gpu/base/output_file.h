@@ -16,7 +16,8 @@
 //     through, never replaced by a regular file.
 //   * A write that fails (disk full, I/O error) throws OutputError naming
 //     the output; an output destroyed before it is published leaves nothing
-//     but what was there before (its temporary is removed).
+//     but what was there before (its temporary, and the folders made for
+//     it, are removed).
 //   * OutputFolder keeps a folder of one run's outputs whole: everything is
 //     published together at commit(), and the files the previous run listed
 //     in the folder's manifest and this run does not write are removed.
@@ -105,6 +106,7 @@ class OutputFile {
   int fd_ = -1;
   bool finished_ = false;
   bool published_ = false;
+  std::vector<std::filesystem::path> created_folders_;  // made for it, removed unless published
 };
 
 // Writes `contents` as the whole of `path` through an OutputFile.
@@ -127,6 +129,9 @@ class OutputFolder {
 
   // Creates nothing: a missing folder is made when the first output opens.
   explicit OutputFolder(std::filesystem::path folder);
+  ~OutputFolder();  // what was never published leaves nothing, folders made for it included
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
 
   const std::filesystem::path& folder() const { return folder_; }
   // Before any work, each output the run will write: empty when `path` can

@@ -40,8 +40,10 @@ std::map<std::string, std::string> snapshot(const fs::path& folder) {
   return files;
 }
 
-// A hidden ".NAME.overlap-XXXXXX" temporary left anywhere under `folder`.
+// A hidden ".NAME.overlap-XXXXXX" temporary left anywhere under `folder`
+// (none when a stopped run left no folder at all).
 bool holdsTemporaries(const fs::path& folder) {
+  if (!fs::exists(folder)) return false;
   for (const auto& entry : fs::recursive_directory_iterator(folder)) {
     const std::string name = entry.path().filename().string();
     if (name.front() == '.' && name.find(".overlap-") != std::string::npos &&

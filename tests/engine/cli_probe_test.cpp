@@ -178,6 +178,9 @@ TEST_F(ProbeCliTest, Row9OutputsAreCheckedBeforeAnyWorkAndLegalNamesWritten) {
       {"run --objects 20 --frames 2 --out " + (out_ / "newdir" / "run").string() + " --wav " +
            (out_ / "newdir" / "w").string() + "/",
        "--wav"},
+      {"run --objects 20 --frames 2 --capture-size 010x010 --out " +
+           (out_ / "newdir" / "run").string(),
+       "--capture-size"},
   };
   for (const auto& [args, message] : bad) expectRefused(runOverlap(args), args, message);
   const std::string bench =

@@ -62,6 +62,12 @@ TEST_F(OutputFileTest, AnUnpublishedOutputLeavesNothing) {
     file.write("lost");
   }
   EXPECT_EQ(entries(folder_), 0);
+  {
+    OutputFolder run(folder_ / "new" / "run");
+    run.open(folder_ / "new" / "run" / "a.txt").write("lost");
+    run.open(folder_ / "new" / "run" / "frames" / "b.png").write("lost");
+  }
+  EXPECT_EQ(entries(folder_), 0);  // the folders made for them too
 }
 
 TEST_F(OutputFileTest, SymlinksAreFollowedAndFifosWrittenThrough) {
