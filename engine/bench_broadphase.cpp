@@ -29,6 +29,10 @@
 // adds, for each share s, rows in which about s of the boxes are destroyed
 // and s created every frame (engine/bench_replay.h); --stream-stats prints
 // what each input asks of a broadphase (engine/stream_statistics.h) and stops.
+// Before any work, every input (header, size, boxes, frames against
+// --warmup, boxes against the algorithms and --churn) and both outputs are
+// checked: a bad one exits 2 naming it (docs/CLI.md).  The command line
+// itself is engine/bench_options.h's.
 // Our broadphases' frames are split into update (setAabb), sort, sweep,
 // delta and Bullet's pair-cache update.
 #include <CLI/CLI.hpp>
@@ -38,21 +42,24 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "engine/bench_options.h"
 #include "engine/bench_replay.h"
 #include "engine/cli_errors.h"
+#include "engine/csv.h"
 #include "engine/machine_info.h"
 #include "engine/memory_bound.h"
-#include "engine/number_options.h"
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/statistics.h"
 #include "engine/stream_statistics.h"
+#include "engine/wording.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
@@ -68,33 +75,13 @@ using physics::PairList;
 constexpr const char* kProgram = "overlap_bench_broadphase";
 constexpr int kScene = 4;
 
-struct BenchOptions {
-  std::vector<int> objects{500, 1250, 2000, 2750, 3500};
-  std::vector<std::string> algorithms{"bf",     "sap",   "bvh",        "cpubf",
-                                      "cpusap", "gpubf", "gpubf-paper"};
-  std::vector<int> big_objects{10000, 30000, 100000};
-  std::vector<std::string> big_algorithms{"bvh", "cpubf", "cpusap", "gpubf"};
-  std::filesystem::path streams = "out/streams";
-  std::filesystem::path out = "out/broadphase";
-  std::uint64_t seed = 42;
-  int record_frames = 64;
-  int big_record_frames = 64;
-  int warmup = 8;
-  int repeats = 5;
-  bool record_only = false;
-  std::vector<std::filesystem::path> inputs;
-  bool grid_check = false;
-  std::vector<double> churn;
-  bool stream_stats = false;
-  std::uint64_t max_memory_mb = 0;  // 0: engine/memory_bound.h's default
-};
-
 // One n of the run: its stream's length and the algorithms measured on it.
 struct Workload {
   int objects;
   int record_frames;
-  std::vector<std::string> algorithms;  // in broadphaseNames() order
-  std::filesystem::path input;          // empty: the recorded scene-4 stream
+  std::vector<std::string> algorithms;        // in broadphaseNames() order
+  std::filesystem::path input;                // empty: the recorded scene-4 stream
+  std::shared_ptr<physics::AabbStream> read;  // an --input without a size, read while checked
 };
 
 bool isExact(std::string_view algorithm) {
@@ -107,6 +94,24 @@ std::vector<std::string> inNameOrder(const std::set<std::string>& algorithms) {
     if (algorithms.contains(std::string(name))) ordered.emplace_back(name);
   }
   return ordered;
+}
+
+// Throws UsageError when a workload of `objects` boxes and `measured`
+// frames cannot run as asked: an algorithm that cannot hold the boxes, a
+// --churn share that would churn no box (fewer than one expected over the
+// measured frames).
+void checkWorkloadSize(const BenchOptions& options, const std::vector<std::string>& algorithms,
+                       int objects, int measured, const std::string& where) {
+  for (const std::string& algorithm : algorithms) {
+    checkBroadphaseCapacity("--algos", algorithm, objects);
+  }
+  for (const double churn : options.churn) {
+    if (churn * objects * measured < 1) {
+      throw UsageError("--churn " + exactNumber(churn) + ": churns no box of " +
+                       std::to_string(objects) + " over " + std::to_string(measured) +
+                       " measured frames" + where + " (share x boxes x frames is below 1)");
+    }
+  }
 }
 
 // The run's workloads, GPU algorithms dropped (with `skipped` set) when no
@@ -141,13 +146,17 @@ std::vector<Workload> planWorkloads(const BenchOptions& options, std::string& sk
                          std::to_string(record_frames) +
                          " + 1 to measure at n = " + std::to_string(n));
       }
-      by_objects.emplace(n, Workload{n, record_frames, runnable(algorithms), {}});
+      if (!options.record_only && !options.stream_stats) {
+        checkWorkloadSize(options, algorithms, n, record_frames + 1 - options.warmup,
+                          " at n = " + std::to_string(n));
+      }
+      by_objects.emplace(n, Workload{n, record_frames, runnable(algorithms), {}, {}});
     }
   };
   if (!options.inputs.empty()) {
     std::vector<Workload> inputs;
     for (const std::filesystem::path& input : options.inputs) {
-      inputs.push_back(Workload{0, 0, runnable(options.algorithms), input});
+      inputs.push_back(Workload{0, 0, runnable(options.algorithms), input, {}});
     }
     if (!dropped.empty()) {
       skipped = "skipped " + CLI::detail::join(inNameOrder(dropped), ", ") + ": " + why;
@@ -227,7 +236,7 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
       replaying.finish();
       char figure[96];
       std::snprintf(figure, sizeof(figure), " %s%s %.1f us", row->algorithm.c_str(),
-                    row->churn > 0 ? (" churn " + fixed(row->churn, 3)).c_str() : "",
+                    row->churn > 0 ? (" churn " + exactNumber(row->churn)).c_str() : "",
                     row->repeat_medians_us.back());
       line += figure;
     }
@@ -252,10 +261,10 @@ std::vector<std::string> failures(const std::vector<Row>& rows) {
   for (const Row& row : rows) {
     std::string where = row.algorithm + " at n=" + std::to_string(row.objects);
     if (!row.stream.empty()) where += " (" + row.stream + ")";
-    if (row.churn > 0) where += " with churn " + fixed(row.churn, 3);
+    if (row.churn > 0) where += " with churn " + exactNumber(row.churn);
     if (isExact(row.algorithm) && row.mismatched_frames > 0) {
       found.push_back(where + ": pair cache differs from " + *row.reference + "'s on " +
-                      std::to_string(row.mismatched_frames) + " frames");
+                      counted(row.mismatched_frames, "frame"));
     } else if (row.missed > 0) {
       found.push_back(where + ": missed " + std::to_string(row.missed) + " overlapping pairs");
     }
@@ -265,8 +274,8 @@ std::vector<std::string> failures(const std::vector<Row>& rows) {
 
 std::string csvText(const std::vector<Row>& rows, const std::string& command,
                     const std::vector<std::string>& notes) {
-  std::string csv = "# " + machineSummary() + "; command: " + command + '\n';
-  for (const std::string& note : notes) csv += "# " + note + '\n';
+  std::string csv = csvComment(machineSummary() + "; command: " + command);
+  for (const std::string& note : notes) csv += csvComment(note);
   csv +=
       "n,algorithm,frames,repeats,median_us,min_us,max_us,ratio_vs_bvh,pairs_mean,"
       "extra_pairs_mean,missed_pairs,stream,churn,update_us,sort_us,sweep_us,delta_us,cache_us,"
@@ -277,13 +286,13 @@ std::string csvText(const std::vector<Row>& rows, const std::string& command,
     const auto [fastest, slowest] =
         std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
     const bool checked = row.checked();
-    csv += std::to_string(row.objects) + ',' + row.algorithm + ',' + std::to_string(row.frames) +
-           ',' + std::to_string(row.repeats()) + ',' + fixed(row.medianUs(), 1) + ',' +
-           fixed(*fastest, 1) + ',' + fixed(*slowest, 1) + ',' +
+    csv += std::to_string(row.objects) + ',' + csvField(row.algorithm) + ',' +
+           std::to_string(row.frames) + ',' + std::to_string(row.repeats()) + ',' +
+           fixed(row.medianUs(), 1) + ',' + fixed(*fastest, 1) + ',' + fixed(*slowest, 1) + ',' +
            (row.ratio_vs_bvh ? fixed(*row.ratio_vs_bvh, 3) : "") + ',' + fixed(row.pairsMean(), 1) +
            ',' + (checked ? fixed(row.extraMean(), 1) : "") + ',' +
-           (checked ? std::to_string(row.missed) : "") + ',' + row.stream + ',' +
-           fixed(row.churn, 3) + ',' + fixed(median(row.update_us), 1);
+           (checked ? std::to_string(row.missed) : "") + ',' + csvField(row.stream) + ',' +
+           exactNumber(row.churn) + ',' + fixed(median(row.update_us), 1);
     for (const auto* phase : {&row.sort_us, &row.sweep_us, &row.delta_us, &row.cache_us}) {
       csv += ',' + (row.hasPhases() ? fixed(median(*phase), 1) : "");
     }
@@ -332,77 +341,6 @@ nlohmann::json withDeviceColumns(const Row& row, nlohmann::json json) {
         row.hasDeviceWork() ? nlohmann::json(row.deviceMedian(column)) : nlohmann::json(nullptr);
   }
   return json;
-}
-
-// The command line as it reruns from the repository's top: the executable as
-// the build puts it (build/overlap_bench_broadphase), not this machine's path.
-std::string quotedCommand(int argc, char** argv) {
-  std::string command;
-  for (int i = 0; i < argc; ++i) {
-    const std::string argument =
-        i == 0 ? "build/" + std::filesystem::path(argv[0]).filename().string() : argv[i];
-    if (i > 0) command += ' ';
-    const bool plain =
-        !argument.empty() && argument.find_first_of(" \t\"'$\\") == std::string::npos;
-    command += plain ? argument : '\'' + argument + '\'';
-  }
-  return command;
-}
-
-void addOptions(CLI::App& app, BenchOptions& options) {
-  app.add_option("--objects,-n", options.objects, "box counts for --algos (0: none)")
-      ->delimiter(',')
-      ->check(wholeNumberIn(0, kMostObjects))
-      ->capture_default_str();
-  app.add_option("--algos", options.algorithms, "broadphases run at each of --objects")
-      ->delimiter(',')
-      ->check(broadphaseNameCheck())
-      ->capture_default_str();
-  app.add_option("--big-objects", options.big_objects, "box counts for --big-algos (0: none)")
-      ->delimiter(',')
-      ->check(wholeNumberIn(0, kMostObjects))
-      ->capture_default_str();
-  app.add_option("--big-algos", options.big_algorithms, "broadphases run at each of --big-objects")
-      ->delimiter(',')
-      ->check(broadphaseNameCheck())
-      ->capture_default_str();
-  app.add_option("--streams", options.streams, "folder of cached .aabbs streams")
-      ->capture_default_str();
-  app.add_option("--out", options.out, "results: OUT.csv and OUT.json")->capture_default_str();
-  app.add_option("--seed", options.seed, "scene 4's seed")
-      ->check(seedNumber())
-      ->capture_default_str();
-  app.add_option("--record-frames", options.record_frames,
-                 "frames of each --objects stream (F; F + 1 are replayed)")
-      ->check(wholeNumberIn(1, 100'000))
-      ->capture_default_str();
-  app.add_option("--big-record-frames", options.big_record_frames,
-                 "frames of each --big-objects stream")
-      ->check(wholeNumberIn(1, 100'000))
-      ->capture_default_str();
-  app.add_option("--warmup", options.warmup, "first replayed frames left out of the figures")
-      ->check(wholeNumberIn(0, 100'000))
-      ->capture_default_str();
-  app.add_option("--repeats", options.repeats, "replays of each stream per algorithm")
-      ->check(wholeNumberIn(1, 1000))
-      ->capture_default_str();
-  app.add_flag("--record-only", options.record_only,
-               "record the missing streams and stop (to record several n in parallel)");
-  app.add_option("--input", options.inputs,
-                 ".aabbs streams to replay with every --algos algorithm, instead of the recorded "
-                 "scene-4 ones (--objects, --big-objects and --streams are then not used)")
-      ->check(CLI::ExistingFile);
-  app.add_flag("--grid-check", options.grid_check,
-               "check every frame against the grid checker's exact pairs (fit for 10^6 boxes)");
-  app.add_option("--churn", options.churn,
-                 "also replay with this share of the boxes destroyed and as many created every "
-                 "frame (e.g. 0.01,0.1)")
-      ->delimiter(',')
-      ->check(realNumberIn(0.0, 0.25, true));
-  addMaxMemoryOption(app, options.max_memory_mb);
-  app.add_flag("--stream-stats", options.stream_stats,
-               "print each --input's pairs per box, pairs changed and boxes moved per frame "
-               "(after --warmup), and stop");
 }
 
 // What the CSV's columns mean, for its header comment and the JSON.
@@ -456,38 +394,78 @@ CachedStream workloadStream(const Workload& workload, const BenchOptions& option
   cached.path = workload.input;
   const Clock::time_point start = Clock::now();
   try {
-    cached.stream = physics::readAabbStream(workload.input);
+    cached.stream =
+        workload.read ? std::move(*workload.read) : physics::readAabbStream(workload.input);
   } catch (const physics::AabbStreamError& error) {
     throw UsageError(std::string("--input: ") + error.what());
   }
   cached.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  if (options.warmup >= cached.stream.stored_frames) {
-    throw UsageError("--warmup " + std::to_string(options.warmup) + ": leaves no frame of " +
-                     workload.input.string() + "'s " + std::to_string(cached.stream.stored_frames) +
-                     " to measure");
-  }
   return cached;
+}
+
+// Every --input checked before the first is measured: its header and size,
+// every box, its frames against --warmup, its boxes against each algorithm
+// and --churn.  A file is read through once here and again when measured; a
+// stream without a size (a pipe) cannot be read twice, so it is kept.
+void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) {
+  for (Workload& workload : workloads) {
+    if (workload.input.empty()) continue;
+    physics::AabbStreamHeader header;
+    try {
+      physics::AabbStreamReader reader(workload.input);
+      if (reader.sized()) {
+        reader.checkAll();
+        header = reader.header();
+      } else {
+        workload.read =
+            std::make_shared<physics::AabbStream>(physics::readAabbStream(workload.input));
+        header = *workload.read;
+      }
+    } catch (const physics::AabbStreamError& error) {
+      throw UsageError(std::string("--input: ") + error.what());
+    }
+    const std::string where = " (--input " + workload.input.string() + ")";
+    if (options.warmup >= header.stored_frames) {
+      throw UsageError("--warmup " + std::to_string(options.warmup) + ": leaves no frame of " +
+                       workload.input.string() + "'s " + std::to_string(header.stored_frames) +
+                       " to measure");
+    }
+    if (options.stream_stats) continue;
+    checkWorkloadSize(options, workload.algorithms, header.objects,
+                      header.stored_frames - options.warmup, where);
+  }
 }
 
 void printStreamStatistics(const CachedStream& cached, int warmup) {
   const StreamStatistics statistics = measureStream(cached.stream, std::max(1, warmup));
+  // A share of no pairs is no figure: n/a, and a mean over fewer frames says so.
+  std::string changed = "n/a (no frame has pairs)";
+  if (statistics.frames_with_pairs > 0) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.4f", statistics.changed_pairs);
+    changed = text;
+    if (statistics.frames_with_pairs < statistics.frames) {
+      changed +=
+          " (over the " + std::to_string(statistics.frames_with_pairs) + " frames with pairs)";
+    }
+  }
   std::printf(
-      "%s: n=%d, frames %d-%d: pairs per box %.3f, pairs changed per frame %.4f, boxes moving "
+      "%s: n=%d, frames %d-%d: pairs per box %.3f, pairs changed per frame %s, boxes moving "
       "per frame %.4f (last frame: %.3f pairs per box, %.4f moving)\n",
       cached.path.c_str(), cached.stream.objects, cached.stream.stored_frames - statistics.frames,
-      cached.stream.stored_frames - 1, statistics.pairs_per_box, statistics.changed_pairs,
+      cached.stream.stored_frames - 1, statistics.pairs_per_box, changed.c_str(),
       statistics.moving_boxes, statistics.last_pairs_per_box, statistics.last_moving_boxes);
 }
 
 int run(const BenchOptions& options, const std::string& command) {
   std::string skipped;
-  const std::vector<Workload> workloads = planWorkloads(options, skipped);
-  if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
+  std::vector<Workload> workloads = planWorkloads(options, skipped);
+  std::vector<std::filesystem::path> outputs;
   if (!options.record_only && !options.stream_stats) {
-    prepareOutputDirectory(
-        options.out.has_parent_path() ? options.out.parent_path() : std::filesystem::path("."),
-        "--out");
+    outputs = prepareOutputFiles(options.out, {".csv", ".json"}, "--out");
   }
+  if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
+  checkInputs(workloads, options);
   if (!skipped.empty() && !options.record_only) {
     std::fprintf(stderr, "%s: %s\n", kProgram, skipped.c_str());
   }
@@ -528,9 +506,8 @@ int run(const BenchOptions& options, const std::string& command) {
       {"run_seconds", std::chrono::duration<double>(Clock::now() - start).count()},
       {"rows", nlohmann::json::array()}};
   for (const Row& row : rows) json["rows"].push_back(withDeviceColumns(row, rowJson(row)));
-  std::filesystem::path csv_path = options.out, json_path = options.out;
-  csv_path += ".csv";
-  json_path += ".json";
+  const std::filesystem::path& csv_path = outputs[0];
+  const std::filesystem::path& json_path = outputs[1];
   writeFileAtomically(csv_path, csvText(rows, command, notes));
   writeFileAtomically(json_path, json.dump(2) + '\n');
   std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
@@ -554,10 +531,11 @@ int main(int argc, char** argv) {
       "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
       "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
   BenchOptions options;
-  addOptions(app, options);
+  addBenchOptions(app, options);
   overlap::catchInterrupts();
   try {
     app.parse(argc, argv);
+    refuseIgnoredOptions(app);
     return run(options, quotedCommand(argc, argv));
   } catch (const CLI::CallForHelp& help) {
     return app.exit(help);

@@ -7,11 +7,13 @@
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
 #include "engine/frame_capture.h"
-#include "gpu/base/interrupt.h"
+#include "engine/list_options.h"
+#include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
-#include "render/capture_options.h"
+#include "engine/wording.h"
+#include "gpu/base/interrupt.h"
 
 namespace overlap::engine {
 namespace {
@@ -19,7 +21,7 @@ namespace {
 struct CaptureOptions {
   SceneOptions scene;
   std::string algorithm;
-  std::string keyframes = "0,512,1024,2047";
+  std::vector<int> keyframes = {0, 512, 1024, 2047};
   std::string size = "800x600";
   std::string colour = "size";
   PhysicsOptions physics;
@@ -34,22 +36,13 @@ render::ColourMode parseColourMode(const std::string& text) {
 
 void capture(const CaptureOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  std::vector<int> keyframes;
-  try {
-    keyframes = render::parseFrameList(options.keyframes);
-  } catch (const std::runtime_error& error) {
-    throw UsageError(std::string("--keyframes: ") + error.what());
-  }
-  if (keyframes.empty()) throw UsageError("--keyframes: no frames given");
-  if (keyframes.back() > kMostFrames) {
-    throw UsageError("--keyframes: frame " + std::to_string(keyframes.back()) +
-                     " must be at most " + std::to_string(kMostFrames));
-  }
+  std::vector<int> keyframes = options.keyframes;
+  std::sort(keyframes.begin(), keyframes.end());
   prepareOutputDirectory(options.out, "--out");
-  for (const int frame : keyframes)
-    prepareOutputFile(options.out / pngName(config.scene, frame), "--out");
-
   OutputFolder outputs(options.out);
+  for (const int frame : keyframes) {
+    declareOutput(outputs, options.out / pngName(config.scene, frame), "--out");
+  }
   const std::unique_ptr<FrameCapture> camera =
       openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
   const std::unique_ptr<physics::PhysicsWorld> world =
@@ -68,7 +61,8 @@ void capture(const CaptureOptions& options) {
   }
   progress.finish();
   outputs.commit();
-  std::fprintf(stderr, "overlap capture: wrote %zu PNGs in %s\n", camera->written().size(),
+  std::fprintf(stderr, "overlap capture: wrote %s in %s\n",
+               counted(static_cast<long long>(camera->written().size()), "PNG").c_str(),
                options.out.string().c_str());
 }
 
@@ -80,8 +74,8 @@ void addCaptureCommand(CLI::App& app) {
       "capture",
       "render keyframes of a scene to PNG (scene<S>_frame<F>.png), after each frame's physics");
   options->scene.addTo(*command);
-  command->add_option("--keyframes", options->keyframes, "frames to render, comma-separated")
-      ->capture_default_str();
+  addListOption(*command, "--keyframes", options->keyframes, wholeNumberIn(0, kMostFrames),
+                "frames to render, comma-separated");
   options->size_option =
       command->add_option("--capture-size", options->size, "PNG size WIDTHxHEIGHT")
           ->capture_default_str();

@@ -54,6 +54,28 @@ std::string readableBytes(std::uint64_t bytes) {
   return text;
 }
 
+std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
+                                                      const std::vector<std::string>& suffixes,
+                                                      std::string_view option) {
+  if (const std::string problem = outputNameProblem(prefix); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) + ": " + problem);
+  }
+  std::vector<std::filesystem::path> files;
+  for (const std::string& suffix : suffixes) {
+    files.push_back(prefix);
+    files.back() += suffix;
+    prepareOutputFile(files.back(), option);
+  }
+  return files;
+}
+
+void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
+                   std::string_view option) {
+  if (const std::string problem = outputs.declare(file); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
+  }
+}
+
 std::string optionName(const CLI::Option* option) {
   if (!option->get_lnames().empty()) return "--" + option->get_lnames().front();
   if (!option->get_snames().empty()) return "-" + option->get_snames().front();

@@ -15,6 +15,9 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
+
+#include "gpu/base/output_file.h"
 
 namespace overlap::engine {
 
@@ -22,8 +25,9 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Creates `dir` if needed and checks it writable; throws UsageError naming
-// the option and the path if it is not.
+// Checks that `dir` can hold outputs (outputFolderProblem; it is created
+// when the first output opens); throws UsageError naming the option and the
+// path if it cannot.  Creates nothing.
 void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option);
 
 // The same for a file to be written (outputFileProblem): an empty
@@ -39,6 +43,18 @@ void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
 
 // "3.2 GB": a size a user reads at a glance (decimal units).
 std::string readableBytes(std::uint64_t bytes);
+
+// The files `prefix` + each suffix ("--out results" -> results.csv,
+// results.json), each checked as above; the prefix itself must name a file
+// ("", ".", "dir/" and "/" are UsageErrors).
+std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
+                                                      const std::vector<std::string>& suffixes,
+                                                      std::string_view option);
+
+// The same for one output of a run's folder (OutputFolder::declare): also a
+// UsageError when another output of the run is that file.
+void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
+                   std::string_view option);
 
 // "--size": an option's name as the user typed it, hidden options included.
 std::string optionName(const CLI::Option* option);

@@ -14,6 +14,7 @@
 #include "engine/progress.h"
 #include "engine/scene_options.h"
 #include "engine/stream_generator.h"
+#include "engine/wording.h"
 #include "gpu/base/interrupt.h"
 #include "physics/aabb_stream.h"
 
@@ -64,9 +65,9 @@ void generate(const GenerateOptions& options) {
   writer.commit();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::fprintf(stderr,
-               "overlap generate: wrote %s (%d objects, the start and %d frames) in %.1f s\n",
-               options.out.string().c_str(), header.objects, header.stored_frames - 1, seconds);
+  std::fprintf(stderr, "overlap generate: wrote %s (%s, the start and %s) in %.1f s\n",
+               options.out.string().c_str(), counted(header.objects, "object").c_str(),
+               counted(header.stored_frames - 1, "frame").c_str(), seconds);
 }
 
 }  // namespace

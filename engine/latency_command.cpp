@@ -37,11 +37,13 @@
 #include <vector>
 
 #include "engine/commands.h"
-#include "gpu/base/interrupt.h"
+#include "engine/csv.h"
+#include "engine/list_options.h"
 #include "engine/number_options.h"
 #include "engine/physics_options.h"
 #include "engine/progress.h"
 #include "engine/scene_options.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/aabb_stream.h"
@@ -138,6 +140,9 @@ std::vector<physics::Aabb> grown(std::vector<physics::Aabb> boxes, const std::ve
 
 void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
+  for (const std::string& requested : options.algorithms) {
+    checkBroadphaseCapacity("--algo", requested, config.objects);
+  }
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
   const std::unique_ptr<physics::PhysicsWorld> scene =
       makeWorld(config, options.physics.resolve("bvh", config));
@@ -193,9 +198,9 @@ void measureLatency(const LatencyOptions& options) {
       }
       for (std::size_t g = 0; g < options.growths.size(); ++g) {
         const SearchResult& late = searches.late[g];
-        csv << frame << ',' << names[s] << ',' << options.growths[g] << ',' << exact.size() << ','
-            << searches.on_time.pairs.size() << ',' << late.pairs.size() << ','
-            << physics::countMissing(exact, late.pairs) << ','
+        csv << frame << ',' << csvField(names[s]) << ',' << exactNumber(options.growths[g]) << ','
+            << exact.size() << ',' << searches.on_time.pairs.size() << ',' << late.pairs.size()
+            << ',' << physics::countMissing(exact, late.pairs) << ','
             << physics::countMissing(late.pairs, exact) << ',' << searches.on_time.ms << ','
             << late.ms << '\n';
       }
@@ -217,18 +222,10 @@ void addLatencyCommand(CLI::App& app) {
       "a broadphase one frame late on AABBs grown by |v| dt: per-frame CSV of the pairs it "
       "misses and adds, and its time against the on-time search");
   options->scene.addTo(*command);
-  command
-      ->add_option("--algo", options->algorithms,
-                   "broadphases studied, comma-separated: " + broadphaseNameList())
-      ->delimiter(',')
-      ->check(broadphaseNameCheck())
-      ->capture_default_str();
-  command
-      ->add_option("--growth", options->growths,
-                   "late AABBs grow by GROWTH * |v| * frame time on every side; comma-separated")
-      ->delimiter(',')
-      ->check(realNumberIn(0, kMostGrowth))
-      ->capture_default_str();
+  addListOption(*command, "--algo", options->algorithms, broadphaseNameCheck(),
+                "broadphases studied, comma-separated: " + broadphaseNameList());
+  addListOption(*command, "--growth", options->growths, realNumberIn(0, kMostGrowth),
+                "late AABBs grow by GROWTH * |v| * frame time on every side; comma-separated");
   command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
       ->check(wholeNumberIn(1, kMostFrames))
       ->capture_default_str();

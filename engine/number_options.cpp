@@ -26,14 +26,28 @@ bool isWhole(const std::string& text) {
 }
 
 bool isDecimal(const std::string& text) {
-  static const std::regex kDecimal("[+-]?([0-9]+\\.?[0-9]*|\\.[0-9]+)([eE][+-]?[0-9]+)?");
+  // "010" and "00.5" are refused as whole numbers are: a leading zero only before '.' or alone.
+  static const std::regex kDecimal(
+      "[+-]?((0|[1-9][0-9]*)(\\.[0-9]*)?|\\.[0-9]+)([eE][+-]?[0-9]+)?");
   return std::regex_match(text, kDecimal);
+}
+
+// "010", "-007.5": a number written with a leading zero (which some readers
+// take as octal), refused with a message of its own.
+bool hasLeadingZero(const std::string& text) {
+  static const std::regex kLeadingZero("[+-]?0[0-9][0-9]*(\\.[0-9]*)?([eE][+-]?[0-9]+)?");
+  return std::regex_match(text, kLeadingZero);
+}
+
+std::string leadingZeroProblem(const std::string& text) {
+  return text + " has a leading zero (write it without)";
 }
 
 // "" when `text` is a whole number in [lo, hi], else the message.
 template <typename Int>
 std::string wholeProblem(const std::string& text, Int lo, Int hi) {
   if (text.empty()) return "an empty value is not a number";
+  if (hasLeadingZero(text)) return leadingZeroProblem(text);
   if (!isWhole(text)) return text + " is not a whole number";
   const bool negative = text[0] == '-';
   const std::string digits = text.substr(text[0] == '+' || negative ? 1 : 0);
@@ -79,6 +93,7 @@ CLI::Validator realNumberIn(double lo, double hi, bool above_lo) {
   return CLI::Validator(
       [lo, hi, above_lo](std::string& text) -> std::string {
         if (text.empty()) return "an empty value is not a number";
+        if (hasLeadingZero(text)) return leadingZeroProblem(text);
         if (!isDecimal(text)) {
           const double value = std::strtod(text.c_str(), nullptr);
           return text + (std::isnan(value) || std::isinf(value) ? " is not a finite number"

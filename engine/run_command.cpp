@@ -34,6 +34,7 @@
 #include "engine/sound_and_ai.h"
 #include "engine/statistics.h"
 #include "engine/task_load.h"
+#include "engine/wording.h"
 #include "gpu/base/checksum.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
@@ -257,20 +258,21 @@ RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given
   return plan;
 }
 
-// Every output the run will write, checked before any work: a name that is
-// a folder, or a folder that cannot be written, is a UsageError.
-void checkOutputs(const RunPlan& plan) {
+// Every output the run will write, declared before any work: a name that is
+// a folder, a folder that cannot be written, or two outputs that are one
+// file is a UsageError.
+void declareOutputs(OutputFolder& outputs, const RunPlan& plan) {
   prepareOutputDirectory(plan.out, "--out");
   for (const char* name : {"frames.csv", "summary.json", "timeline.json"}) {
-    prepareOutputFile(plan.out / name, "--out");
+    declareOutput(outputs, plan.out / name, "--out");
   }
-  if (plan.wav_file) prepareOutputFile(*plan.wav_file, plan.wav_option);
   if (plan.capture_every > 0) {
     prepareOutputDirectory(plan.out / "frames", "--out");
     for (int frame = 0; frame < plan.frames; frame += plan.capture_every) {
-      prepareOutputFile(plan.out / "frames" / pngName(plan.config.scene, frame), "--out");
+      declareOutput(outputs, plan.out / "frames" / pngName(plan.config.scene, frame), "--out");
     }
   }
+  if (plan.wav_file) declareOutput(outputs, *plan.wav_file, plan.wav_option);
 }
 
 // --task-load: the tasks sized against the scene's physics step, measured now.
@@ -453,7 +455,7 @@ std::string writtenLine(const std::filesystem::path& out,
                      " (open in https://ui.perfetto.dev)";
   if (wav) line += ", " + wav->string();
   if (camera != nullptr && !camera->written().empty()) {
-    line += ", " + std::to_string(camera->written().size()) + " PNGs in " +
+    line += ", " + counted(static_cast<long long>(camera->written().size()), "PNG") + " in " +
             camera->written().front().parent_path().string() + " (" +
             camera->written().front().filename().string() + " to " +
             camera->written().back().filename().string() + ")";
@@ -475,9 +477,9 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   RunPlan plan = resolvePlan(arguments, given);
   // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
   const std::optional<tbb::global_control> thread_cap = capThreads(plan.threads);
-  checkOutputs(plan);
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(plan.out);
+  declareOutputs(outputs, plan);
   OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
   calibrateTasks(plan);
   const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);

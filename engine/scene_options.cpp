@@ -137,6 +137,13 @@ void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
       ->capture_default_str();
 }
 
+void checkBroadphaseCapacity(std::string_view option, std::string_view algorithm, int objects) {
+  if (const std::string problem = physics::broadphaseCapacityProblem(algorithm, objects);
+      !problem.empty()) {
+    throw UsageError(std::string(option) + " " + std::string(algorithm) + ": " + problem);
+  }
+}
+
 CLI::Validator broadphaseNameCheck() {
   return CLI::IsMember(std::vector<std::string>(physics::broadphaseNames().begin(),
                                                 physics::broadphaseNames().end()));

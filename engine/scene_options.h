@@ -65,6 +65,10 @@ void addAlgorithmOption(CLI::App& command, std::string& algorithm);
 // engine/physics_options.h's.
 void addThreadsOption(CLI::App& command, int& threads);
 
+// Throws UsageError naming `option` when broadphase `algorithm` cannot hold
+// `objects` boxes (sap's limit), before any work.
+void checkBroadphaseCapacity(std::string_view option, std::string_view algorithm, int objects);
+
 // The check for any option that names broadphases (--algo, --algos).
 CLI::Validator broadphaseNameCheck();
 // "bf, sap, ..., gpubf-paper": every name --algo takes.

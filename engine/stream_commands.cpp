@@ -12,6 +12,7 @@
 #include "engine/progress.h"
 #include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
+#include "engine/wording.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "physics/aabb_stream.h"
@@ -39,8 +40,9 @@ void record(const RecordOptions& options) {
   Progress writing("overlap record: writing " + options.out.string(), 0);
   physics::writeAabbStream(options.out, stream);
   writing.finish();
-  std::fprintf(stderr, "overlap record: wrote %s (%d objects, the start and %d frames)\n",
-               options.out.string().c_str(), stream.objects, stream.stored_frames - 1);
+  std::fprintf(stderr, "overlap record: wrote %s (%s, the start and %s)\n",
+               options.out.string().c_str(), counted(stream.objects, "object").c_str(),
+               counted(stream.stored_frames - 1, "frame").c_str());
 }
 
 struct PairsOptions {
@@ -64,6 +66,7 @@ void printPairs(const PairsOptions& options) {
                   options.max_memory_mb,
                   "--input " + options.input.string() + ": a frame of " +
                       std::to_string(header.objects) + " boxes with --algo " + options.algorithm);
+    checkBroadphaseCapacity("--algo", options.algorithm, header.objects);
     // The broadphase is sized once a whole frame has arrived: a header's
     // count alone never allocates.
     std::vector<physics::Aabb> boxes;

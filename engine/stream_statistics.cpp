@@ -33,13 +33,16 @@ StreamStatistics measureStream(const physics::AabbStream& stream, int first_fram
     const auto moved = static_cast<double>(changed_boxes.size());
     ++statistics.frames;
     statistics.pairs_per_box += pairs / n;
-    statistics.changed_pairs += pairs > 0 ? changed / pairs : 0;
+    if (pairs > 0) {  // a share of no pairs is no figure
+      ++statistics.frames_with_pairs;
+      statistics.changed_pairs += changed / pairs;
+    }
     statistics.moving_boxes += moved / n;
     statistics.last_pairs_per_box = pairs / n;
     statistics.last_moving_boxes = moved / n;
   }
   statistics.pairs_per_box /= statistics.frames;
-  statistics.changed_pairs /= statistics.frames;
+  if (statistics.frames_with_pairs > 0) statistics.changed_pairs /= statistics.frames_with_pairs;
   statistics.moving_boxes /= statistics.frames;
   return statistics;
 }

@@ -1,7 +1,8 @@
 // What a stream asks of a broadphase, to compare generated streams
 // (engine/stream_generator.h) with recorded ones: per frame, the exact pairs
 // per box, the share of them that changed since the frame before (added plus
-// removed over this frame's pairs), and the share of boxes whose AABB moved.
+// removed over this frame's pairs; none for a frame without pairs), and the
+// share of boxes whose AABB moved.
 // The pairs are cpusap's (exact; gpu/cpu_sap_pair_finder.h), every box in one
 // filter group.
 #pragma once
@@ -16,10 +17,11 @@
 namespace overlap::engine {
 
 struct StreamStatistics {
-  int frames = 0;            // frames measured: first_frame .. the last
-  double pairs_per_box = 0;  // mean over those frames
-  double changed_pairs = 0;  // mean share of pairs added or removed
-  double moving_boxes = 0;   // mean share of boxes whose AABB changed
+  int frames = 0;             // frames measured: first_frame .. the last
+  double pairs_per_box = 0;   // mean over those frames
+  int frames_with_pairs = 0;  // of those, the frames that have any pair
+  double changed_pairs = 0;   // mean share of pairs added or removed, over frames_with_pairs
+  double moving_boxes = 0;    // mean share of boxes whose AABB changed
   double last_pairs_per_box = 0;
   double last_moving_boxes = 0;
 };

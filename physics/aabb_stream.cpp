@@ -153,13 +153,17 @@ void AabbStreamReader::checkHeader() {
   const auto boxes = static_cast<std::uint64_t>(header_.objects) * header_.stored_frames;
   const std::uint64_t payload = file_bytes - kHeaderBytes;
   if (payload % kAabbBytes != 0 || payload / kAabbBytes != boxes) {
-    const std::uint64_t complete_frames =
-        payload / (kAabbBytes * static_cast<std::uint64_t>(header_.objects));
+    // Every frame there and bytes beyond them, or the first frame cut short.
+    const std::uint64_t extra = payload / kAabbBytes >= boxes ? payload - boxes * kAabbBytes : 0;
+    const std::string where =
+        extra > 0
+            ? std::to_string(extra) + (extra == 1 ? " byte" : " bytes") + " after the last frame"
+            : "first incomplete frame " +
+                  std::to_string(payload /
+                                 (kAabbBytes * static_cast<std::uint64_t>(header_.objects)));
     fail("size " + std::to_string(file_bytes) + " bytes does not match " +
          std::to_string(header_.objects) + " objects x " + std::to_string(header_.stored_frames) +
-         " frames (" + std::to_string(boxes) +
-         " boxes of 32 bytes after the header); first incomplete frame " +
-         std::to_string(complete_frames));
+         " frames (" + std::to_string(boxes) + " boxes of 32 bytes after the header); " + where);
   }
 }
 

@@ -55,6 +55,12 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name) {
   throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
 }
 
+std::string broadphaseCapacityProblem(std::string_view name, int objects) {
+  if (name != "sap" || objects < kMaxSap16Objects) return {};
+  return "holds at most " + std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
+         std::to_string(objects) + "; use sap32";
+}
+
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects) {
   const BroadphaseInfo& info = broadphaseInfo(name);
@@ -63,10 +69,9 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   if (name == "bf") {
     choice.broadphase = std::make_unique<btSimpleBroadphase>(max_objects);
   } else if (name == "sap") {
-    if (max_objects >= kMaxSap16Objects) {
-      throw std::invalid_argument("algo sap: holds at most " +
-                                  std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
-                                  std::to_string(max_objects) + "; use sap32");
+    if (const std::string problem = broadphaseCapacityProblem(name, max_objects);
+        !problem.empty()) {
+      throw std::invalid_argument("algo sap: " + problem);
     }
     // No ray-test tree of its own: makeWorldBroadphase() answers every
     // broadphase's ray and sweep queries through one shared tree.

@@ -1,27 +1,35 @@
 #include "render/capture_options.h"
 
-#include <algorithm>
 #include <charconv>
-#include <optional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
 namespace overlap::render {
 namespace {
 
-std::string_view trimSpaces(std::string_view text) {
-  const auto first = text.find_first_not_of(' ');
-  if (first == std::string_view::npos) return {};
-  return text.substr(first, text.find_last_not_of(' ') - first + 1);
+// "" when `text` is a positive int, else what is wrong with it.
+std::string positiveProblem(std::string_view text) {
+  std::string quoted = "\"";  // appended: GCC 12 warns falsely on "\"" + string (-Wrestrict)
+  quoted += text;
+  quoted += '"';
+  const bool digits =
+      !text.empty() && text.find_first_not_of("0123456789") == std::string_view::npos;
+  if (!digits || text.front() == '0') {
+    return quoted + " is not a positive integer (decimal, no leading zero)";
+  }
+  int value = 0;
+  const auto [stop, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error == std::errc::result_out_of_range) {
+    return quoted + " is out of range (at most " + std::to_string(std::numeric_limits<int>::max()) +
+           ")";
+  }
+  return {};
 }
 
-// The whole of text as a non-negative int, or nothing.
-std::optional<int> parseNonNegative(std::string_view text) {
+int positive(std::string_view text) {
   int value = 0;
-  const char* end = text.data() + text.size();
-  if (text.empty() || text.front() < '0' || text.front() > '9') return std::nullopt;
-  const auto [stop, error] = std::from_chars(text.data(), end, value);
-  if (error != std::errc() || stop != end) return std::nullopt;
+  std::from_chars(text.data(), text.data() + text.size(), value);
   return value;
 }
 
@@ -35,40 +43,13 @@ ImageSize parseImageSize(std::string_view text) {
   }
   const std::string_view width_text = text.substr(0, separator);
   const std::string_view height_text = text.substr(separator + 1);
-  const auto width = parseNonNegative(width_text);
-  const auto height = parseNonNegative(height_text);
-  if (!width || *width == 0) {
-    throw std::runtime_error(quoted + ": width \"" + std::string(width_text) +
-                             "\" is not a positive integer");
+  if (const std::string problem = positiveProblem(width_text); !problem.empty()) {
+    throw std::runtime_error(quoted + ": width " + problem);
   }
-  if (!height || *height == 0) {
-    throw std::runtime_error(quoted + ": height \"" + std::string(height_text) +
-                             "\" is not a positive integer");
+  if (const std::string problem = positiveProblem(height_text); !problem.empty()) {
+    throw std::runtime_error(quoted + ": height " + problem);
   }
-  return {*width, *height};
-}
-
-std::vector<int> parseFrameList(std::string_view text) {
-  const std::string quoted = "frame list \"" + std::string(text) + "\"";
-  std::vector<int> frames;
-  std::string_view rest = text;
-  for (;;) {
-    const auto comma = rest.find(',');
-    const std::string_view item = trimSpaces(rest.substr(0, comma));
-    const auto frame = parseNonNegative(item);
-    if (!frame) {
-      throw std::runtime_error(quoted + ": \"" + std::string(item) +
-                               "\" is not a frame number (an integer >= 0)");
-    }
-    if (std::find(frames.begin(), frames.end(), *frame) != frames.end()) {
-      throw std::runtime_error(quoted + ": frame " + std::to_string(*frame) + " is listed twice");
-    }
-    frames.push_back(*frame);
-    if (comma == std::string_view::npos) break;
-    rest.remove_prefix(comma + 1);
-  }
-  std::sort(frames.begin(), frames.end());
-  return frames;
+  return {positive(width_text), positive(height_text)};
 }
 
 }  // namespace overlap::render

@@ -1,13 +1,13 @@
-// Parsers for the capture options a command line takes: an image size such
-// as "800x600" and a frame list such as "0,512,1024,2047".
+// The parser of the image size a command line takes, such as "800x600"
+// (the frame lists are engine/list_options.h's).
 //
-// They accept exactly those forms (decimal digits, spaces allowed around the
-// list's items) and throw std::runtime_error quoting the whole text and the
-// bad part, so a typo on the command line is reported, never guessed at.
+// It accepts exactly that form (decimal digits, no leading zero, no sign)
+// and throws std::runtime_error quoting the whole text and the bad part, so
+// a typo on the command line is reported, never guessed at; a number too
+// large for an int is said to be out of range.
 #pragma once
 
 #include <string_view>
-#include <vector>
 
 namespace overlap::render {
 
@@ -19,9 +19,5 @@ struct ImageSize {
 
 // "WIDTHxHEIGHT", both positive.
 ImageSize parseImageSize(std::string_view text);
-
-// Comma-separated frame numbers, each >= 0, none repeated; returned in
-// ascending order.
-std::vector<int> parseFrameList(std::string_view text);
 
 }  // namespace overlap::render

@@ -1,6 +1,7 @@
 #include "gpu/base/output_file.h"
 
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/file.h>
@@ -44,6 +45,76 @@ fs::path folderOf(const fs::path& file) {
   return file.has_parent_path() ? file.parent_path() : fs::path(".");
 }
 
+// The longest name a folder takes (NAME_MAX where the file system does not say).
+std::size_t longestName(const fs::path& folder) {
+  const long most = ::pathconf(folder.c_str(), _PC_NAME_MAX);
+  return most > 0 ? static_cast<std::size_t>(most) : NAME_MAX;
+}
+
+// A temporary's name: ".NAME.overlap-PID-XXXXXX", the PID its writer's, so a
+// later run can tell a dead writer's temporary from a live one's.
+constexpr std::string_view kTemporaryMark = ".overlap-";
+constexpr std::size_t kUniqueChars = 6;  // mkostemp's XXXXXX
+
+// The pattern of `target`'s temporary beside it: NAME is cut short where the
+// whole would be longer than a name may be, so every name that is legal can
+// be written.
+std::string temporaryPattern(const fs::path& target) {
+  std::string suffix(kTemporaryMark);
+  suffix += std::to_string(::getpid()) + "-" + std::string(kUniqueChars, 'X');
+  const std::string name = target.filename().string();
+  const std::size_t most = longestName(folderOf(target));
+  const std::size_t room = most > suffix.size() + 2 ? most - 1 - suffix.size() : 1;
+  std::string hidden = ".";  // appended, not "." + name: GCC 12 warns falsely (-Wrestrict)
+  hidden += name.substr(0, room);
+  hidden += suffix;
+  return (folderOf(target) / hidden).string();
+}
+
+// The nearest folder of `path` that exists ("." for a relative path with none).
+fs::path nearestExisting(fs::path path) {
+  std::error_code error;
+  while (!path.empty() && !fs::exists(fs::symlink_status(path, error))) path = path.parent_path();
+  return path.empty() ? fs::path(".") : path;
+}
+
+// Empty when a file can be made in the existing folder `folder`, else why
+// not.  Tried, not inferred from the permissions (root passes `access` on
+// /proc): a hidden file is made and removed at once.
+std::string trialProblem(const fs::path& folder) {
+  std::string trial = (folder / ".overlap-check-XXXXXX").string();
+  const int fd = ::mkostemp(trial.data(), O_CLOEXEC);
+  if (fd < 0) return lastError();
+  ::close(fd);
+  ::unlink(trial.c_str());
+  return {};
+}
+
+// Empty when a file can be made in `folder`, which may not exist yet (then
+// its nearest existing folder must be writable and every name to be made
+// short enough), else why not.  Leaves nothing behind.
+std::string folderWritableProblem(const fs::path& folder) {
+  struct stat info {};
+  if (::stat(folder.c_str(), &info) == 0) {
+    if (!S_ISDIR(info.st_mode)) return "is not a folder";
+    const std::string problem = trialProblem(folder);
+    return problem.empty() ? "" : "the folder is not writable: " + problem;
+  }
+  if (errno != ENOENT) return "cannot be reached: " + lastError();
+  const fs::path existing = nearestExisting(folder);
+  if (!fs::is_directory(existing)) return existing.string() + " is not a folder";
+  if (const std::string problem = trialProblem(existing); !problem.empty()) {
+    return "cannot create it: " + existing.string() + " is not writable: " + problem;
+  }
+  for (const fs::path& part : folder) {
+    if (part.string().size() > longestName(existing)) {
+      return "cannot create it: the name " + part.string() + " is longer than " +
+             std::to_string(longestName(existing)) + " bytes";
+    }
+  }
+  return {};
+}
+
 // The mode a new file gets: 0666 less the umask, read once.
 mode_t newFileMode() {
   static const mode_t mode = [] {
@@ -78,11 +149,6 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
     bytes.remove_prefix(static_cast<std::size_t>(wrote));
   }
 }
-
-// A temporary's name: ".NAME.overlap-PID-XXXXXX", the PID its writer's, so a
-// later run can tell a dead writer's temporary from a live one's.
-constexpr std::string_view kTemporaryMark = ".overlap-";
-constexpr std::size_t kUniqueChars = 6;  // mkostemp's XXXXXX
 
 // The PID in a name of the temporaries' pattern, else 0.
 pid_t temporaryOwner(std::string_view name) {
@@ -166,30 +232,89 @@ bool safeRelative(const fs::path& path) {
 
 }  // namespace
 
-std::string outputFolderProblem(const fs::path& folder) {
-  if (folder.empty()) return "the name is empty";
-  std::error_code error;
-  fs::create_directories(folder, error);
-  if (error) return "cannot create the folder: " + error.message();
-  if (!fs::is_directory(folder, error)) return "is not a folder";
-  if (::access(folder.c_str(), W_OK | X_OK) != 0)
-    return "the folder is not writable: " + lastError();
+std::string escapeManifestEntry(std::string_view name) {
+  std::string line;
+  for (const char c : name) {
+    if (c == '\\') {
+      line += "\\\\";
+    } else if (c == '\n') {
+      line += "\\n";
+    } else if (c == '\r') {
+      line += "\\r";
+    } else {
+      line += c;
+    }
+  }
+  return line;
+}
+
+std::optional<std::string> unescapeManifestEntry(std::string_view line) {
+  std::string name;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    if (line[i] != '\\') {
+      name += line[i];
+      continue;
+    }
+    if (++i == line.size()) return std::nullopt;
+    switch (line[i]) {
+      case '\\':
+        name += '\\';
+        break;
+      case 'n':
+        name += '\n';
+        break;
+      case 'r':
+        name += '\r';
+        break;
+      default:
+        return std::nullopt;
+    }
+  }
+  return name;
+}
+
+std::string outputNameProblem(const fs::path& file) {
+  if (file.empty()) return "the name is empty";
+  if (!file.has_filename()) return "names a folder (it ends in '/'), not a file";
+  if (file.filename() == "." || file.filename() == "..") {
+    return "names a folder (it ends in '" + file.filename().string() + "'), not a file";
+  }
   return {};
 }
 
+std::string outputFolderProblem(const fs::path& folder) {
+  if (folder.empty()) return "the name is empty";
+  return folderWritableProblem(folder);
+}
+
 std::string outputFileProblem(const fs::path& file) {
-  if (file.empty()) return "the name is empty";
-  if (!file.has_filename()) return "names a folder (it ends in '/'), not a file";
+  return outputFileProblemIn(file, nullptr);
+}
+
+std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writable_folders) {
+  if (std::string problem = outputNameProblem(file); !problem.empty()) return problem;
   const fs::path target = followLinks(file);
+  const fs::path folder = folderOf(target);
+  const std::size_t most = longestName(nearestExisting(folder));
+  if (target.filename().string().size() > most) {
+    return "the name " + target.filename().string().substr(0, 16) + "... is longer than " +
+           std::to_string(most) + " bytes";
+  }
   struct stat info {};
   if (::stat(target.c_str(), &info) == 0) {
     if (S_ISDIR(info.st_mode)) return "is a directory, not a file";
     if (!S_ISREG(info.st_mode)) {  // written through
       return ::access(target.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
     }
+  } else if (errno != ENOENT) {
+    return "cannot be reached: " + lastError();  // a symlink loop, a file as a folder
   }
-  const std::string problem = outputFolderProblem(folderOf(target));
-  return problem.empty() ? "" : "its folder " + folderOf(target).string() + ": " + problem;
+  if (writable_folders != nullptr && writable_folders->contains(folder)) return {};
+  if (const std::string problem = folderWritableProblem(folder); !problem.empty()) {
+    return "its folder " + folder.string() + ": " + problem;
+  }
+  if (writable_folders != nullptr) writable_folders->insert(folder);
+  return {};
 }
 
 OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLinks(path_)) {
@@ -202,12 +327,17 @@ OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLi
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
     return;
   }
+  // The checks before any work created no folder: the first output made
+  // there does, and removes them again if it is never published.
+  std::error_code error;
+  for (fs::path folder = folderOf(target_); !folder.empty() && !fs::exists(folder, error);
+       folder = folder.parent_path()) {
+    created_folders_.push_back(folder);  // deepest first
+  }
+  fs::create_directories(folderOf(target_), error);
+  if (error) fail("cannot create its folder: " + error.message());
   removeStaleTemporaries(folderOf(target_));
-  std::string hidden = ".";  // appended, not "." + name: GCC 12 warns falsely (-Wrestrict)
-  hidden += target_.filename().string();
-  hidden += kTemporaryMark;
-  hidden += std::to_string(::getpid()) + "-XXXXXX";
-  std::string name = (folderOf(target_) / hidden).string();
+  std::string name = temporaryPattern(target_);
   fd_ = ::mkostemp(name.data(), O_CLOEXEC);  // O_CREAT | O_EXCL: a name of its own
   if (fd_ < 0) fail("cannot create a temporary file beside it: " + lastError());
   ::flock(fd_, LOCK_SH);  // while it is open, no other run takes it for stale
@@ -222,15 +352,19 @@ OutputFile::OutputFile(OutputFile&& other) noexcept
       temporary_(std::move(other.temporary_)),
       fd_(other.fd_),
       finished_(other.finished_),
-      published_(other.published_) {
+      published_(other.published_),
+      created_folders_(std::move(other.created_folders_)) {
   other.fd_ = -1;
   other.temporary_.clear();
   other.published_ = true;
+  other.created_folders_.clear();
 }
 
 OutputFile::~OutputFile() {
   if (fd_ >= 0) ::close(fd_);
-  if (!published_ && !temporary_.empty()) ::unlink(temporary_.c_str());
+  if (published_) return;
+  if (!temporary_.empty()) ::unlink(temporary_.c_str());
+  for (const fs::path& folder : created_folders_) ::rmdir(folder.c_str());  // only if empty
 }
 
 void OutputFile::fail(const std::string& what) const {
@@ -290,9 +424,38 @@ void writeStandardOutput(std::string_view bytes) {
            [] { throw OutputError("standard output: cannot write: " + lastError()); });
 }
 
-OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {}
+OutputFolder::~OutputFolder() {
+  // Last opened first: a folder an earlier output made is empty by its turn.
+  while (!files_.empty()) files_.pop_back();
+}
+
+OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {
+  const fs::path manifest = folder_ / kManifestName;
+  declared_.emplace(identity(manifest), manifest.string());
+}
+
+// What makes two names one output: the file they reach, links followed.
+std::string OutputFolder::identity(const fs::path& path) {
+  std::error_code error;
+  const fs::path target = followLinks(path);
+  const fs::path canonical = fs::weakly_canonical(target, error);
+  return (error ? target : canonical).lexically_normal().string();
+}
+
+std::string OutputFolder::declare(const fs::path& path) {
+  if (std::string problem = outputFileProblemIn(path, &writable_folders_); !problem.empty()) {
+    return problem;
+  }
+  const auto [where, added] = declared_.emplace(identity(path), path.string());
+  if (!added)
+    return "is also an output of this run (" + where->second + "): one file cannot hold both";
+  return {};
+}
 
 OutputFile& OutputFolder::open(const fs::path& path) {
+  if (!opened_.insert(identity(path)).second) {
+    throw OutputError(path.string() + ": opened twice as one run's output");
+  }
   std::error_code error;
   const fs::path relative =
       fs::weakly_canonical(path, error).lexically_relative(fs::weakly_canonical(folder_, error));
@@ -304,16 +467,20 @@ OutputFile& OutputFolder::open(const fs::path& path) {
 std::set<std::string> OutputFolder::previousOutputs() const {
   std::set<std::string> entries;
   std::ifstream manifest(folder_ / kManifestName);
-  for (std::string line; std::getline(manifest, line);) {
-    if (!line.empty() && line[0] != '#' && safeRelative(line)) entries.insert(line);
+  std::string line;
+  // A manifest without this format's first line (an older one, or not ours)
+  // is trusted with nothing: files the program did not write stay.
+  if (!std::getline(manifest, line) || line != kManifestHeader) return entries;
+  while (std::getline(manifest, line)) {
+    const std::optional<std::string> entry = unescapeManifestEntry(line);
+    if (entry && safeRelative(*entry)) entries.insert(*entry);
   }
   return entries;
 }
 
 void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
-  std::string text =
-      "# the outputs of the last `overlap` run in this folder, replaced by the next\n";
-  for (const std::string& entry : entries) text += entry + '\n';
+  std::string text = std::string(kManifestHeader) + '\n';
+  for (const std::string& entry : entries) text += escapeManifestEntry(entry) + '\n';
   writeFileAtomically(folder_ / kManifestName, text);
 }
 

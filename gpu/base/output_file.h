@@ -1,10 +1,13 @@
 // Every file the project writes goes through here (docs/CLI.md, "Outputs").
 //
-//   * Checked before any work: outputFileProblem() / outputFolderProblem()
-//     say why a path cannot be written (empty, a folder, an unwritable
-//     parent), so a command refuses it before it starts.
+//   * Checked before any work, creating nothing: outputFileProblem() /
+//     outputFolderProblem() say why a path cannot be written (empty, a
+//     folder, '.', a symlink loop, a name too long, an unwritable parent),
+//     so a command refuses it before it starts and leaves no folder behind.
+//     Missing folders are made when the first output is opened.
 //   * A regular file, or a name that does not exist yet, is written to a
-//     unique temporary ".<name>.overlap-<pid>-XXXXXX" in the same folder,
+//     unique temporary ".<name>.overlap-<pid>-XXXXXX" in the same folder
+//     (<name> cut short where the whole would exceed the longest name),
 //     created exclusively (O_EXCL) and locked (flock) while open, then
 //     flushed, synced and renamed over the name: a reader sees the old file
 //     or the whole new one, and two writers of one name never share a
@@ -22,16 +25,23 @@
 //   * A write that fails (disk full, I/O error, EPIPE from a reader that
 //     has gone: interrupt.h ignores SIGPIPE) throws OutputError naming
 //     the output; an output destroyed before it is published leaves nothing
-//     but what was there before (its temporary is removed).
+//     but what was there before (its temporary, and the folders made for
+//     it, are removed).
 //   * OutputFolder keeps a folder of one run's outputs whole: everything is
 //     published together at commit(), and the files the previous run listed
 //     in the folder's manifest and this run does not write are removed.
-//     Files the program did not write are never removed.
+//     Files the program did not write are never removed: the manifest
+//     escapes every name (a newline cannot split one into two), and one
+//     without this format's first line lists nothing.
+//   * Two outputs of one run never share a file: declare() refuses a second
+//     name for a file already declared (links followed), before any work.
 // Plain POSIX and the standard library: no Bullet here.
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -45,13 +55,27 @@ struct OutputError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Empty when `file` can name a file to write, else why not: an empty name,
+// or one that names a folder ("dir/", "dir/.", "..").
+std::string outputNameProblem(const std::filesystem::path& file);
 // Empty when `file` can be written, else why not (for a message that names
-// the option and the path first): an empty name, a name ending in '/', an
-// existing folder, a parent that is not a folder or cannot be created or
-// written.  Creates missing parent folders.
+// the option and the path first): outputNameProblem(), an existing folder,
+// a path that cannot be reached (a symlink loop), a name longer than its
+// folder takes, a parent that is not a folder or cannot be created or
+// written.  Creates nothing.
 std::string outputFileProblem(const std::filesystem::path& file);
-// The same for a folder that will hold outputs (created if missing).
+// outputFileProblem() that tries each folder once: those in
+// `writable_folders` passed before, and those that pass are added.
+std::string outputFileProblemIn(const std::filesystem::path& file,
+                                std::set<std::filesystem::path>* writable_folders);
+// The same for a folder that will hold outputs (created when opened).
 std::string outputFolderProblem(const std::filesystem::path& folder);
+
+// A manifest line: `name` with '\', newline and carriage return escaped as
+// \\, \n and \r, so every line is one name.  The reverse gives nothing
+// for a line no name escapes to.
+std::string escapeManifestEntry(std::string_view name);
+std::optional<std::string> unescapeManifestEntry(std::string_view line);
 
 class OutputFile {
  public:
@@ -91,6 +115,7 @@ class OutputFile {
   int fd_ = -1;
   bool finished_ = false;
   bool published_ = false;
+  std::vector<std::filesystem::path> created_folders_;  // made for it, removed unless published
 };
 
 // Writes `contents` as the whole of `path` through an OutputFile.
@@ -100,31 +125,47 @@ void writeFileAtomically(const std::filesystem::path& path, std::string_view con
 void writeStandardOutput(std::string_view bytes);
 
 // One run's outputs in one folder, published together (see above).  The
-// manifest ".overlap-outputs" lists, one per line, the paths relative to the
-// folder that the last committed run wrote there.
+// manifest ".overlap-outputs" starts with kManifestHeader, then lists, one
+// escaped name per line, the paths relative to the folder that the last
+// committed run wrote there.
 class OutputFolder {
  public:
   static constexpr const char* kManifestName = ".overlap-outputs";
+  static constexpr const char* kManifestHeader =
+      "# overlap outputs v2: the files the last `overlap` run wrote in this folder, one a line "
+      "(\\ and newline escaped as \\\\ and \\n), removed by the next run that does not write "
+      "them";
 
-  // The folder must exist (outputFolderProblem() creates it).
+  // Creates nothing: a missing folder is made when the first output opens.
   explicit OutputFolder(std::filesystem::path folder);
+  ~OutputFolder();  // what was never published leaves nothing, folders made for it included
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
 
   const std::filesystem::path& folder() const { return folder_; }
+  // Before any work, each output the run will write: empty when `path` can
+  // be written (outputFileProblem) and is no other declared output's file,
+  // else why not.
+  std::string declare(const std::filesystem::path& path);
   // Opens an output published at commit(): inside the folder (its own
   // folder must exist) it joins the manifest; outside it (a --wav elsewhere)
-  // it is only published with the rest.
+  // it is only published with the rest.  Opening one file twice throws.
   OutputFile& open(const std::filesystem::path& path);
   // Finishes every output, publishes them all, removes the previous run's
   // outputs this run did not write, and writes the new manifest.
   void commit();
 
  private:
+  static std::string identity(const std::filesystem::path& path);
   std::set<std::string> previousOutputs() const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;
   std::vector<std::unique_ptr<OutputFile>> files_;
-  std::set<std::string> inside_;  // the outputs inside the folder, relative to it
+  std::set<std::string> inside_;                 // the outputs inside the folder, relative to it
+  std::map<std::string, std::string> declared_;  // identity() -> the name declared
+  std::set<std::filesystem::path> writable_folders_;  // tried once by declare()
+  std::set<std::string> opened_;                      // identity() of each file opened
 };
 
 }  // namespace overlap

@@ -69,35 +69,6 @@ class CliTest : public ::testing::Test {
   std::filesystem::path out_;
 };
 
-// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
-inline std::string stdoutOf(const std::string& args, int* exit_code) {
-  std::string output;
-  FILE* pipe = popen((std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null").c_str(), "r");
-  char buffer[4096];
-  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    output.append(buffer, got);
-  }
-  *exit_code = WEXITSTATUS(pclose(pipe));
-  return output;
-}
-
-inline std::string fileText(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-// A hidden ".NAME.overlap-PID-XXXXXX" temporary left anywhere under `folder`.
-inline bool holdsTemporaries(const std::filesystem::path& folder) {
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(folder)) {
-    const std::string name = entry.path().filename().string();
-    if (name.front() == '.' && name.find(".overlap-") != std::string::npos &&
-        name != ".overlap-outputs") {
-      return true;
-    }
-  }
-  return false;
-}
-
 // A shell command's stdout and exit code.
 inline std::string shellStdout(const std::string& command, int* exit_code) {
   std::string output;
@@ -108,6 +79,29 @@ inline std::string shellStdout(const std::string& command, int* exit_code) {
   }
   *exit_code = WEXITSTATUS(pclose(pipe));
   return output;
+}
+
+// Runs `overlap ARGS`, returning its stdout (stderr is dropped).
+inline std::string stdoutOf(const std::string& args, int* exit_code) {
+  return shellStdout(std::string(OVERLAP_BINARY) + " " + args + " 2>/dev/null", exit_code);
+}
+
+inline std::string fileText(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+// A hidden ".NAME.overlap-PID-XXXXXX" temporary left anywhere under `folder`.
+inline bool holdsTemporaries(const std::filesystem::path& folder) {
+  if (!std::filesystem::exists(folder)) return false;  // a stopped run may leave no folder
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.front() == '.' && name.find(".overlap-") != std::string::npos &&
+        name != ".overlap-outputs") {
+      return true;
+    }
+  }
+  return false;
 }
 
 // A program started in the background, stderr to a file.

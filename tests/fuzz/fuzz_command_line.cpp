@@ -46,16 +46,15 @@ void parse(CLI::App& app, std::vector<std::string>& arguments) {
 
 // The checks the subcommands make after parsing, before they start: the
 // scene options resolved into a SceneConfig (run, record, capture, latency),
-// the sound and AI task settings (run), the image size and key frames (run,
-// capture).  They read options the commands keep to themselves, so a second
-// app declares just those (the rest pass as extras); the render parsers'
-// errors become UsageErrors, as in the commands.
+// the sound and AI task settings (run), the image size (run, capture); the
+// lists (--keyframes, --growth, ...) are checked while parsing.  They read options the commands
+// keep to themselves, so a second app declares just those (the rest pass as extras); the render
+// parsers' errors become UsageErrors, as in the commands.
 struct StartChecks {
   overlap::engine::SceneOptions scene;
   overlap::stubs::SoundConfig sound;
   overlap::stubs::AiConfig ai;
   std::string image_size = "800x600";
-  std::string keyframes = "0";
 };
 
 void checkAsTheCommandsDo(std::vector<std::string>& arguments) {
@@ -76,7 +75,6 @@ void checkAsTheCommandsDo(std::vector<std::string>& arguments) {
     }
     if (names[i] == "capture") {
       command->add_option("--capture-size,--size", checks[i].image_size);
-      command->add_option("--keyframes", checks[i].keyframes);
     }
     commands.push_back(command);
   }
@@ -88,7 +86,6 @@ void checkAsTheCommandsDo(std::vector<std::string>& arguments) {
     checks[i].ai.validate();
     try {
       overlap::render::parseImageSize(checks[i].image_size);
-      overlap::render::parseFrameList(checks[i].keyframes);
     } catch (const std::runtime_error& error) {
       throw overlap::engine::UsageError(error.what());
     }

@@ -62,6 +62,12 @@ TEST_F(OutputFileTest, AnUnpublishedOutputLeavesNothing) {
     file.write("lost");
   }
   EXPECT_EQ(entries(folder_), 0);
+  {
+    OutputFolder run(folder_ / "new" / "run");
+    run.open(folder_ / "new" / "run" / "a.txt").write("lost");
+    run.open(folder_ / "new" / "run" / "frames" / "b.png").write("lost");
+  }
+  EXPECT_EQ(entries(folder_), 0);  // the folders made for them too
 }
 
 TEST_F(OutputFileTest, SymlinksAreFollowedAndFifosWrittenThrough) {
@@ -93,7 +99,56 @@ TEST_F(OutputFileTest, FailedWritesAndBadNamesAreNamed) {
   EXPECT_NE(outputFileProblem(folder_ / "new/"), "");
   EXPECT_EQ(outputFileProblem(folder_), "is a directory, not a file");
   EXPECT_EQ(outputFileProblem(folder_ / "sub" / "new.txt"), "");
-  EXPECT_TRUE(fs::is_directory(folder_ / "sub"));
+  EXPECT_FALSE(fs::exists(folder_ / "sub"));  // checking creates nothing
+  EXPECT_NE(outputFileProblem(folder_ / "new" / "."), "");
+  EXPECT_NE(outputFileProblem(folder_ / ".."), "");
+  fs::create_symlink("loop", folder_ / "loop");
+  EXPECT_NE(outputFileProblem(folder_ / "loop").find("symbolic links"), std::string::npos);
+  EXPECT_NE(outputFileProblem(folder_ / std::string(256, 'n')).find("longer than 255"),
+            std::string::npos);
+  EXPECT_EQ(entries(folder_), 1);  // the loop alone
+}
+
+TEST_F(OutputFileTest, ANameAsLongAsTheFolderTakesIsWritten) {
+  const fs::path longest = folder_ / std::string(255, 'n');
+  EXPECT_EQ(outputFileProblem(longest), "");
+  writeFileAtomically(longest, "long");
+  EXPECT_EQ(textOf(longest), "long");
+  EXPECT_EQ(entries(folder_), 1);
+  writeFileAtomically(folder_ / "sub" / "new.txt", "made");  // its folder made when opened
+  EXPECT_EQ(textOf(folder_ / "sub" / "new.txt"), "made");
+}
+
+TEST_F(OutputFileTest, ManifestEntriesAreOneLineEachAndReadBackWhole) {
+  for (const std::string name : {"sound.wav", "a\nb", "two\nlines", "#hash", "\\", "cr\r"}) {
+    const std::string line = escapeManifestEntry(name);
+    EXPECT_EQ(line.find('\n'), std::string::npos) << line;
+    EXPECT_EQ(unescapeManifestEntry(line), name) << line;
+  }
+  EXPECT_EQ(unescapeManifestEntry("a\\"), std::nullopt);
+  EXPECT_EQ(unescapeManifestEntry("a\\x"), std::nullopt);
+}
+
+TEST_F(OutputFileTest, AManifestNotInThisFormatRemovesNothing) {
+  std::ofstream(folder_ / "mine.txt") << "mine";
+  std::ofstream(folder_ / OutputFolder::kManifestName) << "# an older manifest\nmine.txt\n";
+  OutputFolder run(folder_);
+  run.open(folder_ / "a.txt").write("1");
+  run.commit();
+  EXPECT_EQ(textOf(folder_ / "mine.txt"), "mine");
+}
+
+TEST_F(OutputFileTest, TwoOutputsOfOneRunCannotBeOneFile) {
+  OutputFolder run(folder_ / "run");
+  EXPECT_EQ(run.declare(folder_ / "run" / "summary.json"), "");
+  EXPECT_NE(run.declare(folder_ / "run" / ".." / "run" / "summary.json").find("is also"),
+            std::string::npos);
+  EXPECT_NE(run.declare(folder_ / "run" / OutputFolder::kManifestName).find("is also"),
+            std::string::npos);
+  EXPECT_EQ(run.declare(folder_ / "run" / "frames.csv"), "");
+  EXPECT_FALSE(fs::exists(folder_ / "run"));
+  run.open(folder_ / "run" / "frames.csv");
+  EXPECT_THROW(run.open(folder_ / "run" / "frames.csv"), OutputError);
 }
 
 TEST_F(OutputFileTest, AFolderReplacesOnlyWhatTheLastRunWrote) {

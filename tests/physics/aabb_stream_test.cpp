@@ -82,6 +82,12 @@ TEST(AabbStream, MalformedFilesNameTheFileAndTheFirstBadBox) {
   writeBytes(bad, std::vector<char>(bytes.begin(), bytes.end() - 40));
   EXPECT_NE(readError(bad).find("first incomplete frame 1"), std::string::npos) << readError(bad);
 
+  std::vector<char> one_more = bytes;  // every frame whole, and a byte beyond them
+  one_more.push_back(0);
+  writeBytes(bad, one_more);
+  EXPECT_NE(readError(bad).find("1 byte after the last frame"), std::string::npos)
+      << readError(bad);
+
   std::vector<char> wrong_count = bytes;
   const std::int32_t five = 5;
   std::memcpy(wrong_count.data() + 256, &five, sizeof(five));

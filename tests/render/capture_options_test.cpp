@@ -33,24 +33,10 @@ TEST(ParseImageSize, RejectsAnythingElseNamingTheBadPart) {
   expectErrorMentioning(parse, "-800x600", "width \"-800\"");
   expectErrorMentioning(parse, "+800x600", "width \"+800\"");
   expectErrorMentioning(parse, "800x600x2", "height \"600x2\"");
-  expectErrorMentioning(parse, "800x99999999999", "height \"99999999999\"");
-}
-
-TEST(ParseFrameList, ReadsFramesInAscendingOrder) {
-  EXPECT_EQ(parseFrameList("0,512,1024,2047"), (std::vector<int>{0, 512, 1024, 2047}));
-  EXPECT_EQ(parseFrameList(" 30, 2 ,7"), (std::vector<int>{2, 7, 30}));
-  EXPECT_EQ(parseFrameList("5"), (std::vector<int>{5}));
-}
-
-TEST(ParseFrameList, RejectsAnythingElseNamingTheBadPart) {
-  const auto parse = [](const std::string& text) { parseFrameList(text); };
-  expectErrorMentioning(parse, "", "\"\" is not a frame number");
-  expectErrorMentioning(parse, "1,,2", "\"\" is not a frame number");
-  expectErrorMentioning(parse, "1,2,", "\"\" is not a frame number");
-  expectErrorMentioning(parse, "1,a", "\"a\" is not a frame number");
-  expectErrorMentioning(parse, "-1", "\"-1\" is not a frame number");
-  expectErrorMentioning(parse, "3.5", "\"3.5\" is not a frame number");
-  expectErrorMentioning(parse, "4,9,4", "frame 4 is listed twice");
+  expectErrorMentioning(parse, "800x99999999999", "height \"99999999999\" is out of range");
+  expectErrorMentioning(parse, "4294967297x1", "width \"4294967297\" is out of range");
+  expectErrorMentioning(parse, "010x010", "width \"010\" is not a positive integer");
+  expectErrorMentioning(parse, "10x010", "height \"010\" is not a positive integer");
 }
 
 }  // namespace
