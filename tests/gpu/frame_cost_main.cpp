@@ -28,8 +28,8 @@ int main(int argc, char** argv) {
               "launches", "uploads", "copies", "d2d", "memsets", "bytes_to_dev", "bytes_to_host",
               "events", "waits");
   for (const std::uint32_t n : sizes) {
-    for (const bool paper : {false, true}) {
-      const auto finder = paper ? makePaperGpuPairFinder() : makeGpuPairFinder();
+    for (const auto make : {makeGpuPairFinder, makePaperGpuPairFinder, makeGpuSapPairFinder}) {
+      const auto finder = make();
       const auto c = testing::steadyFrameCost(*finder, n);
       std::printf("%-12s %6u %9llu %8llu %7llu %7llu %7llu %7llu %14llu %12llu %7llu %6llu\n",
                   std::string(finder->name()).c_str(), n,
