@@ -27,6 +27,7 @@
 #include "engine/task_load.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
+#include "physics/default_broadphase.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -46,6 +47,8 @@ constexpr int kDefaultKeyframes = 4;
 struct RunOptions {
   SceneOptions scene;
   std::string algorithm;
+  const CLI::Option* algo_option = nullptr;
+  std::string default_algorithm_reason;  // set when --algo was not given
   int frames = kDemoFrames;
   bool paper = false;
   PhysicsOptions physics;
@@ -247,6 +250,12 @@ RunOptions resolveDefaults(RunOptions options, physics::SceneConfig& config) {
     options.capture_every =
         std::max(1, (options.frames + kDefaultKeyframes - 1) / kDefaultKeyframes);
   }
+  if (options.algo_option != nullptr && options.algo_option->count() == 0) {
+    physics::DefaultBroadphase pick =
+        physics::defaultBroadphaseHere(static_cast<std::size_t>(config.objects));
+    options.algorithm = std::string(pick.name);
+    options.default_algorithm_reason = std::move(pick.reason);
+  }
   options.scheduler.tasks = !options.no_tasks;
   if (!options.no_wav && !options.no_tasks) {
     options.wav_file = options.wav.value_or(options.out / "sound.wav");
@@ -328,6 +337,9 @@ void run(const RunOptions& given) {
     throw UsageError(std::string("task options: ") + error.what());
   }
   checkOutputs(options, config);
+  if (!options.default_algorithm_reason.empty()) {
+    std::fprintf(stderr, "overlap: %s\n", options.default_algorithm_reason.c_str());
+  }
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(options.out);
   if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
@@ -433,6 +445,7 @@ void addRunCommand(CLI::App& app) {
           " frames (its time on two cores: see README.md); --paper for the paper's full run");
   options->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, options->algorithm);
+  options->algo_option = command->get_option("--algo");
   options->frames_option =
       command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
           ->check(wholeNumberIn(1, kMostFrames))
