@@ -337,9 +337,6 @@ void run(const RunOptions& given) {
     throw UsageError(std::string("task options: ") + error.what());
   }
   checkOutputs(options, config);
-  if (!options.default_algorithm_reason.empty()) {
-    std::fprintf(stderr, "overlap: %s\n", options.default_algorithm_reason.c_str());
-  }
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(options.out);
   if (options.wav_file) options.scheduler.wav = &outputs.open(*options.wav_file);
@@ -375,6 +372,10 @@ void run(const RunOptions& given) {
   }
   Timeline timeline;
   SteppedRun stepper(options, config, options.scheduler, timeline);
+  // Once the scene is built: a scene that cannot be placed says only that.
+  if (!options.default_algorithm_reason.empty()) {
+    std::fprintf(stderr, "overlap: %s\n", options.default_algorithm_reason.c_str());
+  }
   Progress progress(options.compare_sync ? "overlap run (sync and async)" : "overlap run",
                     options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
