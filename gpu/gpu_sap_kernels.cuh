@@ -103,12 +103,13 @@ __host__ __device__ inline std::uint64_t upperBound(const T* values, std::uint64
   return first;
 }
 
+// Every kernel here runs kThreadsPerBlock threads a block.
 __device__ inline std::uint64_t globalThread() {
-  return static_cast<std::uint64_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  return static_cast<std::uint64_t>(blockIdx.x) * kThreadsPerBlock + threadIdx.x;
 }
 
 __device__ inline std::uint64_t gridThreads() {
-  return static_cast<std::uint64_t>(gridDim.x) * blockDim.x;
+  return static_cast<std::uint64_t>(gridDim.x) * kThreadsPerBlock;
 }
 
 // The least and greatest finite centre of the swept boxes on each axis.
