@@ -5,6 +5,8 @@
 #   P/lib/cmake/Overlap/                  find_package(Overlap): Overlap::broadphase
 #                                         (catalogue, factory, Bullet adapter) and
 #                                         Overlap::pair_finders (the Bullet-free finders)
+# The GPU finders (gpubf, gpubf-paper, gpusap; CUB is header-only, in the
+# toolkit) are in liboverlap_gpu.a with CUDA's static runtime.
 # A build without nvcc installs the CPU finders only (Overlap_WITH_CUDA OFF);
 # the emulation, sanitizer and fuzz builds install nothing (CMakeLists.txt).
 include(GNUInstallDirs)

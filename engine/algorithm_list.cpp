@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <string_view>
+#include <vector>
 
 #include "physics/broadphase_factory.h"
 
@@ -20,16 +22,19 @@ std::string algorithmListText() {
     return text;
   };
   std::string text = line("name", "exact", "device", "what");
-  std::string device_names;
+  std::vector<std::string_view> device_names;
   for (const physics::BroadphaseInfo& info : catalogue) {
     text += line(info.name, info.exact ? "yes" : "no", info.needs_device ? "yes" : "no",
                  info.description);
-    if (info.needs_device) {
-      device_names += (device_names.empty() ? "" : " and ") + std::string(info.name);
-    }
+    if (info.needs_device) device_names.push_back(info.name);
   }
-  text += "Without a CUDA device, " + device_names + " run " +
-          std::string(physics::kDeviceFallback) + " instead and say so.\n";
+  std::string devices;  // "a, b and c"
+  for (std::size_t i = 0; i < device_names.size(); ++i) {
+    devices += (i == 0 ? "" : (i + 1 == device_names.size() ? " and " : ", "));
+    devices += device_names[i];
+  }
+  text += "Without a CUDA device, " + devices + " run " + std::string(physics::kDeviceFallback) +
+          " instead and say so.\n";
   return text;
 }
 

@@ -14,10 +14,10 @@ namespace overlap::engine {
 // What the benchmark runs; the defaults are the recorded scene-4 study.
 struct BenchOptions {
   std::vector<int> objects{500, 1250, 2000, 2750, 3500};
-  std::vector<std::string> algorithms{"bf",     "sap",   "bvh",        "cpubf",
-                                      "cpusap", "gpubf", "gpubf-paper"};
+  std::vector<std::string> algorithms{"bf",     "sap",   "bvh",         "cpubf",
+                                      "cpusap", "gpubf", "gpubf-paper", "gpusap"};
   std::vector<int> big_objects{10000, 30000, 100000};
-  std::vector<std::string> big_algorithms{"bvh", "cpubf", "cpusap", "gpubf"};
+  std::vector<std::string> big_algorithms{"bvh", "cpubf", "cpusap", "gpubf", "gpusap"};
   std::filesystem::path streams = "out/streams";
   std::filesystem::path out = "out/broadphase";
   std::uint64_t seed = 42;

@@ -38,6 +38,7 @@
 #include "gpu/base/checksum.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
+#include "physics/default_broadphase.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -82,6 +83,7 @@ struct RunArguments {
 
 // The options as CLI11 made them, for the checks between options.
 struct RunOptionHandles {
+  CLI::Option* algo = nullptr;
   CLI::Option* frames = nullptr;
   CLI::Option* sync = nullptr;
   CLI::Option* compare_sync = nullptr;
@@ -100,6 +102,7 @@ struct RunOptionHandles {
 struct RunPlan {
   physics::SceneConfig config;
   std::string algorithm_requested;
+  std::string default_algorithm_reason;  // why, when --algo was not given
   physics::WorldOptions world;
   int frames = 0;
   bool sync = false;
@@ -233,7 +236,13 @@ RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given
     if (given.frames->count() == 0) plan.frames = kPaperFrames;
   }
   plan.algorithm_requested = arguments.algorithm;
-  plan.world = arguments.physics.resolve(arguments.algorithm, plan.config);
+  if (given.algo->count() == 0) {
+    physics::DefaultBroadphase pick =
+        physics::defaultBroadphaseHere(static_cast<std::size_t>(plan.config.objects));
+    plan.algorithm_requested = std::string(pick.name);
+    plan.default_algorithm_reason = std::move(pick.reason);
+  }
+  plan.world = arguments.physics.resolve(plan.algorithm_requested, plan.config);
   plan.sync = arguments.sync;
   plan.compare_sync = arguments.compare_sync;
   plan.threads = arguments.threads;
@@ -361,6 +370,10 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   Timeline sync_timeline;  // not written: timeline.json is the async run's
   if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr, sync_timeline);
   SteppedRun stepper(plan, plan.sync, wav, timeline);
+  // Once the scene is built: a scene that cannot be placed says only that.
+  if (!plan.default_algorithm_reason.empty()) {
+    std::fprintf(stderr, "overlap: %s\n", plan.default_algorithm_reason.c_str());
+  }
   Progress progress(plan.compare_sync ? "overlap run (sync and async)" : "overlap run",
                     plan.frames);
   for (int frame = 0; frame < plan.frames; ++frame) {
@@ -577,6 +590,7 @@ void addRunCommand(CLI::App& app) {
           " frames (its time on two cores: see README.md); --paper for the paper's full run");
   arguments->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, arguments->algorithm);
+  given->algo = command->get_option("--algo");
   given->frames =
       command->add_option("--frames", arguments->frames, "frames to run, each --frame-time long")
           ->check(wholeNumberIn(1, kMostFrames))

@@ -28,4 +28,8 @@ std::unique_ptr<PairFinder> makePaperGpuPairFinder() {
   throw std::runtime_error(std::string("gpubf-paper: ") + kReason);
 }
 
+std::unique_ptr<PairFinder> makeGpuSapPairFinder() {
+  throw std::runtime_error(std::string("gpusap: ") + kReason);
+}
+
 }  // namespace overlap::gpu

@@ -1,4 +1,4 @@
-// Constructors of the two GPU finders, kept free of CUDA types so that
+// Constructors of the GPU finders, kept free of CUDA types so that
 // pair_finder.cpp and the tests compile with the host compiler alone.  In a
 // build without CUDA they throw std::runtime_error ("built without CUDA").
 #pragma once
@@ -15,5 +15,9 @@ std::unique_ptr<PairFinder> makeGpuPairFinder();
 // gpubf-paper: Serpa & Rodrigues's algorithm, one byte per pair copied back
 // whole every frame and compared on the host.
 std::unique_ptr<PairFinder> makePaperGpuPairFinder();
+
+// gpusap: sort and sweep on the GPU with CUB; the pair set stays on the
+// device and only the changes, found there and sorted, cross the bus.
+std::unique_ptr<PairFinder> makeGpuSapPairFinder();
 
 }  // namespace overlap::gpu

@@ -19,6 +19,7 @@ std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads)
   if (!cudaDeviceAvailable(&why)) {
     throw std::runtime_error("makePairFinder: the GPU pair finders need a CUDA device: " + why);
   }
+  if (kind == PairFinderKind::kGpuSweepAndPrune) return makeGpuSapPairFinder();
   return kind == PairFinderKind::kGpuBruteForce ? makeGpuPairFinder() : makePaperGpuPairFinder();
 }
 

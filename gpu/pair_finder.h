@@ -135,6 +135,7 @@ enum class PairFinderKind {
   kGpuBruteForce,       // gpubf
   kGpuBruteForcePaper,  // gpubf-paper
   kCpuSweepAndPrune,    // cpusap
+  kGpuSweepAndPrune,    // gpusap
 };
 
 // True when a CUDA device can run the GPU finders; otherwise `why` (if not

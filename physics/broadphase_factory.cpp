@@ -14,7 +14,7 @@
 namespace overlap::physics {
 namespace {
 
-constexpr std::array<BroadphaseInfo, 8> kCatalogue = {{
+constexpr std::array<BroadphaseInfo, 9> kCatalogue = {{
     {"bf", true, false, "Bullet's btSimpleBroadphase: every pair tested (the paper's BF)"},
     {"sap", false, false,
      "Bullet's btAxisSweep3: sweep and prune on 16-bit quantized bounds, under 32766 objects"},
@@ -27,6 +27,8 @@ constexpr std::array<BroadphaseInfo, 8> kCatalogue = {{
     {"gpubf", true, true, "ours: CUDA brute force, pairs as bits, only the changes copied back"},
     {"gpubf-paper", true, true,
      "the paper's CUDA brute force as published: a byte per pair, all copied back"},
+    {"gpusap", true, true,
+     "ours: CUDA sort and sweep (CUB), pairs kept on the device, only the changes copied back"},
 }};
 
 constexpr std::array<std::string_view, kCatalogue.size()> kNames = [] {
@@ -92,8 +94,9 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
     std::string why;
     if (gpu::cudaDeviceAvailable(&why)) {
       choice.broadphase = std::make_unique<PairFinderBroadphase>(
-          gpu::makePairFinder(name == "gpubf" ? gpu::PairFinderKind::kGpuBruteForce
-                                              : gpu::PairFinderKind::kGpuBruteForcePaper));
+          gpu::makePairFinder(name == "gpubf"    ? gpu::PairFinderKind::kGpuBruteForce
+                              : name == "gpusap" ? gpu::PairFinderKind::kGpuSweepAndPrune
+                                                 : gpu::PairFinderKind::kGpuBruteForcePaper));
     } else {
       choice = makeBroadphase(kDeviceFallback, world_min, world_max, max_objects);
       choice.notice =

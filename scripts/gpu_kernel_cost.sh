@@ -3,9 +3,12 @@
 # CUDA emulation; no GPU is needed and no time is measured.
 #   scripts/gpu_kernel_cost.sh [--rev REV] [EMULATION_BUILD_DIR]
 #
-# 1. Compiles gpu/gpu_pair_finder.cu and gpu/gpu_pair_finder_paper.cu (of the
-#    work tree, or of git revision REV) for sm_90 with this machine's nvcc at
-#    -O3, and disassembles them (cuobjdump -sass).
+# 1. Compiles gpu/gpu_pair_finder.cu, gpu/gpu_pair_finder_paper.cu and
+#    gpu/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
+#    revision without gpusap skips it) for sm_90 with this machine's nvcc at
+#    -O3, and disassembles them (cuobjdump -sass).  CUB's own kernels (gpusap's
+#    sorts, scan and selections) are listed by name only: they are the
+#    library's, tuned per architecture, and cost a few passes over the data.
 # 2. Per kernel, walks its inner loop (the innermost loop around the ballot;
 #    without one, around the loads; without a loop, the whole thread) along
 #    the common path: a conditional branch that skips a block holding an
@@ -17,7 +20,12 @@
 #    load's full width per lane, or 1/32 of it where its address is the same
 #    in every lane (its registers, followed back along the path and into the
 #    loop, never depend on SR_TID / SR_LANEID other than through tid / 32).
-#    These are static counts of one path, not a profile.
+#    These are static counts of one path, not a profile.  gpusap's
+#    sweepKernel ballots once per 32 candidates (a candidate is a pair it
+#    tests), so its figures are per 32 candidates; its other kernels have no
+#    ballot and are given per pass of their innermost loop (a grid-stride
+#    pass is one box; candidateCountKernel's is one step of its binary
+#    search).
 # 3. Per frame, the API calls, copies and bytes over the bus of one steady
 #    frame of each finder, from the emulation build's counters
 #    (overlap_gpu_frame_cost in EMULATION_BUILD_DIR, default build-emulation;
@@ -71,14 +79,18 @@ if [[ -n "$rev" ]]; then
 fi
 
 echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "$rev" && -n "$(git status --porcelain gpu)" ]] && echo ' + uncommitted gpu/ changes'), nvcc $("$nvcc" --version | sed -n 's/.*release \([0-9.]*\), V\([0-9.]*\).*/\2/p'), sm_90, -O3"
-for source in gpu_pair_finder gpu_pair_finder_paper; do
+sources=(gpu_pair_finder gpu_pair_finder_paper)
+[[ -f "$source_root/gpu/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
+for source in "${sources[@]}"; do
   "$nvcc" -std=c++20 -O3 -arch=sm_90 -cubin -I"$source_root" \
     "$source_root/gpu/$source.cu" -o "$work/$source.cubin" ||
     fail "nvcc could not compile gpu/$source.cu"
   "$cuobjdump" -sass "$work/$source.cubin" >"$work/$source.sass"
 done
 
-kernels="$(python3 - "$work/gpu_pair_finder.sass" "$work/gpu_pair_finder_paper.sass" <<'PYTHON'
+sass_files=()
+for source in "${sources[@]}"; do sass_files+=("$work/$source.sass"); done
+kernels="$(python3 - "${sass_files[@]}" <<'PYTHON'
 import os
 import re
 import sys
@@ -295,6 +307,18 @@ def report(name, code):
     kernel = re.search(r"([a-z][A-Za-z]*Kernel)E", name)
     source = re.search(r"(gpu_pair_finder\w*?)_cu", name)
     short = (f"{source.group(1)}.cu {kernel.group(1)}" if kernel and source else name)
+    if kernel and "sap_kernels" in name:
+        short = f"gpu_sap_kernels.cuh {kernel.group(1)}"
+        if words and kernel.group(1) == "sweepKernel":  # the others' VOTEs are shuffles' masks
+            per32 = len(path) / words
+            print(f"{short}: {per32:.1f} instructions per 32 candidates (warp), "
+                  f"{sum(loads) / words:.2f} bytes loaded per candidate ({len(path)} instructions, "
+                  f"{words} ballots per loop pass)")
+        else:
+            per32 = len(path)
+            print(f"{short}: {per32} instructions per pass of its innermost loop (a lane), "
+                  f"{sum(loads):.2f} bytes loaded per pass")
+        return per32
     if words:
         # One ballot is one word of 32 pairs, each lane one pair.
         per32 = len(path) / words
@@ -316,11 +340,18 @@ def report(name, code):
 
 
 costs = {}
+cub_kernels = set()
 for path in sys.argv[1:]:
     for name, code in functions(path).items():
+        if name.startswith("_ZN3cub"):
+            found = re.search(r"([A-Z][A-Za-z]*Kernel)", name)
+            cub_kernels.add(found.group(1) if found else name[:48])
+            continue
         # The pair kernels only: the sort of gpubf change lists walks no pairs.
         if "Kernel" in name and "Probe" not in name and "sortHeads" not in name:
             costs[name] = report(name, code)
+if cub_kernels:
+    print("gpu_sap_pair_finder.cu CUB kernels: " + ", ".join(sorted(cub_kernels)))
 gpubf = [cost for name, cost in costs.items() if "findPairsKernel" in name]
 print(f"gpubf instructions per 32 pairs: {gpubf[0]:.1f}" if gpubf else "gpubf: no findPairsKernel")
 PYTHON

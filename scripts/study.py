@@ -61,11 +61,11 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 
 # Each profile's values; any option given on the command line wins.
 FULL = {
-    "scenes": "1,2,3,4", "algos": "bf,sap,bvh,gpubf-paper,gpubf,cpubf,cpusap",
+    "scenes": "1,2,3,4", "algos": "bf,sap,bvh,gpubf-paper,gpubf,cpubf,cpusap,gpusap",
     "objects": "500,1250,2000,2750,3500", "repetitions": 5, "frames": 2048,
     "figure_objects": 1250,
     "pairs_objects": 3500, "pairs_frames": 256,
-    "pairs_algos": "bf,sap,sap32,bvh,cpubf,cpusap,gpubf,gpubf-paper",
+    "pairs_algos": "bf,sap,sap32,bvh,cpubf,cpusap,gpubf,gpubf-paper,gpusap",
     "physics_scenes": "1,2,3,4", "physics_objects": 3500, "physics_frames": 2048,
     "physics_substeps": "1,2,4,8,16,auto", "physics_ccd": "off,auto,all", "physics_algo": "bvh",
     "physics_seeds": "7,123", "physics_compare_objects": "", "physics_compare_frames": 2048,

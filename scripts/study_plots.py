@@ -18,7 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
 COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
-           "cpubf": "#ff7f0e", "cpusap": "#8c564b", "gpubf": "#d62728", "gpubf-paper": "#9467bd"}
+           "cpubf": "#ff7f0e", "cpusap": "#8c564b", "gpubf": "#d62728", "gpubf-paper": "#9467bd",
+           "gpusap": "#e377c2"}
 LANE_COLOURS = {"frame": "#eeeeee", "physics": "#cccccc", "substep": "#aaaaaa",
                 "broadphase": "#d62728", "narrowphase": "#9467bd",
                 "tasks": "#dddddd", "sound": "#1f77b4", "ai": "#2ca02c",

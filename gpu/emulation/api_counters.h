@@ -38,4 +38,8 @@ struct ApiCounters {
 // A snapshot of the counts (gpu/emulation/runtime.cpp).
 ApiCounters apiCounters();
 
+// The bytes of device memory allocated and not yet freed, now: what a finder
+// holds on the device (tests of its memory budget).
+std::uint64_t liveDeviceBytes();
+
 }  // namespace overlap::cuda_emulation

@@ -130,6 +130,10 @@ cudaError_t cudaStreamDestroy(cudaStream_t stream);
 cudaError_t cudaStreamSynchronize(cudaStream_t stream, OVERLAP_CUDA_SITE);
 cudaError_t cudaStreamQuery(cudaStream_t stream, OVERLAP_CUDA_SITE);
 cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned flags = 0);
+// Runs fn(user_data) on the host in the stream's order, when the stream is
+// waited for (the emulation's CUB stand-ins run their work this way).
+using cudaHostFn_t = void (*)(void* user_data);
+cudaError_t cudaLaunchHostFunc(cudaStream_t stream, cudaHostFn_t fn, void* user_data);
 
 cudaError_t cudaEventCreate(cudaEvent_t* event);
 cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags);

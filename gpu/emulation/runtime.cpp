@@ -166,6 +166,14 @@ class Runtime {
     }
   }
 
+  std::uint64_t liveDeviceBytes() const {
+    std::uint64_t bytes = 0;
+    for (const auto& [base, allocation] : allocations_) {
+      if (allocation.space == Space::kDevice) bytes += allocation.bytes;
+    }
+    return bytes;
+  }
+
   bool onDevice(const void* pointer) const {
     const Allocation* allocation = containing(pointer).second;
     return allocation != nullptr && allocation->space == Space::kDevice;
@@ -514,6 +522,17 @@ cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned
   return cudaSuccess;
 }
 
+cudaError_t cudaLaunchHostFunc(cudaStream_t stream, cudaHostFn_t fn, void* user_data) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  if (fn == nullptr) return record(cudaErrorInvalidValue);
+  rt.enqueue(*target, [fn, user_data] { fn(user_data); });
+  return cudaSuccess;
+}
+
 cudaError_t cudaEventCreate(cudaEvent_t* event) {
   return cudaEventCreateWithFlags(event, cudaEventDefault);
 }
@@ -592,6 +611,12 @@ namespace overlap::cuda_emulation {
 ApiCounters apiCounters() {
   const std::lock_guard lock(detail::g_counters_mutex);
   return detail::g_counters;
+}
+
+std::uint64_t liveDeviceBytes() {
+  detail::Runtime& rt = detail::runtime();
+  const std::lock_guard lock(rt.mutex);
+  return rt.liveDeviceBytes();
 }
 
 }  // namespace overlap::cuda_emulation

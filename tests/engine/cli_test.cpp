@@ -290,7 +290,7 @@ TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
   const std::string exact = stdoutOf("pairs --algo cpubf --input " + stream.string(), &exit_code);
   ASSERT_EQ(exit_code, 0);
   ASSERT_GT(lineCount(exact), 100);
-  for (const std::string algo : {"gpubf", "gpubf-paper"}) {
+  for (const std::string algo : {"gpubf", "gpubf-paper", "gpusap"}) {
     const std::string args = "pairs --algo " + algo + " --input " + stream.string();
     const Result result = runOverlap(args);
     ASSERT_EQ(result.exit_code, 0) << result.stderr_text;

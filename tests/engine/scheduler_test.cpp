@@ -264,7 +264,7 @@ TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
   std::string why;
   if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   const Outcome reference = runFrames("cpubf", true, 30);
-  for (const char* algorithm : {"gpubf", "gpubf-paper"}) {
+  for (const char* algorithm : {"gpubf", "gpubf-paper", "gpusap"}) {
     const Outcome async_run = runFrames(algorithm, false, 30);
     EXPECT_EQ(async_run.pairs, reference.pairs) << algorithm;
     EXPECT_EQ(async_run.state_hash, reference.state_hash) << algorithm;

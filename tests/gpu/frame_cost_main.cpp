@@ -30,8 +30,8 @@ int main(int argc, char** argv) {
               "api_calls", "launches", "uploads", "copies", "d2d", "memsets", "bytes_to_dev",
               "bytes_to_host", "events", "waits", "host_copied", "host_sorted");
   for (const std::uint32_t n : sizes) {
-    for (const bool paper : {false, true}) {
-      const auto finder = paper ? makePaperGpuPairFinder() : makeGpuPairFinder();
+    for (const auto make : {makeGpuPairFinder, makePaperGpuPairFinder, makeGpuSapPairFinder}) {
+      const auto finder = make();
       const auto c = testing::steadyFrameCost(*finder, n);
       const DeviceWork work = finder->lastDeviceWork();
       std::printf(

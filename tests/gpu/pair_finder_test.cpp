@@ -151,7 +151,8 @@ INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest,
                          ::testing::Values(PairFinderKind::kCpuBruteForce,
                                            PairFinderKind::kCpuSweepAndPrune,
                                            PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper),
+                                           PairFinderKind::kGpuBruteForcePaper,
+                                           PairFinderKind::kGpuSweepAndPrune),
                          testing::finderTestName);
 
 // The GPU finders give exactly cpubf's deltas on a long random run.
@@ -172,7 +173,8 @@ TEST_P(GpuAgreesWithCpuTest, SameDeltasAsCpubf) {
 
 INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
                          ::testing::Values(PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper),
+                                           PairFinderKind::kGpuBruteForcePaper,
+                                           PairFinderKind::kGpuSweepAndPrune),
                          testing::finderTestName);
 
 TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
@@ -239,10 +241,12 @@ TEST(MakePairFinderTest, GpuKindsNeedADevice) {
   if (cudaDeviceAvailable(&why)) {
     EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForce)->name(), "gpubf");
     EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForcePaper)->name(), "gpubf-paper");
+    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuSweepAndPrune)->name(), "gpusap");
   } else {
     EXPECT_FALSE(why.empty());
     EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForce), std::runtime_error);
     EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForcePaper), std::runtime_error);
+    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuSweepAndPrune), std::runtime_error);
   }
   EXPECT_EQ(makePairFinder(PairFinderKind::kCpuBruteForce)->name(), "cpubf");
   EXPECT_EQ(makePairFinder(PairFinderKind::kCpuSweepAndPrune)->name(), "cpusap");

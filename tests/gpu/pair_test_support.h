@@ -39,6 +39,9 @@ inline void PrintTo(PairFinderKind kind, std::ostream* out) {
     case PairFinderKind::kGpuBruteForcePaper:
       *out << "gpubf-paper";
       return;
+    case PairFinderKind::kGpuSweepAndPrune:
+      *out << "gpusap";
+      return;
   }
 }
 
@@ -182,6 +185,30 @@ inline std::vector<ObjectBounds> makeBoxes(BoxSet set, std::uint32_t n, int fram
   return boxes;
 }
 
+// n boxes of scene 4's three size classes (edges 0.1-0.4, 0.8-1.2 and
+// 1.6-4.0, in turn) spread uniformly over [0, extent) on each axis, every box
+// moved a little further each frame.
+inline std::vector<ObjectBounds> pileOfThreeSizes(std::uint32_t n, const float (&extent)[3],
+                                                  int frame) {
+  std::mt19937 random(5);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const float shortest[3] = {0.1f, 0.8f, 1.6f};
+  const float longest[3] = {0.4f, 1.2f, 4.0f};
+  std::vector<ObjectBounds> boxes(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t size = i % 3;
+    const float edge = shortest[size] + (longest[size] - shortest[size]) * unit(random);
+    for (int axis = 0; axis < 3; ++axis) {
+      const float centre = extent[axis] * unit(random) + 0.05f * static_cast<float>(frame);
+      boxes[i].min[axis] = centre - 0.5f * edge;
+      boxes[i].max[axis] = centre + 0.5f * edge;
+    }
+    boxes[i].group = 1;
+    boxes[i].mask = -1;
+  }
+  return boxes;
+}
+
 inline std::string finderName(PairFinderKind kind) {
   switch (kind) {
     case PairFinderKind::kCpuBruteForce:
@@ -192,12 +219,15 @@ inline std::string finderName(PairFinderKind kind) {
       return "gpubf";
     case PairFinderKind::kGpuBruteForcePaper:
       return "gpubf_paper";
+    case PairFinderKind::kGpuSweepAndPrune:
+      return "gpusap";
   }
   return "unknown";
 }
 
 inline bool isGpuFinder(PairFinderKind kind) {
-  return kind == PairFinderKind::kGpuBruteForce || kind == PairFinderKind::kGpuBruteForcePaper;
+  return kind == PairFinderKind::kGpuBruteForce || kind == PairFinderKind::kGpuBruteForcePaper ||
+         kind == PairFinderKind::kGpuSweepAndPrune;
 }
 
 // Names parameterized tests after their finder.

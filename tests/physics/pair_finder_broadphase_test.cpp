@@ -477,7 +477,8 @@ INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
                          ::testing::Values(PairFinderKind::kCpuBruteForce,
                                            PairFinderKind::kCpuSweepAndPrune,
                                            PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper),
+                                           PairFinderKind::kGpuBruteForcePaper,
+                                           PairFinderKind::kGpuSweepAndPrune),
                          gpu::testing::finderTestName);
 }  // namespace
 }  // namespace overlap::physics

@@ -103,7 +103,7 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Finders, OurBroadphaseTest,
-                         ::testing::Values("cpubf", "cpusap", "gpubf", "gpubf-paper"),
+                         ::testing::Values("cpubf", "cpusap", "gpubf", "gpubf-paper", "gpusap"),
                          [](const ::testing::TestParamInfo<const char*>& param_info) {
                            return param_info.param == std::string("gpubf-paper")
                                       ? std::string("gpubf_paper")
