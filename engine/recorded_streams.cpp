@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "gpu/base/interrupt.h"
 #include "engine/progress.h"
+#include "gpu/base/interrupt.h"
 #include "physics/world.h"
 
 namespace overlap::engine {

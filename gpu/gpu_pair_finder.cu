@@ -14,7 +14,7 @@
 // again, from the two frames' words, into longer lists.
 //
 // A second, one-block-per-list kernel sorts each list's head in place
-// (a bitonic sort in shared memory), so the changes come back sorted and the
+// (CUB's block-wide radix sort), so the changes come back sorted and the
 // host sorts nothing unless a list outgrew its head.
 //
 // One frame is: an upload of the boxes from pinned staging (which the caller
@@ -33,13 +33,16 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <bit>
 #include <cstring>
+#include <cub/block/block_radix_sort.cuh>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
+#include "gpu/finish_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/row_words.h"
 #include "gpu/stage_events.h"
@@ -60,7 +63,7 @@ constexpr std::size_t kHeadEntries = 1u << 12;
 // Each list holds this many entries at first, the head included.
 constexpr std::size_t kInitialListCapacity = 1u << 14;
 constexpr unsigned kFullWarp = 0xFFFFFFFFu;
-// One block sorts one list's head: kHeadEntries keys of shared memory.
+// One block sorts one list's head.
 constexpr unsigned kSortThreads = 512;
 
 // What one copy brings back each frame.
@@ -184,39 +187,39 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
   });
 }
 
+// The head sort: one block per list, the whole head in one CUB block-wide
+// radix sort, kSortItems keys a thread.
+constexpr unsigned kSortItems = kHeadEntries / kSortThreads;
+static_assert(kSortItems * kSortThreads == kHeadEntries, "the sort's keys cover the head exactly");
+using HeadSort = cub::BlockRadixSort<std::uint64_t, kSortThreads, kSortItems>;
+
 // Sorts the first counts[counting][list] entries of each list's head by
-// (a, b), block 0 the added list and block 1 the removed one.  A list longer
-// than its head is left to the host, which sorts it whole with its tail.
+// (a, b), block 0 the added list and block 1 the removed one.  A pair is one
+// key, a above b, each in `slot_bits` bits (every slot is below
+// 2^slot_bits), so the sort reads 2 * slot_bits bits, not 64.  Entries past
+// the count are padded with all-ones keys, which sort last (no pair is one:
+// b > a).  A list longer than its head is left to the host, which sorts it
+// whole with its tail.
 __global__ void __launch_bounds__(kSortThreads)
-    sortHeadsKernel(ResultBlock* block, unsigned counting) {
-  __shared__ std::uint64_t keys[kHeadEntries];
+    sortHeadsKernel(ResultBlock* block, unsigned counting, unsigned slot_bits) {
+  __shared__ typename HeadSort::TempStorage storage;
   IndexPair* const list = blockIdx.x == 0 ? block->added : block->removed;
   const unsigned long long count = block->counts[counting][blockIdx.x];
   if (count < 2 || count > kHeadEntries) return;  // uniform across the block
-  unsigned size = 2;                              // the power of two the bitonic network spans
-  while (size < count) size *= 2;
-  for (unsigned i = threadIdx.x; i < size; i += kSortThreads) {
-    // (a, b) as one key, a high: keys sort as the pairs do (a < b already).
-    keys[i] = i < count ? (std::uint64_t{list[i].a} << 32) | list[i].b : ~std::uint64_t{0};
+  const std::uint64_t b_mask = (std::uint64_t{1} << slot_bits) - 1;
+  std::uint64_t keys[kSortItems];
+  for (unsigned item = 0; item < kSortItems; ++item) {
+    const unsigned i = threadIdx.x * kSortItems + item;
+    keys[item] =
+        i < count ? (std::uint64_t{list[i].a} << slot_bits) | list[i].b : ~std::uint64_t{0};
   }
-  __syncthreads();
-  for (unsigned run = 2; run <= size; run *= 2) {
-    for (unsigned stride = run / 2; stride > 0; stride /= 2) {
-      for (unsigned i = threadIdx.x; i < size; i += kSortThreads) {
-        const unsigned partner = i ^ stride;
-        const bool ascending = (i & run) == 0;
-        if (partner > i && (keys[i] > keys[partner]) == ascending) {
-          const std::uint64_t kept = keys[i];
-          keys[i] = keys[partner];
-          keys[partner] = kept;
-        }
-      }
-      __syncthreads();
+  HeadSort(storage).Sort(keys, 0, static_cast<int>(2 * slot_bits));
+  for (unsigned item = 0; item < kSortItems; ++item) {
+    const unsigned i = threadIdx.x * kSortItems + item;
+    if (i < count) {
+      list[i] = IndexPair{static_cast<std::uint32_t>(keys[item] >> slot_bits),
+                          static_cast<std::uint32_t>(keys[item] & b_mask)};
     }
-  }
-  for (unsigned i = threadIdx.x; i < count; i += kSortThreads) {
-    list[i] =
-        IndexPair{static_cast<std::uint32_t>(keys[i] >> 32), static_cast<std::uint32_t>(keys[i])};
   }
 }
 
@@ -307,16 +310,11 @@ class GpuPairFinder final : public PairFinder {
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
   PairDelta finish() override {
-    if (!in_flight_) throw std::runtime_error("gpubf: finish() called without launch()");
-    in_flight_ = false;
-    try {
+    return finishFrame(name(), in_flight_, stream_, [&] {
       const PairDelta delta = collectDelta();
       last_launch_to_finish_ms_ = launch_watch_.ms();
       return delta;
-    } catch (...) {
-      cudaStreamSynchronize(stream_);  // its own error is the one being thrown
-      throw;
-    }
+    });
   }
 
  private:
@@ -385,7 +383,9 @@ class GpuPairFinder final : public PairFinder {
   // until read).
   void enqueueHeadSort() {
     ++work_.api_calls;
-    sortHeadsKernel<<<2, kSortThreads, 0, stream_>>>(block_.data(), reading_);
+    // Every slot is below 2^bits: the keys' width (at least 1, at most 32).
+    const auto slot_bits = std::max(1u, static_cast<unsigned>(std::bit_width(slot_count_)));
+    sortHeadsKernel<<<2, kSortThreads, 0, stream_>>>(block_.data(), reading_, slot_bits);
     CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
   }
 

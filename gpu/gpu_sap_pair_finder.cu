@@ -41,6 +41,7 @@
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
+#include "gpu/finish_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
 #include "gpu/pinned_staging.h"
@@ -132,16 +133,11 @@ class GpuSapPairFinder final : public PairFinder {
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
   PairDelta finish() override {
-    if (!in_flight_) throw std::runtime_error("gpusap: finish() called without launch()");
-    in_flight_ = false;
-    try {
+    return finishFrame(name(), in_flight_, stream_, [&] {
       const PairDelta delta = collectDelta();
       last_launch_to_finish_ms_ = launch_watch_.ms();
       return delta;
-    } catch (...) {
-      cudaStreamSynchronize(stream_);  // its own error is the one being thrown
-      throw;
-    }
+    });
   }
 
  private:

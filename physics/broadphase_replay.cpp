@@ -152,7 +152,8 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
   if (ours == nullptr) return std::nullopt;
   const gpu::SearchPhases split = ours->lastPhases();
-  return ReplayPhases{ours->lastSearchMs(),          split.sort_ms,
+  return ReplayPhases{ours->lastSearchMs(),
+                      split.sort_ms,
                       split.sweep_ms,
                       split.delta_ms,
                       ours->lastCacheUpdateMs(),

@@ -299,3 +299,43 @@ TEST(CubStandIns, WorkRunsInTheStreamsOrderWhenWaitedFor) {
 }
 
 }  // namespace
+
+// BlockRadixSort: one block's keys, blocked, sorted by a bit range, stably.
+template <int kThreads, int kItems>
+__global__ void sortBlockKernel(std::uint64_t* keys, int begin_bit, int end_bit) {
+  using Sort = cub::BlockRadixSort<std::uint64_t, kThreads, kItems>;
+  __shared__ typename Sort::TempStorage storage;
+  std::uint64_t mine[kItems];
+  for (int item = 0; item < kItems; ++item) mine[item] = keys[threadIdx.x * kItems + item];
+  Sort(storage).Sort(mine, begin_bit, end_bit);
+  for (int item = 0; item < kItems; ++item) keys[threadIdx.x * kItems + item] = mine[item];
+}
+
+template <int kThreads, int kItems>
+void expectBlockSortMatchesStableSort(int begin_bit, int end_bit, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::vector<std::uint64_t> keys(kThreads * kItems);
+  // Few distinct digits on the range, so stability shows.
+  for (std::uint64_t& key : keys) key = random() & 0xF0F0F0F0F0F0F0F0ull;
+  std::vector<std::uint64_t> expected = keys;
+  const auto digits = [&](std::uint64_t key) {
+    const std::uint64_t shifted = key >> begin_bit;
+    const int width = end_bit - begin_bit;
+    return width >= 64 ? shifted : shifted & ((std::uint64_t{1} << width) - 1);
+  };
+  std::stable_sort(expected.begin(), expected.end(),
+                   [&](std::uint64_t x, std::uint64_t y) { return digits(x) < digits(y); });
+  DeviceArray<std::uint64_t> device(keys);
+  sortBlockKernel<kThreads, kItems><<<1, kThreads>>>(device.data(), begin_bit, end_bit);
+  ASSERT_EQ(cudaGetLastError(), cudaSuccess);
+  EXPECT_EQ(device.toHost(), expected)
+      << kThreads << " threads x " << kItems << " keys, bits " << begin_bit << ".." << end_bit;
+}
+
+TEST(CubStandIns, BlockRadixSortMatchesStableSortOnTheBitRange) {
+  for (const auto& [begin_bit, end_bit] : {std::pair{0, 64}, {0, 24}, {8, 40}, {4, 5}}) {
+    expectBlockSortMatchesStableSort<32, 1>(begin_bit, end_bit, 1);
+    expectBlockSortMatchesStableSort<32, 33>(begin_bit, end_bit, 2);
+    expectBlockSortMatchesStableSort<512, 8>(begin_bit, end_bit, 3);
+  }
+}

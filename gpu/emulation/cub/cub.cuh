@@ -1,7 +1,8 @@
 // The CUDA emulation's <cub/cub.cuh>: CPU stand-ins for the few CUB
 // device-wide algorithms gpu/*.cu use, with CUB's signatures and contracts,
 // so that the .cu files compile unchanged against them (this directory is on
-// the emulation build's include path ahead of the toolkit).
+// the emulation build's include path ahead of the toolkit).  The one
+// block-wide collective used, cub/block/block_radix_sort.cuh, states its own.
 //
 // Contracts kept, each as CUB states it:
 // - a call with d_temp_storage == nullptr only writes the temporary storage
@@ -20,6 +21,7 @@
 // stand-ins cover unsigned integer keys only; the rest of CUB is absent.
 #pragma once
 
+#include "cub/block/block_radix_sort.cuh"
 #include "cub/device/device_radix_sort.cuh"
 #include "cub/device/device_scan.cuh"
 #include "cub/device/device_select.cuh"
