@@ -94,6 +94,43 @@ std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& s
   return reference;
 }
 
+namespace {
+
+// One replay's figures of its measured frames, folded into its row as medians.
+struct ReplaySamples {
+  std::vector<double> frame_us, update_us, sort_us, sweep_us, delta_us, cache_us;
+  std::vector<double> launch_to_finish_us;
+  std::vector<DeviceFigures> device;
+
+  void add(double elapsed_us, double updated_us,
+           const std::optional<physics::ReplayPhases>& phases) {
+    frame_us.push_back(elapsed_us);
+    update_us.push_back(updated_us);
+    if (!phases) return;  // Bullet's own broadphases split nothing
+    sort_us.push_back(1e3 * phases->sort_ms);
+    sweep_us.push_back(1e3 * phases->sweep_ms);
+    delta_us.push_back(1e3 * phases->delta_ms);
+    cache_us.push_back(1e3 * phases->cache_update_ms);
+    launch_to_finish_us.push_back(1e3 * phases->launch_to_finish_ms);
+    if (phases->device.api_calls > 0) device.push_back(deviceFigures(phases->device));
+  }
+
+  void foldInto(Row& row) {
+    row.repeat_medians_us.push_back(median(std::move(frame_us)));
+    row.update_us.push_back(median(std::move(update_us)));
+    if (!sort_us.empty()) {
+      row.sort_us.push_back(median(std::move(sort_us)));
+      row.sweep_us.push_back(median(std::move(sweep_us)));
+      row.delta_us.push_back(median(std::move(delta_us)));
+      row.cache_us.push_back(median(std::move(cache_us)));
+      row.launch_to_finish_us.push_back(median(std::move(launch_to_finish_us)));
+    }
+    if (!device.empty()) row.device.push_back(columnMedians(device));
+  }
+};
+
+}  // namespace
+
 void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
                 std::vector<physics::PairList>& reference, bool has_reference, Row& row) {
   std::optional<physics::BroadphaseReplay> made;
@@ -111,9 +148,7 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
   if (fills_reference && row.churn > 0) {
     throw std::logic_error("replayOnce: a churn replay cannot be the reference");
   }
-  std::vector<double> frame_us, update_us, sort_us, sweep_us, delta_us, cache_us;
-  std::vector<double> launch_to_finish_us;
-  std::vector<DeviceFigures> device;
+  ReplaySamples samples;
   std::vector<std::uint32_t> changed;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
     if (pendingInterrupt() != 0) {  // before the clock starts
@@ -139,16 +174,7 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
     physics::PairList pairs = replay.pairs();
     const bool measured = frame >= warmup;
     if (measured) {
-      frame_us.push_back(elapsed_us);
-      update_us.push_back(updated_us);
-      if (const auto phases = replay.lastPhases()) {
-        sort_us.push_back(1e3 * phases->sort_ms);
-        sweep_us.push_back(1e3 * phases->sweep_ms);
-        delta_us.push_back(1e3 * phases->delta_ms);
-        cache_us.push_back(1e3 * phases->cache_update_ms);
-        launch_to_finish_us.push_back(1e3 * phases->launch_to_finish_ms);
-        if (phases->device.api_calls > 0) device.push_back(deviceFigures(phases->device));
-      }
+      samples.add(elapsed_us, updated_us, replay.lastPhases());
       row.pairs_sum += static_cast<double>(pairs.size());
     }
     if (fills_reference) {
@@ -165,16 +191,7 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
       if (extra + missed > 0) ++row.mismatched_frames;
     }
   }
-  row.repeat_medians_us.push_back(median(std::move(frame_us)));
-  row.update_us.push_back(median(std::move(update_us)));
-  if (!sort_us.empty()) {
-    row.sort_us.push_back(median(std::move(sort_us)));
-    row.sweep_us.push_back(median(std::move(sweep_us)));
-    row.delta_us.push_back(median(std::move(delta_us)));
-    row.cache_us.push_back(median(std::move(cache_us)));
-    row.launch_to_finish_us.push_back(median(std::move(launch_to_finish_us)));
-  }
-  if (!device.empty()) row.device.push_back(columnMedians(device));
+  samples.foldInto(row);
 }
 
 }  // namespace overlap::engine

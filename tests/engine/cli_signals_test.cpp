@@ -1,5 +1,5 @@
 // Signals, pipes and temporaries (docs/CLI.md, "Signals", "Outputs"): each
-// test makes the mess one row of project issue 36's table describes, small
+// test makes the mess one row of a hostile probe's table describes, small
 // enough to run in a second or two, and checks what a careful user expects.
 // A FIFO stands in for a slow or vanished reader or writer.
 #include <fcntl.h>
