@@ -392,7 +392,8 @@ TEST_P(PairFinderBroadphaseTest, FillsTheFindersStagingSoItCopiesNoBoxes) {
     live.push_back(create(b, b.group, b.mask));
   }
   for (int frame = 1; frame < 5; ++frame) {
-    const auto moved = gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 300, frame);
+    const auto moved = gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom,
+                                               static_cast<std::uint32_t>(live.size()), frame);
     for (std::size_t i = 0; i < live.size(); ++i) {
       broadphase_->setAabb(live[i], minOf(moved[i]), maxOf(moved[i]), &dispatcher_);
     }
