@@ -310,11 +310,8 @@ class GpuPairFinder final : public PairFinder {
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
   PairDelta finish() override {
-    return finishFrame(name(), in_flight_, stream_, [&] {
-      const PairDelta delta = collectDelta();
-      last_launch_to_finish_ms_ = launch_watch_.ms();
-      return delta;
-    });
+    return finishFrame(name(), in_flight_, stream_, launch_watch_, last_launch_to_finish_ms_,
+                       [&] { return collectDelta(); });
   }
 
  private:

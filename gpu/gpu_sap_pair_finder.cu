@@ -133,11 +133,8 @@ class GpuSapPairFinder final : public PairFinder {
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
   PairDelta finish() override {
-    return finishFrame(name(), in_flight_, stream_, [&] {
-      const PairDelta delta = collectDelta();
-      last_launch_to_finish_ms_ = launch_watch_.ms();
-      return delta;
-    });
+    return finishFrame(name(), in_flight_, stream_, launch_watch_, last_launch_to_finish_ms_,
+                       [&] { return collectDelta(); });
   }
 
  private:

@@ -107,10 +107,10 @@ class PairFinder {
   }
   // Waits for the search started by launch() and returns what changed.
   virtual PairDelta finish() = 0;
-  // How long the last finished search took by its own clock: on both GPU
+  // How long the last finished search took by its own clock: on the GPU
   // finders CUDA events from before the upload to after the last copy back
-  // (device time: the host's staging, XOR and sort are not in it), on the CPU
-  // the searching thread's clock.
+  // (device time: the host's work around it is not in it), on the CPU the
+  // searching thread's clock.
   virtual double lastSearchMs() const = 0;
   // How long the last finished search took on the host's clock, from
   // launch()'s entry to finish()'s return, whatever the caller did between.
