@@ -153,8 +153,11 @@ step_ctest() {
     --output-junit "$GC_WORK/ctest.xml"
   local rc=$? log="$GC_WORK/logs/$GC_STEP.log"
   local total failed skipped
-  total="$(sed -n 's/.*tests failed out of \([0-9]*\).*/\1/p' "$log" | tail -1)"
-  failed="$(sed -n 's/.*, \([0-9]*\) tests failed out of.*/\1/p' "$log" | tail -1)"
+  # ctest's summary line: "100% tests passed out of 486" when all pass,
+  # "97% tests passed, 3 tests failed out of 486" otherwise.
+  total="$(sed -En 's/.*% tests passed(, [0-9]+ tests failed)? out of ([0-9]+).*/\2/p' "$log" | tail -1)"
+  failed="$(sed -En 's/.*% tests passed, ([0-9]+) tests failed out of.*/\1/p' "$log" | tail -1)"
+  [[ -n "$total" && -z "$failed" ]] && failed=0
   skipped="$(grep -c '(Skipped)' "$log")"
   sed -n '/The following tests/,$p' "$log" >"$GC_WORK/ctest_summary.txt"
   note "${total:-?} tests, ${failed:-?} failed, $skipped skipped (ctest_summary.txt)"
