@@ -1,29 +1,38 @@
 #!/usr/bin/python3
-"""The GPU machine's figures, read from the raw files kept in docs/results/gpu/raw/.
+"""The GPU machines' figures, read from the raw files kept in docs/results/gpu/.
 
-The tables of docs/results/gpu/README.md are this script's output (run it and
-paste; every figure comes from a raw file, none is typed), and the study's
-claims table cites the same figures through claim_figures() while the study's
-own runs have no GPU.  The files are what the GPU machine wrote:
+Each machine has a folder of raw files as it wrote them: the H200's in
+docs/results/gpu/raw/ (commit d1690ab), the H100's in docs/results/gpu/h100/raw/
+(commit d5e40a4).  The tables of each folder's README.md are this script's
+output (run it and paste; every figure comes from a raw file, none is typed),
+and the study's claims table cites the same figures, machine by machine,
+through claim_figures() while the study's own runs have no GPU.  The files:
 
-  probe_*.log        the finder alone, launch() + finish(), per (stream, finder)
-  bench_*.csv        overlap_bench_broadphase: update + findPairs with Bullet's pair cache
-  */summary.json     overlap run; */timeline.json.gz its spans (Perfetto)
+  bench_*.csv, bench-*.csv     overlap_bench_broadphase: update + findPairs with
+                               Bullet's pair cache; from d5e40a4 on, also each
+                               finder's launch() to finish(), its CUDA events and calls
+  probe_*.log                  (H200) the finder alone, timed by a program of that session's
+  */summary.json               (H200) overlap run; */timeline.json.gz its spans (Perfetto)
+  gpu_check_summary_*.txt      (H100) scripts/gpu_check.sh's step tables, whose frames
+                               steps' notes are its `overlap run` medians
 
-  scripts/gpu_results.py [--raw docs/results/gpu/raw]
+  scripts/gpu_results.py [--raw FOLDER]     (default: every machine's)
 """
 import argparse
 import csv
 import gzip
 import json
 import pathlib
+import re
 import statistics
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
-RAW = REPO / "docs" / "results" / "gpu" / "raw"
-FOLDER = "docs/results/gpu/"
+RESULTS = REPO / "docs" / "results" / "gpu"
+RAW = RESULTS / "raw"
+MACHINES = (RESULTS / "h100" / "raw", RAW)  # newest first: the claims table cites them so
 FINDERS = ("cpubf", "cpusap", "gpubf", "gpubf-paper")
-BENCH_ALGOS = ("sap", "bvh", "cpubf", "cpusap", "gpubf", "gpubf-paper")
+BENCH_ALGOS = ("sap", "bvh", "cpubf", "cpusap", "gpubf", "gpubf-paper", "gpusap")
+GPU_FINDERS = ("gpubf", "gpubf-paper", "gpusap")
 FRAME_RUNS = (("demo", "demo (`overlap run`, 1000 boxes)"),
               ("async_gpubf", "3500 boxes, task load 1, `--compare-sync`"),
               ("async_cpusap", "3500 boxes, task load 1, `--compare-sync`"))
@@ -35,9 +44,16 @@ def commented_csv(path: pathlib.Path) -> list:
     return list(csv.DictReader(lines))
 
 
+def bench_files(raw: pathlib.Path, suffix: str) -> list:
+    """The benchmark's files, the paper's sizes first (bench_paper, bench-paper, then the
+    larger sizes in the order of their names)."""
+    files = sorted(raw.glob(f"bench[-_]*.{suffix}"))
+    return sorted(files, key=lambda path: "paper" not in path.name)
+
+
 def machine(raw: pathlib.Path = RAW) -> dict:
     """The GPU machine as its benchmark recorded it (GPU, CPU, threads, commit)."""
-    return json.loads((raw / "bench_paper.json").read_text())["machine"]
+    return json.loads(bench_files(raw, "json")[0].read_text())["machine"]
 
 
 def finder_rows(raw: pathlib.Path = RAW) -> list:
@@ -45,8 +61,7 @@ def finder_rows(raw: pathlib.Path = RAW) -> list:
 
 
 def bench_rows(raw: pathlib.Path = RAW) -> list:
-    return [row for name in ("bench_paper.csv", "bench_big.csv")
-            for row in commented_csv(raw / name)]
+    return [row for path in bench_files(raw, "csv") for row in commented_csv(path)]
 
 
 def bench_median_us(raw: pathlib.Path = RAW) -> dict:
@@ -56,6 +71,24 @@ def bench_median_us(raw: pathlib.Path = RAW) -> dict:
 
 def frame_summary(run: str, raw: pathlib.Path = RAW) -> dict:
     return json.loads((raw / run / "summary.json").read_text())
+
+
+def checked_frames(raw: pathlib.Path = RAW) -> list:
+    """The frames steps of gpu_check's step tables (gpu_check_summary_*.txt) that passed:
+    [{step, algo, frame, physics, broadphase, speedup, same_state, state}], medians in ms."""
+    pattern = re.compile(r"^(frames-\S+)\s+pass\s.*ran (\S+); frame ([\d.]+) ms, physics ([\d.]+), "
+                         r"broadphase ([\d.]+); state (\w+)(?:; sync/async ([\d.]+), same state "
+                         r"(\w+))?")
+    runs = []
+    for path in sorted(raw.glob("gpu_check_summary_*.txt")):
+        for line in path.read_text().splitlines():
+            m = pattern.match(line)
+            if m:
+                runs.append({"step": m[1], "algo": m[2], "frame": float(m[3]),
+                             "physics": float(m[4]), "broadphase": float(m[5]), "state": m[6],
+                             "speedup": float(m[7]) if m[7] else None,
+                             "same_state": m[8] == "True"})
+    return runs
 
 
 def search_span_us(run: str, raw: pathlib.Path = RAW):
@@ -79,7 +112,10 @@ def table(headers: list, rows: list) -> list:
 
 
 def finder_table(raw: pathlib.Path = RAW) -> list:
+    """The H200's probe program: the finder alone, launch() + finish() on the host."""
     rows = finder_rows(raw)
+    if not rows:
+        return []
     by = {(int(r["n"]), r["algo"]): r for r in rows}
     sizes = sorted({n for n, _ in by})
     lines = []
@@ -96,14 +132,70 @@ def finder_table(raw: pathlib.Path = RAW) -> list:
                   "gpubf-paper events", "pairs against the reference"], lines)
 
 
+def number(row: dict, column: str):
+    value = row.get(column) if row else None
+    return float(value) if value not in (None, "") else None
+
+
+def launch_table(raw: pathlib.Path = RAW) -> list:
+    """The benchmark's own split of our finders (from d5e40a4): launch() to finish() on the
+    host, and for the GPU finders their CUDA events (upload, kernels, download) and CUDA
+    runtime calls a frame; µs, medians over frames, then repeats."""
+    rows = [r for r in bench_rows(raw) if r.get("launch_to_finish_us")]
+    if not rows:
+        return []
+    by = {(int(r["n"]), r["algorithm"]): r for r in rows}
+    algos = [a for a in BENCH_ALGOS if any(a == algo for _, algo in by)]
+    headers, lines = ["n"], []
+    for algo in algos:
+        headers += ([f"{algo} l2f", f"{algo} up / kern / down", f"{algo} calls"]
+                    if algo in GPU_FINDERS else [f"{algo} l2f"])
+    for n in sorted({n for n, _ in by}):
+        line = [n]
+        for algo in algos:
+            row = by.get((n, algo))
+            line.append(cell(number(row, "launch_to_finish_us")))
+            if algo in GPU_FINDERS:
+                line.append(" / ".join(cell(number(row, c)) for c in (
+                    "upload_us", "kernels_us", "download_us")) if row else "-")
+                line.append(cell(number(row, "api_calls")))
+        lines.append(line)
+    return table(headers, lines)
+
+
 def bench_table(raw: pathlib.Path = RAW) -> list:
     median = bench_median_us(raw)
+    algos = [a for a in BENCH_ALGOS if any(a == algo for _, algo in median)]
     sizes = sorted({n for n, _ in median})
-    return table(["n", *BENCH_ALGOS], [[n, *(cell(median.get((n, a))) for a in BENCH_ALGOS)]
-                                       for n in sizes])
+    return table(["n", *algos], [[n, *(cell(median.get((n, a))) for a in algos)]
+                                 for n in sizes])
+
+
+def stopped_bench_table(raw: pathlib.Path = RAW) -> list:
+    """A benchmark stopped by its step's budget writes no CSV; its log's per-repeat lines
+    ("n=N repeat R/K: A X us B Y us ...") still give each repeat's median frame, µs."""
+    pattern = re.compile(r"n=(\d+) repeat (\d+)/\d+: (.*) \(")
+    repeats = {}
+    for path in sorted(raw.glob("bench[-_]*.log")):
+        for m in pattern.finditer(path.read_text()):
+            for algo, us in re.findall(r"(\S+) ([\d.]+) us", m[3]):
+                repeats.setdefault((int(m[1]), algo), []).append(cell(float(us)))
+    algos = [a for a in BENCH_ALGOS if any(a == algo for _, algo in repeats)]
+    sizes = sorted({n for n, _ in repeats})
+    return table(["n", *algos], [[n, *(", ".join(repeats.get((n, a), ["-"])) for a in algos)]
+                                 for n in sizes]) if repeats else []
 
 
 def frame_table(raw: pathlib.Path = RAW) -> list:
+    """The H200's `overlap run` folders (summary.json), or the H100's frames steps."""
+    if not (raw / FRAME_RUNS[0][0] / "summary.json").exists():
+        return table(["step", "algo", "frame", "physics", "broadphase", "sync/async speed-up",
+                      "state hash"],
+                     [[r["step"], r["algo"], f"{r['frame']:.2f}", f"{r['physics']:.2f}",
+                       f"{r['broadphase']:.3f}", "-" if r["speedup"] is None else
+                       f"{r['speedup']:.2f}" + (" (same state)" if r["same_state"]
+                                                else " (states differ)"), r["state"]]
+                      for r in checked_frames(raw)])
     rows = []
     for run, what in FRAME_RUNS:
         summary = frame_summary(run, raw)
@@ -124,18 +216,36 @@ def frame_table(raw: pathlib.Path = RAW) -> list:
                   "state hash"], rows)
 
 
+def scene4_frames_ms(raw: pathlib.Path = RAW) -> list:
+    """[(algorithm, median whole frame ms)] of the 3500-box, task load 1 runs, fastest first."""
+    if (raw / FRAME_RUNS[0][0] / "summary.json").exists():
+        frames = [(frame_summary(run, raw)["parameters"]["algorithm"],
+                   frame_summary(run, raw)["timings_ms"]["total_ms"]["median"])
+                  for run, _ in FRAME_RUNS[1:]]
+    else:
+        frames = [(r["algo"], r["frame"]) for r in checked_frames(raw) if r["speedup"] is not None]
+    return sorted(frames, key=lambda pair: pair[1])
+
+
 def machine_name(raw: pathlib.Path = RAW) -> str:
-    """"H200" from "NVIDIA H200 (sm_90, 132 SMs)"."""
-    return machine(raw)["gpu"].split(" (")[0].removeprefix("NVIDIA ")
+    """"H200" from "NVIDIA H200 (sm_90, 132 SMs)", "H100" from "NVIDIA H100 80GB HBM3 (...)"."""
+    return machine(raw)["gpu"].split(" (")[0].removeprefix("NVIDIA ").split()[0]
 
 
-def measured_elsewhere(raw: pathlib.Path = RAW) -> str:
-    """Where the GPU finders' figures measured outside the study are, for the report; empty
-    when the raw files are absent."""
-    if not (raw / "bench_paper.json").exists():
-        return ""
-    return (f"the {machine_name(raw)} machine's, measured outside the study at commit "
-            f"{machine(raw)['git_commit'][:7]}, are in {FOLDER}")
+def folder(raw: pathlib.Path) -> str:
+    return raw.parent.relative_to(REPO).as_posix() + "/"
+
+
+def measured(raw: pathlib.Path) -> bool:
+    return bool(bench_files(raw, "csv")) if raw.is_dir() else False
+
+
+def measured_elsewhere(machines=MACHINES) -> str:
+    """Where the GPU finders' figures measured outside the study are, machine by machine,
+    for the report; empty when no raw files are there."""
+    return "; ".join(f"the {machine_name(raw)} machine's, measured outside the study at commit "
+                     f"{machine(raw)['git_commit'][:7]}, are in {folder(raw)}"
+                     for raw in machines if measured(raw))
 
 
 def ratio_range(median: dict, algo: str, other: str, sizes: list) -> tuple:
@@ -145,14 +255,14 @@ def ratio_range(median: dict, algo: str, other: str, sizes: list) -> tuple:
 
 
 def claim_figures(near: float, raw: pathlib.Path = RAW) -> dict:
-    """The GPU machine's figures for the paper's claims, as the claims table cites them:
+    """One GPU machine's figures for the paper's claims, as the claims table cites them:
     {claim number: (figure, verdict)}; empty when the raw files are absent.  Only its
     benchmark's sizes of the paper (500-3500 boxes, generated scene-4 streams) count."""
-    if not (raw / "bench_paper.csv").exists():
+    if not measured(raw):
         return {}
     gpu = machine_name(raw)
-    where = (f"The {gpu} machine's figures (commit {machine(raw)['git_commit'][:7]}, {FOLDER}; "
-             "not this report's runs)")
+    where = (f"The {gpu} machine's figures (commit {machine(raw)['git_commit'][:7]}, "
+             f"{folder(raw)}; not this report's runs)")
     median = {k: v for k, v in bench_median_us(raw).items() if k[0] <= 3500}
     sizes = sorted({n for n, _ in median})
     span = f"{sizes[0]}-{sizes[-1]} boxes"
@@ -169,28 +279,36 @@ def claim_figures(near: float, raw: pathlib.Path = RAW) -> dict:
                   f"{gpu} machine, broadphase alone: " + ", ".join(verdicts))
     largest = [(a, median[(sizes[-1], a)]) for a in BENCH_ALGOS if (sizes[-1], a) in median]
     largest.sort(key=lambda pair: pair[1])
-    frames = sorted(((frame_summary(run, raw)["parameters"]["algorithm"],
-                      frame_summary(run, raw)["timings_ms"]["total_ms"]["median"])
-                     for run, _ in FRAME_RUNS[1:]), key=lambda pair: pair[1])
+    frames = scene4_frames_ms(raw)
     figures[3] = (f"{where}: at {sizes[-1]} boxes the fastest broadphase is {largest[0][0]} "
                   f"({largest[0][1]:.0f} µs; next {largest[1][0]} {largest[1][1]:.0f}); whole "
-                  f"frame (median; only these two run there): " + ", ".join(f"{a} {ms:.0f} ms"
-                                                               for a, ms in frames),
+                  f"frame (median; only these {len(frames)} run there): "
+                  + ", ".join(f"{a} {ms:.0f} ms" for a, ms in frames),
                   f"{gpu} machine: fastest broadphase {largest[0][0]}, fastest whole frame "
                   f"{frames[0][0]}")
     return figures
 
 
+def print_machine(raw: pathlib.Path) -> None:
+    m = machine(raw)
+    print(f"## {folder(raw)}\n\nMachine: {m['gpu']}; {m['cpu']}, {m['hardware_threads']} "
+          f"hardware threads; {m['compiler']}, {m['build_type']}, commit {m['git_commit']}.\n")
+    for title, lines in (("The finder alone (probe program)", finder_table(raw)),
+                         ("The finder in the benchmark: launch() to finish(), CUDA events, "
+                          "calls", launch_table(raw)),
+                         ("The benchmark", bench_table(raw)),
+                         ("A benchmark step stopped by its budget, each repeat's median frame",
+                          stopped_bench_table(raw)), ("The frame", frame_table(raw))):
+        if lines:
+            print(f"{title}:\n\n" + "\n".join(lines) + "\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--raw", type=pathlib.Path, default=RAW)
-    raw = parser.parse_args().raw
-    m = machine(raw)
-    print(f"Machine: {m['gpu']}; {m['cpu']}, {m['hardware_threads']} hardware threads; "
-          f"{m['compiler']}, {m['build_type']}, commit {m['git_commit']}.\n")
-    for title, lines in (("The finder alone", finder_table(raw)),
-                         ("The benchmark", bench_table(raw)), ("The frame", frame_table(raw))):
-        print(f"{title}:\n\n" + "\n".join(lines) + "\n")
+    parser.add_argument("--raw", type=pathlib.Path, action="append",
+                        help="one machine's raw folder (default: every machine's)")
+    for raw in parser.parse_args().raw or MACHINES:
+        print_machine(raw.resolve())
 
 
 if __name__ == "__main__":
