@@ -23,10 +23,9 @@ DefaultBroadphase defaultBroadphase(std::size_t objects, bool cuda_device,
                          std::to_string(kGpubfFrom) + " to " + std::to_string(kGpusapFrom) +
                          " boxes (H200, docs/DESIGN.md)"};
   }
-  return {"gpusap", "default broadphase gpusap for " + boxes + ": from " +
-                        std::to_string(kGpusapFrom) +
-                        " boxes a brute force loses to a sort and sweep (H200; gpusap's own "
-                        "crossover is provisional until measured, docs/DESIGN.md)"};
+  return {"gpusap",
+          "default broadphase gpusap for " + boxes + ": from " + std::to_string(kGpusapFrom) +
+              " boxes a brute force loses to a sort and sweep (H200, H100; docs/DESIGN.md)"};
 }
 
 DefaultBroadphase defaultBroadphaseHere(std::size_t objects) {

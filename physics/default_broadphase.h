@@ -5,8 +5,9 @@
 // gpusap from there.  Reasons, from the H200 figures (docs/DESIGN.md, "The
 // default broadphase"): gpubf's fixed cost (an upload, a launch, one copy
 // back) loses to cpubf's threads on the fewest boxes, and its n²/2 tests lose
-// to a sort-and-sweep past some tens of thousands.  gpusap's crossover is
-// provisional until gpusap is measured on a GPU.
+// to a sort-and-sweep past some tens of thousands.  gpusap's crossover is the
+// H200's brute-force limit; the H100 measured gpusap ahead of gpubf from
+// between 10^4 and 3*10^4 boxes (docs/results/gpu/h100/), not yet narrowed.
 // Without a device: cpusap, the fastest exact CPU finder (kDeviceFallback).
 // Every name picked is exact (tests/physics/default_broadphase_test.cpp).
 #pragma once

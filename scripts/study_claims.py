@@ -4,7 +4,7 @@ the verdict the figures give and the section that holds them.
 Every verdict is computed from the same rows the sections print; where the
 runs a claim needs are missing (the GPU's, on a machine without one) the
 verdict says so and the row gives what was measured instead, labelled: the
-CPU twin's figure from this report's runs, then the GPU machine's from its
+CPU twin's figure from this report's runs, then each GPU machine's from its
 raw files in docs/results/gpu/ (scripts/gpu_results.py), named as that
 machine's and not this report's, until the study itself runs on a GPU.
 """
@@ -31,14 +31,16 @@ def gpu_measured(cells: list) -> list:
     return [a for a in broadphases.needs_device() if any(c["algo"] == a and not c["fallback"] for c in cells)]
 
 
-def cite_gpu_machine(rows: list, gpu: list) -> list:
-    """Without a GPU in this report's runs, each paper claim's row also gives the GPU
-    machine's figure and verdict (docs/results/gpu/), marked as that machine's."""
-    cited = {} if gpu else gpu_results.claim_figures(NEAR)
-    for number, row in enumerate(rows, start=1):
-        if number in cited:
-            row[1] += ". " + cited[number][0]
-            row[2] += "; " + cited[number][1]
+def cite_gpu_machines(rows: list, gpu: list) -> list:
+    """Without a GPU in this report's runs, each paper claim's row also gives each GPU
+    machine's figure and verdict (docs/results/gpu/), newest first, each marked as that
+    machine's."""
+    for raw in () if gpu else gpu_results.MACHINES:
+        cited = gpu_results.claim_figures(NEAR, raw)
+        for number, row in enumerate(rows, start=1):
+            if number in cited:
+                row[1] += ". " + cited[number][0]
+                row[2] += "; " + cited[number][1]
     return rows
 
 
@@ -76,7 +78,7 @@ def paper_rows(cells: list) -> list:
                      f"{at_n[1]['total_mean']:.0f})" if len(at_n) > 1 else best["algo"],
                      ("holds" if best["algo"] in broadphases.needs_device() else "does not hold")
                      + ("" if gpu else " among the algorithms run; untested on a GPU in this study"), "§1"])
-    return cite_gpu_machine(rows, gpu)
+    return cite_gpu_machines(rows, gpu)
 
 
 def async_row(overlap: list) -> list:
