@@ -23,10 +23,15 @@ writes the tables, the figures and REPORT.md from whatever results exist:
             ideal
 
 Every run keeps its own folder under --out; a run whose result exists is not
-redone (resumable), and --shard i/k runs only jobs i, i+k, i+2k, ... of the
+redone (resumable), and --shard i/k runs only the i-th of k shares of the
 stable job list, so k machines, or k processes at once, can share the work
 on one --out folder (scripts/study_out_folder.py: what they share, and how
-nothing is lost).  On a machine without a CUDA device the GPU algorithms'
+nothing is lost).  The runs whose timings are compared (a sweep's algorithms
+at one scene and n, an overlap point's loads, a physics cell's settings) are
+in one share, run one after another; the report says what ran beside what.
+The runs need only Python's standard library (--runs-only writes nothing
+else); the tables, figures (matplotlib) and report are made from the runs,
+on any machine (--no-runs, or --from-archive with a GPU machine's archive).  On a machine without a CUDA device the GPU algorithms'
 timing runs are skipped (there they would run their CPU fallback, cpusap)
 and listed in the report as needing a GPU; their pairs (the exactness
 experiment) run through the CUDA emulation build (--emulation, default
@@ -38,6 +43,7 @@ checked pair for pair, never timed.
   for i in 1 2 3 4; do scripts/study.py --out out/study --shard $i/4 & done; wait  # 4 at once
   scripts/study.py --out out/study --no-runs --report       # docs/REPORT.md from results
   scripts/study.py --out out/study --experiments overlap    # the overlap-timing study only
+  scripts/study.py --from-archive gpu_check.tar.xz --out out/gpu-study --report  # its report
 
 matplotlib: run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
@@ -47,6 +53,8 @@ import os
 import pathlib
 import subprocess
 import sys
+import shutil
+import tarfile
 import tempfile
 import time
 
@@ -162,12 +170,20 @@ class Job:
     lines it runs, for commands.txt and the report) and run().  `labels` are
     the job's coordinates (scene, objects, algo, ...) for the tables; `weight`
     is its expected cost relative to the others, for the ETA; `gpu_algo` names
-    the GPU algorithm it needs, if any.
+    the GPU algorithm it needs, if any.  `group` names the jobs whose timings
+    are compared with each other (a sweep's algorithms at one scene and n, ...):
+    a group is one shard's, so its runs never run at once (plan() sets it; a
+    job compared with none is a group of its own).
     """
 
     def __init__(self, experiment, key, weight, labels, gpu_algo=None):
         self.experiment, self.key, self.weight = experiment, key, weight
         self.labels, self.gpu_algo = labels, gpu_algo
+        self.group = f"{experiment} {key}"
+
+    def in_group(self, group: str) -> "Job":
+        self.group = group
+        return self
 
 
 def check_output(command: list) -> str:
@@ -324,7 +340,8 @@ def plan(args) -> list:
                             out / "sweep" / key,
                             ["--scene", str(scene), "--objects", str(n), "--algo", algo,
                              "--frames", str(args.frames), "--seed", seed, "--no-tasks", *threads],
-                            algo if algo in broadphases.needs_device() else None))
+                            algo if algo in broadphases.needs_device() else None
+                            ).in_group(f"sweep s{scene} n{n}"))
     if "pairs" in args.experiments:
         n, frames = args.pairs_objects, args.pairs_frames
         stream = out / "streams" / f"scene4_seed{seed}_n{n}_f{frames}.aabbs"
@@ -346,13 +363,15 @@ def plan(args) -> list:
                 out / "physics" / key,
                 ["--scene", str(scene), "--objects", str(n), "--algo", args.physics_algo,
                  "--frames", str(frames), "--seed", str(cell_seed), "--substeps", substeps,
-                 "--ccd", ccd, "--sleep", sleep, "--solver", solver, "--no-tasks", *threads]))
+                 "--ccd", ccd, "--sleep", sleep, "--solver", solver, "--no-tasks", *threads]
+            ).in_group(f"physics s{scene} n{n} seed{cell_seed}"))
             if sleep == "off":  # where the positions of the runs with and without sleep differ
                 record = ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
                           "--seed", seed, "--substeps", substeps, "--ccd", ccd]
                 jobs.append(SleepErrorJob(f"s{scene}_n{n}_sleep_error", 2 * frames * k * n,
                                           {"scene": scene, "objects": n}, overlap,
-                                          out / "physics" / f"s{scene}_n{n}_sleep_error", record))
+                                          out / "physics" / f"s{scene}_n{n}_sleep_error", record
+                                          ).in_group(f"physics s{scene} n{n} seed{cell_seed}"))
     if "latency" in args.experiments:
         n, frames = args.latency_objects, args.latency_frames
         for scene in ints(args.latency_scenes):
@@ -364,7 +383,8 @@ def plan(args) -> list:
                     out / "latency" / f"{key}.csv",
                     ["--scene", str(scene), "--objects", str(n), "--frames", str(frames),
                      "--seed", seed, "--algo", algo, "--growth", args.latency_growths, *threads],
-                    algo if algo in broadphases.needs_device() else None))
+                    algo if algo in broadphases.needs_device() else None
+                ).in_group(f"latency s{scene}"))
     if "timeline" in args.experiments:
         n, frames = args.timeline_objects, args.timeline_frames
         # gpubf with the tasks beside it: on a machine without a GPU it runs
@@ -388,7 +408,8 @@ def plan(args) -> list:
                             overlap, out / "overlap" / key,
                             ["--scene", str(scene), "--objects", str(n), "--algo",
                              args.overlap_algo, "--frames", str(frames), "--seed", seed,
-                             "--task-load", load, "--compare-sync", *threads]))
+                             "--task-load", load, "--compare-sync", *threads]
+                        ).in_group(f"overlap s{scene} n{n}"))
     if args.capture:
         for scene in ints(args.scenes):
             jobs.append(CaptureJob(scene, overlap, out / "keyframes", args.capture_objects,
@@ -454,11 +475,29 @@ def without_a_gpu(pending: list, args) -> tuple:
     return runnable, left
 
 
-def run_jobs(jobs: list, args, on_start) -> tuple:
+def shard_share(jobs: list, shard: int, shards: int) -> list:
+    """Shard `shard`'s jobs (1-based, of `shards`), in plan order: whole groups (the jobs
+    compared with each other run in one shard, one after another), the heaviest group first
+    to the lightest-loaded shard.  It depends on the plan alone, so every shard, on every
+    machine and after any resumption, computes the same split."""
+    groups = {}
+    for job in jobs:
+        groups.setdefault(job.group, []).append(job)
+    load = [0.0] * shards
+    owner = {}
+    for group, members in sorted(groups.items(), key=lambda g: -sum(j.weight for j in g[1])):
+        lightest = load.index(min(load))
+        owner[group] = lightest + 1
+        load[lightest] += sum(job.weight for job in members)
+    return [job for job in jobs if owner[job.group] == shard]
+
+
+def run_jobs(jobs: list, args, on_start, on_job) -> tuple:
     """Runs this shard's pending jobs one after another, calling on_start() first when
-    there is any; returns (the jobs run, the GPU jobs left pending)."""
+    there is any and on_job(job, start, end) (wall-clock seconds) after each; returns (the
+    jobs run, the GPU jobs left pending)."""
     shard, shards = args.shard
-    mine = [job for index, job in enumerate(jobs) if index % shards == shard - 1]
+    mine = shard_share(jobs, shard, shards)
     pending = [job for job in mine if not job.done()]
     gpu_pending = []
     if any(job.gpu_algo for job in pending):
@@ -476,8 +515,9 @@ def run_jobs(jobs: list, args, on_start) -> tuple:
     done_weight = 0
     started = time.monotonic()
     for index, job in enumerate(pending):
-        job_started = time.monotonic()
+        job_started, wall_started = time.monotonic(), time.time()
         job.run()
+        on_job(job, wall_started, time.time())
         done_weight += job.weight
         elapsed = time.monotonic() - started
         left = elapsed / done_weight * (total_weight - done_weight)
@@ -512,7 +552,17 @@ def parse_args(argv: list) -> argparse.Namespace:
     parser.add_argument("--experiments", default=",".join(EXPERIMENTS),
                         help="comma-separated subset of " + ",".join(EXPERIMENTS))
     parser.add_argument("--shard", type=parse_shard, default=(1, 1),
-                        help="i/k: run jobs i, i+k, ... of the stable job list (1-based)")
+                        help="i/k: run the i-th of k shares of the stable job list (1-based; "
+                        "jobs compared with each other are in one share)")
+    parser.add_argument("--runs-only", action="store_true",
+                        help="run the jobs and write no tables, figures or report: the "
+                        "standard library is all it needs (make the report later, where "
+                        "matplotlib is, with --no-runs or --from-archive)")
+    parser.add_argument("--from-archive", type=pathlib.Path, metavar="TAR",
+                        help="make the report from the runs in TAR (a .tar.xz holding a study "
+                        "--out folder as ./study, as scripts/gpu_check.sh --study returns "
+                        "it): unpacked into --out, with the options those runs were made "
+                        "with; implies --no-runs")
     parser.add_argument("--no-runs", action="store_true",
                         help="run nothing; tables, figures and report from existing results")
     parser.add_argument("--report", action="store_true",
@@ -543,13 +593,75 @@ def parse_args(argv: list) -> argparse.Namespace:
         parser.error(f"--experiments: unknown {','.join(sorted(unknown))}")
     args.overlap = str(pathlib.Path(args.overlap).resolve())
     args.emulation = str(pathlib.Path(args.emulation).resolve())
-    if not args.no_runs and not os.access(args.overlap, os.X_OK):
+    if not (args.no_runs or args.from_archive) and not os.access(args.overlap, os.X_OK):
         parser.error(f"--overlap {args.overlap}: not an executable (build it first)")
     return args
 
 
+# What an invocation's argv names that belongs to its machine or shapes only the report:
+# options followed by a value, then flags.  The rest are the runs' options.
+PLACE_OPTIONS = ("--overlap", "--emulation", "--out", "--notes", "--shard", "--from-archive")
+REPORT_FLAGS = ("--runs-only", "--no-runs", "--report")
+
+
+def options_of_runs(out: pathlib.Path) -> list:
+    """The options the runs kept in `out` were made with: its first invocation's, less
+    its paths, its shard and the flags that shape only the report."""
+    log = out / "study_invocations.json"
+    if not log.exists():
+        raise SystemExit(f"study: {out} has no study_invocations.json: not a study's --out")
+    words, kept = list(json.loads(log.read_text())[0]["argv"][1:]), []
+    while words:
+        word = words.pop(0)
+        if word in PLACE_OPTIONS:
+            words.pop(0)
+        elif word not in REPORT_FLAGS:
+            kept.append(word)
+    return kept
+
+
+def unpack_study(archive: pathlib.Path, out: pathlib.Path) -> None:
+    """The archive's ./study folder as `out`, replacing it whole; on a bad archive, a clear
+    error (exit 2) and `out` as it was."""
+    def refuse(problem: str):
+        print(f"study: --from-archive {archive}: {problem}", file=sys.stderr)
+        sys.exit(2)
+    if not archive.is_file():
+        refuse("no such file")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{out.name}.unpack-", dir=out.parent))
+    try:
+        try:
+            with tarfile.open(archive) as tar:
+                members = [m for m in tar.getmembers()
+                           if pathlib.PurePosixPath(m.name).parts[:1] in (("study",), (".", "study"))
+                           or m.name in ("study", "./study")]
+                if not members:
+                    refuse("holds no ./study folder (a study's --out)")
+                if any(".." in pathlib.PurePosixPath(m.name).parts or m.name.startswith("/")
+                       or not (m.isfile() or m.isdir()) for m in members):
+                    refuse("names a path outside ./study, or a link")
+                tar.extractall(scratch, members)
+        except (tarfile.TarError, OSError, EOFError) as error:
+            refuse(f"cannot be read ({error})")
+        if not (scratch / "study" / "study_invocations.json").exists():
+            refuse("its ./study has no study_invocations.json: no study ran into it")
+        if out.exists():
+            shutil.rmtree(out)
+        (scratch / "study").rename(out)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
 def main(argv: list) -> int:
     args = parse_args(argv)
+    if args.from_archive:
+        unpack_study(args.from_archive, args.out)
+        at = argv.index("--from-archive") if "--from-archive" in argv else None
+        given = argv[:at] + argv[at + 2:] if at is not None else [
+            w for w in argv if not w.startswith("--from-archive=")]
+        argv = options_of_runs(args.out) + given + ["--no-runs"]
+        args = parse_args(argv)
     broadphases.load(args.overlap)
     args.argv = argv
     args.full_profile = FULL
@@ -560,17 +672,25 @@ def main(argv: list) -> int:
     started = time.time()
     invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
         "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": None,
-        "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False}
+        "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False, "jobs": []}
     log = InvocationLog(args.out, invocation)
+
+    def job_ran(job, start: float, end: float) -> None:  # for the report's "what ran beside what"
+        invocation["jobs"].append({"group": job.group, "experiment": job.experiment,
+                                   "key": job.key, "start": round(start, 2),
+                                   "end": round(end, 2)})
+        log.write()
 
     # Logged before the runs and again after them: a stopped study still names its runs;
     # an invocation that runs nothing (everything done) is not logged, so regenerating the
     # report leaves it as it was.
-    ran, gpu_pending = ([], []) if args.no_runs else run_jobs(jobs, args, log.write)
+    ran, gpu_pending = ([], []) if args.no_runs else run_jobs(jobs, args, log.write, job_ran)
     if ran:
         invocation.update(seconds=round(time.time() - started, 1), finished=True,
                           gpu_jobs_pending=len(gpu_pending))
         log.write()
+    if args.runs_only:
+        return 0
     with locked(args.out):  # the shard that takes it last has every other shard's results
         failures = study_report.write_everything(args, jobs)
     for failure in failures:

@@ -2,20 +2,31 @@
 
 Every function takes rows already measured and aggregated by study_results
 and draws them as they are: no smoothing, no fitted curves.  Each algorithm
-keeps one colour across all figures.  Run with /usr/bin/python3, whose
-Debian python3-matplotlib is what scripts/setup.sh installs.
+keeps one colour across all figures.  matplotlib is imported at the first
+figure, not with this module: the study's runs need only the standard
+library (a GPU machine's python3 may have nothing else), the report's
+figures need Debian's python3-matplotlib, which scripts/setup.sh installs.
 """
+import importlib
 import pathlib
 import sys
 
-try:
-    import matplotlib
-except ImportError:
-    sys.exit(f"study: {sys.executable} has no matplotlib; run the study with /usr/bin/python3 "
-             "(Debian's python3-matplotlib, which scripts/setup.sh installs)")
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
+class _Pyplot:
+    """matplotlib.pyplot, imported (with the Agg backend) on first use."""
+
+    def __getattr__(self, name: str):
+        try:
+            matplotlib = importlib.import_module("matplotlib")
+        except ImportError:
+            sys.exit(f"study: {sys.executable} has no matplotlib, which the figures need: make "
+                     "the report with /usr/bin/python3 (Debian's python3-matplotlib, which "
+                     "scripts/setup.sh installs); the runs alone need only --runs-only")
+        matplotlib.use("Agg")
+        return getattr(importlib.import_module("matplotlib.pyplot"), name)
+
+
+plt = _Pyplot()
 
 COLOURS = {"bf": "#444444", "sap": "#1f77b4", "sap32": "#17becf", "bvh": "#2ca02c",
            "cpubf": "#ff7f0e", "cpusap": "#8c564b", "gpubf": "#d62728", "gpubf-paper": "#9467bd",

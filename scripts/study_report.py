@@ -387,25 +387,85 @@ def shown_command(args, words) -> str:
     return portable(" ".join(map(str, words)), {args.out: "$OUT"})
 
 
+def invocations(args) -> list:
+    log = args.out / "study_invocations.json"
+    return json.loads(log.read_text()) if log.exists() else []
+
+
+def run_argv(argv: list) -> list:
+    """An invocation's argv as the report shows it: its own --out as $OUT, and paths that
+    start with it from there (it may be a folder of another machine, whose archive this
+    report was made from); a binary elsewhere outside this repository by its last two names
+    (build/overlap); no --notes (it shapes the report, not the runs, and names a folder of
+    the machine that ran them)."""
+    own_out = argv[argv.index("--out") + 1] if "--out" in argv[:-1] else None
+    shown, words = [], list(argv)
+    while words:
+        word = words.pop(0)
+        if word == "--notes" and words:
+            words.pop(0)
+            continue
+        if own_out and word.startswith(own_out):
+            word = "$OUT" + word[len(own_out):]
+        elif shown and shown[-1] in ("--overlap", "--emulation"):
+            path = pathlib.Path(word)
+            if path.is_absolute() and not path.is_relative_to(REPO):
+                word = "/".join(path.parts[-2:])
+        shown.append(word)
+    return shown
+
+
 def invocation_lines(args) -> list:
     """The study invocations that ran the jobs, each with its start, length and the machine's
-    load average when it started.  Their --notes is left out: it shapes the report, not the
-    runs, and names a folder of the machine that ran them."""
+    load average when it started."""
     lines = ["The runs came from ($OUT: the study's --out folder, where its runs are kept):", ""]
-    log = args.out / "study_invocations.json"
-    for run in json.loads(log.read_text()) if log.exists() else []:
+    for run in invocations(args):
         load = run["load_average_at_start"]
-        argv = run["argv"]
-        if "--notes" in argv:
-            at = argv.index("--notes")
-            argv = argv[:at] + argv[at + 2:]
+        argv = run_argv(run["argv"])
         lines.append(f"- `{shown_command(args, argv)}`, started {run['started']}, " + (
             f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
             "stopped before its end (its finished runs are used, the others were run again by "
             "a later invocation)") + f"; load average at its start {load}" + (
             " (other jobs were running: their noise is in its timings)." if load >= 0.5
             else " (a quiet machine)."))
-    return lines + [""]
+    return lines + [""] + beside_lines(invocations(args))
+
+
+def beside_lines(log: list) -> list:
+    """What ran beside what: for each experiment, the runs of other invocations (shards)
+    that ran while its runs did, and whether any two runs compared with each other (one
+    group) ever ran at once.  From each invocation's job times; invocations from before
+    they were kept say nothing."""
+    spans = [(index, job) for index, run in enumerate(log) for job in run.get("jobs", [])]
+    if not spans:
+        return []
+    beside, most, clashes = {}, {}, set()
+    for index, job in spans:
+        others = [(i, o) for i, o in spans if i != index
+                  and o["start"] < job["end"] and job["start"] < o["end"]]
+        counts = beside.setdefault(job["experiment"], {})
+        for _, other in others:
+            counts[other["experiment"]] = counts.get(other["experiment"], 0) + 1
+            if other["group"] == job["group"]:
+                clashes.add(job["group"])
+        most[job["experiment"]] = max(most.get(job["experiment"], 0), len(others))
+    shards = len({index for index, _ in spans})
+    lines = [f"What ran beside what: {len(spans)} runs in {shards} invocation(s) (shards)."
+             + (" Every run ran alone." if not any(most.values()) else
+                " A run's timings hold the noise of the runs beside it, which share the "
+                "machine's cores (and its GPU):"), ""]
+    for experiment in sorted(beside):
+        if most[experiment]:
+            lines.append(f"- {experiment}: other shards' runs beside its runs, counted once for "
+                         "each of its runs they met: " + ", ".join(
+                             f"{other} {n}" for other, n in sorted(beside[experiment].items()))
+                         + f"; at most {most[experiment]} during one of its runs.")
+    lines += ["", "Runs compared with each other (one group: a sweep's scene and box count, "
+              "an overlap point, a physics cell) " + (
+                  "never ran at once." if not clashes else
+                  "ran at once in " + ", ".join(sorted(clashes)) + ": those comparisons hold "
+                  "each other's noise."), ""]
+    return lines
 
 
 def command_lines(args, jobs: list) -> list:

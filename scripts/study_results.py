@@ -8,8 +8,10 @@ be read as a GPU figure.
 """
 import csv
 import json
+import math
 import pathlib
 import statistics
+import struct
 
 import broadphases
 
@@ -160,25 +162,31 @@ def pair_errors(jobs: list) -> list:
     return rows
 
 
-def box_centres(path: pathlib.Path):
-    """An `overlap record` stream (the .aabbs layout of docs/SCENES.md) as box centres, (frames, n, 3)."""
-    import numpy  # matplotlib's own dependency, so present wherever the figures are drawn
+def box_centres(path: pathlib.Path) -> list:
+    """An `overlap record` stream (the .aabbs layout of docs/SCENES.md) as box centres:
+    one list per frame (the start, then each frame) of one (x, y, z) per box."""
     data = path.read_bytes()
-    objects = int(numpy.frombuffer(data, dtype="<i4", count=1, offset=256)[0])
+    objects = struct.unpack_from("<i", data, 256)[0]
     offset = 256 + 16 + 32  # names, four int32, the world AABB; then the start and F frames
-    boxes = numpy.frombuffer(data, dtype="<f4", offset=offset).reshape(-1, objects, 2, 4)
-    return (boxes[:, :, 0, :3] + boxes[:, :, 1, :3]) / 2
+    floats = struct.unpack_from(f"<{(len(data) - offset) // 4}f", data, offset)
+    box = 8  # min x, y, z, pad, max x, y, z, pad
+    return [[tuple((floats[i + k] + floats[i + 4 + k]) / 2 for k in range(3))
+             for i in range(start, start + objects * box, box)]
+            for start in range(0, len(floats) - objects * box + 1, objects * box)]
 
 
-def position_error(on, off) -> dict:
+def position_error(on: list, off: list) -> dict:
     """How far each box is from where the run without sleep put it (m): the largest over
     every frame and box, where, and the median and largest box's at the end."""
-    import numpy
-    distance = numpy.linalg.norm(on - off, axis=2)
-    frame, box = numpy.unravel_index(numpy.argmax(distance), distance.shape)
-    return {"max_m": float(distance.max()), "max_frame": int(frame) - 1, "max_box": int(box),
-            "end_median_m": float(numpy.median(distance[-1])), "end_max_m": float(distance[-1].max()),
-            "first_frame_apart": int(numpy.argmax(distance.max(axis=1) > 0)) - 1}
+    distance = [[math.dist(a, b) for a, b in zip(frame_on, frame_off)]
+                for frame_on, frame_off in zip(on, off)]
+    largest = [max(frame) for frame in distance]
+    frame = max(range(len(largest)), key=largest.__getitem__)
+    box = max(range(len(distance[frame])), key=distance[frame].__getitem__)
+    apart = next((index for index, d in enumerate(largest) if d > 0), 0)
+    return {"max_m": largest[frame], "max_frame": frame - 1, "max_box": box,
+            "end_median_m": statistics.median(distance[-1]), "end_max_m": largest[-1],
+            "first_frame_apart": apart - 1}
 
 
 def physics_runs(jobs: list) -> list:

@@ -15,8 +15,10 @@ import sys
 
 from check_quick import STUDY, arguments_or_skip, check, rows
 
-# Jobs in plan order: sweep bf, bvh, gpubf at 80, then at 120; pairs bf, cpubf.  Shard 1
-# takes 0, 2, 4, 6 and shard 2 takes 1, 3, 5, 7: gpubf and one pairs job in each.
+# Jobs in plan order: sweep bf, bvh, gpubf at 80, then at 120; pairs bf, cpubf.  The sweep
+# at each n is one group (its algorithms are compared), so one shard takes the 120 boxes and
+# the other the 80, each with a gpubf run (each probes for a GPU); the pairs jobs go to the
+# lighter one.
 OBJECTS, ALGOS, PAIRS_ALGOS = [80, 120], ["bf", "bvh", "gpubf"], ["bf", "cpubf"]
 SMALLEST = ["--quick", "--threads", "1", "--experiments", "sweep,pairs", "--scenes", "1",
             "--objects", ",".join(map(str, OBJECTS)), "--algos", ",".join(ALGOS),
@@ -65,6 +67,9 @@ def main() -> int:
           f"the invocation log holds {len(log)} entries, expected {SHARDS} finished:\n{log}")
     check(sorted(entry["argv"][-1] for entry in log) ==
           [f"{i}/{SHARDS}" for i in range(1, SHARDS + 1)], "the log lost a shard's entry")
+    report = (study_out / "REPORT.md").read_text()
+    check("What ran beside what: " in report and "never ran at once" in report,
+          "the report does not say that the runs compared with each other ran apart")
     left = [p.name for p in study_out.rglob("*") if "partial" in p.name or "probe" in p.name]
     check(not left, f"temporaries left in --out: {left}")
     shutil.rmtree(notes)
