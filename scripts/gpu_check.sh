@@ -1,47 +1,64 @@
 #!/usr/bin/env bash
-# The whole GPU check in one call of the device tool (docs/GPU.md), from the
+# One GPU loan in two calls of the device tool (docs/GPU.md), each from the
 # repository root of a machine with an NVIDIA GPU and no Bullet, oneTBB,
 # OSMesa or network, the build carried by scripts/gpu_pack.sh:
-#   scripts/gpu_check.sh [--dry-run] [--only STEP,...]
-# Steps, in order, each under its own time budget (a timeout), one line each:
+#   scripts/gpu_check.sh [--dry-run] [--only STEP,...]           the check
+#   scripts/gpu_check.sh --study [--dry-run]                      the study
+# Steps, in order, each under its own time budget (a timeout), one line each.
+# Both parts:
 #   unpack        .gpu-carry/overlap-gpu.tar.xz into the tree; the packed
 #                 checkout's path made to lead here; CTest's cmake and python3
 #                 pointed at this machine's where the packed ones are absent
 #   info          the machine, the GPU, the tools, the build's manifest
+#   archive       everything into $OUT/gpu_check.tar.xz (the study:
+#                 $OUT/gpu_study.tar.xz), at most 16 MiB
+# The check (DEADLINE_S 285 s; the H100's step times sum to about 270):
 #   gpu-tests     overlap_gpu_tests; fails if any test is skipped
 #   sanitizer-T   compute-sanitizer memcheck (leak check), racecheck, synccheck,
 #                 initcheck on the GPU finders' tests, all four at once, beside
-#   ctest         the whole suite, none skipped, and beside
+#                 ctest and streams; racecheck without MatchesOracleFrameAfterFrame
+#                 (its many launches took 115 s of gpusap's 139 under racecheck)
+#   ctest         the whole suite but the gpu label (gpu-tests ran it), none
+#                 skipped; the study label only where a python3 has matplotlib
 #   streams       `overlap generate` scene-4 streams for the benchmark
 #   bench-paper   the broadphase benchmark at 500-3500 boxes, every finder
 #   bench-big     at 10^4 and 3*10^4 (bvh, cpusap, the GPU finders)
-#   bench-huge    at 10^5 and 3*10^5, cpusap and the GPU finders whose frame
-#                 took at most HUGE_LIMIT_US at 3*10^4 (the others take minutes)
-#   frames-A      `overlap run` of scene 4 with --compare-sync, for gpubf,
-#                 cpusap and every GPU finder; frames-demo: the demo as it is
-#   study         scripts/study.py with docs/REPORT.md's options, one shard
-#                 per core into one --out, until the time left runs out
-#   study-report  --no-runs --report from whatever ran (in a copy of scripts/
-#                 and docs/); how many of the study's jobs are done
-#   archive       everything into $OUT/gpu_check.tar.xz, at most 16 MiB
+#   bench-huge    at 10^5 and 3*10^5, and bench-million at 10^6: cpusap and each
+#                 GPU finder whose frame at the step before's largest n took at
+#                 most twice cpusap's (the others take minutes)
+#   frames-A      `overlap run` of scene 4 with --compare-sync, for cpusap and
+#                 each GPU finder no slower than cpusap at 3500 boxes in
+#                 bench-paper; frames-demo: the demo as it is
+# The study (--study; DEADLINE_S 395 s):
+#   study         scripts/study.py --runs-only with docs/REPORT.md's options,
+#                 one shard per core into one --out, until the time left runs
+#                 out; only Python's standard library is needed there
+#   study-jobs    how many of the study's jobs are done (fails unless all are)
+#   report        (dry run only) the report made from the archive, as here after
+#                 a GPU loan: study.py --from-archive
 # The GPU finders are those `overlap --list-algos --json` says need a device,
 # so a new one is checked with no edit here.  Rules, each with its reason:
-# - The whole run ends by DEADLINE_S (560 s): the device tool stops a command
-#   at 600 s, and what is unfinished then comes back with nothing archived.
+# - Each part ends by its DEADLINE_S: the device tool stops a command at its
+#   timeout_s, and what is unfinished then comes back with nothing archived.
 # - Only the correctness steps run side by side; every timed step runs alone.
 # - The study's shards start one after another, each once the one before has
 #   probed the GPU: concurrent probes into one --out removed each other's files.
-# - What comes back is $OUT/gpu_check.tar.xz and $OUT/gpu_check_summary.txt
-#   (the step table, rewritten after each step, so a stopped run still tells);
-#   the logs are written under $OUT/gpu-check/ and archived from there.
-# - A study stopped by its deadline resumes: copy the returned archive to
-#   .gpu-carry/resume.tar.xz and run with --only study,study-report.
+#   Runs compared with each other are in one shard, one after another
+#   (study.py's shard_share); the report says what ran beside what.
+# - What comes back is the archive and $OUT/gpu_check_summary.txt (the study:
+#   gpu_study_summary.txt; the step table, rewritten after each step, so a
+#   stopped run still tells); the logs are archived from $OUT/gpu-check/ (the
+#   study: $OUT/gpu-study/).
+# - A study stopped by its deadline resumes: copy the returned
+#   gpu_study.tar.xz to .gpu-carry/resume.tar.xz and call --study again.
+# - The report is made on the development machine from the returned archive:
+#   scripts/study.py --from-archive gpu_study.tar.xz --out out/gpu-study --report
 # --dry-run runs the same steps here on the CUDA emulation build
 # (build-emulation/), at tiny sizes, compute-sanitizer replaced by a plain run
 # of the same tests: a check of this script, never of the GPU.
 # OUT: where results go (default out/gpu-check).  Knobs: DEADLINE_S,
-# STUDY_SHARDS (cores), STUDY_OPTIONS (instead of REPORT.md's), HUGE_LIMIT_US,
-# CTEST_JOBS (10; dry run 2), CTEST_TIMEOUT (200 s a test; dry run 1500).
+# STUDY_SHARDS (cores), STUDY_OPTIONS (instead of REPORT.md's), CTEST_JOBS
+# (12; dry run 2), CTEST_TIMEOUT (120 s a test; dry run 1500).
 set -uo pipefail
 
 cd "$(dirname "$0")/.." || exit 1
@@ -52,7 +69,7 @@ die() {
   echo "gpu_check: $*" >&2
   exit 1
 }
-python_with() { "${GC_PYTHON:-python3}" -c "$1"; }
+python_with() { "$GC_PYTHON" -c "$1"; }
 
 # ---- Steps (each runs as `gpu_check.sh --step NAME FUNCTION ARGS...` under timeout) ----
 
@@ -89,9 +106,9 @@ step_unpack() {
     find "$GC_BUILD" -name CTestTestfile.cmake -exec sed -i "s|\"$packed_cmake\"|\"$here_cmake\"|g" {} +
     fixed+=" cmake: $here_cmake;"
   fi
-  if [[ -n "$packed_python" && "$packed_python" != "$GC_PYTHON" && -n "$GC_PYTHON" ]]; then
-    find "$GC_BUILD" -name CTestTestfile.cmake -exec sed -i "s|\"$packed_python\"|\"$GC_PYTHON\"|g" {} +
-    fixed+=" python3: $GC_PYTHON (matplotlib);"
+  if [[ -n "$packed_python" && "$packed_python" != "$GC_PLOT_PYTHON" && -n "$GC_PLOT_PYTHON" ]]; then
+    find "$GC_BUILD" -name CTestTestfile.cmake -exec sed -i "s|\"$packed_python\"|\"$GC_PLOT_PYTHON\"|g" {} +
+    fixed+=" python3: $GC_PLOT_PYTHON (matplotlib);"
   fi
   note "$(sed -n 's/^commit=/commit /p' "$manifest");${fixed:- CTest files as packed}"
 }
@@ -104,7 +121,7 @@ step_info() {
     [[ -f "$GC_BUILD/gpu-pack/manifest" ]] && cat "$GC_BUILD/gpu-pack/manifest"
     "$GC_BUILD/overlap" --version
     "$GC_BUILD/overlap" --list-algos
-    echo "== GPU finders: $GC_GPU_FINDERS; study python: ${GC_PYTHON:-none}"
+    echo "== GPU finders: $GC_GPU_FINDERS; python3: $GC_PYTHON; with matplotlib: ${GC_PLOT_PYTHON:-none}"
     if [[ "$GC_MODE" == gpu ]]; then
       nvidia-smi
       nvcc --version | tail -2
@@ -134,6 +151,11 @@ step_gpu_tests() {
 step_sanitizer() {
   local tool="$1" filter
   filter="$(sed 's/[^,][^,]*/*&*/g; s/-/_/g; s/,/:/g' <<<"$GC_GPU_FINDERS")"
+  # racecheck instruments every shared-memory access: MatchesOracleFrameAfterFrame's
+  # 280 finder runs took 115 s of gpusap's 139 on the H100. Its sizes (0 to 3500, CUB's
+  # boundaries) stay covered by the tests kept: the change-list capacities, the growing
+  # slot count, 2000 boxes for 20 frames against cpubf.
+  [[ "$tool" == racecheck ]] && filter+="-*MatchesOracleFrameAfterFrame*"
   local command=("$GC_BUILD/tests/gpu/overlap_gpu_tests" --gtest_filter="$filter")
   if [[ "$GC_MODE" == gpu ]]; then
     local extra=()
@@ -148,9 +170,19 @@ step_sanitizer() {
     "$GC_WORK/logs/$GC_STEP.log" | tail -1)"
 }
 
+# The whole suite but the gpu label, which gpu-tests ran just before (the same
+# binary); the study label (its figures need matplotlib) only where a python3 has it.
 step_ctest() {
+  local exclude=gpu
+  [[ -n "$GC_PLOT_PYTHON" ]] || exclude="gpu|study"
+  # The longest tests first (on the H100 study.quick took 54 s and Determinism's 53 s and
+  # they started last, making ctest 111 s): ctest orders by the costs in this file.
+  mkdir -p "$GC_BUILD/Testing/Temporary"
+  ctest --test-dir "$GC_BUILD" -N | sed -n 's/^ *Test *#[0-9]*: \([^ ]*\).*/\1/p' |
+    awk '{ print $1, 1, ($1 ~ /^(study\.|Determinism\.|Scenes3And4\/FiftyGScenes\.)/ ? 60 : 1) }' \
+      >"$GC_BUILD/Testing/Temporary/CTestCostData.txt"
   ctest --test-dir "$GC_BUILD" -j "$GC_CTEST_JOBS" --timeout "$GC_CTEST_TIMEOUT" --output-on-failure \
-    --output-junit "$GC_WORK/ctest.xml"
+    --output-junit "$GC_WORK/ctest.xml" -LE "^($exclude)\$"
   local rc=$? log="$GC_WORK/logs/$GC_STEP.log"
   local total failed skipped
   # ctest's summary line: "100% tests passed out of 486" when all pass,
@@ -160,7 +192,7 @@ step_ctest() {
   [[ -n "$total" && -z "$failed" ]] && failed=0
   skipped="$(grep -c '(Skipped)' "$log")"
   sed -n '/The following tests/,$p' "$log" >"$GC_WORK/ctest_summary.txt"
-  note "${total:-?} tests, ${failed:-?} failed, $skipped skipped (ctest_summary.txt)"
+  note "${total:-?} tests, ${failed:-?} failed, $skipped skipped; not run: label $exclude (ctest_summary.txt)"
   ((rc == 0)) || die "ctest failed"
   ((skipped == 0)) || die "$skipped tests were skipped: with a device (or its emulation) none may be"
 }
@@ -168,9 +200,11 @@ step_ctest() {
 step_streams() {
   local pids=() n
   mkdir -p "$GC_STREAMS"
-  for n in $GC_SMALL $GC_BIG $GC_HUGE; do
+  for n in $GC_SMALL $GC_BIG $GC_HUGE $GC_MILLION; do
     local frames="$GC_BIG_FRAMES"
     [[ " $GC_SMALL " == *" $n "* ]] && frames="$GC_SMALL_FRAMES"
+    [[ " $GC_HUGE " == *" $n "* ]] && frames="$GC_HUGE_FRAMES"
+    [[ " $GC_MILLION " == *" $n "* ]] && frames="$GC_MILLION_FRAMES"
     "$GC_BUILD/overlap" generate --scene 4 --objects "$n" --frames "$frames" --skip 40 \
       --out "$GC_STREAMS/g$n.aabbs" &
     pids+=($!)
@@ -204,20 +238,34 @@ if bad:
 ' >"$GC_WORK/notes/$GC_STEP" || die "wrong pairs (see the note)"
 }
 
-# The finders fit for 10^5 boxes and more: cpusap and each GPU finder whose
-# frame at bench-big's largest n took at most HUGE_LIMIT_US.
-step_bench_huge() {
-  local algos
-  algos="$(GC_JSON="$GC_WORK/bench/bench-big.json" python_with '
+# bench_scaled NAME "N..." FROM REPEATS: the benchmark at larger sizes for
+# cpusap and each GPU finder whose frame at FROM's largest n took at most twice
+# cpusap's there: one that falls further behind takes minutes at the next size.
+step_bench_scaled() {
+  local name="$1" sizes="$2" from="$3" repeats="$4" algos
+  algos="$(GC_JSON="$GC_WORK/bench/$from.json" python_with '
 import json, os
 finders = os.environ["GC_GPU_FINDERS"].split(",")
 rows = json.load(open(os.environ["GC_JSON"]))["rows"]
 largest = max(r["n"] for r in rows)
-fast = [r["algorithm"] for r in rows if r["n"] == largest and r["algorithm"] in finders
-        and r["median_us"] <= float(os.environ["GC_HUGE_LIMIT_US"])]
-print(",".join(["cpusap"] + [f for f in finders if f in fast]))
-')" || die "bench-big's results are missing: nothing tells which finders scale"
-  step_bench bench-huge "$GC_HUGE" "$algos" "$GC_HUGE_REPEATS" 4
+frame = {r["algorithm"]: r["median_us"] for r in rows if r["n"] == largest}
+print(",".join(["cpusap"] + [f for f in finders if f in frame and frame[f] <= 2 * frame["cpusap"]]))
+')" || die "$from's results are missing: nothing tells which finders scale"
+  step_bench "$name" "$sizes" "$algos" "$repeats" 2
+}
+
+# The finders worth a whole frame: cpusap and each GPU finder no slower than
+# cpusap at bench-paper's largest n (the dry run: every one, to check the steps).
+frame_finders() {
+  [[ "$GC_MODE" == dry ]] && echo "cpusap ${GC_GPU_FINDERS//,/ }" && return
+  GC_JSON="$GC_WORK/bench/bench-paper.json" python_with '
+import json, os
+finders = os.environ["GC_GPU_FINDERS"].split(",")
+rows = json.load(open(os.environ["GC_JSON"]))["rows"]
+largest = max(r["n"] for r in rows)
+frame = {r["algorithm"]: r["median_us"] for r in rows if r["n"] == largest}
+print(" ".join(["cpusap"] + [f for f in finders if f in frame and frame[f] <= frame["cpusap"]]))
+' 2>/dev/null || echo "cpusap ${GC_GPU_FINDERS//,/ }"
 }
 
 # frames ALGO FOLDER [OPTIONS...]: one `overlap run`; the algorithm that ran must be ALGO.
@@ -253,7 +301,7 @@ step_study() {
   for ((i = 1; i <= shards; i++)); do
     local log="$GC_WORK/logs/study_shard$i.log"
     PYTHONUNBUFFERED=1 "$GC_PYTHON" scripts/study.py "${options[@]}" --overlap "$ROOT/$GC_BUILD/overlap" \
-      --out "$out" --shard "$i/$shards" >"$log" 2>&1 &
+      --out "$out" --shard "$i/$shards" --runs-only >"$log" 2>&1 &
     pids+=($!)
     local tries=0 # one GPU probe at a time (header's rules): a shard prints nothing before it
     until [[ -s "$log" ]] || ! kill -0 "$!" 2>/dev/null || ((tries++ > 300)); do
@@ -267,17 +315,11 @@ step_study() {
   ((failed == 0)) || die "$failed shards failed"
 }
 
-step_study_report() {
-  local out="$GC_WORK/study" tree="$GC_SCRATCH/tree" options counts
+step_study_jobs() {
+  local options counts
   read -ra options <<<"$GC_STUDY_OPTIONS"
-  # --report writes docs/ beside the study's scripts: a copy, never this tree.
-  rm -rf "$tree" && mkdir -p "$tree" && cp -r scripts docs "$tree/"
-  "$GC_PYTHON" "$tree/scripts/study.py" "${options[@]}" --overlap "$ROOT/$GC_BUILD/overlap" --out "$out" \
-    --no-runs --report
-  local rc=$?
-  mkdir -p "$GC_WORK/report" && cp -r "$tree/docs/REPORT.md" "$tree/docs/report" "$GC_WORK/report/"
-  counts="$(cd "$tree" && "$GC_PYTHON" - "${options[@]}" --overlap "$ROOT/$GC_BUILD/overlap" \
-    --out "$out" --no-runs <<'PY'
+  counts="$("$GC_PYTHON" - "${options[@]}" --overlap "$ROOT/$GC_BUILD/overlap" \
+    --out "$GC_WORK/study" --no-runs <<'PY'
 import sys
 sys.path.insert(0, "scripts")
 import broadphases, study
@@ -288,12 +330,21 @@ print(sum(job.done() for job in jobs), len(jobs))
 PY
   )" || die "could not count the study's jobs"
   read -r done_jobs total <<<"$counts"
-  note "$done_jobs of $total jobs done; report $( ((rc == 0)) && echo made || echo FAILED) (report/)"
-  ((rc == 0 && done_jobs == total)) || die "the study is incomplete or its report failed"
+  note "$done_jobs of $total jobs done$( ((done_jobs < total)) && echo ": resume with the archive")"
+  ((done_jobs == total)) || die "the study is incomplete: copy the archive to .gpu-carry/resume.tar.xz and call --study again"
+}
+
+# Dry run only: what the development machine runs on the archive a GPU returns.
+step_report() {
+  mkdir -p "$GC_SCRATCH/no-notes" # the committed notes are the full report's
+  "$GC_PLOT_PYTHON" scripts/study.py --from-archive "$OUT/gpu_study.tar.xz" --notes "$GC_SCRATCH/no-notes" \
+    --overlap "$ROOT/$GC_BUILD/overlap" --out "$GC_SCRATCH/report-study" || die "no report from the archive"
+  grep -q "^## Machine and runs" "$GC_SCRATCH/report-study/REPORT.md" || die "the report has no machine"
+  note "REPORT.md and $(find "$GC_SCRATCH/report-study/report" -name '*.png' | wc -l) figures from the archive"
 }
 
 step_archive() {
-  local archive="$OUT/gpu_check.tar.xz" limit=$((16 * 1024 * 1024)) excluded=""
+  local archive="$OUT/$GC_ARCHIVE" limit=$((16 * 1024 * 1024)) excluded=""
   # Streams are made again in seconds; a run's timeline only if the archive needs the room.
   local leave_out=(--no-wildcards-match-slash --exclude='*.aabbs')
   tar -C "$GC_WORK" "${leave_out[@]}" -cf - . | xz -6 -T0 >"$archive" || die "tar failed"
@@ -317,34 +368,36 @@ fi
 
 # ---- The run: configuration, then the steps ----
 
-mode=gpu only=""
+mode=gpu only="" part=check
 while (($#)); do
   case "$1" in
     --dry-run) mode=dry ;;
+    --study) part=study ;;
     --only) only=",$2," && shift ;;
     -h | --help) sed -n '2,/^set -uo/p' "$0" | sed '$d; s/^# \{0,1\}//' && exit 0 ;;
-    *) echo "gpu_check: unknown option '$1' (--dry-run, --only STEP,...)" >&2 && exit 2 ;;
+    *) echo "gpu_check: unknown option '$1' (--study, --dry-run, --only STEP,...)" >&2 && exit 2 ;;
   esac
   shift
 done
 
 OUT="$(realpath -m "${OUT:-$ROOT/out/gpu-check}")"
 export GC_MODE="$mode" OUT
-export GC_WORK="$OUT/gpu-check" GC_SCRATCH="${TMPDIR:-/tmp}/gpu-check-$$"
+export GC_WORK="$OUT/gpu-$part" GC_SCRATCH="${TMPDIR:-/tmp}/gpu-check-$$" GC_ARCHIVE="gpu_$part.tar.xz"
 export GC_STREAMS="$GC_SCRATCH/streams" GC_RESUME="$ROOT/.gpu-carry/resume.tar.xz"
-export GC_HUGE_LIMIT_US="${HUGE_LIMIT_US:-20000}" GC_STUDY_SHARDS="${STUDY_SHARDS:-$(nproc)}"
+export GC_STUDY_SHARDS="${STUDY_SHARDS:-$(nproc)}"
 if [[ "$mode" == gpu ]]; then
-  export GC_BUILD="${BUILD_DIR:-build}" GC_CTEST_JOBS="${CTEST_JOBS:-10}" GC_CTEST_TIMEOUT="${CTEST_TIMEOUT:-200}"
-  export GC_SMALL="500 1250 2000 2750 3500" GC_BIG="10000 30000"
-  export GC_HUGE="100000 300000" GC_SMALL_FRAMES=64 GC_BIG_FRAMES=16 GC_HUGE_REPEATS=2
-  export GC_FRAME_OPTIONS="--scene 4 --objects 3500 --frames 24" GC_DEMO_OPTIONS=""
-  deadline_s="${DEADLINE_S:-560}" paper=(5 8) big=(3 4) scale=1
+  export GC_BUILD="${BUILD_DIR:-build}" GC_CTEST_JOBS="${CTEST_JOBS:-12}" GC_CTEST_TIMEOUT="${CTEST_TIMEOUT:-120}"
+  export GC_SMALL="500 1250 2000 2750 3500" GC_BIG="10000 30000" GC_HUGE="100000 300000"
+  export GC_MILLION=1000000 GC_SMALL_FRAMES=64 GC_BIG_FRAMES=16 GC_HUGE_FRAMES=8 GC_MILLION_FRAMES=3
+  export GC_FRAME_OPTIONS="--scene 4 --objects 3500 --frames 12" GC_DEMO_OPTIONS=""
+  default_deadline=$([[ "$part" == study ]] && echo 395 || echo 285)
+  deadline_s="${DEADLINE_S:-$default_deadline}" paper=(3 8) big=(2 4) scale=1
   GC_SANITIZER="$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)"
   export GC_SANITIZER
 else
   export GC_BUILD=build-emulation GC_CTEST_JOBS="${CTEST_JOBS:-2}" GC_CTEST_TIMEOUT="${CTEST_TIMEOUT:-1500}"
-  export GC_SMALL="50 90" GC_BIG="200" GC_HUGE="400"
-  export GC_SMALL_FRAMES=6 GC_BIG_FRAMES=4 GC_HUGE_REPEATS=1 GC_HUGE_LIMIT_US=1e12
+  export GC_SMALL="50 90" GC_BIG="200" GC_HUGE="400" GC_MILLION=800
+  export GC_SMALL_FRAMES=6 GC_BIG_FRAMES=4 GC_HUGE_FRAMES=4 GC_MILLION_FRAMES=3
   # The demo keeps enough boxes that the default rule (physics/default_broadphase.h)
   # still picks gpubf, as it does for the demo's 1000 on a GPU.
   export GC_FRAME_OPTIONS="--scene 4 --objects 60 --frames 4" GC_DEMO_OPTIONS="--objects 600 --frames 6"
@@ -353,17 +406,17 @@ fi
 started="$(date +%s)"
 readonly started
 readonly deadline=$((started + deadline_s))
-rm -rf "$GC_WORK" "$OUT/gpu_check.tar.xz"
+rm -rf "$GC_WORK" "$OUT/$GC_ARCHIVE"
 mkdir -p "$GC_WORK/logs" "$GC_WORK/notes" "$GC_SCRATCH"
 trap 'rm -rf "$GC_SCRATCH"' EXIT
-readonly summary="$OUT/gpu_check_summary.txt"
+readonly summary="$OUT/gpu_${part}_summary.txt"
 table=()
 failures=0
 reserve=0
 
 write_summary() {
   {
-    echo "scripts/gpu_check.sh ($GC_MODE run), started $(date -u -d "@$started" +%FT%TZ), $(($(date +%s) - started)) s so far"
+    echo "scripts/gpu_check.sh ($GC_MODE run, the $part), started $(date -u -d "@$started" +%FT%TZ), $(($(date +%s) - started)) s so far"
     printf '%s\n' "${table[@]}"
   } >"$summary"
 }
@@ -417,26 +470,25 @@ record() {
 
 run_step() { start_step "$@" && finish_steps; }
 
-if [[ "$mode" == gpu ]]; then
-  GC_PYTHON=""
-  for candidate in python3 /usr/bin/python3; do
-    if "$candidate" -c 'import matplotlib, numpy' 2>/dev/null; then
-      GC_PYTHON="$(command -v "$candidate")" && break
-    fi
-  done
-  export GC_PYTHON
-  run_step unpack 60 step_unpack
-else
-  export GC_PYTHON=/usr/bin/python3
-fi
+# Any python3 runs the study and the steps' checks (the standard library is all they
+# need); CTest's study tests, and the report's figures, need one with matplotlib.
+export GC_PYTHON GC_PLOT_PYTHON=""
+GC_PYTHON="$(command -v python3 || echo /usr/bin/python3)"
+for candidate in python3 /usr/bin/python3; do
+  if "$candidate" -c 'import matplotlib, numpy' 2>/dev/null; then
+    GC_PLOT_PYTHON="$(command -v "$candidate")" && break
+  fi
+done
+reserve=10 # the archive's budget, kept from every step before it
+[[ "$mode" == gpu ]] && run_step unpack 30 step_unpack
 [[ -x "$GC_BUILD/overlap" ]] || die "$GC_BUILD/overlap is missing (dry run: cmake --preset cuda-emulation and build it)"
-GC_GPU_FINDERS="$("$GC_BUILD/overlap" --list-algos --json | python3 -c '
+GC_GPU_FINDERS="$("$GC_BUILD/overlap" --list-algos --json | "$GC_PYTHON" -c '
 import json, sys
 print(",".join(b["name"] for b in json.load(sys.stdin)["broadphases"] if b["needs_device"]))')"
 export GC_GPU_FINDERS
 if [[ -z "${STUDY_OPTIONS:-}" && "$mode" == gpu ]]; then
   # The options the committed report was made with, less its folders and --no-runs --report.
-  STUDY_OPTIONS="$(python3 -c '
+  STUDY_OPTIONS="$("$GC_PYTHON" -c '
 import re, shlex
 line = re.search(r"This report: `scripts/study.py ([^`]*)`", open("docs/REPORT.md").read()).group(1)
 words, kept = shlex.split(line), []
@@ -457,36 +509,41 @@ fi
 GC_STUDY_OPTIONS="$(tr -s " \n" "  " <<<"$STUDY_OPTIONS")"
 export GC_STUDY_OPTIONS
 
-reserve=90 # the study-report's and the archive's budgets, kept from every step before them
-run_step info 30 step_info
-run_step gpu-tests 90 step_gpu_tests
-for tool in memcheck racecheck synccheck initcheck; do
-  start_step "sanitizer-$tool" 180 step_sanitizer "$tool"
-done
-start_step ctest 240 step_ctest
-start_step streams 120 step_streams
-finish_steps
-run_step bench-paper 90 step_bench bench-paper "$GC_SMALL" "sap,bvh,cpubf,cpusap,$GC_GPU_FINDERS" "${paper[@]}"
-run_step bench-big 90 step_bench bench-big "$GC_BIG" "bvh,cpusap,$GC_GPU_FINDERS" "${big[@]}"
-run_step bench-huge 90 step_bench_huge
-run_step frames-demo 40 step_frames gpubf demo $GC_DEMO_OPTIONS
-for algo in $(tr , '\n' <<<"gpubf,cpusap,$GC_GPU_FINDERS" | awk '!seen[$0]++'); do
-  run_step "frames-$algo" 50 step_frames "$algo" "$algo" $GC_FRAME_OPTIONS --algo "$algo" \
-    --task-load 1 --compare-sync --capture-every 0 --no-wav
-done
-if [[ -n "$GC_PYTHON" ]]; then
-  run_step study 9999 step_study
-  reserve=30
-  run_step study-report 60 step_study_report
+# Budgets (s) from the H100's step times (docs/results/gpu/h100/README.md), in brackets.
+run_step info 15 step_info # [0-1]
+if [[ "$part" == check ]]; then
+  run_step gpu-tests 30 step_gpu_tests # [7]
+  for tool in memcheck racecheck synccheck initcheck; do # [25-27 each; racecheck, see above]
+    start_step "sanitizer-$tool" 90 step_sanitizer "$tool"
+  done
+  start_step ctest 120 step_ctest # [111 at -j 10, the longest tests last]
+  start_step streams 90 step_streams # [6 without 10^6]
+  finish_steps
+  run_step bench-paper 40 step_bench bench-paper "$GC_SMALL" "sap,bvh,cpubf,cpusap,$GC_GPU_FINDERS" "${paper[@]}" # [31 at 5 repeats]
+  run_step bench-big 40 step_bench bench-big "$GC_BIG" "bvh,cpusap,$GC_GPU_FINDERS" "${big[@]}" # [45 at 3 repeats]
+  run_step bench-huge 40 step_bench_scaled bench-huge "$GC_HUGE" bench-big 2 # [10^5: 11]
+  run_step bench-million 30 step_bench_scaled bench-million "$GC_MILLION" bench-huge 2
+  run_step frames-demo 20 step_frames gpubf demo $GC_DEMO_OPTIONS # [12]
+  for algo in $(frame_finders); do # [25-35 each at 24 frames]
+    run_step "frames-$algo" 25 step_frames "$algo" "$algo" $GC_FRAME_OPTIONS --algo "$algo" \
+      --task-load 1 --compare-sync --capture-every 0 --no-wav
+  done
 else
-  record study FAIL 0 0 "no python3 here has matplotlib, which study.py imports"
+  reserve=20 # study-jobs' and the archive's
+  run_step study 9999 step_study
+  reserve=10
+  run_step study-jobs 10 step_study_jobs # [the study-report step counted them in 3 s]
 fi
 reserve=0
-run_step archive 30 step_archive
-if [[ "$mode" == gpu && -f "$OUT/gpu_check.tar.xz" ]]; then
+run_step archive 10 step_archive
+if [[ "$mode" == dry && "$part" == study ]]; then
+  [[ -n "$GC_PLOT_PYTHON" ]] || die "the dry run's report needs a python3 with matplotlib"
+  run_step report 60 step_report
+fi
+if [[ "$mode" == gpu && -f "$OUT/$GC_ARCHIVE" ]]; then
   rm -rf "$GC_WORK" # only the archive and the summary come back
 fi
 echo
-echo "gpu_check: $GC_MODE run, $(($(date +%s) - started)) s, $failures steps failed or timed out"
+echo "gpu_check: $GC_MODE run of the $part, $(($(date +%s) - started)) s, $failures steps failed or timed out"
 printf '  %s\n' "${table[@]}"
 exit $((failures > 0))
