@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One GPU loan in two calls of the device tool (docs/GPU.md), each from the
+# One GPU loan in two commands (docs/GPU.md), each from the
 # repository root of a machine with an NVIDIA GPU and no Bullet, oneTBB,
 # OSMesa or network, the build carried by scripts/gpu_pack.sh:
 #   scripts/gpu_check.sh [--dry-run] [--only STEP,...]           the check
@@ -38,8 +38,8 @@
 #                 a GPU loan: study.py --from-archive
 # The GPU finders are those `overlap --list-algos --json` says need a device,
 # so a new one is checked with no edit here.  Rules, each with its reason:
-# - Each part ends by its DEADLINE_S: the device tool stops a command at its
-#   timeout_s, and what is unfinished then comes back with nothing archived.
+# - Each part ends by its DEADLINE_S, 10 s inside the command's limit (docs/GPU.md):
+#   what is unfinished at the limit comes back with nothing archived.
 # - Only the correctness steps run side by side; every timed step runs alone.
 # - The study's shards start one after another, each once the one before has
 #   probed the GPU: concurrent probes into one --out removed each other's files.
