@@ -23,7 +23,7 @@ constexpr std::uint64_t kBlockWords = 256;
 
 // On x86-64 the search is built twice, for the baseline and for AVX2, and the
 // loader picks one: the box tests are vectorized, so eight float lanes do in
-// one step what four do in two (docs/HISTORY.md has the figure).  Not
+// one step what four do in two (docs/results/run_costs.md has the figure).  Not
 // under ThreadSanitizer: GCC's instrumented ifunc resolver runs before the
 // TSan runtime is up and crashes the program before main.
 #if defined(__x86_64__) && !defined(__SANITIZE_THREAD__)

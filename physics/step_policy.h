@@ -2,8 +2,8 @@
 // sleep and the contact solver's settings, each chosen by one small function
 // whose rule is stated beside it.  docs/REPORT.md section 3.2 measures the
 // rules as shipped; the measurements that chose them, with their commits,
-// are in docs/HISTORY.md ("The step policy's measurements" and the record
-// of the report's first section 3.2).
+// are in docs/results/step_policy.md (with the record of the report's first
+// section 3.2).
 //
 // The functions read plain numbers (speeds, edges, gravity, times) and never
 // touch Bullet, so they are deterministic by construction: the same state
@@ -122,7 +122,7 @@ double speedBound(double speed, double gravity, double frame_time);
 // (b) reads the centres' speeds, not the corners': a spinning box's corners
 // close faster (scene 2's deepest overlaps are spinning boxes in one-step
 // frames), but counting spin in every speed adds substeps at 50 g for the
-// same penetration, past the time target (docs/HISTORY.md).
+// same penetration, past the time target (docs/results/step_policy.md).
 int chooseSubsteps(const FrameMotion& motion, bool ccd_on, const SubstepRule& rule = {});
 
 // The share of its own edge a box may move in one substep before Bullet's
@@ -165,7 +165,7 @@ struct SolverSettings {
 // push-out together, where the split pass undid part of what the velocity
 // pass did.  8 iterations: the fewest that held scene 3's pile at K = 4;
 // more cost time without a gain that holds from seed to seed
-// (docs/HISTORY.md).
+// (docs/results/step_policy.md).
 SolverSettings solverSettings(SolverMode mode);
 
 }  // namespace overlap::physics
