@@ -14,14 +14,14 @@
 #   LD_LIBRARY_PATH to gpu-pack/lib and execs X.real under X's name: only the
 #   project's binaries (and what they start) load the carried libraries, never
 #   the machine's own python3, cmake or compute-sanitizer.
-# - The sources do not travel in it: the device tool sends the working tree.
+# - The sources do not travel in it: a GPU loan copies the working tree there.
 #   gpu-pack/sums holds the SHA-256 of every file git tracks here, so the
 #   check can tell the tree it runs in from the one this build came from.
 # - Paths stay absolute (CTest files, the test binaries' compiled-in source
 #   paths): gpu-pack/manifest names this checkout's root, and the check makes
 #   that path lead to its own root on the GPU machine.
-# - What travels (the pack plus the working tree) must stay under the device
-#   tool's 64 MiB: the size of each is printed, and the script fails over it.
+# - What travels (the pack plus the working tree) must stay under the 64 MiB
+#   a GPU loan carries: the size of each is printed, and the script fails over it.
 # - The pack is checked before it is kept: unpacked into a scratch folder,
 #   every wrapper runs and every library each binary loads resolves to the
 #   pack or to the runtimes left out.
@@ -157,5 +157,5 @@ tree_bytes="$(git ls-files -co --exclude-standard -z | du -cb --files0-from=- 2>
 total=$((pack_bytes + tree_bytes))
 mib() { awk -v b="$1" 'BEGIN { printf "%.1f", b / 1048576 }'; }
 echo "gpu_pack: $PACK: $(mib "$pack_bytes") MiB ($pack_bytes bytes); the working tree:" \
-  "$(mib "$tree_bytes") MiB; together $(mib "$total") of the device tool's 64 MiB"
-((total <= TRAVEL_LIMIT)) || fail "what travels is over the device tool's 64 MiB: carry less"
+  "$(mib "$tree_bytes") MiB; together $(mib "$total") of the 64 MiB a GPU loan carries"
+((total <= TRAVEL_LIMIT)) || fail "what travels is over the 64 MiB a GPU loan carries: carry less"
