@@ -36,11 +36,13 @@
 #include <bit>
 #include <cstring>
 #include <cub/cub.cuh>
+#include <source_location>
 #include <stdexcept>
 #include <string>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
+#include "gpu/cuda_check.h"
 #include "gpu/finish_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
@@ -74,12 +76,12 @@ unsigned blocksFor(std::uint64_t items) {
 class GpuSapPairFinder final : public PairFinder {
  public:
   GpuSapPairFinder() {
-    call(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    for (cudaEvent_t& event : events_) call(cudaEventCreate(&event));
+    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    for (cudaEvent_t& event : events_) CUDA_CHECK(cudaEventCreate(&event));
     int device = 0;
     cudaDeviceProp properties{};
-    call(cudaGetDevice(&device));
-    call(cudaGetDeviceProperties(&properties, device));
+    CUDA_CHECK(cudaGetDevice(&device));
+    CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
     sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
     counters_ = DeviceBuffer<FrameCounters>(1);
     host_ = PinnedBuffer<HostBlock>(1);
@@ -113,15 +115,18 @@ class GpuSapPairFinder final : public PairFinder {
     work_.host_bytes_copied += staging_.stage(objects);
     record(kStarted);
     if (!objects.empty()) {
-      call(cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                           cudaMemcpyHostToDevice, stream_));
+      CUDA_CHECK_COUNTED(work_.api_calls,
+                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
+                                         cudaMemcpyHostToDevice, stream_));
       work_.bytes_to_device += objects.size_bytes();
     }
     record(kUploaded);
     // 0xFF: every centre bound at its start (see FrameCounters), every count huge;
     // the counts are zeroed next.
-    call(cudaMemsetAsync(counters_.data(), 0xFF, sizeof(FrameCounters), stream_));
-    call(cudaMemsetAsync(&counters_.data()->pairs, 0, 3 * sizeof(unsigned long long), stream_));
+    CUDA_CHECK_COUNTED(work_.api_calls,
+                       cudaMemsetAsync(counters_.data(), 0xFF, sizeof(FrameCounters), stream_));
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaMemsetAsync(&counters_.data()->pairs, 0,
+                                                        3 * sizeof(unsigned long long), stream_));
     enqueueBoxSort();
     enqueueSweep();
     record(kSwept);
@@ -140,37 +145,42 @@ class GpuSapPairFinder final : public PairFinder {
  private:
   enum Event { kStarted, kUploaded, kSwept, kCounted, kDiffing, kDiffed, kDownloaded, kEventCount };
 
-  // Every runtime call of a frame goes through here, so that it is counted.
-  void call(cudaError_t status, const char* what = "a CUDA runtime call") {
+  // Every runtime call of a frame is counted (DeviceWork::api_calls) and
+  // checked: in place with CUDA_CHECK_COUNTED, or, when a helper below makes
+  // it for its caller, with the caller's file and line.
+  using Where = std::source_location;
+  void call(cudaError_t status, const char* what, Where where) {
     ++work_.api_calls;
-    if (status != cudaSuccess) throwCudaError(status, what, __FILE__, __LINE__);
+    checkCuda(status, what, where);
   }
 
-  void record(Event event) { call(cudaEventRecord(events_[event], stream_)); }
+  void record(Event event, Where where = Where::current()) {
+    call(cudaEventRecord(events_[event], stream_), "cudaEventRecord", where);
+  }
 
-  void download(void* to, const void* from, std::size_t bytes) {
+  void download(void* to, const void* from, std::size_t bytes, Where where = Where::current()) {
     if (bytes == 0) return;
-    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_));
+    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_), "cudaMemcpyAsync",
+         where);
     work_.bytes_from_device += bytes;
-  }
-
-  template <class Kernel, class... Args>
-  void launchKernel(Kernel kernel, unsigned blocks, Args... args) {
-    kernel<<<blocks, kThreadsPerBlock, 0, stream_>>>(args...);
-    call(cudaGetLastError(), "a gpusap kernel launch");
-    ++work_.api_calls;  // the launch itself
   }
 
   // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
   // temp_ grown to fit) the work.
   template <class CubCall>
-  void cub(CubCall cub_call) {
+  void cub(CubCall cub_call, Where where = Where::current()) {
     std::size_t bytes = 0;
-    call(cub_call(nullptr, bytes), "a CUB size query");
+    call(cub_call(nullptr, bytes), "a CUB size query", where);
     // At least one byte: a null temp_ would make the second call a query too.
     reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
     bytes = temp_.size();
-    call(cub_call(temp_.data(), bytes), "a CUB device-wide call");
+    call(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
+  }
+
+  // After each kernel launch: its own errors, and the launch counted.
+  void launched(Where where = Where::current()) {
+    call(cudaGetLastError(), "a gpusap kernel launch", where);
+    ++work_.api_calls;
   }
 
   void reserveBoxBuffers(std::size_t n) {
@@ -186,10 +196,13 @@ class GpuSapPairFinder final : public PairFinder {
   void enqueueBoxSort() {
     const std::uint32_t n = slot_count_;
     if (n == 0) return;
-    launchKernel(centreBoundsKernel, blocksFor(n), objects_.data(), n, counters_.data());
-    launchKernel(sortKeysKernel, blocksFor(n), objects_.data(), n,
-                 static_cast<const FrameCounters*>(counters_.data()), keys_[0].data(),
-                 slots_[0].data());
+    centreBoundsKernel<<<blocksFor(n), kThreadsPerBlock, 0, stream_>>>(objects_.data(), n,
+                                                                       counters_.data());
+    launched();
+    sortKeysKernel<<<blocksFor(n), kThreadsPerBlock, 0, stream_>>>(
+        objects_.data(), n, static_cast<const FrameCounters*>(counters_.data()), keys_[0].data(),
+        slots_[0].data());
+    launched();
     cub::DoubleBuffer<std::uint32_t> keys(keys_[0].data(), keys_[1].data());
     cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
     cub([&](void* temp, std::size_t& bytes) {
@@ -203,10 +216,11 @@ class GpuSapPairFinder final : public PairFinder {
   void enqueueSweep() {
     const std::uint32_t n = slot_count_;
     if (n == 0) return;
-    launchKernel(candidateCountKernel, blocksFor(std::uint64_t{n} + 1), objects_.data(), n,
-                 static_cast<const FrameCounters*>(counters_.data()),
-                 static_cast<const std::uint32_t*>(sorted_keys_),
-                 static_cast<const std::uint32_t*>(sorted_slots_), offsets_.data());
+    candidateCountKernel<<<blocksFor(std::uint64_t{n} + 1), kThreadsPerBlock, 0, stream_>>>(
+        objects_.data(), n, static_cast<const FrameCounters*>(counters_.data()),
+        static_cast<const std::uint32_t*>(sorted_keys_),
+        static_cast<const std::uint32_t*>(sorted_slots_), offsets_.data());
+    launched();
     cub([&](void* temp, std::size_t& bytes) {
       return cub::DeviceScan::ExclusiveSum(temp, bytes, offsets_.data(), offsets_.data(),
                                            std::uint64_t{n} + 1, stream_);
@@ -218,11 +232,13 @@ class GpuSapPairFinder final : public PairFinder {
     const std::uint32_t n = slot_count_;
     if (n == 0) return;
     DeviceBuffer<std::uint64_t>& current = pairs_[(previous_ + 1) % 3];
-    launchKernel(sweepKernel, std::max(blocksFor(n), std::min(sweep_blocks_, kMaxBlocks)),
-                 static_cast<const ObjectBounds*>(objects_.data()), n,
-                 static_cast<const std::uint32_t*>(sorted_slots_),
-                 static_cast<const unsigned long long*>(offsets_.data()), counters_.data(),
-                 current.data(), static_cast<unsigned long long>(pairCapacity()));
+    sweepKernel<<<std::max(blocksFor(n), std::min(sweep_blocks_, kMaxBlocks)), kThreadsPerBlock, 0,
+                  stream_>>>(static_cast<const ObjectBounds*>(objects_.data()), n,
+                             static_cast<const std::uint32_t*>(sorted_slots_),
+                             static_cast<const unsigned long long*>(offsets_.data()),
+                             counters_.data(), current.data(),
+                             static_cast<unsigned long long>(pairCapacity()));
+    launched();
   }
 
   // The room every pair buffer but last frame's has (they are grown together).
@@ -237,15 +253,16 @@ class GpuSapPairFinder final : public PairFinder {
       DeviceBuffer<std::uint64_t>& buffer = pairs_[(previous_ + role) % 3];
       reserveDiscarding(buffer, pairs);
     }
-    call(cudaMemsetAsync(&counters_.data()->pairs, 0, sizeof(unsigned long long), stream_));
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaMemsetAsync(&counters_.data()->pairs, 0,
+                                                        sizeof(unsigned long long), stream_));
     enqueueSweepKernel();
     download(&host_.data()->pairs, &counters_.data()->pairs, sizeof(unsigned long long));
     record(kCounted);
-    call(cudaEventSynchronize(events_[kCounted]));
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaEventSynchronize(events_[kCounted]));
   }
 
   PairDelta collectDelta() {
-    call(cudaEventSynchronize(events_[kCounted]));
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaEventSynchronize(events_[kCounted]));
     const std::size_t pairs = host_.data()->pairs;
     if (pairs > pairCapacity()) resweep(pairs);
     record(kDiffing);
@@ -259,7 +276,7 @@ class GpuSapPairFinder final : public PairFinder {
     download(host_.data()->removed, pairs_[previous_].data(),
              std::min(previous_pairs, kHeadEntries) * sizeof(IndexPair));
     record(kDownloaded);
-    call(cudaEventSynchronize(events_[kDownloaded]));
+    CUDA_CHECK_COUNTED(work_.api_calls, cudaEventSynchronize(events_[kDownloaded]));
     const std::size_t added_count = host_.data()->changes[0];
     const std::size_t removed_count = host_.data()->changes[1];
     IndexPair* added =
@@ -268,7 +285,7 @@ class GpuSapPairFinder final : public PairFinder {
         joinHeadAndTail(host_.data()->removed, pairs_[previous_], host_removed_, removed_count);
     if (std::max(added_count, removed_count) > kHeadEntries) {
       record(kDownloaded);
-      call(cudaEventSynchronize(events_[kDownloaded]));
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaEventSynchronize(events_[kDownloaded]));
     }
     noteTimes();
     previous_ = current;  // nothing below can fail: this frame is now the reference
@@ -307,8 +324,10 @@ class GpuSapPairFinder final : public PairFinder {
       return cub::DeviceSelect::If(temp, bytes, last_frame, removed_count, previous_pairs,
                                    NotIn{this_frame, pairs}, stream_);
     });
-    launchKernel(toIndexPairsKernel, blocksFor(std::max<std::size_t>(pairs, previous_pairs_)), free,
-                 last_frame, static_cast<const FrameCounters*>(counters_.data()));
+    toIndexPairsKernel<<<blocksFor(std::max<std::size_t>(pairs, previous_pairs_)), kThreadsPerBlock,
+                         0, stream_>>>(free, last_frame,
+                                       static_cast<const FrameCounters*>(counters_.data()));
+    launched();
     return current;
   }
 
@@ -326,9 +345,9 @@ class GpuSapPairFinder final : public PairFinder {
     return host.data();
   }
 
-  float elapsed(Event from, Event to) {
+  float elapsed(Event from, Event to, Where where = Where::current()) {
     float ms = 0;
-    call(cudaEventElapsedTime(&ms, events_[from], events_[to]));
+    call(cudaEventElapsedTime(&ms, events_[from], events_[to]), "cudaEventElapsedTime", where);
     return ms;
   }
 
