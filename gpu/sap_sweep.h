@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "gpu/pair_logic.h"
 #include "gpu/pair_set.h"
 
 namespace overlap::gpu::sap {
@@ -59,18 +60,20 @@ inline std::uint64_t sortEntry(const ObjectBounds& box, int axis, std::uint32_t 
   return (std::uint64_t{orderedBits(box.min[axis])} << 32) | slot;
 }
 
-// Slabs of equal width along the slab axis, the outer ones open-ended.
+// Slabs of equal width along the slab axis, the outer ones open-ended
+// (cpusap's, and gpusap's: gpu/gpu_sap_kernels.cuh).
 struct SlabGrid {
   float origin = 0;  // where slab 0 starts (it also takes everything below)
   float inverse_width = 0;
   std::uint32_t count = 1;
 
   // Non-decreasing in v (rounding is monotone), so two intervals that overlap
-  // map to slab ranges that overlap.
-  std::uint32_t slabOf(float v) const {
+  // map to slab ranges that overlap.  Not for NaN.  Host and device (gpusap).
+  OVERLAP_HD std::uint32_t slabOf(float v) const {
     if (count == 1) return 0;
-    const float t = std::clamp((v - origin) * inverse_width, 0.0f, static_cast<float>(count - 1));
-    return static_cast<std::uint32_t>(t);
+    const float t = (v - origin) * inverse_width;
+    const float last = static_cast<float>(count - 1);
+    return static_cast<std::uint32_t>(t < 0.0f ? 0.0f : (t > last ? last : t));
   }
 };
 

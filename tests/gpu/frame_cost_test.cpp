@@ -1,6 +1,6 @@
-// The lean frame of gpubf, counted by the CUDA emulation: one upload, two
-// kernels (the search and the sort of the changes), one copy back, no
-// memset; and the copies' bytes.
+// The lean frames of gpubf and gpusap, counted by the CUDA emulation: one
+// upload, one copy back, one host wait (gpubf: two kernels, no memset); and
+// the copies' bytes.
 #include "tests/gpu/frame_cost.h"
 
 #include <gtest/gtest.h>
@@ -41,6 +41,23 @@ TEST(GpubfFrameCostTest, TheCallerFillsTheStagingItself) {
       },
       std::runtime_error);
   finder->finish();
+}
+
+// gpusap's steady frame: one upload, one copy back (the counts and the
+// changes' heads), one host wait, whatever n; its kernels and CUB's calls
+// run over capacities, so nothing comes back mid-frame.
+TEST(GpusapFrameCostTest, OneUploadOneCopyBackOneWait) {
+  for (const std::uint32_t n : {2u, 33u, 1025u}) {
+    SCOPED_TRACE("n = " + std::to_string(n));
+    const auto finder = makeGpuSapPairFinder();
+    const cuda_emulation::ApiCounters frame = testing::steadyFrameCost(*finder, n);
+    EXPECT_EQ(frame.copies_to_device, 1u);
+    EXPECT_EQ(frame.bytes_to_device, n * sizeof(ObjectBounds));
+    EXPECT_EQ(frame.copies_to_host, 1u) << "every change fits the head";
+    EXPECT_EQ(frame.host_waits, 1u);
+    EXPECT_EQ(frame.kernel_launches, 6u);
+    EXPECT_EQ(frame.memsets, 2u) << "the counters, and the pair buffer's unused tail";
+  }
 }
 
 TEST(GpubfPaperFrameCostTest, CopiesEveryPairsByteBack) {
