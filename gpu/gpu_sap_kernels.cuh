@@ -9,9 +9,10 @@
 //   nothing: unused slots).  The others get no entry.
 // - Axes: the sweep axis is the one whose swept centres spread widest, the
 //   slab axis the wider of the other two.  The slab axis is cut into slabs
-//   (sap::SlabGrid, cpusap's) three mean box extents wide, at most one per
-//   kMinBoxesPerSlab boxes and at most the host's `max_slabs`.  Every thread
-//   derives the same axes and grid from the frame's counters.
+//   (sap::SlabGrid, cpusap's) three mean box extents wide
+//   (sap::chooseSweepAxes), at most one per kMinBoxesPerSlab boxes and at
+//   most the host's `max_slabs`.  Every thread derives the same axes and
+//   grid from the frame's counters.
 // - A box has one entry per slab its hull on the slab axis reaches (min and
 //   max taken in either order: pair_logic's test passes an inverted interval
 //   only against one that contains its max, inside the hull).  Two boxes
@@ -58,10 +59,6 @@ inline constexpr std::uint32_t kNoKey = 0xFFFFFFFFu;
 // frame's pairs: all ones, above every real key in any bit range sorted.
 inline constexpr std::uint64_t kNoEntry = ~std::uint64_t{0};
 inline constexpr std::uint64_t kNoPair = ~std::uint64_t{0};
-// Slabs: cpusap's width (gpu/cpu_sap_pair_finder.cpp), and a box count per
-// slab below which more slabs only copy boxes.
-inline constexpr double kSlabWidthInExtents = 3.0;
-inline constexpr std::uint32_t kMinBoxesPerSlab = 32;
 // The entries of the changes that come back in the result block, added's
 // first, then removed's: a frame that changes fewer pairs (the common case)
 // needs no further copy.  32 KiB.
@@ -120,54 +117,23 @@ struct SlabRange {
   std::uint32_t last;
 };
 
-struct FrameAxes {
-  int sweep = 0;
-  int slab = 1;
-  sap::SlabGrid grid;
-
-  __host__ __device__ SlabRange slabs(const ObjectBounds& box) const {
-    const float a = box.min[slab];
-    const float b = box.max[slab];
-    return {grid.slabOf(a < b ? a : b), grid.slabOf(a < b ? b : a)};
-  }
-};
-
-__host__ __device__ inline float centreSpread(const FrameCounters& counters, int axis) {
-  const float low = fromOrderedKey(~counters.centre_bounds[axis][0]);
-  const float high = fromOrderedKey(counters.centre_bounds[axis][1]);
-  return high - low;  // NaN where no centre was finite
+__host__ __device__ inline SlabRange slabsOf(const sap::SweepAxes& axes, const ObjectBounds& box) {
+  const float a = box.min[axes.slab];
+  const float b = box.max[axes.slab];
+  return {axes.grid.slabOf(a < b ? a : b), axes.grid.slabOf(a < b ? b : a)};
 }
 
-// The frame's axes and slabs, from its counters (see the rules above).
-__host__ __device__ inline FrameAxes frameAxes(const FrameCounters& counters,
-                                               std::uint32_t max_slabs) {
-  FrameAxes axes;
-  float spread[3];
-  for (int axis = 0; axis < 3; ++axis) spread[axis] = centreSpread(counters, axis);
-  float best_spread = -1.0f;
+// The frame's axes and slabs, from its counters (sap::chooseSweepAxes).
+__host__ __device__ inline sap::SweepAxes frameAxes(const FrameCounters& counters,
+                                                    std::uint32_t max_slabs) {
+  float lowest[3];
+  float highest[3];
   for (int axis = 0; axis < 3; ++axis) {
-    if (spread[axis] > best_spread) {  // false for NaN
-      axes.sweep = axis;
-      best_spread = spread[axis];
-    }
+    lowest[axis] = fromOrderedKey(~counters.centre_bounds[axis][0]);
+    highest[axis] = fromOrderedKey(counters.centre_bounds[axis][1]);
   }
-  const int next = (axes.sweep + 1) % 3;
-  const int after = (axes.sweep + 2) % 3;
-  axes.slab = spread[after] > spread[next] ? after : next;
-  if (counters.finite_boxes == 0) return axes;
-  const double range = spread[axes.slab];
-  const double width = kSlabWidthInExtents * counters.extent_sum[axes.slab] /
-                       static_cast<double>(counters.finite_boxes);
-  if (!(range > 0) || !(width > 0)) return axes;  // nothing finite, or all flat
-  const double most = max_slabs;
-  const double wanted = range / width;  // ceil() below, in steps that cannot overflow
-  const double slabs =
-      wanted >= most ? most : static_cast<double>(static_cast<std::uint32_t>(wanted) + 1);
-  if (slabs < 2) return axes;
-  axes.grid.count = static_cast<std::uint32_t>(slabs);
-  axes.grid.origin = fromOrderedKey(~counters.centre_bounds[axes.slab][0]);
-  axes.grid.inverse_width = static_cast<float>(slabs / range);
-  return axes;
+  return sap::chooseSweepAxes(lowest, highest, counters.extent_sum, counters.finite_boxes,
+                              max_slabs);
 }
 
 // The first index in [first, last) whose value exceeds `value`; values sorted.
@@ -253,11 +219,11 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
     spanKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
                const FrameCounters* __restrict__ counters, std::uint32_t max_slabs,
                unsigned long long* __restrict__ spans) {
-  const FrameAxes axes = frameAxes(*counters, max_slabs);
+  const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
   for (std::uint64_t i = globalThread(); i <= n; i += gridThreads()) {
     unsigned long long span = 0;
     if (i < n && swept(objects[i])) {
-      const SlabRange slabs = axes.slabs(objects[i]);
+      const SlabRange slabs = slabsOf(axes, objects[i]);
       span = slabs.last - slabs.first + 1;
     }
     spans[i] = span;
@@ -271,7 +237,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
                 FrameCounters* __restrict__ counters, std::uint32_t max_slabs,
                 const unsigned long long* __restrict__ first_entry, std::uint64_t capacity,
                 std::uint64_t* __restrict__ keys, std::uint32_t* __restrict__ slots) {
-  const FrameAxes axes = frameAxes(*counters, max_slabs);
+  const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
   const unsigned long long total = first_entry[n];
   if (globalThread() == 0) counters->entries = total;
   const std::uint64_t items = n > capacity ? n : capacity;
@@ -279,7 +245,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
     if (i >= total && i < capacity) keys[i] = kNoEntry;
     if (i >= n || first_entry[i] == first_entry[i + 1]) continue;
     const ObjectBounds& box = objects[i];
-    const SlabRange slabs = axes.slabs(box);
+    const SlabRange slabs = slabsOf(axes, box);
     const std::uint64_t min_key = orderedKey(box.min[axes.sweep]);
     std::uint64_t entry = first_entry[i];
     for (std::uint32_t slab = slabs.first; slab <= slabs.last && entry < capacity;
@@ -298,7 +264,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
                          const std::uint64_t* __restrict__ sorted_keys,
                          const std::uint32_t* __restrict__ sorted_slots,
                          unsigned long long* __restrict__ counts) {
-  const FrameAxes axes = frameAxes(*counters, 1);  // the sweep axis only
+  const sap::SweepAxes axes = frameAxes(*counters, 1);  // the sweep axis only
   for (std::uint64_t rank = globalThread(); rank <= entries; rank += gridThreads()) {
     unsigned long long count = 0;
     if (rank < entries && sorted_keys[rank] != kNoEntry) {
@@ -322,7 +288,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
                 const unsigned long long* __restrict__ offsets,
                 FrameCounters* __restrict__ counters, std::uint64_t* __restrict__ pairs,
                 unsigned long long capacity) {
-  const FrameAxes axes = frameAxes(*counters, max_slabs);
+  const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
   const unsigned long long total = offsets[entries];
   const unsigned lane = threadIdx.x % kLanes;
   const std::uint64_t first_warp = globalThread() / kLanes;
@@ -345,7 +311,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
         const auto slab = static_cast<std::uint32_t>(sorted_keys[owner] >> 32);
         // Reported only in the first slab both reach: where one of them starts.
         found = pair_logic::objectsPair(box_a, box_b) &
-                ((axes.slabs(box_a).first == slab) | (axes.slabs(box_b).first == slab));
+                ((slabsOf(axes, box_a).first == slab) | (slabsOf(axes, box_b).first == slab));
       }
       const unsigned ballot = __ballot_sync(kFullWarp, found);
       if (ballot == 0) continue;  // uniform

@@ -80,8 +80,6 @@ constexpr unsigned kMaxBlocks = 1u << 16;
 // Sweep blocks per multiprocessor at least, whatever n: the candidates
 // outnumber the boxes, and the grid strides over them.
 constexpr unsigned kSweepBlocksPerSm = 8;
-// The most slabs: the slab takes bit_width(kMaxSlabs - 1) bits of the key.
-constexpr std::uint32_t kMaxSlabs = 1024;
 // Capacities: a first guess per box, and the headroom over what a frame wanted.
 constexpr std::size_t kFirstEntriesPerBox = 2;
 constexpr std::size_t kFirstPairsPerBox = 2;
@@ -234,7 +232,7 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
   std::uint32_t maxSlabs() const {
-    return std::clamp<std::uint32_t>(slot_count_ / kMinBoxesPerSlab, 1, kMaxSlabs);
+    return std::clamp<std::uint32_t>(slot_count_ / sap::kMinBoxesPerSlab, 1, sap::kMaxGpuSlabs);
   }
 
   // The frame's search, from the uploaded boxes to the result block's copy:
