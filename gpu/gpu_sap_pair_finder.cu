@@ -10,10 +10,10 @@
 //
 // Why slabs (docs/results/gpusap_candidates.md): along one axis a box meets
 // every box in a slice across the whole scene, so candidates per box grow as
-// n^(2/3) (about 4290 a box at 10^6 on scene 4: 4.3 10^9 tests, most of the
-// 50 ms of kernels an H100 measured).  Slabs a few box extents wide cut them
-// to those of a column, nearly flat in n, for a wider sort key and some boxes
-// entered in two slabs.  A linear BVH (Karras, HPG 2012) also comes near the
+// n^(2/3) (4716 a box at 10^6 on scene 4: 4.7 10^9 tests, most of the 50 ms
+// of kernels an H100 measured).  Slabs three box extents wide cut them to
+// those of a column, n^(1/3) (136 a box at 10^6, 35 times fewer), for a
+// 64-bit sort key and 1.33 entries a box.  A linear BVH (Karras, HPG 2012) also comes near the
 // pairs, but walks a tree per box (divergent, O(log n) dependent loads)
 // after a build of several kernels; an incremental sweep (PhysX) keeps
 // per-pair state across frames that a full GPU re-sort does not need.  Slabs
