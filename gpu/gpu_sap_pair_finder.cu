@@ -48,6 +48,10 @@
 //   then done with.
 // - Capacities start at 2 entries and 2 pairs a box and grow to 5/4 of what
 //   a frame wanted, at least doubling, so a growing scene retries rarely.
+//   Entries stay near n whatever the sizes: slabs are three mean extents
+//   wide, so the finite boxes' spans add up to about 2n + n/3 at most (a few
+//   huge boxes widen the mean, and with it the slabs); only boxes with an
+//   infinite coordinate reach every slab.
 // - Slots never shrink, so last frame's pairs name valid slots after growth;
 //   last frame's pair buffer is never reallocated while it holds the set.
 // - launch() only enqueues; finish() is where the host waits.
