@@ -86,7 +86,6 @@ struct ResultBlock {
   unsigned long long pairs;
   unsigned long long added;
   unsigned long long removed;
-  unsigned long long candidates;
   IndexPair head[kHeadEntries];
 };
 
@@ -356,9 +355,7 @@ struct NotIn {
 // block: the counts and the lists' heads.
 __global__ void __launch_bounds__(kThreadsPerBlock)
     packKernel(std::uint64_t* __restrict__ added, std::uint64_t* __restrict__ removed,
-               const FrameCounters* __restrict__ counters,
-               const unsigned long long* __restrict__ candidate_offsets, std::uint64_t entries,
-               ResultBlock* __restrict__ block) {
+               const FrameCounters* __restrict__ counters, ResultBlock* __restrict__ block) {
   const unsigned long long added_count = counters->added;
   const unsigned long long removed_count = counters->removed;
   if (globalThread() == 0) {
@@ -366,7 +363,6 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
     block->pairs = counters->pairs;
     block->added = added_count;
     block->removed = removed_count;
-    block->candidates = candidate_offsets == nullptr ? 0 : candidate_offsets[entries];
   }
   for (int list = 0; list < 2; ++list) {
     std::uint64_t* const keys = list == 0 ? added : removed;

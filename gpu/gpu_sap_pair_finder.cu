@@ -318,7 +318,7 @@ class GpuSapPairFinder final : public PairFinder {
       });
     }
     packKernel<<<blocksFor(std::max<std::uint64_t>(pairs, previous_pairs_)), kThreadsPerBlock, 0,
-                 stream_>>>(free, last_frame, counters, offsets_.data(), entries, block_.data());
+                 stream_>>>(free, last_frame, counters, block_.data());
     launched();
     record(kSearched);
     download(host_.data(), block_.data(), sizeof(ResultBlock));
