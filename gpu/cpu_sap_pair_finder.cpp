@@ -26,13 +26,6 @@ namespace {
 constexpr double kAxisSwitchFactor = 1.1;
 // Boxes sampled to measure the spread.
 constexpr std::size_t kSpreadSamples = 2048;
-// Slabs this many mean box extents wide: on scene-4 streams, 3 to 4 gave the
-// fewest sweep steps (wider slabs hold more boxes per scan, narrower ones
-// copy more boxes into several slabs).
-constexpr double kSlabWidthInExtents = 3.0;
-// At least this many boxes per slab on average, so that a few boxes never
-// make many nearly empty slabs.
-constexpr std::size_t kMinBoxesPerSlab = 32;
 
 // Step 3: the insertion sort gives up, for the radix sort, after this many
 // moves per box; a radix sort costs about as much as that.
@@ -141,9 +134,10 @@ void CpuSapPairFinder::chooseAxes(const Spread& spread) {
   grid_ = sap::SlabGrid{};
   const double lowest = spread.lowest[slab_axis_];
   const double range = double{spread.highest[slab_axis_]} - lowest;
-  const double width = kSlabWidthInExtents * spread.mean_extent[slab_axis_];
+  const double width = sap::kSlabWidthInExtents * spread.mean_extent[slab_axis_];
   if (!(range > 0) || !(width > 0)) return;  // nothing finite, or all flat
-  const double most = std::max<double>(1, static_cast<double>(regular_.size() / kMinBoxesPerSlab));
+  const double most =
+      std::max<double>(1, static_cast<double>(regular_.size() / sap::kMinBoxesPerSlab));
   const double slabs = std::min(std::ceil(range / width), most);
   if (slabs < 2) return;
   grid_.count = static_cast<std::uint32_t>(slabs);

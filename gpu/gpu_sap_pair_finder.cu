@@ -1,46 +1,75 @@
-// gpusap: the GPU sort-and-sweep pair finder.  The boxes are sorted on the
-// axis where their centres spread widest, each box's candidates (the boxes
-// that start inside its extent on that axis) are counted by binary search,
-// and an exclusive scan of the counts hands the candidates out to warps in
-// equal shares, so a long box costs its candidates, not a serial scan.  The
-// rules the kernels keep are in gpu/gpu_sap_kernels.cuh.
+// gpusap: the GPU sort-and-sweep pair finder, cpusap's method
+// (gpu/cpu_sap_pair_finder.h) in the shape a GPU wants.  The boxes are
+// sorted on the axis where their centres spread widest, within slabs of a
+// second axis: each box has one entry per slab it reaches, and its
+// candidates are the entries after it in its slab that start inside its
+// extent on the sweep axis, counted by binary search.  An exclusive scan of
+// the counts hands the candidates out to warps in equal shares, so a long
+// box costs its candidates, not a serial scan.  The rules the kernels keep
+// are in gpu/gpu_sap_kernels.cuh.
+//
+// Why slabs (docs/results/gpusap_candidates.md): along one axis a box meets
+// every box in a slice across the whole scene, so candidates per box grow as
+// n^(2/3) (4716 a box at 10^6 on scene 4: 4.7 10^9 tests, most of the 50 ms
+// of kernels an H100 measured).  Slabs three box extents wide cut them to
+// those of a column, n^(1/3) (136 a box at 10^6, 35 times fewer), for a
+// 64-bit sort key and 1.33 entries a box.  A linear BVH (Karras, HPG 2012) also comes near the
+// pairs, but walks a tree per box (divergent, O(log n) dependent loads)
+// after a build of several kernels; an incremental sweep (PhysX) keeps
+// per-pair state across frames that a full GPU re-sort does not need.  Slabs
+// keep the sweep's flat, balanced candidate loop and cpusap's proven rules.
 //
 // The pair set stays on the device.  Each frame the found pairs (64-bit
 // pairKey()s) are radix sorted; added = this frame's pairs not in last
 // frame's, removed = last frame's not in this frame's, each found by binary
 // search and compacted in order, so both come back sorted (no host sort).
-// Sorts, scan and compaction are CUB's (the emulation build's stand-ins:
+// Sorts, scans and compactions are CUB's (the emulation build's stand-ins:
 // gpu/emulation/cub/).
 //
-// One frame is two rounds.  launch() uploads the boxes and enqueues the
-// axis, keys, sort, counts, scan and sweep, then a copy of the pair count;
-// finish() waits for that count (CUB's calls take their item counts from the
-// host), sweeps again into more room if the pairs overflowed, then enqueues
-// the pair sort, the two selections and one copy of the counts with the
-// lists' heads; lists longer than the head are fetched again.
+// One frame is one round trip: launch() uploads the boxes and enqueues the
+// whole search, the selections and one copy back of the result block (the
+// counts and up to kHeadEntries changes); finish() waits for it.  CUB takes
+// its item counts from the host, so every call runs over capacities the
+// host already knows: the entry and pair capacities, kept from earlier
+// frames, with unused slots filled with keys above every real one.  A frame
+// whose counts outgrow them is spoiled (it selects nothing, see the
+// kernels' header); finish() grows the room and runs the search again, once.
+// A frame that changed more pairs than the block holds fetches the lists'
+// tails in a second copy.  The emulation runs the same calls; a CUDA graph
+// of the chain is not built yet (the chain's last-frame pointers rotate).
 //
 // Invariants, each with its reason:
-// - Device memory is at most 64 bytes per box slot plus 24 per pair of
-//   capacity, and CUB's temporaries: boxes 32, sort keys and slots 2 x (4 +
-//   4), candidate offsets 8 per box; three pair-key buffers (last frame's
-//   set, this frame's, the sort's other half) of 8 per pair.  The lists of
-//   changes reuse them: added goes to the buffer the sort left free, removed
-//   is compacted in place over last frame's set, which is then done with.
-// - The pair capacity is the most pairs any frame found, grown to at least
-//   double when exceeded; box buffers grow the same way with the slot count.
-// - Slots never shrink, so last frame's pairs name valid slots after growth.
+// - Device memory is 40 bytes per box slot (the box 32, its first entry 8),
+//   32 per entry of capacity (keys 2 x 8, slots 2 x 4, candidate offsets 8),
+//   24 per pair of capacity (last frame's set, this frame's, the sort's other
+//   half), the counters and result block, and CUB's temporaries.  The lists
+//   of changes reuse the pair buffers: added goes to the buffer the sort
+//   left free, removed is compacted in place over last frame's set, which is
+//   then done with.
+// - Capacities start at 2 entries and 2 pairs a box and grow to 5/4 of what
+//   a frame wanted, at least doubling, so a growing scene retries rarely.
+//   Entries stay near n whatever the sizes: slabs are three mean extents
+//   wide, so the finite boxes' spans add up to about 2n + n/3 at most (a few
+//   huge boxes widen the mean, and with it the slabs); only boxes with an
+//   infinite coordinate reach every slab.
+// - Slots never shrink, so last frame's pairs name valid slots after growth;
+//   last frame's pair buffer is never reallocated while it holds the set.
 // - launch() only enqueues; finish() is where the host waits.
+// - A spoiled frame leaves last frame's set whole: its selections select
+//   nothing, and CUB's compaction writes only what it selects.
 #include <cuda_runtime.h>
 
 #include <algorithm>
 #include <bit>
 #include <cstring>
 #include <cub/cub.cuh>
+#include <source_location>
 #include <stdexcept>
 #include <string>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
+#include "gpu/cuda_check.h"
 #include "gpu/finish_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
@@ -51,20 +80,16 @@ namespace {
 
 using namespace sap_kernels;
 
-// The entries of each list that come back with the counts: a frame that
-// changes fewer pairs (the common case) needs no further copy.  32 KiB a list.
-constexpr std::size_t kHeadEntries = 1u << 12;
 constexpr unsigned kMaxBlocks = 1u << 16;
 // Sweep blocks per multiprocessor at least, whatever n: the candidates
 // outnumber the boxes, and the grid strides over them.
 constexpr unsigned kSweepBlocksPerSm = 8;
-
-struct HostBlock {
-  unsigned long long pairs;
-  unsigned long long changes[2];  // added, removed
-  IndexPair added[kHeadEntries];
-  IndexPair removed[kHeadEntries];
-};
+// Capacities: a first guess per box, and the headroom over what a frame wanted.
+constexpr std::size_t kFirstEntriesPerBox = 2;
+constexpr std::size_t kFirstPairsPerBox = 2;
+std::size_t withHeadroom(std::size_t wanted) {
+  return wanted + wanted / 4 + 64;
+}
 
 unsigned blocksFor(std::uint64_t items) {
   const std::uint64_t blocks = (items + kThreadsPerBlock - 1) / kThreadsPerBlock;
@@ -74,15 +99,16 @@ unsigned blocksFor(std::uint64_t items) {
 class GpuSapPairFinder final : public PairFinder {
  public:
   GpuSapPairFinder() {
-    call(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    for (cudaEvent_t& event : events_) call(cudaEventCreate(&event));
+    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    for (cudaEvent_t& event : events_) CUDA_CHECK(cudaEventCreate(&event));
     int device = 0;
     cudaDeviceProp properties{};
-    call(cudaGetDevice(&device));
-    call(cudaGetDeviceProperties(&properties, device));
+    CUDA_CHECK(cudaGetDevice(&device));
+    CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
     sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
     counters_ = DeviceBuffer<FrameCounters>(1);
-    host_ = PinnedBuffer<HostBlock>(1);
+    block_ = DeviceBuffer<ResultBlock>(1);
+    host_ = PinnedBuffer<ResultBlock>(1);
   }
 
   // Waits for work in flight before the buffers go; errors cannot be thrown here.
@@ -113,20 +139,13 @@ class GpuSapPairFinder final : public PairFinder {
     work_.host_bytes_copied += staging_.stage(objects);
     record(kStarted);
     if (!objects.empty()) {
-      call(cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                           cudaMemcpyHostToDevice, stream_));
+      CUDA_CHECK_COUNTED(work_.api_calls,
+                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
+                                         cudaMemcpyHostToDevice, stream_));
       work_.bytes_to_device += objects.size_bytes();
     }
     record(kUploaded);
-    // 0xFF: every centre bound at its start (see FrameCounters), every count huge;
-    // the counts are zeroed next.
-    call(cudaMemsetAsync(counters_.data(), 0xFF, sizeof(FrameCounters), stream_));
-    call(cudaMemsetAsync(&counters_.data()->pairs, 0, 3 * sizeof(unsigned long long), stream_));
-    enqueueBoxSort();
-    enqueueSweep();
-    record(kSwept);
-    download(&host_.data()->pairs, &counters_.data()->pairs, sizeof(unsigned long long));
-    record(kCounted);
+    enqueueSearch();
     in_flight_ = true;
   }
 
@@ -138,91 +157,77 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
  private:
-  enum Event { kStarted, kUploaded, kSwept, kCounted, kDiffing, kDiffed, kDownloaded, kEventCount };
+  enum Event { kStarted, kUploaded, kSearched, kCopied, kTailsCopied, kEventCount };
 
-  // Every runtime call of a frame goes through here, so that it is counted.
-  void call(cudaError_t status, const char* what = "a CUDA runtime call") {
+  // Every runtime call of a frame is counted (DeviceWork::api_calls) and
+  // checked: in place with CUDA_CHECK_COUNTED, or, when a helper below makes
+  // it for its caller, with the caller's file and line.
+  using Where = std::source_location;
+  void call(cudaError_t status, const char* what, Where where) {
     ++work_.api_calls;
-    if (status != cudaSuccess) throwCudaError(status, what, __FILE__, __LINE__);
+    checkCuda(status, what, where);
   }
 
-  void record(Event event) { call(cudaEventRecord(events_[event], stream_)); }
+  void record(Event event, Where where = Where::current()) {
+    call(cudaEventRecord(events_[event], stream_), "cudaEventRecord", where);
+  }
 
-  void download(void* to, const void* from, std::size_t bytes) {
+  void download(void* to, const void* from, std::size_t bytes, Where where = Where::current()) {
     if (bytes == 0) return;
-    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_));
+    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_), "cudaMemcpyAsync",
+         where);
     work_.bytes_from_device += bytes;
   }
 
-  template <class Kernel, class... Args>
-  void launchKernel(Kernel kernel, unsigned blocks, Args... args) {
-    kernel<<<blocks, kThreadsPerBlock, 0, stream_>>>(args...);
-    call(cudaGetLastError(), "a gpusap kernel launch");
-    ++work_.api_calls;  // the launch itself
+  void wait(Event event, Where where = Where::current()) {
+    call(cudaEventSynchronize(events_[event]), "cudaEventSynchronize", where);
   }
 
   // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
   // temp_ grown to fit) the work.
   template <class CubCall>
-  void cub(CubCall cub_call) {
+  void cub(CubCall cub_call, Where where = Where::current()) {
     std::size_t bytes = 0;
-    call(cub_call(nullptr, bytes), "a CUB size query");
+    call(cub_call(nullptr, bytes), "a CUB size query", where);
     // At least one byte: a null temp_ would make the second call a query too.
     reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
     bytes = temp_.size();
-    call(cub_call(temp_.data(), bytes), "a CUB device-wide call");
+    call(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
+  }
+
+  // After each kernel launch: its own errors, and the launch counted.
+  void launched(Where where = Where::current()) {
+    call(cudaGetLastError(), "a gpusap kernel launch", where);
+    ++work_.api_calls;
   }
 
   void reserveBoxBuffers(std::size_t n) {
-    if (n <= objects_.size()) return;
-    reserveDiscarding(objects_, n);
-    for (auto* buffer : {&keys_[0], &keys_[1], &slots_[0], &slots_[1]}) {
-      reserveDiscarding(*buffer, objects_.size());
+    if (n > objects_.size()) {
+      reserveDiscarding(objects_, n);
+      reserveDiscarding(first_entry_, objects_.size() + 1);
     }
-    reserveDiscarding(offsets_, objects_.size() + 1);
+    reserveEntries(kFirstEntriesPerBox * n);
+    pair_room_ = std::max(pair_room_, kFirstPairsPerBox * n);
+    reservePairs(pair_room_);
   }
 
-  // Sorts the slots by their boxes' min on the sweep axis, into sorted_.
-  void enqueueBoxSort() {
-    const std::uint32_t n = slot_count_;
-    if (n == 0) return;
-    launchKernel(centreBoundsKernel, blocksFor(n), objects_.data(), n, counters_.data());
-    launchKernel(sortKeysKernel, blocksFor(n), objects_.data(), n,
-                 static_cast<const FrameCounters*>(counters_.data()), keys_[0].data(),
-                 slots_[0].data());
-    cub::DoubleBuffer<std::uint32_t> keys(keys_[0].data(), keys_[1].data());
-    cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
-    cub([&](void* temp, std::size_t& bytes) {
-      return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, n, 0, 32, stream_);
-    });
-    sorted_keys_ = keys.Current();
-    sorted_slots_ = slots.Current();
+  void reserveEntries(std::size_t entries) {
+    if (entries <= keys_[0].size()) return;
+    reserveDiscarding(keys_[0], entries);
+    const std::size_t room = keys_[0].size();
+    reserveDiscarding(keys_[1], room);
+    reserveDiscarding(slots_[0], room);
+    reserveDiscarding(slots_[1], room);
+    reserveDiscarding(offsets_, room + 1);
   }
 
-  // Counts, scans and sweeps into the pair buffer this frame writes.
-  void enqueueSweep() {
-    const std::uint32_t n = slot_count_;
-    if (n == 0) return;
-    launchKernel(candidateCountKernel, blocksFor(std::uint64_t{n} + 1), objects_.data(), n,
-                 static_cast<const FrameCounters*>(counters_.data()),
-                 static_cast<const std::uint32_t*>(sorted_keys_),
-                 static_cast<const std::uint32_t*>(sorted_slots_), offsets_.data());
-    cub([&](void* temp, std::size_t& bytes) {
-      return cub::DeviceScan::ExclusiveSum(temp, bytes, offsets_.data(), offsets_.data(),
-                                           std::uint64_t{n} + 1, stream_);
-    });
-    enqueueSweepKernel();
-  }
-
-  void enqueueSweepKernel() {
-    const std::uint32_t n = slot_count_;
-    if (n == 0) return;
-    DeviceBuffer<std::uint64_t>& current = pairs_[(previous_ + 1) % 3];
-    launchKernel(sweepKernel, std::max(blocksFor(n), std::min(sweep_blocks_, kMaxBlocks)),
-                 static_cast<const ObjectBounds*>(objects_.data()), n,
-                 static_cast<const std::uint32_t*>(sorted_slots_),
-                 static_cast<const unsigned long long*>(offsets_.data()), counters_.data(),
-                 current.data(), static_cast<unsigned long long>(pairCapacity()));
+  // Grows the two pair buffers that do not hold last frame's set (the third
+  // grows when its turn comes: pair_room_ remembers).
+  void reservePairs(std::size_t pairs) {
+    pair_room_ = std::max(pair_room_, pairs);
+    for (int role = 1; role <= 2; ++role) {
+      reserveDiscarding(pairs_[(previous_ + role) % 3], pair_room_);
+    }
   }
 
   // The room every pair buffer but last frame's has (they are grown together).
@@ -230,113 +235,162 @@ class GpuSapPairFinder final : public PairFinder {
     return std::min(pairs_[(previous_ + 1) % 3].size(), pairs_[(previous_ + 2) % 3].size());
   }
 
-  // The sweep found more pairs than fit: grow, and sweep again (the sorted
-  // boxes and offsets are still on the device).
-  void resweep(std::size_t pairs) {
-    for (int role = 1; role <= 2; ++role) {
-      DeviceBuffer<std::uint64_t>& buffer = pairs_[(previous_ + role) % 3];
-      reserveDiscarding(buffer, pairs);
-    }
-    call(cudaMemsetAsync(&counters_.data()->pairs, 0, sizeof(unsigned long long), stream_));
-    enqueueSweepKernel();
-    download(&host_.data()->pairs, &counters_.data()->pairs, sizeof(unsigned long long));
-    record(kCounted);
-    call(cudaEventSynchronize(events_[kCounted]));
+  std::uint32_t maxSlabs() const {
+    return std::clamp<std::uint32_t>(slot_count_ / sap::kMinBoxesPerSlab, 1, sap::kMaxGpuSlabs);
   }
 
-  PairDelta collectDelta() {
-    call(cudaEventSynchronize(events_[kCounted]));
-    const std::size_t pairs = host_.data()->pairs;
-    if (pairs > pairCapacity()) resweep(pairs);
-    record(kDiffing);
-    const int current = enqueueDiff(pairs);
-    record(kDiffed);
-    // The counts and the heads of both lists, in one round trip.
-    const std::size_t previous_pairs = previous_pairs_;
-    download(host_.data()->changes, &counters_.data()->added, 2 * sizeof(unsigned long long));
-    download(host_.data()->added, pairs_[freeBuffer(current)].data(),
-             std::min(pairs, kHeadEntries) * sizeof(IndexPair));
-    download(host_.data()->removed, pairs_[previous_].data(),
-             std::min(previous_pairs, kHeadEntries) * sizeof(IndexPair));
-    record(kDownloaded);
-    call(cudaEventSynchronize(events_[kDownloaded]));
-    const std::size_t added_count = host_.data()->changes[0];
-    const std::size_t removed_count = host_.data()->changes[1];
-    IndexPair* added =
-        joinHeadAndTail(host_.data()->added, pairs_[freeBuffer(current)], host_added_, added_count);
-    IndexPair* removed =
-        joinHeadAndTail(host_.data()->removed, pairs_[previous_], host_removed_, removed_count);
-    if (std::max(added_count, removed_count) > kHeadEntries) {
-      record(kDownloaded);
-      call(cudaEventSynchronize(events_[kDownloaded]));
+  // The frame's search, from the uploaded boxes to the result block's copy:
+  // nothing here waits, and every count it passes CUB is a capacity.
+  void enqueueSearch() {
+    const std::uint32_t n = slot_count_;
+    const std::uint64_t entries = keys_[0].size();
+    const std::uint64_t pairs = pairCapacity();
+    const std::uint32_t max_slabs = maxSlabs();
+    FrameCounters* const counters = counters_.data();
+    CUDA_CHECK_COUNTED(work_.api_calls,
+                       cudaMemsetAsync(counters, 0, sizeof(FrameCounters), stream_));
+    const int first = (previous_ + 1) % 3;
+    const int second = (previous_ + 2) % 3;
+    current_ = first;
+    if (n > 0) {
+      boundsKernel<<<blocksFor(n), kThreadsPerBlock, 0, stream_>>>(objects_.data(), n, counters);
+      launched();
+      spanKernel<<<blocksFor(std::uint64_t{n} + 1), kThreadsPerBlock, 0, stream_>>>(
+          objects_.data(), n, counters, max_slabs, first_entry_.data());
+      launched();
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceScan::ExclusiveSum(temp, bytes, first_entry_.data(), first_entry_.data(),
+                                             std::uint64_t{n} + 1, stream_);
+      });
+      entryKernel<<<blocksFor(std::max<std::uint64_t>(n, entries)), kThreadsPerBlock, 0, stream_>>>(
+          objects_.data(), n, counters, max_slabs, first_entry_.data(), entries, keys_[0].data(),
+          slots_[0].data());
+      launched();
+      cub::DoubleBuffer<std::uint64_t> keys(keys_[0].data(), keys_[1].data());
+      cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
+      const int key_bits = 32 + std::bit_width(max_slabs - 1);
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, 0, key_bits,
+                                               stream_);
+      });
+      const std::uint64_t* const sorted_keys = keys.Current();
+      const std::uint32_t* const sorted_slots = slots.Current();
+      candidateCountKernel<<<blocksFor(entries + 1), kThreadsPerBlock, 0, stream_>>>(
+          objects_.data(), entries, counters, sorted_keys, sorted_slots, offsets_.data());
+      launched();
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceScan::ExclusiveSum(temp, bytes, offsets_.data(), offsets_.data(),
+                                             entries + 1, stream_);
+      });
+      // Slots past the frame's pairs read kNoPair, so the sort puts them last.
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemsetAsync(pairs_[first].data(), 0xFF,
+                                                          pairs * sizeof(std::uint64_t), stream_));
+      sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
+                    kThreadsPerBlock, 0, stream_>>>(
+          objects_.data(), entries, max_slabs, sorted_keys, sorted_slots, offsets_.data(), counters,
+          pairs_[first].data(), static_cast<unsigned long long>(pairs));
+      launched();
+      cub::DoubleBuffer<std::uint64_t> pair_keys(pairs_[first].data(), pairs_[second].data());
+      // pairKey()s of slots below n: the low half needs bit_width(n) bits, and
+      // kNoPair has every bit set.
+      const int pair_bits = 32 + std::bit_width(n);
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_keys, pairs, 0, pair_bits, stream_);
+      });
+      current_ = pair_keys.selector == 0 ? first : second;
     }
-    noteTimes();
-    previous_ = current;  // nothing below can fail: this frame is now the reference
+    std::uint64_t* const this_frame = pairs_[current_].data();
+    std::uint64_t* const last_frame = pairs_[previous_].data();
+    std::uint64_t* const free = pairs_[freeBuffer()].data();
+    const auto previous_pairs = static_cast<std::int64_t>(previous_pairs_);
+    if (n > 0) {
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceSelect::If(
+            temp, bytes, this_frame, free, &counters->added, static_cast<std::int64_t>(pairs),
+            NotIn{last_frame, previous_pairs_, counters, entries, pairs}, stream_);
+      });
+    }
+    if (previous_pairs > 0) {
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceSelect::If(temp, bytes, last_frame, &counters->removed, previous_pairs,
+                                     NotIn{this_frame, n > 0 ? pairs : 0, counters, entries, pairs},
+                                     stream_);
+      });
+    }
+    packKernel<<<blocksFor(std::max<std::uint64_t>(pairs, previous_pairs_)), kThreadsPerBlock, 0,
+                 stream_>>>(free, last_frame, counters, block_.data());
+    launched();
+    record(kSearched);
+    download(host_.data(), block_.data(), sizeof(ResultBlock));
+    record(kCopied);
+  }
+
+  // The one of the three pair buffers that is neither last frame's nor this one's.
+  int freeBuffer() const { return 3 - previous_ - current_; }
+
+  PairDelta collectDelta() {
+    wait(kCopied);
+    work_.upload_ms = elapsed(kStarted, kUploaded);
+    noteSearchTimes();
+    const ResultBlock& block = *host_.data();
+    if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
+      reserveEntries(withHeadroom(block.entries));
+      reservePairs(withHeadroom(block.pairs));
+      record(kUploaded);
+      enqueueSearch();
+      wait(kCopied);
+      noteSearchTimes();
+      if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
+        throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
+      }
+    }
+    const std::size_t pairs = block.pairs;
+    const std::size_t added_count = block.added;
+    const std::size_t removed_count = block.removed;
+    const IndexPair* added = block.head;
+    const IndexPair* removed = block.head + std::min<std::size_t>(added_count, kHeadEntries);
+    if (added_count + removed_count > kHeadEntries) {
+      added = joinHeadAndTail(block.head, 0, pairs_[freeBuffer()], host_added_, added_count);
+      removed = joinHeadAndTail(block.head, std::min<std::size_t>(added_count, kHeadEntries),
+                                pairs_[previous_], host_removed_, removed_count);
+      record(kTailsCopied);
+      wait(kTailsCopied);
+      work_.download_ms += elapsed(kCopied, kTailsCopied);
+    }
+    previous_ = current_;  // nothing below can fail: this frame is now the reference
     previous_pairs_ = pairs;
     last_work_ = work_;
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
-  // The one of the three pair buffers that is neither last frame's nor `current`.
-  int freeBuffer(int current) const { return 3 - previous_ - current; }
-
-  // Sorts this frame's pairs and enqueues the two selections; returns the
-  // index of the buffer that holds this frame's sorted set.
-  int enqueueDiff(std::size_t pairs) {
-    const int first = (previous_ + 1) % 3;
-    const int second = (previous_ + 2) % 3;
-    cub::DoubleBuffer<std::uint64_t> keys(pairs_[first].data(), pairs_[second].data());
-    // pairKey()s of slots below n: the low half needs bit_width(n) bits.
-    const int end_bit = 32 + std::bit_width(slot_count_);
-    cub([&](void* temp, std::size_t& bytes) {
-      return cub::DeviceRadixSort::SortKeys(temp, bytes, keys, pairs, 0, end_bit, stream_);
-    });
-    const int current = keys.selector == 0 ? first : second;
-    std::uint64_t* const this_frame = pairs_[current].data();
-    std::uint64_t* const last_frame = pairs_[previous_].data();
-    std::uint64_t* const free = pairs_[freeBuffer(current)].data();
-    const auto previous_pairs = static_cast<std::int64_t>(previous_pairs_);
-    unsigned long long* const added_count = &counters_.data()->added;
-    unsigned long long* const removed_count = &counters_.data()->removed;
-    cub([&](void* temp, std::size_t& bytes) {
-      return cub::DeviceSelect::If(temp, bytes, this_frame, free, added_count,
-                                   static_cast<std::int64_t>(pairs),
-                                   NotIn{last_frame, previous_pairs_}, stream_);
-    });
-    cub([&](void* temp, std::size_t& bytes) {
-      return cub::DeviceSelect::If(temp, bytes, last_frame, removed_count, previous_pairs,
-                                   NotIn{this_frame, pairs}, stream_);
-    });
-    launchKernel(toIndexPairsKernel, blocksFor(std::max<std::size_t>(pairs, previous_pairs_)), free,
-                 last_frame, static_cast<const FrameCounters*>(counters_.data()));
-    return current;
-  }
-
-  // The list of `count` entries whose head is `head`: the head itself when
-  // it holds them all, else `host`, filled with the head and (queued; the
-  // caller waits) the device tail.
-  IndexPair* joinHeadAndTail(IndexPair* head, const DeviceBuffer<std::uint64_t>& list,
-                             PinnedBuffer<IndexPair>& host, std::size_t count) {
-    if (count <= kHeadEntries) return head;
+  // The list of `count` entries whose first entries are head[from ..
+  // kHeadEntries): the head itself when it holds them all, else `host`,
+  // filled with that part of the head and (queued; the caller waits) the
+  // rest from the device list.
+  const IndexPair* joinHeadAndTail(const IndexPair* head, std::size_t from,
+                                   const DeviceBuffer<std::uint64_t>& list,
+                                   PinnedBuffer<IndexPair>& host, std::size_t count) {
+    const std::size_t in_head = std::min(count, kHeadEntries - from);
+    if (count == in_head) return head + from;
     reserveDiscarding(host, count);
-    std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
-    work_.host_bytes_copied += kHeadEntries * sizeof(IndexPair);
-    download(host.data() + kHeadEntries, list.data() + kHeadEntries,
-             (count - kHeadEntries) * sizeof(IndexPair));
+    std::memcpy(host.data(), head + from, in_head * sizeof(IndexPair));
+    work_.host_bytes_copied += in_head * sizeof(IndexPair);
+    download(host.data() + in_head, list.data() + in_head, (count - in_head) * sizeof(IndexPair));
     return host.data();
   }
 
-  float elapsed(Event from, Event to) {
+  float elapsed(Event from, Event to, Where where = Where::current()) {
     float ms = 0;
-    call(cudaEventElapsedTime(&ms, events_[from], events_[to]));
+    call(cudaEventElapsedTime(&ms, events_[from], events_[to]), "cudaEventElapsedTime", where);
     return ms;
   }
 
-  void noteTimes() {
-    work_.upload_ms = elapsed(kStarted, kUploaded);
-    work_.kernels_ms = elapsed(kUploaded, kSwept) + elapsed(kDiffing, kDiffed);
-    work_.download_ms = elapsed(kSwept, kCounted) + elapsed(kDiffed, kDownloaded);
-    last_search_ms_ = elapsed(kStarted, kDownloaded);
+  // The search just waited for: its kernels and its copy back.  A frame run
+  // twice adds both runs, never the host's time between them.
+  void noteSearchTimes() {
+    work_.kernels_ms += elapsed(kUploaded, kSearched);
+    work_.download_ms += elapsed(kSearched, kCopied);
+    last_search_ms_ = work_.upload_ms + work_.kernels_ms + work_.download_ms;
   }
 
   cudaStream_t stream_ = nullptr;
@@ -351,21 +405,23 @@ class GpuSapPairFinder final : public PairFinder {
   DeviceWork work_;  // the frame in progress
   DeviceWork last_work_;
 
-  PinnedStaging staging_;                 // this frame's boxes, from the caller
-  DeviceBuffer<ObjectBounds> objects_;    // ... uploaded, by slot
-  DeviceBuffer<std::uint32_t> keys_[2];   // sort keys, and CUB's other half
-  DeviceBuffer<std::uint32_t> slots_[2];  // slots in key order, and CUB's other half
-  std::uint32_t* sorted_keys_ = nullptr;  // where the sort left them
-  std::uint32_t* sorted_slots_ = nullptr;
-  DeviceBuffer<unsigned long long> offsets_;  // per rank: candidates, then their scan
+  PinnedStaging staging_;                         // this frame's boxes, from the caller
+  DeviceBuffer<ObjectBounds> objects_;            // ... uploaded, by slot
+  DeviceBuffer<unsigned long long> first_entry_;  // per slot: entries, then their scan
+  DeviceBuffer<std::uint64_t> keys_[2];           // entry keys, and CUB's other half
+  DeviceBuffer<std::uint32_t> slots_[2];          // entry slots, and CUB's other half
+  DeviceBuffer<unsigned long long> offsets_;      // per entry rank: candidates, then their scan
   DeviceBuffer<FrameCounters> counters_;
+  DeviceBuffer<ResultBlock> block_;   // what comes back, assembled on the device
   DeviceBuffer<unsigned char> temp_;  // CUB's temporary storage, shared by its calls
   // pairs_[previous_] holds last frame's sorted pair keys (previous_pairs_ of
-  // them); the other two are this frame's and the sort's other half.
+  // them); the other two are this frame's (current_) and the sort's other half.
   DeviceBuffer<std::uint64_t> pairs_[3];
+  std::size_t pair_room_ = 0;  // the capacity this frame's two buffers get
   int previous_ = 0;
+  int current_ = 1;
   std::size_t previous_pairs_ = 0;
-  PinnedBuffer<HostBlock> host_;
+  PinnedBuffer<ResultBlock> host_;
   PinnedBuffer<IndexPair> host_added_;  // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;
 };

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "gpu/pair_logic.h"
 #include "gpu/pair_set.h"
 
 namespace overlap::gpu::sap {
@@ -59,20 +60,78 @@ inline std::uint64_t sortEntry(const ObjectBounds& box, int axis, std::uint32_t 
   return (std::uint64_t{orderedBits(box.min[axis])} << 32) | slot;
 }
 
-// Slabs of equal width along the slab axis, the outer ones open-ended.
+// Slabs this many mean box extents wide: on scene-4 streams, 3 to 4 gave
+// cpusap the fewest sweep steps (wider slabs hold more boxes per scan,
+// narrower ones copy more boxes into several slabs).
+inline constexpr double kSlabWidthInExtents = 3.0;
+// At least this many boxes per slab on average, so that a few boxes never
+// make many nearly empty slabs.
+inline constexpr std::uint32_t kMinBoxesPerSlab = 32;
+// gpusap's most slabs: the slab takes bit_width(kMaxGpuSlabs - 1) bits of
+// its 64-bit sort key, above the 32 of the sweep axis' min.
+inline constexpr std::uint32_t kMaxGpuSlabs = 1024;
+
+// Slabs of equal width along the slab axis, the outer ones open-ended
+// (cpusap's, and gpusap's: gpu/gpu_sap_kernels.cuh).
 struct SlabGrid {
   float origin = 0;  // where slab 0 starts (it also takes everything below)
   float inverse_width = 0;
   std::uint32_t count = 1;
 
   // Non-decreasing in v (rounding is monotone), so two intervals that overlap
-  // map to slab ranges that overlap.
-  std::uint32_t slabOf(float v) const {
+  // map to slab ranges that overlap.  Not for NaN.  Host and device (gpusap).
+  OVERLAP_HD std::uint32_t slabOf(float v) const {
     if (count == 1) return 0;
-    const float t = std::clamp((v - origin) * inverse_width, 0.0f, static_cast<float>(count - 1));
-    return static_cast<std::uint32_t>(t);
+    const float t = (v - origin) * inverse_width;
+    const float last = static_cast<float>(count - 1);
+    return static_cast<std::uint32_t>(t < 0.0f ? 0.0f : (t > last ? last : t));
   }
 };
+
+// gpusap's axes and slabs for a frame (gpu/gpu_sap_kernels.cuh; cpusap
+// chooses its own, from a sample and with hysteresis): sweep along the axis
+// whose centres spread widest (x if none is finite), cut the wider of the
+// other two into slabs kSlabWidthInExtents mean box extents wide, at most
+// max_slabs.  lowest and highest: the least and greatest finite centre per
+// axis (NaN where none); extent_sum over the `finite` boxes with every
+// coordinate finite.  Host and device.
+struct SweepAxes {
+  int sweep = 0;
+  int slab = 1;
+  SlabGrid grid;
+};
+
+OVERLAP_HD inline SweepAxes chooseSweepAxes(const float (&lowest)[3], const float (&highest)[3],
+                                            const double (&extent_sum)[3], std::uint64_t finite,
+                                            std::uint32_t max_slabs) {
+  SweepAxes axes;
+  float spread[3];
+  for (int axis = 0; axis < 3; ++axis) spread[axis] = highest[axis] - lowest[axis];
+  float best_spread = -1.0f;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (spread[axis] > best_spread) {  // false for NaN
+      axes.sweep = axis;
+      best_spread = spread[axis];
+    }
+  }
+  const int next = (axes.sweep + 1) % 3;
+  const int after = (axes.sweep + 2) % 3;
+  axes.slab = spread[after] > spread[next] ? after : next;
+  if (finite == 0) return axes;
+  const double range = spread[axes.slab];
+  const double width = kSlabWidthInExtents * extent_sum[axes.slab] / static_cast<double>(finite);
+  if (!(range > 0) || !(width > 0)) return axes;  // nothing finite, or all flat
+  const double wanted = range / width;
+  // ceil(wanted), capped, in steps that cannot overflow.
+  const double slabs = wanted >= max_slabs
+                           ? static_cast<double>(max_slabs)
+                           : static_cast<double>(static_cast<std::uint32_t>(wanted) + 1);
+  if (slabs < 2) return axes;
+  axes.grid.count = static_cast<std::uint32_t>(slabs);
+  axes.grid.origin = lowest[axes.slab];
+  axes.grid.inverse_width = static_cast<float>(slabs / range);
+  return axes;
+}
 
 // The boxes laid out for the sweep: slab after slab, each slab's boxes in
 // sweep order, structure-of-arrays, each slab followed by kLanes entries
