@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """The GPU cost model of docs/results/gpu_kernel_cost.md, its constants fitted to what a GPU
-machine measured, its error stated, and its predictions for the designs not yet built.
+machine measured, its error stated, and its predictions for gpusap as built (slabs, one
+round trip) before a GPU measures it.
 
 The model splits a GPU finder's frame, launch() to finish() on the host, into the stages
 the benchmark times (overlap_bench_broadphase's upload_us, kernels_us, download_us, and
@@ -14,33 +15,62 @@ download event of gpubf and gpusap holds more than the copy: list overflows, wai
   download  d0 + bytes_from_device / down_rate
   kernels   gpubf:       k0 + words * per_word, words = n(n-1)/64 (the pair bits)
             gpubf-paper: k0 + pairs * per_pair, pairs = n(n-1)/2
-            gpusap:      k0 + n * per_box + candidates * per_candidate, candidates =
-                         96 (n / 3500)^(5/3) * 3500: one sweep axis, 96 a box at 3500
-                         (cpusap's count on these streams), growing as n^(2/3) a box
+            gpusap:      k0 + n * per_box + candidates * per_candidate, or with no box
+                         term; candidates as counted on these streams along one axis
+                         (docs/results/gpusap_candidates.md, log-log between its sizes)
   host      gpubf, gpusap: h0 + api_calls * per_call + host_entries_sorted * per_entry
             (changes sorted on the host after a list overflow); gpubf-paper: h0 +
             bytes_from_device * per_byte (its host XOR over what it copied back)
 
 Each is fitted by least squares on the relative error (every n weighs the same), over every
-row of the machine's benchmark; the error is each row's model / measured - 1.  A row the
-fit leaves far off is a stage the model does not describe (it says what to look for).
+row of the machine's benchmark but gpusap's download and host at 10^6, where a resweep ran
+inside them; the error is each row's model / measured - 1.  A row the fit leaves far off
+is a stage the model does not describe (it says what to look for).
 
   scripts/gpu_cost_model.py [--raw docs/results/gpu/h100/raw]
 """
 import argparse
+import math
 import pathlib
+import re
 import statistics
 
 import gpu_results
 
-CANDIDATES_AT_3500 = 96  # a box's candidates on one sweep axis at 3500 boxes (gpu/sap_sweep.h)
-# cpusap's slabs of a second axis cut them so on the same streams: 96 -> 17 at 3500,
-# 199 -> 25 at 10000 (docs/results/gpu_kernel_cost.md), the new design's cut for gpusap.
-SECOND_AXIS_CUT = (96 / 17, 199 / 25)
+CANDIDATES = pathlib.Path(__file__).resolve().parent.parent / "docs/results/gpusap_candidates.md"
 
 
-def candidates(n: float) -> float:
-    return CANDIDATES_AT_3500 * (n / 3500) ** (2 / 3) * n
+def candidate_table() -> dict:
+    """{n: (entries, candidates on one axis, candidates in slabs), each a box}, read from
+    docs/results/gpusap_candidates.md's table (counted on the scene-4 streams)."""
+    table = {}
+    for line in CANDIDATES.read_text().splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 7 and re.fullmatch(r"[0-9·^]+", cells[0]):
+            n = 1
+            for factor in cells[0].split("·"):  # "3·10^4" -> 30000
+                base, _, power = factor.partition("^")
+                n *= int(base) ** int(power or 1)
+            table[n] = tuple(float(c) for c in (cells[2], cells[3], cells[4]))
+    return table
+
+
+def per_box(n: float, which: int) -> float:
+    """A candidate table's column at n, interpolated log-log between the counted sizes."""
+    table = candidate_table()
+    sizes = sorted(table)
+    lo = max([s for s in sizes if s <= n] or sizes[:1])
+    hi = min([s for s in sizes if s >= n] or sizes[-1:])
+    if lo == hi:
+        return table[lo][which]
+    t = math.log(n / lo) / math.log(hi / lo)
+    return table[lo][which] * (table[hi][which] / table[lo][which]) ** t
+
+
+def candidates(n: float, slabs: bool = False) -> float:
+    """The sweep's candidates at n: along one axis (gpusap as the H100 ran it) or within
+    the slabs of a second axis (gpusap as built now)."""
+    return n * per_box(n, 2 if slabs else 1)
 
 
 def solve(rows: list, terms) -> list:
@@ -89,6 +119,7 @@ KERNEL_TERMS = {
     "gpubf": lambda r: [1.0, r["n"] * (r["n"] - 1) / 64],
     "gpubf-paper": lambda r: [1.0, r["n"] * (r["n"] - 1) / 2],
     "gpusap": lambda r: [1.0, r["n"], candidates(r["n"])],
+    "gpusap, no box term": lambda r: [1.0, candidates(r["n"])],
 }
 def family(algo: str) -> str:
     """Whose copy and host constants a finder shares."""
@@ -106,13 +137,24 @@ STAGES = {  # stage: (measured column, constants shared by, terms for a finder)
 }
 
 
-def fit(rows: list) -> dict:
-    """{(stage, who): coefficients}: `who` a finder or the finders sharing constants."""
+def resweep_row(row: dict) -> bool:
+    """gpusap's row at 10^6: its frame overflowed the pair room and swept again inside the
+    download's events (the finder at d5e40a4 re-recorded the count's event after the
+    resweep) and on the host's time (the reallocation); its kernels' events hold one sweep."""
+    return row["algo"] == "gpusap" and row["n"] >= 10**6
+
+
+def fit(rows: list, clean: bool = True) -> dict:
+    """{(stage, who): coefficients}: `who` a finder or the finders sharing constants.
+    clean: the resweep's download and host left out of their stages' fits."""
     fitted = {}
     for stage, (column, shared, terms) in STAGES.items():
         for who in sorted({shared(r["algo"]) for r in rows}):
-            used = [dict(r, y=r[column]) for r in rows if shared(r["algo"]) == who]
+            used = [dict(r, y=r[column]) for r in rows if shared(r["algo"]) == who
+                    and not (clean and stage in ("download", "host") and resweep_row(r))]
             fitted[(stage, who)] = solve(used, terms(used[0]["algo"]))
+    gpusap = [dict(r, y=r["kernels_us"]) for r in rows if r["algo"] == "gpusap"]
+    fitted[("kernels", "gpusap, no box term")] = solve(gpusap, KERNEL_TERMS["gpusap, no box term"])
     return fitted
 
 
@@ -131,45 +173,95 @@ def error_table(fitted: dict, rows: list) -> tuple:
         for stage, column in (("upload", "upload_us"), ("kernels", "kernels_us"),
                               ("download", "download_us"), ("host", "host_us")):
             error = predicted[stage] / row[column] - 1
-            errors.setdefault(stage, []).append((abs(error), row["algo"], row["n"]))
+            if stage == "kernels" and row["algo"] == "gpusap":
+                bare = fitted[("kernels", "gpusap, no box term")]
+                other = sum(c * t for c, t in zip(bare, KERNEL_TERMS["gpusap, no box term"](row)))
+                errors.setdefault("kernels, gpusap without its box term", []).append(
+                    (abs(other / row[column] - 1), row["algo"], row["n"]))
+            if not (stage in ("download", "host") and resweep_row(row)):
+                errors.setdefault(stage, []).append((abs(error), row["algo"], row["n"]))
             lines.append(f"| {row['algo']} | {row['n']} | {stage} | {row[column]:.1f} | "
                          f"{predicted[stage]:.1f} | {error:+.0%} |")
     return lines, errors
 
 
-def predictions(fitted: dict) -> list:
-    """The designs of the GPU finders' next step, through the fitted model: each one's
-    assumption is stated with it.  Predictions, to be measured."""
-    lines = ["| design | n | upload | kernels | download | host | launch to finish |",
-             "|---|---:|---:|---:|---:|---:|---:|"]
+H100_SIZES = (500, 1250, 2000, 2750, 3500, 10**4, 3 * 10**4, 10**5, 10**6)
+CPUSAP_16T_US = {10**4: 1899, 3 * 10**4: 5420, 10**6: 194073}  # the H100's, bench-big/-million
+HEAD_BYTES = 32 + 4096 * 8  # gpusap's result block: four counts and 4096 changes
 
-    def line(what, n, algo, to_device, from_device, calls, kernels=None, download=None):
-        row = {"n": n, "algo": algo, "bytes_to_device": to_device,
-               "bytes_from_device": from_device, "api_calls": calls, "host_entries_sorted": 0}
-        stages = model(fitted, row)
-        stages["kernels"] = stages["kernels"] if kernels is None else kernels
-        stages["download"] = stages["download"] if download is None else download
-        total = sum(stages[s] for s in ("upload", "kernels", "download", "host"))
-        lines.append(f"| {what} | {n} | {stages['upload']:.0f} | {stages['kernels']:.0f} | "
-                     f"{stages['download']:.0f} | {stages['host']:.0f} | **{total:.0f}** |")
 
-    sap, bf = fitted[("kernels", "gpusap")], fitted[("kernels", "gpubf")]
-    pinned = fitted[("upload", "gpubf, gpusap")]  # a pinned copy; PCIe is as fast both ways
-    for n, to_device, from_device in ((3500, 112000, 65560), (30000, 960000, 140976),
-                                      (1000000, 32000000, 7817808)):
-        line("gpusap, the model as fitted (42-52 calls)", n, "gpusap", to_device, from_device,
-             42 if n < 10**6 else 52)
-        cut = min(SECOND_AXIS_CUT)
-        sweep = sap[1] * n + sap[2] * candidates(n) / cut
-        download = pinned[0] + pinned[1] * from_device
-        line(f"gpusap, a second axis (candidates / {cut:.1f}), one graph launch, the changes "
-             "in one pinned copy at the upload's rate (6 calls), the fitted fixed kernel time",
-             n, "gpusap",
-             to_device, from_device, 6, sap[0] + sweep, download)
-        line("the same with no mid-frame round trip: fixed kernel time as gpubf's", n,
-             "gpusap", to_device, from_device, 6, bf[0] + sweep, download)
-    line("gpubf, the model as fitted (10 calls)", 3500, "gpubf", 112000, 65568, 10)
-    line("gpubf, one graph launch (4 calls)", 3500, "gpubf", 112000, 65568, 4)
+def changes(rows: list, n: int):
+    """The changes a frame of the H100's streams makes at n: from gpusap's measured copy back
+    (its tails past 4096 a list), interpolated per box between the sizes with tails;
+    None where no list outgrew its head (at most 2 x 4096 changes)."""
+    known = {r["n"]: (r["bytes_from_device"] - 65560) / 8 + 2 * 4096 for r in rows
+             if r["algo"] == "gpusap" and r["bytes_from_device"] > 65560}
+    if n in known:
+        return known[n]
+    lo = max((k for k in known if k < n), default=None)
+    hi = min((k for k in known if k > n), default=None)
+    if lo is None or hi is None:
+        return None
+    t = math.log(n / lo) / math.log(hi / lo)
+    return n * known[lo] / lo * (known[hi] / hi / (known[lo] / lo)) ** t
+
+
+def built_design(fitted: dict, rows: list, n: int) -> dict:
+    """gpusap as built (slabs, one round trip), its stages through the fitted constants:
+    upload 32n bytes; kernels: the fixed time scaled from 10 to 12 kernels and CUB calls,
+    the per-box rate on n, the per-candidate rate on the slabs' candidates; one copy back of
+    the result block, two more past 4096 changes (8 bytes a change), each at the pinned
+    upload's fitted rate (a copy gpusap's old download events did not time alone); host:
+    36 calls, 41 with tails."""
+    up = fitted[("upload", "gpubf, gpusap")]
+    k0, per_box, per_candidate = fitted[("kernels", "gpusap")]
+    bare = fitted[("kernels", "gpusap, no box term")]
+    h0, per_call, _ = fitted[("host", "gpubf, gpusap")]
+    change = changes(rows, n)
+    tail = max(0.0, (change or 0) - 4096) * 8
+    copies = [HEAD_BYTES] + ([tail / 2, tail / 2] if tail else [])
+    fixed = 12 / 10
+    stages = {"upload": up[0] + up[1] * 32 * n,
+              "kernels": k0 * fixed + per_box * n + per_candidate * candidates(n, slabs=True),
+              "kernels, no box term": bare[0] * fixed + bare[1] * candidates(n, slabs=True),
+              "download": sum(up[0] + up[1] * b for b in copies),
+              "host": h0 + per_call * (41 if tail else 36)}
+    for kernels in ("kernels", "kernels, no box term"):
+        stages["frame, " + kernels] = sum(stages[s] for s in ("upload", kernels, "download",
+                                                               "host"))
+    stages["changes"] = change
+    return stages
+
+
+def predictions(fitted: dict, rows: list) -> list:
+    """gpusap as built at the H100's sizes, and gpubf's next step at 3500.  Predictions, to
+    be measured."""
+    lines = ["| n | changes | upload | kernels, box term | download | host | **frame** | "
+             "kernels, no box term | **frame** | cpusap 16t / frame | target |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for n in H100_SIZES:
+        p = built_design(fitted, rows, n)
+        change = "≤ 8192" if p["changes"] is None else f"{p['changes']:.0f}"
+        frames = (p["frame, kernels"], p["frame, kernels, no box term"])
+        target, ratio = "", "-"
+        if n in CPUSAP_16T_US:
+            ratio = " / ".join(f"{CPUSAP_16T_US[n] / f:.1f}x" for f in frames)
+            target = "≥ 10x cpusap 16t"
+        if n == 10**6:
+            target += ", ≤ 5000 µs"
+        lines.append(f"| {n} | {change} | {p['upload']:.0f} | {p['kernels']:.0f} | "
+                     f"{p['download']:.0f} | {p['host']:.0f} | **{frames[0]:.0f}** | "
+                     f"{p['kernels, no box term']:.0f} | **{frames[1]:.0f}** | {ratio} | "
+                     f"{target} |")
+    lines += ["", "| design | n | upload | kernels | download | host | launch to finish |",
+              "|---|---:|---:|---:|---:|---:|---:|"]
+    for what, calls in (("gpubf, the model as fitted (10 calls)", 10),
+                        ("gpubf, one graph launch (4 calls)", 4)):
+        row = {"n": 3500, "algo": "gpubf", "bytes_to_device": 112000,
+               "bytes_from_device": 65568, "api_calls": calls, "host_entries_sorted": 0}
+        s = model(fitted, row)
+        lines.append(f"| {what} | 3500 | {s['upload']:.0f} | {s['kernels']:.0f} | "
+                     f"{s['download']:.0f} | {s['host']:.0f} | **{sum(s.values()):.0f}** |")
     return lines
 
 
@@ -186,6 +278,7 @@ def main() -> None:
     names = {"upload": ["µs", "µs a byte"], "download": ["µs", "µs a byte"],
              "kernels gpubf": ["µs", "µs a word"], "kernels gpubf-paper": ["µs", "µs a pair"], "kernels gpubf-paper": ["µs", "µs a pair"],
              "kernels gpusap": ["µs", "µs a box", "µs a candidate"],
+             "kernels gpusap, no box term": ["µs", "µs a candidate"],
              "host gpubf, gpusap": ["µs", "µs a call", "µs a sorted entry"],
              "host gpubf-paper": ["µs", "µs a byte copied back"]}
     for (stage, who), coef in fitted.items():
@@ -199,7 +292,23 @@ def main() -> None:
         f"{stage} median {statistics.median(e for e, _, _ in errs):.0%}, largest "
         f"{max(errs)[0]:.0%} ({max(errs)[1]} at {max(errs)[2]})"
         for stage, errs in errors.items()) + ".\n")
-    print("PREDICTIONS (not measurements), µs:\n\n" + "\n".join(predictions(fitted)))
+    resweep = [r for r in rows if resweep_row(r)]
+    for r in resweep:
+        second = fitted[("kernels", "gpusap")][2] * candidates(r["n"])
+        print(f"The resweep at {r['n']}, modelled as a second one-axis sweep in the download: "
+              f"{model(fitted, r)['download'] + second:.0f} µs against {r['download_us']:.0f} "
+              f"measured ({(model(fitted, r)['download'] + second) / r['download_us'] - 1:+.0%}).")
+    polluted = fit(rows, clean=False)
+    print("Fitted with the resweep's download and host: gpusap download "
+          + " + ".join(f"{c:.4g}" for c in polluted[("download", "gpusap")])
+          + " a byte; host " + " + ".join(f"{c:.4g}" for c in polluted[("host", "gpubf, gpusap")])
+          + " (fixed, a call, a sorted entry).")
+    small = [r for r in rows if not resweep_row(r)]
+    k = solve([dict(r, y=r["kernels_us"]) for r in small if r["algo"] == "gpusap"],
+              KERNEL_TERMS["gpusap"])
+    print("gpusap's kernels fitted without the 10^6 row: " + " + ".join(
+        f"{c:.4g} {u}" for c, u in zip(k, ["µs", "µs a box", "µs a candidate"])) + ".\n")
+    print("PREDICTIONS (not measurements), µs:\n\n" + "\n".join(predictions(fitted, rows)))
 
 
 if __name__ == "__main__":
