@@ -182,6 +182,15 @@ def error_table(fitted: dict, rows: list) -> tuple:
                 errors.setdefault(stage, []).append((abs(error), row["algo"], row["n"]))
             lines.append(f"| {row['algo']} | {row['n']} | {stage} | {row[column]:.1f} | "
                          f"{predicted[stage]:.1f} | {error:+.0%} |")
+        if not resweep_row(row):  # the whole frame, launch to finish
+            frame = sum(predicted.values()) / row["launch_to_finish_us"] - 1
+            errors.setdefault("frame", []).append((abs(frame), row["algo"], row["n"]))
+            if row["algo"] == "gpusap":
+                bare = fitted[("kernels", "gpusap, no box term")]
+                other = sum(predicted.values()) - predicted["kernels"] + sum(
+                    c * t for c, t in zip(bare, KERNEL_TERMS["gpusap, no box term"](row)))
+                errors.setdefault("gpusap's frame without its box term", []).append(
+                    (abs(other / row["launch_to_finish_us"] - 1), row["algo"], row["n"]))
     return lines, errors
 
 
