@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "gpu/base/output_file.h"
 #include "tests/engine/cli_test_support.h"
 
 namespace {
@@ -353,6 +354,91 @@ TEST_F(ProbeCliTest, Row24TheWordsAreRight) {
   const std::string huge = "capture --objects 20 --keyframes 0 --capture-size 4294967297x1 --out " +
                            (out_ / "shots").string();
   expectRefused(runOverlap(huge), huge, "width \"4294967297\" is out of range");
+}
+
+// Two outputs that are one file are refused before any work however the
+// names are spelled, folders not made yet included.
+TEST_F(ProbeCliTest, TwoOutputsThatAreOneFileAreRefusedHoweverSpelled) {
+  const std::string absolute = (out_ / "r3").string();
+  const std::vector<std::pair<std::string, std::string>> spellings = {
+      {"./r3", "r3/summary.json"},     {"r3", "./r3/summary.json"},
+      {"r3", "r3//frames.csv"},        {"r3", absolute + "/timeline.json"},
+      {"r3/../r3", "r3/summary.json"}, {"./r3/", "r3/new/../.overlap-outputs"},
+  };
+  for (const auto& [out, wav] : spellings) {
+    const std::string args =
+        "run --objects 20 --frames 2 --capture-every 0 --out " + out + " --wav " + wav;
+    const Result result = runCommand("cd " + out_.string() + " && " + OVERLAP_BINARY + " " + args);
+    expectRefused(result, args, "is also an output of this run");
+    EXPECT_FALSE(fs::exists(out_ / "r3")) << args;
+  }
+}
+
+// A --wav that is the run's folder, a folder above it, or the folder of its
+// PNGs is refused before any work, creating nothing.
+TEST_F(ProbeCliTest, AWavThatIsAFolderOfTheRunIsRefusedBeforeAnyWork) {
+  const std::string rf = (out_ / "a" / "rf").string();
+  const std::vector<std::string> wavs = {rf, (out_ / "a").string(), rf + "/frames"};
+  for (const std::string& wav : wavs) {
+    const std::string args =
+        "run --objects 20 --frames 2 --capture-every 1 --capture-size 32x24 "
+        "--out " +
+        rf + " --wav " + wav;
+    const Result result = runOverlap(args);
+    expectRefused(result, args, "--wav " + wav + ": is ");
+    EXPECT_NE(result.stderr_text.find("not a file"), std::string::npos) << result.stderr_text;
+    EXPECT_FALSE(fs::exists(out_ / "a")) << args;
+  }
+}
+
+// A run folder someone else prepared cannot make a run remove or overwrite
+// anything outside it: no link is followed for the manifest, for the
+// outputs' own names, or for a folder holding an entry to remove.
+TEST_F(ProbeCliTest, ARunFolderNeverReachesOutsideItselfThroughALink) {
+  const fs::path photos = out_ / "photos";
+  const fs::path shared = out_ / "shared";
+  fs::create_directories(photos);
+  fs::create_directories(shared);
+  std::ofstream(photos / "IMG_0001.jpg") << "photo";
+  std::ofstream(photos / "precious.json") << "precious";
+  std::ofstream(out_ / "list") << overlap::OutputFolder::kManifestHeader << "\nkeep.txt\n";
+  std::ofstream(shared / "keep.txt") << "mine";
+  fs::create_directory_symlink("../photos", shared / "frames");
+  fs::create_symlink("../photos/precious.json", shared / "summary.json");
+  fs::create_symlink("../list", shared / ".overlap-outputs");
+
+  ASSERT_EQ(smallRun(shared, "--no-wav").exit_code, 0);
+  EXPECT_EQ(fileText(shared / "keep.txt"), "mine");  // the linked manifest listed nothing
+  std::ofstream(shared / ".overlap-outputs")
+      << overlap::OutputFolder::kManifestHeader << "\nframes/IMG_0001.jpg\n";
+  ASSERT_EQ(smallRun(shared, "--no-wav").exit_code, 0);
+  EXPECT_EQ(fileText(photos / "IMG_0001.jpg"), "photo");
+  EXPECT_EQ(fileText(photos / "precious.json"), "precious");
+  EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(shared / "summary.json")));
+  EXPECT_EQ(fileText(out_ / "list").find("summary.json"), std::string::npos);
+
+  const std::string args =
+      "run --objects 20 --frames 2 --capture-every 1 --capture-size 32x24 "
+      "--no-wav --out " +
+      shared.string();
+  expectRefused(runOverlap(args), args, "frames is a symbolic link");
+  EXPECT_EQ(std::distance(fs::directory_iterator(photos), fs::directory_iterator()), 2);
+}
+
+// /dev/stdout as an output works when standard output is a pipe.
+TEST_F(ProbeCliTest, DevStdoutOnAPipeIsWrittenThrough) {
+  int exit_code = -1;
+  const std::string stream = shellStdout(
+      std::string(OVERLAP_BINARY) + " record --objects 20 --frames 2 --out /dev/stdout 2>/dev/null",
+      &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_EQ(stream.size(), 304u + 3u * 20u * 32u);  // the header, then 3 frames of 20 boxes
+  const std::string wav = shellStdout(std::string(OVERLAP_BINARY) +
+                                          " run --objects 20 --frames 2 --capture-every 0 --out " +
+                                          (out_ / "r").string() + " --wav /dev/stdout 2>/dev/null",
+                                      &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_EQ(wav.substr(0, 4), "RIFF");
 }
 
 }  // namespace
