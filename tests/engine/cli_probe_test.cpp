@@ -441,4 +441,21 @@ TEST_F(ProbeCliTest, DevStdoutOnAPipeIsWrittenThrough) {
   EXPECT_EQ(wav.substr(0, 4), "RIFF");
 }
 
+// A write past `ulimit -f` is reported naming the file (exit 1), not a
+// silent SIGXFSZ, and leaves no temporary and no new folder.
+TEST_F(ProbeCliTest, AFileOverTheSizeLimitIsReportedNamingIt) {
+  const std::vector<std::pair<std::string, std::string>> runs = {
+      {"record --objects 2000 --frames 5 --out " + (out_ / "new" / "r.aabbs").string(), "r.aabbs"},
+      {"run --objects 20 --frames 30 --capture-every 0 --out " + (out_ / "new" / "run").string(),
+       "sound.wav"},
+  };
+  for (const auto& [args, file] : runs) {
+    const Result result = runCommand("ulimit -f 8 && " + std::string(OVERLAP_BINARY) + " " + args);
+    EXPECT_EQ(result.exit_code, 1) << args << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(file + ": cannot write: File too large"), std::string::npos)
+        << result.stderr_text;
+    EXPECT_FALSE(fs::exists(out_ / "new")) << args;
+  }
+}
+
 }  // namespace
