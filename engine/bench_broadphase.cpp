@@ -466,7 +466,7 @@ int run(const BenchOptions& options, const std::string& command) {
   }
   if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
   checkInputs(workloads, options);
-  if (!skipped.empty() && !options.record_only) {
+  if (!skipped.empty() && !options.record_only && !options.stream_stats) {
     std::fprintf(stderr, "%s: %s\n", kProgram, skipped.c_str());
   }
 
@@ -533,25 +533,13 @@ int main(int argc, char** argv) {
   BenchOptions options;
   addBenchOptions(app, options);
   overlap::catchInterrupts();
-  try {
+  return runProgram(kProgram, app, [&] {
     app.parse(argc, argv);
     refuseIgnoredOptions(app);
-    return run(options, quotedCommand(argc, argv));
-  } catch (const CLI::CallForHelp& help) {
-    return app.exit(help);
-  } catch (const CLI::ParseError& error) {
-    std::fprintf(stderr, "%s: %s (see --help)\n", kProgram, error.what());
-    return 2;
-  } catch (const UsageError& error) {
-    std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
-    return 2;
-  } catch (const overlap::Interrupted& stop) {
-    return overlap::reportInterrupted(kProgram, stop);
-  } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
-    std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
-    return 2;
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "%s: error: %s\n", kProgram, error.what());
-    return 1;
-  }
+    try {
+      return run(options, quotedCommand(argc, argv));
+    } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
+      throw UsageError(std::string("bad cached stream: ") + error.what());
+    }
+  });
 }

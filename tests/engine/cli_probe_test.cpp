@@ -458,4 +458,59 @@ TEST_F(ProbeCliTest, AFileOverTheSizeLimitIsReportedNamingIt) {
   }
 }
 
+// Whatever a program prints on standard output, a failed write there exits
+// 1 naming it: help, version, the algorithm list, the stream figures.
+TEST_F(ProbeCliTest, StandardOutputThatCannotBeWrittenExits1) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const std::vector<std::string> commands = {
+      std::string(OVERLAP_BINARY) + " --help",
+      std::string(OVERLAP_BINARY) + " --version",
+      std::string(OVERLAP_BINARY) + " run --help",
+      std::string(OVERLAP_BINARY) + " --list-algos --json",
+      std::string(OVERLAP_BENCH_BINARY) + " --help",
+      std::string(OVERLAP_BENCH_BINARY) + " --input " + stream + " --warmup 0 --stream-stats",
+  };
+  for (const std::string& command : commands) {
+    const Result result = runCommand("{ " + command + " > /dev/full; }");
+    EXPECT_EQ(result.exit_code, 1) << command << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("standard output: cannot write"), std::string::npos)
+        << command << ": " << result.stderr_text;
+  }
+}
+
+// A value holding a newline stays on the error's one line, escaped.
+TEST_F(ProbeCliTest, AnErrorMessageStaysOnOneLine) {
+  const std::string args = "run --objects \"$(printf '5\\nx')\" --out " + (out_ / "r").string();
+  expectRefused(runOverlap(args), args, "5\\nx");
+}
+
+// An option given twice says so in plain words.
+TEST_F(ProbeCliTest, AnOptionGivenTwiceSaysSo) {
+  const std::string args = "run --objects 5 --objects 6 --out " + (out_ / "r").string();
+  expectRefused(runOverlap(args), args, "--objects is given 2 times; give it once");
+}
+
+// The benchmark refuses a --seed nothing reads and a stream given twice.
+TEST_F(ProbeCliTest, TheBenchmarkRefusesAnIgnoredSeedAndARepeatedInput) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const std::string tail = " --algos bf --warmup 0 --repeats 1 --out " + (out_ / "b").string();
+  expectRefused(runBench("--input " + stream + " --seed 5" + tail), "--seed", "--seed and --input");
+  expectRefused(runBench("--input " + stream + " " + (out_ / "." / "s.aabbs").string() + tail),
+                "twice", "given twice");
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+}
+
+// --list-algos takes nothing but --json.
+TEST_F(ProbeCliTest, ListAlgosRefusesAnythingBesideIt) {
+  expectRefused(runOverlap("--list-algos bogus"), "--list-algos bogus", "'bogus'");
+}
+
+// --stream-stats runs no finder, so it warns about none.
+TEST_F(ProbeCliTest, StreamStatsWarnsAboutNoFinder) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const Result result = runBench("--input " + stream + " --warmup 0 --stream-stats");
+  EXPECT_EQ(result.exit_code, 0) << result.stderr_text;
+  EXPECT_EQ(result.stderr_text.find("gpu"), std::string::npos) << result.stderr_text;
+}
+
 }  // namespace
