@@ -513,4 +513,12 @@ TEST_F(ProbeCliTest, StreamStatsWarnsAboutNoFinder) {
   EXPECT_EQ(result.stderr_text.find("gpu"), std::string::npos) << result.stderr_text;
 }
 
+// `record` checks the disk's room for the whole stream before any physics.
+TEST_F(ProbeCliTest, RecordRefusesAStreamItsDiskCannotHoldBeforeAnyWork) {
+  const std::string args =
+      "record --objects 10000000 --frames 1000000 --out " + (out_ / "huge.aabbs").string();
+  expectRefused(runOverlap(args), args, "its folder has");
+  EXPECT_FALSE(fs::exists(out_ / "huge.aabbs"));
+}
+
 }  // namespace
