@@ -521,4 +521,37 @@ TEST_F(ProbeCliTest, RecordRefusesAStreamItsDiskCannotHoldBeforeAnyWork) {
   EXPECT_FALSE(fs::exists(out_ / "huge.aabbs"));
 }
 
+// A run's closing line names one PNG once, and the last run's files it
+// removed.
+TEST_F(ProbeCliTest, TheClosingLineNamesWhatWasWrittenAndRemoved) {
+  const fs::path r = out_ / "r";
+  const Result one = runOverlap(
+      "run --objects 20 --frames 1 --capture-every 1 --capture-size 32x24 --out " + r.string());
+  ASSERT_EQ(one.exit_code, 0) << one.stderr_text;
+  EXPECT_NE(one.stderr_text.find("1 PNG in " + (r / "frames").string() + " (scene4_frame0000.png)"),
+            std::string::npos)
+      << one.stderr_text;
+  const Result again = smallRun(r, "--no-wav");
+  ASSERT_EQ(again.exit_code, 0) << again.stderr_text;
+  EXPECT_NE(again.stderr_text.find(
+                "; removed the last run's frames/scene4_frame0000.png and sound.wav\n"),
+            std::string::npos)
+      << again.stderr_text;
+}
+
+// Without --capture-every a run writes frames 0, F/4, F/2 and 3F/4.
+TEST_F(ProbeCliTest, TheDefaultKeyframesAreFourPngs) {
+  for (const int frames : {5, 6, 9}) {
+    const fs::path r = out_ / ("r" + std::to_string(frames));
+    const Result result = runOverlap("run --objects 20 --no-wav --capture-size 32x24 --frames " +
+                                     std::to_string(frames) + " --out " + r.string());
+    ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+    EXPECT_EQ(std::distance(fs::directory_iterator(r / "frames"), fs::directory_iterator()), 4)
+        << frames;
+    EXPECT_TRUE(
+        fs::exists(r / "frames" / ("scene4_frame000" + std::to_string(frames / 2) + ".png")))
+        << frames;
+  }
+}
+
 }  // namespace
