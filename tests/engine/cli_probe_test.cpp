@@ -554,4 +554,15 @@ TEST_F(ProbeCliTest, TheDefaultKeyframesAreFourPngs) {
   }
 }
 
+// --growth is written as given.
+TEST_F(ProbeCliTest, LatencyWritesTheGrowthAsGiven) {
+  int exit_code = -1;
+  const std::string csv =
+      stdoutOf("latency --objects 20 --frames 2 --algo bvh --growth 1000,0.0004", &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_NE(csv.find(",1000,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",0.0004,"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("e+"), std::string::npos) << csv;
+}
+
 }  // namespace
