@@ -565,4 +565,19 @@ TEST_F(ProbeCliTest, LatencyWritesTheGrowthAsGiven) {
   EXPECT_EQ(csv.find("e+"), std::string::npos) << csv;
 }
 
+// sap's limit is said in the boxes the user asked for.
+TEST_F(ProbeCliTest, SapsLimitCountsTheBoxesGiven) {
+  const std::string args =
+      "run --algo sap --objects 32759 --frames 1 --no-tasks --capture-every 0 "
+      "--out " +
+      (out_ / "r").string();
+  const Result result = runOverlap(args);
+  expectRefused(result, args, "asked for 32759; use sap32");
+}
+
+// An empty --input is named as empty.
+TEST_F(ProbeCliTest, AnEmptyInputNameIsNamed) {
+  expectRefused(runOverlap("pairs --input \"\""), "--input \"\"", "\"\" (an empty name)");
+}
+
 }  // namespace
