@@ -478,6 +478,17 @@ TEST_F(ProbeCliTest, StandardOutputThatCannotBeWrittenExits1) {
   }
 }
 
+// The benchmark checks that the streams it must record fit in --streams
+// before recording the first.
+TEST_F(ProbeCliTest, TheBenchmarkRefusesStreamsItsDiskCannotHoldBeforeRecording) {
+  const std::string args =
+      "--objects 10000000 --big-objects 0 --record-frames 100000 --algos "
+      "cpusap --warmup 0 --repeats 1 --streams " +
+      (out_ / "new" / "streams").string() + " --out " + (out_ / "b").string();
+  expectRefused(runBench(args), args, "--streams");
+  EXPECT_FALSE(fs::exists(out_ / "new"));
+}
+
 // A value holding a newline stays on the error's one line, escaped.
 TEST_F(ProbeCliTest, AnErrorMessageStaysOnOneLine) {
   const std::string args = "run --objects \"$(printf '5\\nx')\" --out " + (out_ / "r").string();
