@@ -505,6 +505,13 @@ bool isAbove(const std::string& folder, const std::string& below) {
 }  // namespace
 
 std::string OutputFolder::declare(const fs::path& path) {
+  // The folder's list is a regular file (or a link, replaced), never
+  // something a run would hang on or fail at the end: a FIFO, a folder.
+  const fs::path manifest = folder_ / kManifestName;
+  struct stat info {};
+  if (::lstat(manifest.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
+    return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
+  }
   // Links first: the checks below try the folder by making a file there.
   const std::optional<fs::path> relative = inside(path);
   if (relative) {

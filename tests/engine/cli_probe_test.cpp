@@ -423,6 +423,11 @@ TEST_F(ProbeCliTest, ARunFolderNeverReachesOutsideItselfThroughALink) {
       shared.string();
   expectRefused(runOverlap(args), args, "frames is a symbolic link");
   EXPECT_EQ(std::distance(fs::directory_iterator(photos), fs::directory_iterator()), 2);
+
+  // A list that is a FIFO would hang the run's end: refused before any work.
+  fs::remove(shared / ".overlap-outputs");
+  ASSERT_EQ(::mkfifo((shared / ".overlap-outputs").c_str(), 0600), 0);
+  expectRefused(smallRun(shared, "--no-wav"), "a FIFO list", "is not a regular file");
 }
 
 // /dev/stdout as an output works when standard output is a pipe.
