@@ -1,8 +1,9 @@
 #include "engine/app.h"
 
-#include <cstdio>
-#include <exception>
+#include <algorithm>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "engine/algorithm_list.h"
 #include "engine/cli_errors.h"
@@ -46,6 +47,19 @@ void requireKnownSubcommand(const CLI::App& app, int argc, char** argv) {
   }
 }
 
+// --list-algos prints and exits as soon as it is parsed: anything beside it
+// but --json would be ignored, so it is refused.
+void refuseWordsBesideListAlgos(int argc, char** argv) {
+  const std::vector<std::string_view> words(argv + 1, argv + argc);
+  if (std::find(words.begin(), words.end(), "--list-algos") == words.end()) return;
+  for (const std::string_view word : words) {
+    if (word != "--list-algos" && word != "--json") {
+      throw UsageError("--list-algos takes nothing but --json; '" + std::string(word) +
+                       "' would be ignored");
+    }
+  }
+}
+
 }  // namespace
 
 int runCommandLine(int argc, char** argv) {
@@ -53,24 +67,12 @@ int runCommandLine(int argc, char** argv) {
                "overlap"};
   addCommands(app);
   catchInterrupts();
-  try {
+  return runProgram("overlap", app, [&] {
     requireKnownSubcommand(app, argc, argv);
+    refuseWordsBesideListAlgos(argc, argv);
     app.parse(argc, argv);
-  } catch (const CLI::Success& help_or_version) {
-    return app.exit(help_or_version);
-  } catch (const CLI::ParseError& error) {
-    std::fprintf(stderr, "overlap: %s (see --help)\n", error.what());
-    return 2;
-  } catch (const UsageError& error) {
-    std::fprintf(stderr, "overlap: %s\n", error.what());
-    return 2;
-  } catch (const Interrupted& stop) {
-    return reportInterrupted("overlap", stop);
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "overlap: error: %s\n", error.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }
 
 }  // namespace overlap::engine

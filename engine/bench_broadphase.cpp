@@ -383,12 +383,18 @@ std::vector<std::string> csvNotes(const BenchOptions& options, const std::string
 
 // The workload's stream: the --input file (a file the reader refuses is a
 // UsageError naming it), or the recorded scene-4 stream, recorded if missing.
+// The scene a workload without --input records (or finds in the cache).
+physics::SceneConfig workloadScene(const Workload& workload, const BenchOptions& options) {
+  physics::SceneConfig config = physics::SceneConfig::forScene(kScene);
+  config.objects = workload.objects;
+  config.seed = options.seed;
+  return config;
+}
+
 CachedStream workloadStream(const Workload& workload, const BenchOptions& options) {
   if (workload.input.empty()) {
-    physics::SceneConfig config = physics::SceneConfig::forScene(kScene);
-    config.objects = workload.objects;
-    config.seed = options.seed;
-    return loadOrRecordStream(options.streams, config, workload.record_frames);
+    return loadOrRecordStream(options.streams, workloadScene(workload, options),
+                              workload.record_frames);
   }
   CachedStream cached;
   cached.path = workload.input;
@@ -408,6 +414,22 @@ CachedStream workloadStream(const Workload& workload, const BenchOptions& option
 // and --churn.  A file is read through once here and again when measured; a
 // stream without a size (a pipe) cannot be read twice, so it is kept.
 void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) {
+  // The streams to record must all fit in --streams before the first is
+  // recorded (minutes each), not fail when one is written.
+  std::uint64_t to_record = 0;
+  std::filesystem::path first_missing;
+  for (const Workload& workload : workloads) {
+    if (!workload.input.empty()) continue;
+    const std::filesystem::path cached =
+        cachedStreamPath(options.streams, workloadScene(workload, options), workload.record_frames);
+    if (std::filesystem::exists(cached)) continue;
+    physics::AabbStreamHeader counts;
+    counts.objects = workload.objects;
+    counts.stored_frames = workload.record_frames + 1;
+    to_record += physics::aabbStreamBytes(counts);
+    if (first_missing.empty()) first_missing = cached;
+  }
+  if (to_record > 0) requireFreeSpace(first_missing, to_record, "--streams");
   for (Workload& workload : workloads) {
     if (workload.input.empty()) continue;
     physics::AabbStreamHeader header;
@@ -466,7 +488,7 @@ int run(const BenchOptions& options, const std::string& command) {
   }
   if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
   checkInputs(workloads, options);
-  if (!skipped.empty() && !options.record_only) {
+  if (!skipped.empty() && !options.record_only && !options.stream_stats) {
     std::fprintf(stderr, "%s: %s\n", kProgram, skipped.c_str());
   }
 
@@ -533,25 +555,13 @@ int main(int argc, char** argv) {
   BenchOptions options;
   addBenchOptions(app, options);
   overlap::catchInterrupts();
-  try {
+  return runProgram(kProgram, app, [&] {
     app.parse(argc, argv);
     refuseIgnoredOptions(app);
-    return run(options, quotedCommand(argc, argv));
-  } catch (const CLI::CallForHelp& help) {
-    return app.exit(help);
-  } catch (const CLI::ParseError& error) {
-    std::fprintf(stderr, "%s: %s (see --help)\n", kProgram, error.what());
-    return 2;
-  } catch (const UsageError& error) {
-    std::fprintf(stderr, "%s: %s\n", kProgram, error.what());
-    return 2;
-  } catch (const overlap::Interrupted& stop) {
-    return overlap::reportInterrupted(kProgram, stop);
-  } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
-    std::fprintf(stderr, "%s: bad cached stream: %s\n", kProgram, error.what());
-    return 2;
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "%s: error: %s\n", kProgram, error.what());
-    return 1;
-  }
+    try {
+      return run(options, quotedCommand(argc, argv));
+    } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
+      throw UsageError(std::string("bad cached stream: ") + error.what());
+    }
+  });
 }

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <set>
+#include <string>
 #include <string_view>
 
 #include "engine/cli_errors.h"
@@ -114,6 +117,22 @@ void refuseIgnoredOptions(const CLI::App& app) {
   refuse("--stream-stats",
          {"--algos", "--big-algos", "--grid-check", "--churn", "--repeats", "--out"},
          "--stream-stats prints each stream's figures and stops, so the first would be ignored");
+  // The seed makes scene 4 and picks --churn's boxes: with --input and no
+  // churn, nothing reads it.
+  if (app.get_option("--churn")->count() == 0) {
+    refuse("--input", {"--seed"},
+           "--input replays the given streams and, without --churn, nothing is random, so the "
+           "first would be ignored");
+  }
+  // One stream given twice would be measured twice, as two rows.
+  std::set<std::string> inputs;
+  for (const std::string& input : app.get_option("--input")->as<std::vector<std::string>>()) {
+    std::error_code error;
+    const std::filesystem::path file = std::filesystem::weakly_canonical(input, error);
+    if (!inputs.insert(error ? input : file.string()).second) {
+      throw UsageError("--input " + input + ": given twice (the same file); give each stream once");
+    }
+  }
 }
 
 }  // namespace overlap::engine

@@ -36,7 +36,9 @@ struct BenchOptions {
 void addBenchOptions(CLI::App& app, BenchOptions& options);
 
 // Throws UsageError naming both options when one is given to a run that
-// would ignore it: what --input, --stream-stats and --record-only leave out.
+// would ignore it: what --input, --stream-stats and --record-only leave out
+// (--seed with --input and no --churn); and naming the file when one
+// --input is given twice.
 void refuseIgnoredOptions(const CLI::App& app);
 
 // The command line as it reruns from the repository's top, on one line:

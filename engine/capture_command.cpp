@@ -60,10 +60,10 @@ void capture(const CaptureOptions& options) {
     progress.update(frame + 1);
   }
   progress.finish();
-  outputs.commit();
-  std::fprintf(stderr, "overlap capture: wrote %s in %s\n",
+  const std::vector<std::string> removed = outputs.commit();
+  std::fprintf(stderr, "overlap capture: wrote %s in %s%s\n",
                counted(static_cast<long long>(camera->written().size()), "PNG").c_str(),
-               options.out.string().c_str());
+               options.out.string().c_str(), removedText(removed).c_str());
 }
 
 }  // namespace

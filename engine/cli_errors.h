@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -62,5 +63,16 @@ std::string optionName(const CLI::Option* option);
 // Throws UsageError naming both options when both were given: they
 // conflict, or the first would be ignored (`why` says which).
 void refuseTogether(const CLI::Option* first, const CLI::Option* second, std::string_view why);
+
+// The whole of a program's main() once its options are added, shared by
+// `overlap` and the benchmark: runs `body` (parsing included) and turns what
+// it throws into the exit code and one line on stderr, "PROGRAM: ...":
+// --help and --version print and exit 0; a ParseError or UsageError exits
+// 2 (an option given twice says so in plain words); Interrupted exits 128 +
+// the signal; anything else exits 1.  Control characters in a message are
+// escaped (a value holding a newline stays on the one line).  Standard
+// output is flushed last: a failed write there (`> /dev/full`) exits 1
+// naming it, whatever printed it.
+int runProgram(const char* program, CLI::App& app, const std::function<int()>& body);
 
 }  // namespace overlap::engine

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 namespace overlap::engine {
 
@@ -34,6 +35,13 @@ std::string exactNumber(double value) {
   for (int digits = 1; digits <= 17; ++digits) {  // 17 digits read back as any double
     std::snprintf(text, sizeof(text), "%.*g", digits, value);
     if (std::strtod(text, nullptr) == value) break;
+  }
+  if (std::strchr(text, 'e') == nullptr) return text;
+  // An exponent only where the plain decimal would be long: 1000, not 1e+03.
+  char plain[64];
+  for (int decimals = 0; decimals <= 20; ++decimals) {
+    std::snprintf(plain, sizeof(plain), "%.*f", decimals, value);
+    if (std::strtod(plain, nullptr) == value) return std::strlen(plain) <= 24 ? plain : text;
   }
   return text;
 }

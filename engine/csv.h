@@ -19,7 +19,9 @@ namespace overlap::engine {
 std::string csvField(std::string_view text);
 // "# text\n", one line.
 std::string csvComment(std::string_view text);
-// The shortest %g text that reads back as `value` ("0.0004", "1e-300").
+// The shortest text that reads back as `value`, with an exponent only where
+// the plain decimal would be longer than 24 characters ("0.0004", "1000",
+// "1e-300").
 std::string exactNumber(double value);
 
 }  // namespace overlap::engine

@@ -12,6 +12,7 @@
 #include "engine/commands.h"
 #include "engine/number_options.h"
 #include "engine/progress.h"
+#include "engine/recorded_streams.h"
 #include "engine/scene_options.h"
 #include "engine/stream_generator.h"
 #include "engine/wording.h"
@@ -34,11 +35,7 @@ struct GenerateOptions {
 // shown from the first second.
 void generate(const GenerateOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  prepareOutputFile(options.out, "--out");
-  physics::AabbStreamHeader counts;
-  counts.objects = config.objects;
-  counts.stored_frames = options.frames + 1;
-  requireFreeSpace(options.out, physics::aabbStreamBytes(counts), "--out");
+  prepareStreamOutput(options.out, config.objects, options.frames);
   const auto start = std::chrono::steady_clock::now();
   std::optional<StreamGenerator> generator;
   try {

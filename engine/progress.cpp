@@ -7,6 +7,8 @@
 #include <csignal>
 #include <cstdio>
 
+#include "engine/wording.h"
+
 namespace overlap::engine {
 namespace {
 
@@ -140,7 +142,7 @@ void Progress::finish() {
   reporting.store(paused_);
   if (lines_.load() == 0) return;
   if (total_ > 0) {
-    std::fprintf(stderr, "%s: done, %d frames in %s\n", label_.c_str(), total_,
+    std::fprintf(stderr, "%s: done, %s in %s\n", label_.c_str(), counted(total_, "frame").c_str(),
                  readableDuration(seconds()).c_str());
   } else {
     std::fprintf(stderr, "%s: done in %s\n", label_.c_str(), readableDuration(seconds()).c_str());

@@ -5,11 +5,21 @@
 #include <string>
 #include <vector>
 
+#include "engine/cli_errors.h"
 #include "engine/progress.h"
 #include "gpu/base/interrupt.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
+
+void prepareStreamOutput(const std::filesystem::path& out, int objects, int frames) {
+  prepareOutputFile(out, "--out");
+  physics::AabbStreamHeader counts;
+  counts.objects = objects;
+  counts.stored_frames = frames + 1;
+  requireFreeSpace(out, physics::aabbStreamBytes(counts), "--out");
+}
+
 namespace {
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
@@ -57,7 +67,7 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
 }
 
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
-                                 const physics::WorldOptions& options) {
+                                 const std::string& label, const physics::WorldOptions& options) {
   Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
   physics::PhysicsWorld world(config, options);
   placing.finish();
@@ -81,7 +91,7 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
     }
   };
 
-  Progress progress("record n=" + std::to_string(config.objects), frames);
+  Progress progress(label, frames);
   keepBoxes();
   for (int frame = 0; frame < frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(frames));
@@ -106,7 +116,8 @@ CachedStream loadOrRecordStream(const std::filesystem::path& folder,
     }
     checkHeader(cached.stream, cached.path, config, frames);
   } else {
-    cached.stream = recordStream(config, frames);
+    cached.stream = recordStream(
+        config, frames, "overlap_bench_broadphase: recording n=" + std::to_string(config.objects));
     physics::writeAabbStream(cached.path, cached.stream);
     cached.recorded = true;
   }

@@ -36,10 +36,18 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
 // Simulates `frames` frames of the scene (with `options`, by default bvh and
 // the automatic substeps, CCD and sleep) and keeps the boxes' AABBs, a box
 // that has left the simulation as physics::parkedBox(), with progress on
-// stderr for long recordings.  `overlap record` and the benchmark both record
-// through it.
+// stderr for long recordings under `label` (the program's, "overlap
+// record").  `overlap record` and the benchmark both record through it.
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
+                                 const std::string& label,
                                  const physics::WorldOptions& options = {});
+
+// Checks, before any work, that `out` can take a stream of `objects` boxes
+// at the start and after each of `frames` frames: prepareOutputFile(), and
+// room in its folder for the whole file (the old one stays until the new
+// one is whole); UsageError naming --out otherwise.  `record` and
+// `generate` both check through it.
+void prepareStreamOutput(const std::filesystem::path& out, int objects, int frames);
 
 struct CachedStream {
   physics::AabbStream stream;

@@ -114,7 +114,8 @@ struct RunPlan {
   std::optional<double> task_load;
   std::optional<TaskLoadCalibration> calibration;  // set by calibrateTasks()
   std::filesystem::path out;
-  int capture_every = 0;  // 0: no PNGs
+  int capture_every = 0;           // 0: no PNGs
+  bool quarter_keyframes = false;  // --capture-every not given: frames 0, F/4, F/2, 3F/4
   std::string capture_size;
   std::optional<std::filesystem::path> wav_file;  // the WAV the run writes, if any
   const char* wav_option = "--out";               // the option that named it
@@ -257,14 +258,26 @@ RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given
   }
   plan.task_load = arguments.task_load;
   plan.out = arguments.out;
-  plan.capture_every = arguments.capture_every.value_or(
-      std::max(1, (plan.frames + kDefaultKeyframes - 1) / kDefaultKeyframes));
+  plan.quarter_keyframes = !arguments.capture_every.has_value();
+  plan.capture_every =
+      arguments.capture_every.value_or(std::max(1, plan.frames / kDefaultKeyframes));
   plan.capture_size = arguments.capture_size;
   if (!arguments.no_wav && plan.tasks) {
     plan.wav_file = arguments.wav.value_or(plan.out / "sound.wav");
     plan.wav_option = arguments.wav ? "--wav" : "--out";
   }
   return plan;
+}
+
+// Whether the run writes `frame` as a PNG: every --capture-every-th, or by
+// default frames 0, F/4, F/2 and 3F/4 (fewer when F < 4).
+bool isKeyframe(const RunPlan& plan, int frame) {
+  if (plan.capture_every == 0) return false;
+  if (!plan.quarter_keyframes) return frame % plan.capture_every == 0;
+  for (long long quarter = 0; quarter < kDefaultKeyframes; ++quarter) {
+    if (frame == quarter * plan.frames / kDefaultKeyframes) return true;
+  }
+  return false;
 }
 
 // Every output the run will write, declared before any work: a name that is
@@ -276,8 +289,8 @@ void declareOutputs(OutputFolder& outputs, const RunPlan& plan) {
     declareOutput(outputs, plan.out / name, "--out");
   }
   if (plan.capture_every > 0) {
-    prepareOutputDirectory(plan.out / "frames", "--out");
-    for (int frame = 0; frame < plan.frames; frame += plan.capture_every) {
+    for (int frame = 0; frame < plan.frames; ++frame) {
+      if (!isKeyframe(plan, frame)) continue;
       declareOutput(outputs, plan.out / "frames" / pngName(plan.config.scene, frame), "--out");
     }
   }
@@ -380,7 +393,7 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(plan.frames));
     if (sync_stepper) sync_stepper->step();
     FrameRow& row = stepper.step();
-    if (camera != nullptr && frame % plan.capture_every == 0) {
+    if (camera != nullptr && isKeyframe(plan, frame)) {
       row.render_ms = camera->capture(stepper.world(), frame);
     }
     progress.update(frame + 1);
@@ -459,31 +472,33 @@ nlohmann::json compareSyncJson(const RunResult& sync_run, const RunResult& async
                                   sync_run.ai_checksum == async_run.ai_checksum}};
 }
 
-// The closing line: every file the run wrote, where.
+// The closing line: every file the run wrote, where, and the last run's
+// files it removed.
 std::string writtenLine(const std::filesystem::path& out,
-                        const std::optional<std::filesystem::path>& wav,
-                        const FrameCapture* camera) {
+                        const std::optional<std::filesystem::path>& wav, const FrameCapture* camera,
+                        const std::vector<std::string>& removed) {
   std::string line = "overlap run: wrote " + (out / "frames.csv").string() + ", " +
                      (out / "summary.json").string() + ", " + (out / "timeline.json").string() +
                      " (open in https://ui.perfetto.dev)";
   if (wav) line += ", " + wav->string();
   if (camera != nullptr && !camera->written().empty()) {
-    line += ", " + counted(static_cast<long long>(camera->written().size()), "PNG") + " in " +
-            camera->written().front().parent_path().string() + " (" +
-            camera->written().front().filename().string() + " to " +
-            camera->written().back().filename().string() + ")";
+    const std::vector<std::filesystem::path>& pngs = camera->written();
+    line += ", " + counted(static_cast<long long>(pngs.size()), "PNG") + " in " +
+            pngs.front().parent_path().string() + " (" + pngs.front().filename().string() +
+            (pngs.size() > 1 ? " to " + pngs.back().filename().string() : "") + ")";
   }
-  return line;
+  return line + removedText(removed);
 }
 
-void writeOutputs(const RunPlan& plan, const SteppedRuns& runs, const Timeline& timeline,
-                  OutputFolder& outputs) {
+// Returns the last run's files it removed (OutputFolder::commit).
+std::vector<std::string> writeOutputs(const RunPlan& plan, const SteppedRuns& runs,
+                                      const Timeline& timeline, OutputFolder& outputs) {
   nlohmann::json summary = summarize(plan, runs.async_run);
   if (runs.sync_run) summary["compare_sync"] = compareSyncJson(*runs.sync_run, runs.async_run);
   outputs.open(plan.out / "frames.csv").write(framesCsv(runs.async_run.rows));
   outputs.open(plan.out / "timeline.json").write(timeline.json());
   outputs.open(plan.out / "summary.json").write(summary.dump(2) + "\n");
-  outputs.commit();
+  return outputs.commit();
 }
 
 void run(const RunArguments& arguments, const RunOptionHandles& given) {
@@ -498,8 +513,8 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
   Timeline timeline;
   const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);
-  writeOutputs(plan, runs, timeline, outputs);
-  std::fprintf(stderr, "%s\n", writtenLine(plan.out, plan.wav_file, camera.get()).c_str());
+  const std::vector<std::string> removed = writeOutputs(plan, runs, timeline, outputs);
+  std::fprintf(stderr, "%s\n", writtenLine(plan.out, plan.wav_file, camera.get(), removed).c_str());
 }
 
 // ---- the command line ----
@@ -570,7 +585,8 @@ void addOutputOptions(CLI::App& command, RunArguments& arguments, RunOptionHandl
           .add_option("--capture-every", arguments.capture_every,
                       "write every K-th frame as a PNG under OUT/frames (0: none)")
           ->check(wholeNumberIn(0, kMostFrames))
-          ->default_str("a quarter of --frames: " + std::to_string(kDefaultKeyframes) + " PNGs");
+          ->default_str("frames 0, F/4, F/2 and 3F/4 of F: " + std::to_string(kDefaultKeyframes) +
+                        " PNGs (fewer under 4 frames)");
   given.capture_size =
       command.add_option("--capture-size", arguments.capture_size, "PNG size WIDTHxHEIGHT")
           ->capture_default_str();

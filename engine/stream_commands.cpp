@@ -30,10 +30,11 @@ struct RecordOptions {
 
 void record(const RecordOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  prepareOutputFile(options.out, "--out");
+  prepareStreamOutput(options.out, config.objects, options.frames);
   physics::AabbStream stream;
   try {
-    stream = recordStream(config, options.frames, options.physics.resolve("bvh", config));
+    stream = recordStream(config, options.frames, "overlap record",
+                          options.physics.resolve("bvh", config));
   } catch (const std::invalid_argument& error) {  // a scene the options cannot build
     throw UsageError(std::string("--") + error.what());
   }

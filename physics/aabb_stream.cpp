@@ -31,7 +31,9 @@ constexpr std::size_t kAabbBytes = 8 * sizeof(float);
 constexpr std::size_t kHeaderBytes = 2 * kNameBytes + 4 * sizeof(std::int32_t) + kAabbBytes;
 
 [[noreturn]] void fail(const std::filesystem::path& path, const std::string& problem) {
-  throw AabbStreamError(path.string() + ": " + problem);
+  // An empty name is shown as one, not as nothing before the colon.
+  throw AabbStreamError((path.empty() ? std::string("\"\" (an empty name)") : path.string()) +
+                        ": " + problem);
 }
 
 std::string readName(const char* field, const std::filesystem::path& path, const char* what) {

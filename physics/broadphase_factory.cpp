@@ -57,10 +57,14 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name) {
   throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
 }
 
-std::string broadphaseCapacityProblem(std::string_view name, int objects) {
-  if (name != "sap" || objects < kMaxSap16Objects) return {};
-  return "holds at most " + std::to_string(kMaxSap16Objects - 1) + " objects, asked for " +
-         std::to_string(objects) + "; use sap32";
+std::string broadphaseCapacityProblem(std::string_view name, int objects, int reserved) {
+  if (name != "sap" || objects + reserved < kMaxSap16Objects) return {};
+  const std::string most = std::to_string(kMaxSap16Objects - 1 - reserved);
+  return "holds at most " +
+         (reserved == 0 ? most + " objects"
+                        : most + " boxes beside the scene's " + std::to_string(reserved) +
+                              " other proxies (its walls, room for added objects)") +
+         ", asked for " + std::to_string(objects) + "; use sap32";
 }
 
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,

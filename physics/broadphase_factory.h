@@ -38,9 +38,11 @@ std::span<const std::string_view> broadphaseNames();
 // The entry named `name`; throws std::invalid_argument for an unknown name.
 const BroadphaseInfo& broadphaseInfo(std::string_view name);
 
-// Empty when broadphase `name` can hold `objects` proxies, else why not
-// (sap's 16-bit handles), so a command can refuse a count before any work.
-std::string broadphaseCapacityProblem(std::string_view name, int objects);
+// Empty when broadphase `name` can hold `objects` proxies and `reserved`
+// more (a world's walls), else why not, counting in `objects` as the user
+// gave them (sap's 16-bit handles), so a command can refuse a count before
+// any work.
+std::string broadphaseCapacityProblem(std::string_view name, int objects, int reserved = 0);
 
 // What a device name runs where there is no CUDA device.
 inline constexpr std::string_view kDeviceFallback = "cpusap";

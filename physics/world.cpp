@@ -118,6 +118,12 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
   const auto n = static_cast<int>(layout_.boxes.size());
   // SAP quantizes inside these bounds: the container plus a quarter of margin.
   const btVector3 bound = toBullet(Eigen::Vector3d::Constant(layout_.outerHalfExtent() * 1.25));
+  // Counted in the user's boxes: the walls and added objects are ours.
+  if (const std::string problem =
+          broadphaseCapacityProblem(options.algorithm, n, kWallCount + kUserObjects);
+      !problem.empty()) {
+    throw std::invalid_argument("algo " + options.algorithm + ": " + problem);
+  }
   BroadphaseChoice choice =
       makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
   // Every broadphase answers CCD's sweeps through one shared tree: the same

@@ -53,6 +53,7 @@ void catchInterrupts() {
     sigaction(signal_number, &action, nullptr);
   }
   std::signal(SIGPIPE, SIG_IGN);
+  std::signal(SIGXFSZ, SIG_IGN);  // past `ulimit -f` a write fails with EFBIG instead
 }
 
 int pendingInterrupt() {

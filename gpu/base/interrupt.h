@@ -15,6 +15,8 @@
 //   * SIGPIPE is ignored: a write to a pipe or FIFO whose reader has gone
 //     fails with EPIPE like any failed write, so the writer names the output,
 //     removes its temporaries and exits 1 instead of dying silently.
+//   * SIGXFSZ is ignored too: a write past the file-size limit (`ulimit -f`)
+//     fails with EFBIG ("File too large"), reported naming the file.
 //   * The handlers only store the signal's number: nothing else is
 //     async-signal-safe to do there.
 #pragma once
@@ -31,7 +33,8 @@ struct Interrupted : std::runtime_error {
   int signal;
 };
 
-// Installs the handlers for SIGINT, SIGTERM and SIGHUP and ignores SIGPIPE.
+// Installs the handlers for SIGINT, SIGTERM and SIGHUP and ignores SIGPIPE
+// and SIGXFSZ.
 void catchInterrupts();
 
 // The signal that arrived (SIGINT, SIGTERM, SIGHUP), or 0: a check cheap

@@ -12,9 +12,9 @@
 #include <cctype>
 #include <cerrno>
 #include <cstring>
-#include <fstream>
 #include <functional>
 #include <mutex>
+#include <sstream>
 #include <system_error>
 
 #include "gpu/base/interrupt.h"
@@ -293,6 +293,13 @@ std::string outputFileProblem(const fs::path& file) {
 
 std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writable_folders) {
   if (std::string problem = outputNameProblem(file); !problem.empty()) return problem;
+  struct stat info {};
+  // A device, FIFO or socket is written through the name as given: the
+  // kernel follows links that name no file (/dev/stdout on a pipe reaches
+  // "pipe:[N]" in /proc/self/fd).
+  if (::stat(file.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISDIR(info.st_mode)) {
+    return ::access(file.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
+  }
   const fs::path target = followLinks(file);
   const fs::path folder = folderOf(target);
   const std::size_t most = longestName(nearestExisting(folder));
@@ -300,7 +307,6 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
     return "the name " + target.filename().string().substr(0, 16) + "... is longer than " +
            std::to_string(most) + " bytes";
   }
-  struct stat info {};
   if (::stat(target.c_str(), &info) == 0) {
     if (S_ISDIR(info.st_mode)) return "is a directory, not a file";
     if (!S_ISREG(info.st_mode)) {  // written through
@@ -317,13 +323,17 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
   return {};
 }
 
-OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLinks(path_)) {
+OutputFile::OutputFile(fs::path path, FinalLink link)
+    : path_(std::move(path)),
+      target_(link == FinalLink::kFollow ? followLinks(path_) : path_),
+      replace_link_(link == FinalLink::kReplace) {
   if (path_.empty()) fail("the name is empty");
   struct stat info {};
-  const bool exists = ::stat(target_.c_str(), &info) == 0;
+  const bool exists =
+      (replace_link_ ? ::lstat(path_.c_str(), &info) : ::stat(path_.c_str(), &info)) == 0;
   if (exists && S_ISDIR(info.st_mode)) fail("is a directory, not a file");
-  if (exists && !S_ISREG(info.st_mode)) {
-    fd_ = openWrittenThrough(target_, path_);
+  if (exists && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
+    fd_ = openWrittenThrough(path_, path_);  // the kernel follows what followLinks cannot
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
     return;
   }
@@ -343,12 +353,13 @@ OutputFile::OutputFile(fs::path path) : path_(std::move(path)), target_(followLi
   ::flock(fd_, LOCK_SH);  // while it is open, no other run takes it for stale
   temporary_ = name;
   // A replaced file keeps its permissions; a new one gets the umask's.
-  ::fchmod(fd_, exists ? (info.st_mode & 07777) : newFileMode());
+  ::fchmod(fd_, exists && S_ISREG(info.st_mode) ? (info.st_mode & 07777) : newFileMode());
 }
 
 OutputFile::OutputFile(OutputFile&& other) noexcept
     : path_(std::move(other.path_)),
       target_(std::move(other.target_)),
+      replace_link_(other.replace_link_),
       temporary_(std::move(other.temporary_)),
       fd_(other.fd_),
       finished_(other.finished_),
@@ -402,7 +413,8 @@ void OutputFile::publish() {
   if (published_) return;
   if (!writtenThrough()) {
     struct stat info {};
-    if (::lstat(target_.c_str(), &info) == 0 && !S_ISREG(info.st_mode)) {
+    if (::lstat(target_.c_str(), &info) == 0 && !S_ISREG(info.st_mode) &&
+        !(replace_link_ && S_ISLNK(info.st_mode))) {
       fail("is no longer a regular file; not replaced");
     }
     if (::rename(temporary_.c_str(), target_.c_str()) != 0) {
@@ -430,43 +442,183 @@ OutputFolder::~OutputFolder() {
 }
 
 OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {
+  std::error_code error;
+  fs::path absolute = fs::absolute(folder_, error).lexically_normal();
+  if (!absolute.has_filename() && absolute.has_relative_path()) absolute = absolute.parent_path();
+  const fs::path canonical = fs::weakly_canonical(absolute, error);
+  folder_identity_ = (error ? absolute : canonical).string();
   const fs::path manifest = folder_ / kManifestName;
   declared_.emplace(identity(manifest), manifest.string());
 }
 
-// What makes two names one output: the file they reach, links followed.
-std::string OutputFolder::identity(const fs::path& path) {
+// What makes two names one output: the file they reach, however spelled
+// ("r/x", "./r/x", "r//x", "/abs/r/x", "r/new/../x").  Inside the folder:
+// the folder's identity and the name relative to it (no link followed
+// there).  Elsewhere: links followed, and made absolute first, so the
+// folders not made yet are resolved from the nearest one that exists
+// (weakly_canonical leaves a relative path relative when its first part
+// does not exist yet).
+std::string OutputFolder::identity(const fs::path& path) const {
+  if (const std::optional<fs::path> relative = inside(path)) {
+    return (fs::path(folder_identity_) / *relative).string();
+  }
   std::error_code error;
-  const fs::path target = followLinks(path);
-  const fs::path canonical = fs::weakly_canonical(target, error);
-  return (error ? target : canonical).lexically_normal().string();
+  const fs::path target = fs::absolute(followLinks(path), error).lexically_normal();
+  if (!target.has_filename()) return target.string();
+  const fs::path folder = fs::weakly_canonical(target.parent_path(), error);
+  return ((error ? target.parent_path() : folder) / target.filename()).lexically_normal().string();
 }
 
+std::optional<fs::path> OutputFolder::inside(const fs::path& path) const {
+  std::error_code error;
+  const fs::path relative =
+      fs::absolute(path, error)
+          .lexically_normal()
+          .lexically_relative(fs::absolute(folder_, error).lexically_normal());
+  if (error || !safeRelative(relative)) return std::nullopt;
+  return relative;
+}
+
+std::string OutputFolder::linkProblem(const fs::path& relative) const {
+  fs::path at = folder_;
+  for (const fs::path& part : relative.parent_path()) {
+    at /= part;
+    struct stat info {};
+    if (::lstat(at.c_str(), &info) != 0) return {};  // not made yet: this run makes it
+    if (S_ISLNK(info.st_mode)) {
+      return at.string() +
+             " is a symbolic link: a run folder's outputs are written inside it, never through "
+             "a link";
+    }
+  }
+  return {};
+}
+
+namespace {
+
+// Two identities where the first is a folder above the second.
+bool isAbove(const std::string& folder, const std::string& below) {
+  return below.size() > folder.size() && below.compare(0, folder.size(), folder) == 0 &&
+         (folder.back() == '/' || below[folder.size()] == '/');
+}
+
+}  // namespace
+
 std::string OutputFolder::declare(const fs::path& path) {
+  // The folder's list is a regular file (or a link, replaced), never
+  // something a run would hang on or fail at the end: a FIFO, a folder.
+  const fs::path manifest = folder_ / kManifestName;
+  struct stat info {};
+  if (::lstat(manifest.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
+    return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
+  }
+  // Links first: the checks below try the folder by making a file there.
+  const std::optional<fs::path> relative = inside(path);
+  if (relative) {
+    if (std::string problem = linkProblem(*relative); !problem.empty()) return problem;
+  }
   if (std::string problem = outputFileProblemIn(path, &writable_folders_); !problem.empty()) {
     return problem;
   }
-  const auto [where, added] = declared_.emplace(identity(path), path.string());
+  const std::string id = identity(path);
+  if (id == folder_identity_ || isAbove(id, folder_identity_)) {
+    return "is the run's folder " + folder_.string() + " or a folder above it, not a file";
+  }
+  // The map is in name order: what is below `id` follows "id/" at once.
+  const std::string below = id + "/";
+  if (const auto next = declared_.lower_bound(below);
+      next != declared_.end() && next->first.compare(0, below.size(), below) == 0) {
+    return "is the folder of another output of this run (" + next->second + "), not a file";
+  }
+  for (fs::path folder = fs::path(id).parent_path(); folder.has_relative_path();
+       folder = folder.parent_path()) {
+    if (const auto above = declared_.find(folder.string()); above != declared_.end()) {
+      return "would be inside another output of this run (" + above->second + "), which is a file";
+    }
+  }
+  const auto [where, added] = declared_.emplace(id, path.string());
   if (!added)
     return "is also an output of this run (" + where->second + "): one file cannot hold both";
   return {};
 }
 
 OutputFile& OutputFolder::open(const fs::path& path) {
+  const std::optional<fs::path> relative = inside(path);
+  const fs::path opened = relative ? folder_ / *relative : path;
+  const FinalLink link = relative ? FinalLink::kReplace : FinalLink::kFollow;
   if (!opened_.insert(identity(path)).second) {
     throw OutputError(path.string() + ": opened twice as one run's output");
   }
-  std::error_code error;
-  const fs::path relative =
-      fs::weakly_canonical(path, error).lexically_relative(fs::weakly_canonical(folder_, error));
-  if (safeRelative(relative)) inside_.insert(relative.generic_string());
-  files_.push_back(std::make_unique<OutputFile>(path));
+  if (relative) {
+    if (const std::string problem = linkProblem(*relative); !problem.empty()) {
+      throw OutputError(path.string() + ": " + problem);
+    }
+    inside_.insert(relative->generic_string());
+  }
+  files_.push_back(std::make_unique<OutputFile>(opened, link));
   return *files_.back();
 }
 
+namespace {
+
+// The run folder, opened to reach its entries without following links.
+struct FolderHandle {
+  explicit FolderHandle(const fs::path& folder)
+      : fd(::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC)) {}
+  ~FolderHandle() {
+    if (fd >= 0) ::close(fd);
+  }
+  FolderHandle(const FolderHandle&) = delete;
+  FolderHandle& operator=(const FolderHandle&) = delete;
+  int fd;
+};
+
+// Opens the folder holding `relative` inside the folder `root` (an open
+// descriptor), one part at a time, refusing any part that is a symlink
+// (O_NOFOLLOW): what is reached never leaves the folder.  -1 if it cannot.
+int openParentInside(int root, const fs::path& relative) {
+  int at = ::dup(root);
+  for (const fs::path& part : relative.parent_path()) {
+    if (at < 0) return -1;
+    const int next = ::openat(at, part.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    ::close(at);
+    at = next;
+  }
+  return at;
+}
+
+// Removes the regular file `relative` inside `folder`, reached without
+// leaving the folder (no link followed, the file's own included); true if
+// it was removed.
+bool removeInside(int folder, const fs::path& relative) {
+  const int parent = openParentInside(folder, relative);
+  if (parent < 0) return false;
+  struct stat info {};
+  const std::string name = relative.filename().string();
+  const bool removed = ::fstatat(parent, name.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0 &&
+                       S_ISREG(info.st_mode) && ::unlinkat(parent, name.c_str(), 0) == 0;
+  ::close(parent);
+  return removed;
+}
+
+}  // namespace
+
 std::set<std::string> OutputFolder::previousOutputs() const {
   std::set<std::string> entries;
-  std::ifstream manifest(folder_ / kManifestName);
+  const FolderHandle folder(folder_);
+  if (folder.fd < 0) return entries;
+  // Never through a link: a manifest someone linked elsewhere lists nothing.
+  const int fd = ::openat(folder.fd, kManifestName, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return entries;
+  std::string text;
+  struct stat info {};
+  if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode)) {
+    char buffer[65536];
+    ssize_t got = 0;
+    while ((got = ::read(fd, buffer, sizeof(buffer))) > 0) text.append(buffer, got);
+  }
+  ::close(fd);
+  std::istringstream manifest(text);
   std::string line;
   // A manifest without this format's first line (an older one, or not ours)
   // is trusted with nothing: files the program did not write stay.
@@ -481,10 +633,12 @@ std::set<std::string> OutputFolder::previousOutputs() const {
 void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
   std::string text = std::string(kManifestHeader) + '\n';
   for (const std::string& entry : entries) text += escapeManifestEntry(entry) + '\n';
-  writeFileAtomically(folder_ / kManifestName, text);
+  OutputFile manifest(folder_ / kManifestName, FinalLink::kReplace);
+  manifest.write(text);
+  manifest.commit();
 }
 
-void OutputFolder::commit() {
+std::vector<std::string> OutputFolder::commit() {
   for (const auto& file : files_) file->finish();
   // Listed before anything moves: if the process dies in between, the next
   // run still knows every file this one and the last may have left.
@@ -493,13 +647,14 @@ void OutputFolder::commit() {
   pending.insert(inside_.begin(), inside_.end());
   writeManifest(pending);
   for (const auto& file : files_) file->publish();
+  std::vector<std::string> removed;
+  const FolderHandle folder(folder_);
   for (const std::string& entry : previous) {
-    if (inside_.count(entry) > 0) continue;
-    const fs::path stale = folder_ / entry;
-    struct stat info {};
-    if (::lstat(stale.c_str(), &info) == 0 && S_ISREG(info.st_mode)) ::unlink(stale.c_str());
+    if (inside_.count(entry) > 0 || folder.fd < 0) continue;
+    if (removeInside(folder.fd, entry)) removed.push_back(entry);
   }
   writeManifest(inside_);
+  return removed;
 }
 
 }  // namespace overlap

@@ -11,8 +11,13 @@
 //     created exclusively (O_EXCL) and locked (flock) while open, then
 //     flushed, synced and renamed over the name: a reader sees the old file
 //     or the whole new one, and two writers of one name never share a
-//     temporary.  A symlink is followed: its target is replaced, the link
-//     stays a link.
+//     temporary.  A symlink named by the user is followed: its target is
+//     replaced, the link stays a link.  Inside a run folder (OutputFolder)
+//     no link is followed: a link in an output's own name is replaced by the
+//     file, and a linked folder between the run folder and an output is
+//     refused (declare, and again at open).
+//   * A device, FIFO or socket is reached through the name as given, so
+//     /dev/stdout works on a pipe (whose /proc link names no file).
 //   * The first output opened in a folder removes the temporaries of that
 //     pattern that dead writers left there (a run killed by SIGKILL): the
 //     PID is no process's and no one holds the lock.  A live writer's
@@ -31,10 +36,15 @@
 //     published together at commit(), and the files the previous run listed
 //     in the folder's manifest and this run does not write are removed.
 //     Files the program did not write are never removed: the manifest
-//     escapes every name (a newline cannot split one into two), and one
-//     without this format's first line lists nothing.
-//   * Two outputs of one run never share a file: declare() refuses a second
-//     name for a file already declared (links followed), before any work.
+//     escapes every name (a newline cannot split one into two), one
+//     without this format's first line lists nothing, the manifest is never
+//     read through a link, and an entry is removed only if it is a regular
+//     file reached from the folder without following any link (openat,
+//     O_NOFOLLOW).
+//   * Two outputs of one run never share a path: declare() refuses, before
+//     any work and however the names are spelled, a second name for a file
+//     already declared, a file that is the run folder, a folder above it or
+//     a folder of another output, and a file inside another output.
 // Plain POSIX and the standard library: no Bullet here.
 #pragma once
 
@@ -77,10 +87,15 @@ std::string outputFolderProblem(const std::filesystem::path& folder);
 std::string escapeManifestEntry(std::string_view name);
 std::optional<std::string> unescapeManifestEntry(std::string_view line);
 
+// How an output's own name is taken when it is a symlink: a name given by
+// the user is followed (the target is replaced); a name inside a run folder
+// is not (the link itself is replaced by the file, its target untouched).
+enum class FinalLink { kFollow, kReplace };
+
 class OutputFile {
  public:
   // Opens the output (see above); throws OutputError naming it if it cannot.
-  explicit OutputFile(std::filesystem::path path);
+  explicit OutputFile(std::filesystem::path path, FinalLink link = FinalLink::kFollow);
   ~OutputFile();  // not published: the temporary is removed
   OutputFile(OutputFile&& other) noexcept;
   OutputFile& operator=(OutputFile&& other) = delete;
@@ -110,7 +125,8 @@ class OutputFile {
   [[noreturn]] void fail(const std::string& what) const;
 
   std::filesystem::path path_;       // as given: what messages name
-  std::filesystem::path target_;     // path_ with symlinks followed
+  std::filesystem::path target_;     // path_ with symlinks followed (kFollow)
+  bool replace_link_ = false;        // kReplace: a symlink at path_ is replaced
   std::filesystem::path temporary_;  // empty when written through
   int fd_ = -1;
   bool finished_ = false;
@@ -152,15 +168,21 @@ class OutputFolder {
   // it is only published with the rest.  Opening one file twice throws.
   OutputFile& open(const std::filesystem::path& path);
   // Finishes every output, publishes them all, removes the previous run's
-  // outputs this run did not write, and writes the new manifest.
-  void commit();
+  // outputs this run did not write, and writes the new manifest.  Returns
+  // the names it removed, relative to the folder.
+  std::vector<std::string> commit();
 
  private:
-  static std::string identity(const std::filesystem::path& path);
+  std::string identity(const std::filesystem::path& path) const;
+  // `path` relative to the folder, lexically, when it names a file inside it.
+  std::optional<std::filesystem::path> inside(const std::filesystem::path& path) const;
+  // Empty unless a folder between the run folder and `relative` is a symlink.
+  std::string linkProblem(const std::filesystem::path& relative) const;
   std::set<std::string> previousOutputs() const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;
+  std::string folder_identity_;
   std::vector<std::unique_ptr<OutputFile>> files_;
   std::set<std::string> inside_;                 // the outputs inside the folder, relative to it
   std::map<std::string, std::string> declared_;  // identity() -> the name declared

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "gpu/base/output_file.h"
 #include "tests/engine/cli_test_support.h"
 
 namespace {
@@ -353,6 +354,246 @@ TEST_F(ProbeCliTest, Row24TheWordsAreRight) {
   const std::string huge = "capture --objects 20 --keyframes 0 --capture-size 4294967297x1 --out " +
                            (out_ / "shots").string();
   expectRefused(runOverlap(huge), huge, "width \"4294967297\" is out of range");
+}
+
+// Two outputs that are one file are refused before any work however the
+// names are spelled, folders not made yet included.
+TEST_F(ProbeCliTest, TwoOutputsThatAreOneFileAreRefusedHoweverSpelled) {
+  const std::string absolute = (out_ / "r3").string();
+  const std::vector<std::pair<std::string, std::string>> spellings = {
+      {"./r3", "r3/summary.json"},     {"r3", "./r3/summary.json"},
+      {"r3", "r3//frames.csv"},        {"r3", absolute + "/timeline.json"},
+      {"r3/../r3", "r3/summary.json"}, {"./r3/", "r3/new/../.overlap-outputs"},
+  };
+  for (const auto& [out, wav] : spellings) {
+    const std::string args =
+        "run --objects 20 --frames 2 --capture-every 0 --out " + out + " --wav " + wav;
+    const Result result = runCommand("cd " + out_.string() + " && " + OVERLAP_BINARY + " " + args);
+    expectRefused(result, args, "is also an output of this run");
+    EXPECT_FALSE(fs::exists(out_ / "r3")) << args;
+  }
+}
+
+// A --wav that is the run's folder, a folder above it, or the folder of its
+// PNGs is refused before any work, creating nothing.
+TEST_F(ProbeCliTest, AWavThatIsAFolderOfTheRunIsRefusedBeforeAnyWork) {
+  const std::string rf = (out_ / "a" / "rf").string();
+  const std::vector<std::string> wavs = {rf, (out_ / "a").string(), rf + "/frames"};
+  for (const std::string& wav : wavs) {
+    const std::string args =
+        "run --objects 20 --frames 2 --capture-every 1 --capture-size 32x24 "
+        "--out " +
+        rf + " --wav " + wav;
+    const Result result = runOverlap(args);
+    expectRefused(result, args, "--wav " + wav + ": is ");
+    EXPECT_NE(result.stderr_text.find("not a file"), std::string::npos) << result.stderr_text;
+    EXPECT_FALSE(fs::exists(out_ / "a")) << args;
+  }
+}
+
+// A run folder someone else prepared cannot make a run remove or overwrite
+// anything outside it: no link is followed for the manifest, for the
+// outputs' own names, or for a folder holding an entry to remove.
+TEST_F(ProbeCliTest, ARunFolderNeverReachesOutsideItselfThroughALink) {
+  const fs::path photos = out_ / "photos";
+  const fs::path shared = out_ / "shared";
+  fs::create_directories(photos);
+  fs::create_directories(shared);
+  std::ofstream(photos / "IMG_0001.jpg") << "photo";
+  std::ofstream(photos / "precious.json") << "precious";
+  std::ofstream(out_ / "list") << overlap::OutputFolder::kManifestHeader << "\nkeep.txt\n";
+  std::ofstream(shared / "keep.txt") << "mine";
+  fs::create_directory_symlink("../photos", shared / "frames");
+  fs::create_symlink("../photos/precious.json", shared / "summary.json");
+  fs::create_symlink("../list", shared / ".overlap-outputs");
+
+  ASSERT_EQ(smallRun(shared, "--no-wav").exit_code, 0);
+  EXPECT_EQ(fileText(shared / "keep.txt"), "mine");  // the linked manifest listed nothing
+  std::ofstream(shared / ".overlap-outputs")
+      << overlap::OutputFolder::kManifestHeader << "\nframes/IMG_0001.jpg\n";
+  ASSERT_EQ(smallRun(shared, "--no-wav").exit_code, 0);
+  EXPECT_EQ(fileText(photos / "IMG_0001.jpg"), "photo");
+  EXPECT_EQ(fileText(photos / "precious.json"), "precious");
+  EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(shared / "summary.json")));
+  EXPECT_EQ(fileText(out_ / "list").find("summary.json"), std::string::npos);
+
+  const std::string args =
+      "run --objects 20 --frames 2 --capture-every 1 --capture-size 32x24 "
+      "--no-wav --out " +
+      shared.string();
+  expectRefused(runOverlap(args), args, "frames is a symbolic link");
+  EXPECT_EQ(std::distance(fs::directory_iterator(photos), fs::directory_iterator()), 2);
+
+  // A list that is a FIFO would hang the run's end: refused before any work.
+  fs::remove(shared / ".overlap-outputs");
+  ASSERT_EQ(::mkfifo((shared / ".overlap-outputs").c_str(), 0600), 0);
+  expectRefused(smallRun(shared, "--no-wav"), "a FIFO list", "is not a regular file");
+}
+
+// /dev/stdout as an output works when standard output is a pipe.
+TEST_F(ProbeCliTest, DevStdoutOnAPipeIsWrittenThrough) {
+  int exit_code = -1;
+  const std::string stream = shellStdout(
+      std::string(OVERLAP_BINARY) + " record --objects 20 --frames 2 --out /dev/stdout 2>/dev/null",
+      &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_EQ(stream.size(), 304u + 3u * 20u * 32u);  // the header, then 3 frames of 20 boxes
+  const std::string wav = shellStdout(std::string(OVERLAP_BINARY) +
+                                          " run --objects 20 --frames 2 --capture-every 0 --out " +
+                                          (out_ / "r").string() + " --wav /dev/stdout 2>/dev/null",
+                                      &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_EQ(wav.substr(0, 4), "RIFF");
+}
+
+// A write past `ulimit -f` is reported naming the file (exit 1), not a
+// silent SIGXFSZ, and leaves no temporary and no new folder.
+TEST_F(ProbeCliTest, AFileOverTheSizeLimitIsReportedNamingIt) {
+  const std::vector<std::pair<std::string, std::string>> runs = {
+      {"record --objects 2000 --frames 5 --out " + (out_ / "new" / "r.aabbs").string(), "r.aabbs"},
+      {"run --objects 20 --frames 30 --capture-every 0 --out " + (out_ / "new" / "run").string(),
+       "sound.wav"},
+  };
+  for (const auto& [args, file] : runs) {
+    const Result result = runCommand("ulimit -f 8 && " + std::string(OVERLAP_BINARY) + " " + args);
+    EXPECT_EQ(result.exit_code, 1) << args << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(file + ": cannot write: File too large"), std::string::npos)
+        << result.stderr_text;
+    EXPECT_FALSE(fs::exists(out_ / "new")) << args;
+  }
+}
+
+// Whatever a program prints on standard output, a failed write there exits
+// 1 naming it: help, version, the algorithm list, the stream figures.
+TEST_F(ProbeCliTest, StandardOutputThatCannotBeWrittenExits1) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const std::vector<std::string> commands = {
+      std::string(OVERLAP_BINARY) + " --help",
+      std::string(OVERLAP_BINARY) + " --version",
+      std::string(OVERLAP_BINARY) + " run --help",
+      std::string(OVERLAP_BINARY) + " --list-algos --json",
+      std::string(OVERLAP_BENCH_BINARY) + " --help",
+      std::string(OVERLAP_BENCH_BINARY) + " --input " + stream + " --warmup 0 --stream-stats",
+  };
+  for (const std::string& command : commands) {
+    const Result result = runCommand("{ " + command + " > /dev/full; }");
+    EXPECT_EQ(result.exit_code, 1) << command << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("standard output: cannot write"), std::string::npos)
+        << command << ": " << result.stderr_text;
+  }
+}
+
+// The benchmark checks that the streams it must record fit in --streams
+// before recording the first.
+TEST_F(ProbeCliTest, TheBenchmarkRefusesStreamsItsDiskCannotHoldBeforeRecording) {
+  const std::string args =
+      "--objects 10000000 --big-objects 0 --record-frames 100000 --algos "
+      "cpusap --warmup 0 --repeats 1 --streams " +
+      (out_ / "new" / "streams").string() + " --out " + (out_ / "b").string();
+  expectRefused(runBench(args), args, "--streams");
+  EXPECT_FALSE(fs::exists(out_ / "new"));
+}
+
+// A value holding a newline stays on the error's one line, escaped.
+TEST_F(ProbeCliTest, AnErrorMessageStaysOnOneLine) {
+  const std::string args = "run --objects \"$(printf '5\\nx')\" --out " + (out_ / "r").string();
+  expectRefused(runOverlap(args), args, "5\\nx");
+}
+
+// An option given twice says so in plain words.
+TEST_F(ProbeCliTest, AnOptionGivenTwiceSaysSo) {
+  const std::string args = "run --objects 5 --objects 6 --out " + (out_ / "r").string();
+  expectRefused(runOverlap(args), args, "--objects is given 2 times; give it once");
+}
+
+// The benchmark refuses a --seed nothing reads and a stream given twice.
+TEST_F(ProbeCliTest, TheBenchmarkRefusesAnIgnoredSeedAndARepeatedInput) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const std::string tail = " --algos bf --warmup 0 --repeats 1 --out " + (out_ / "b").string();
+  expectRefused(runBench("--input " + stream + " --seed 5" + tail), "--seed", "--seed and --input");
+  expectRefused(runBench("--input " + stream + " " + (out_ / "." / "s.aabbs").string() + tail),
+                "twice", "given twice");
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+}
+
+// --list-algos takes nothing but --json.
+TEST_F(ProbeCliTest, ListAlgosRefusesAnythingBesideIt) {
+  expectRefused(runOverlap("--list-algos bogus"), "--list-algos bogus", "'bogus'");
+}
+
+// --stream-stats runs no finder, so it warns about none.
+TEST_F(ProbeCliTest, StreamStatsWarnsAboutNoFinder) {
+  const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
+  const Result result = runBench("--input " + stream + " --warmup 0 --stream-stats");
+  EXPECT_EQ(result.exit_code, 0) << result.stderr_text;
+  EXPECT_EQ(result.stderr_text.find("gpu"), std::string::npos) << result.stderr_text;
+}
+
+// `record` checks the disk's room for the whole stream before any physics.
+TEST_F(ProbeCliTest, RecordRefusesAStreamItsDiskCannotHoldBeforeAnyWork) {
+  const std::string args =
+      "record --objects 10000000 --frames 1000000 --out " + (out_ / "huge.aabbs").string();
+  expectRefused(runOverlap(args), args, "its folder has");
+  EXPECT_FALSE(fs::exists(out_ / "huge.aabbs"));
+}
+
+// A run's closing line names one PNG once, and the last run's files it
+// removed.
+TEST_F(ProbeCliTest, TheClosingLineNamesWhatWasWrittenAndRemoved) {
+  const fs::path r = out_ / "r";
+  const Result one = runOverlap(
+      "run --objects 20 --frames 1 --capture-every 1 --capture-size 32x24 --out " + r.string());
+  ASSERT_EQ(one.exit_code, 0) << one.stderr_text;
+  EXPECT_NE(one.stderr_text.find("1 PNG in " + (r / "frames").string() + " (scene4_frame0000.png)"),
+            std::string::npos)
+      << one.stderr_text;
+  const Result again = smallRun(r, "--no-wav");
+  ASSERT_EQ(again.exit_code, 0) << again.stderr_text;
+  EXPECT_NE(again.stderr_text.find(
+                "; removed the last run's frames/scene4_frame0000.png and sound.wav\n"),
+            std::string::npos)
+      << again.stderr_text;
+}
+
+// Without --capture-every a run writes frames 0, F/4, F/2 and 3F/4.
+TEST_F(ProbeCliTest, TheDefaultKeyframesAreFourPngs) {
+  for (const int frames : {5, 6, 9}) {
+    const fs::path r = out_ / ("r" + std::to_string(frames));
+    const Result result = runOverlap("run --objects 20 --no-wav --capture-size 32x24 --frames " +
+                                     std::to_string(frames) + " --out " + r.string());
+    ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+    EXPECT_EQ(std::distance(fs::directory_iterator(r / "frames"), fs::directory_iterator()), 4)
+        << frames;
+    EXPECT_TRUE(
+        fs::exists(r / "frames" / ("scene4_frame000" + std::to_string(frames / 2) + ".png")))
+        << frames;
+  }
+}
+
+// --growth is written as given.
+TEST_F(ProbeCliTest, LatencyWritesTheGrowthAsGiven) {
+  int exit_code = -1;
+  const std::string csv =
+      stdoutOf("latency --objects 20 --frames 2 --algo bvh --growth 1000,0.0004", &exit_code);
+  EXPECT_EQ(exit_code, 0);
+  EXPECT_NE(csv.find(",1000,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",0.0004,"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("e+"), std::string::npos) << csv;
+}
+
+// sap's limit is said in the boxes the user asked for.
+TEST_F(ProbeCliTest, SapsLimitCountsTheBoxesGiven) {
+  const std::string args =
+      "run --algo sap --objects 32759 --frames 1 --no-tasks --capture-every 0 "
+      "--out " +
+      (out_ / "r").string();
+  const Result result = runOverlap(args);
+  expectRefused(result, args, "asked for 32759; use sap32");
+}
+
+// An empty --input is named as empty.
+TEST_F(ProbeCliTest, AnEmptyInputNameIsNamed) {
+  expectRefused(runOverlap("pairs --input \"\""), "--input \"\"", "\"\" (an empty name)");
 }
 
 }  // namespace

@@ -41,7 +41,7 @@ TEST_F(StreamCache, AStreamSimulatedOtherwiseIsAnErrorNotAReplay) {
   physics::WorldOptions fixed_substeps;
   fixed_substeps.substeps = 8;  // the scenes' old default
   physics::writeAabbStream(cachedStreamPath(folder_, config_, kFrames),
-                           recordStream(config_, kFrames, fixed_substeps));
+                           recordStream(config_, kFrames, "test", fixed_substeps));
   try {
     loadOrRecordStream(folder_, config_, kFrames);
     FAIL() << "a stream recorded with 8 fixed substeps was replayed as the default's";
