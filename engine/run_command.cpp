@@ -369,7 +369,8 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   std::optional<SteppedRun> sync_stepper;
   Timeline sync_timeline;  // not written: timeline.json is the async run's
   if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr, sync_timeline);
-  SteppedRun stepper(plan, plan.sync, wav, timeline);
+  std::optional<SteppedRun> stepper;
+  stepper.emplace(plan, plan.sync, wav, timeline);
   // Once the scene is built: a scene that cannot be placed says only that.
   if (!plan.default_algorithm_reason.empty()) {
     std::fprintf(stderr, "overlap: %s\n", plan.default_algorithm_reason.c_str());
@@ -379,16 +380,24 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   for (int frame = 0; frame < plan.frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(plan.frames));
     if (sync_stepper) sync_stepper->step();
-    FrameRow& row = stepper.step();
+    FrameRow& row = stepper->step();
     if (camera != nullptr && frame % plan.capture_every == 0) {
-      row.render_ms = camera->capture(stepper.world(), frame);
+      row.render_ms = camera->capture(stepper->world(), frame);
     }
     progress.update(frame + 1);
   }
   progress.finish();
   std::optional<RunResult> sync_run;
   if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
-  return {stepper.finish(progress.seconds()), std::move(sync_run)};
+  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run)};
+  // Millions of boxes take seconds to release: said past a second, and a
+  // signal meanwhile still stops the run before anything is published.
+  Progress releasing("overlap: releasing " + std::to_string(plan.config.objects) + " boxes", 0);
+  stepper.reset();
+  sync_stepper.reset();
+  releasing.finish();
+  stopIfInterrupted("the release of the boxes after the last frame");
+  return runs;
 }
 
 // ---- write ----

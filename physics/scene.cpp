@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 
 namespace overlap::physics {
@@ -26,6 +27,8 @@ constexpr int kMaxPlacementTries = 100000;
 // refused as an impossible packing.
 constexpr int kMaxPlacementAttempts = 64;
 constexpr int kRetryPlacementTries = 10000;
+// Boxes placed between two looks at the signal flag (gpu/base/interrupt.h).
+constexpr std::size_t kBoxesBetweenSignalChecks = 1024;
 
 void require(bool ok, const char* field, const std::string& problem) {
   if (!ok) throw std::invalid_argument(std::string(field) + ": " + problem);
@@ -131,7 +134,13 @@ std::optional<std::size_t> placeBoxes(const std::vector<std::pair<double, SizeCl
                                       const std::vector<std::size_t>& order, SceneLayout& layout,
                                       double cell, int max_tries, SeededRandom& random) {
   SphereGrid grid(layout.half_extent, cell, sizes.size());
+  std::size_t placed = 0;
   for (const std::size_t i : order) {
+    // Millions of boxes take seconds: a signal stops the placement within it.
+    if (placed++ % kBoxesBetweenSignalChecks == 0 && pendingInterrupt() != 0) {
+      stopIfInterrupted("placing box " + std::to_string(placed) + " of " +
+                        std::to_string(sizes.size()));
+    }
     const double radius = sizes[i].first * kSqrt3 / 2;
     const double reach = layout.half_extent - radius;  // sphere stays off the walls
     int tries = 0;

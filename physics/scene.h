@@ -66,7 +66,8 @@ struct SceneLayout {
 };
 
 // Throws std::invalid_argument naming the option at fault if the boxes cannot
-// be placed (--fill too high, or too few --objects for the biggest box).
+// be placed (--fill too high, or too few --objects for the biggest box); a
+// signal (gpu/base/interrupt.h) stops the placement with Interrupted.
 SceneLayout generateScene(const SceneConfig& config);
 
 std::string sizeClassName(SizeClass size_class);

@@ -113,7 +113,9 @@ class PhysicsWorld {
 
   // Runs one frame: scene forces (kicks, gravity), then K substeps, then
   // takes out any box the last substep broke (so no broken box is seen
-  // between frames).
+  // between frames).  Building the world (placing the boxes, adding them to
+  // Bullet) stops at a signal (gpu/base/interrupt.h) with Interrupted, and
+  // destroying it is linear in the boxes and pairs.
   FrameReport stepFrame();
 
   const SceneConfig& config() const { return config_; }

@@ -338,4 +338,23 @@ TEST_F(SignalsCliTest, Row21TheBenchmarkStopsOnSigint) {
   EXPECT_FALSE(holdsTemporaries(out_));
 }
 
+// A run of many boxes stops while it places them or adds them to the
+// broadphase (a sweep and prune adds each in time proportional to those it
+// holds), and takes its world apart at once; nothing is written.
+TEST_F(SignalsCliTest, ARunStopsWhileItPlacesItsBoxes) {
+  const fs::path folder = out_ / "many";
+  Started run("run --algo sap32 --objects 200000 --frames 1 --no-tasks --capture-every 0 --out " +
+                  folder.string(),
+              out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("overlap: placing 200000 boxes: ")) << run.stderrText();
+  run.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(run.wait(), 130)) << run.stderrText();
+  const std::string err = run.stderrText();
+  EXPECT_TRUE(err.find("stopped by SIGINT at placing box") != std::string::npos ||
+              err.find("stopped by SIGINT at adding box") != std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(folder / "summary.json"));
+  EXPECT_FALSE(holdsTemporaries(out_));
+}
+
 }  // namespace
