@@ -264,7 +264,14 @@ FrameReport PhysicsWorld::stepFrame() {
   FrameReport report;
   planFrame(report);
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
-  for (int k = 0; k < substeps_; ++k) b.world->stepReported(dt);
+  for (int k = 0; k < substeps_; ++k) {
+    // Between substeps the world is whole: a signal stops a long frame there.
+    if (k > 0 && pendingInterrupt() != 0) {
+      stopIfInterrupted("frame " + std::to_string(frame_) + ", substep " + std::to_string(k) +
+                        " of " + std::to_string(substeps_));
+    }
+    b.world->stepReported(dt);
+  }
   // The last substep's solver and integration may have broken a box: out now,
   // so that nothing reads it between frames (the next update would be late).
   removeBrokenBoxes();

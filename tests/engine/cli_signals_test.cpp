@@ -357,4 +357,19 @@ TEST_F(SignalsCliTest, ARunStopsWhileItPlacesItsBoxes) {
   EXPECT_FALSE(holdsTemporaries(out_));
 }
 
+// A signal during one long frame (cpubf's search over 60 000 boxes) stops
+// the search within it, and the stop line says what already went to stdout
+// (frame 0's rows, flushed past a megabyte) instead of "kept nothing".
+TEST_F(SignalsCliTest, ASignalStopsALongFrameAndTheStopLineNamesWhatWasSent) {
+  const fs::path stream = write("line.aabbs", lineStream(60000, 3));  // 120 000 rows a frame
+  Started pairs("pairs --algo cpubf --input " + stream.string(), out_ / "err.txt");
+  ASSERT_TRUE(pairs.waitFor("overlap pairs: 1/4 frames")) << pairs.stderrText();
+  pairs.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(pairs.wait(), 130)) << pairs.stderrText();
+  const std::string err = pairs.stderrText();
+  EXPECT_NE(err.find("stopped by SIGINT at "), std::string::npos) << err;
+  EXPECT_NE(err.find("standard output's rows of frame"), std::string::npos) << err;
+  EXPECT_EQ(err.find("kept nothing of this run"), std::string::npos) << err;
+}
+
 }  // namespace
