@@ -287,8 +287,12 @@ void declareOutputs(OutputFolder& outputs, const RunPlan& plan) {
 // --task-load: the tasks sized against the scene's physics step, measured now.
 void calibrateTasks(RunPlan& plan) {
   if (!plan.task_load || !plan.tasks) return;
+  std::ostringstream load;
+  load << *plan.task_load;
+  Progress calibrating("overlap: calibrating --task-load " + load.str(), 0);
   plan.calibration =
       calibrateTaskLoad(*plan.task_load, plan.frames, plan.config, plan.world, plan.sound, plan.ai);
+  calibrating.finish();
   const TaskLoadCalibration& calibration = *plan.calibration;
   std::fprintf(stderr,
                "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
@@ -502,8 +506,9 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(plan.out);
   declareOutputs(outputs, plan);
-  OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
+  // Before any output is opened: a calibration stopped leaves no temporary.
   calibrateTasks(plan);
+  OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
   const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
   Timeline timeline;
   const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);

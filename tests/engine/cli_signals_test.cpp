@@ -372,4 +372,21 @@ TEST_F(SignalsCliTest, ASignalStopsALongFrameAndTheStopLineNamesWhatWasSent) {
   EXPECT_EQ(err.find("kept nothing of this run"), std::string::npos) << err;
 }
 
+// --task-load's calibration says it is running and stops at the first
+// signal, before any output (the WAV's temporary included) is opened.
+TEST_F(SignalsCliTest, TheTaskLoadCalibrationShowsProgressAndStopsAtOnce) {
+  const fs::path folder = out_ / "calibrated";
+  Started run(
+      "run --objects 1000 --frames 64 --task-load 50 --capture-every 0 --out " + folder.string(),
+      out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("overlap: calibrating --task-load 50: ")) << run.stderrText();
+  run.signal(SIGTERM);
+  EXPECT_TRUE(exitedWith(run.wait(), 143)) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("stopped by SIGTERM at the --task-load calibration"),
+            std::string::npos)
+      << run.stderrText();
+  EXPECT_FALSE(holdsTemporaries(out_));
+  EXPECT_FALSE(fs::exists(folder / "sound.wav"));
+}
+
 }  // namespace
