@@ -40,8 +40,8 @@ void GrowingSweepAndPrune<Sweep>::setAabb(btBroadphaseProxy* proxy, const btVect
 template <typename Sweep>
 void GrowingSweepAndPrune<Sweep>::fit(const btVector3& aabbMin, const btVector3& aabbMax,
                                       btDispatcher* dispatcher) {
-  btVector3& lo = this->m_worldAabbMin;
-  btVector3& hi = this->m_worldAabbMax;
+  const btVector3& lo = this->m_worldAabbMin;
+  const btVector3& hi = this->m_worldAabbMax;
   if (!finite(aabbMin) || !finite(aabbMax)) return;
   // Strictly inside: a corner on a face quantizes onto Bullet's clamped edge.
   bool inside = true;
@@ -62,12 +62,50 @@ void GrowingSweepAndPrune<Sweep>::fit(const btVector3& aabbMin, const btVector3&
     if (aabbMax[axis] >= hi[axis]) new_hi[axis] += room;
   }
   if (!finite(new_hi - new_lo)) return;  // past float range: Bullet clamps, as before
-  lo = new_lo;
-  hi = new_hi;
+  setBounds(new_lo, new_hi, dispatcher);
+  ++growths_;
+}
+
+template <typename Sweep>
+void GrowingSweepAndPrune<Sweep>::setBounds(const btVector3& lo, const btVector3& hi,
+                                            btDispatcher* dispatcher) {
+  this->m_worldAabbMin = lo;
+  this->m_worldAabbMax = hi;
   const auto sentinel = static_cast<btScalar>(this->m_handleSentinel);
   this->m_quantize = btVector3(sentinel, sentinel, sentinel) / (hi - lo);
   requantize(dispatcher);
-  ++growths_;
+}
+
+template <typename Sweep>
+void GrowingSweepAndPrune<Sweep>::calculateOverlappingPairs(btDispatcher* dispatcher) {
+  const auto count = static_cast<int>(this->m_numHandles);
+  btVector3 lo(BT_LARGE_FLOAT, BT_LARGE_FLOAT, BT_LARGE_FLOAT);
+  btVector3 hi = -lo;
+  const Edge* edges = this->m_pEdges[0];
+  for (int e = 1; e <= 2 * count; ++e) {
+    if (edges[e].IsMax() != 0) continue;
+    const Handle* handle = this->getHandle(edges[e].m_handle);
+    if (!finite(handle->m_aabbMin) || !finite(handle->m_aabbMax)) continue;
+    lo.setMin(handle->m_aabbMin);
+    hi.setMax(handle->m_aabbMax);
+  }
+  if (count > 0 && lo.x() <= hi.x()) {
+    const btVector3 extent = hi - lo;
+    const btVector3 bounds = this->m_worldAabbMax - this->m_worldAabbMin;
+    const btScalar widest = std::max({extent.x(), extent.y(), extent.z(), btScalar(1e-6)});
+    bool loose = false;
+    for (int axis = 0; axis < 3; ++axis) {
+      loose = loose || bounds[axis] > 4 * std::max(extent[axis], widest * btScalar(1e-3));
+    }
+    if (loose) {
+      btVector3 room;
+      for (int axis = 0; axis < 3; ++axis) {
+        room[axis] = btScalar(0.25) * std::max(extent[axis], widest * btScalar(1e-3));
+      }
+      setBounds(lo - room, hi + room, dispatcher);
+    }
+  }
+  Sweep::calculateOverlappingPairs(dispatcher);
 }
 
 // Every proxy's box on the new grid, each axis sorted again, and the pair

@@ -16,8 +16,10 @@
 // Invariants: every finite box lies inside the bounds, so the pair cache
 // holds every overlapping pair and only the pairs whose quantized boxes
 // overlap (a few more, from rounding to the grid); the proxies a caller
-// holds never move; bounds never shrink.  A box with a non-finite corner
-// grows nothing (Bullet clamps it, as before).
+// holds never move.  Before each pair search the bounds shrink back around
+// the boxes if these span under a quarter of them on some axis (a box that
+// flew far and left must not leave the grid coarse), an O(n) look.  A box
+// with a non-finite corner grows nothing (Bullet clamps it, as before).
 #pragma once
 
 #include <BulletCollision/BroadphaseCollision/btAxisSweep3.h>
@@ -34,6 +36,9 @@ class GrowingSweepAndPrune final : public Sweep {
                                  btDispatcher* dispatcher) override;
   void setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
                btDispatcher* dispatcher) override;
+  // First shrinks the bounds to the boxes when they span under a quarter of
+  // them on an axis (one far box gone must not leave the grid coarse).
+  void calculateOverlappingPairs(btDispatcher* dispatcher) override;
 
   // How many times the bounds grew (for tests).
   int growths() const { return growths_; }
@@ -42,6 +47,7 @@ class GrowingSweepAndPrune final : public Sweep {
   using Handle = typename Sweep::Handle;
   using Edge = typename Sweep::Edge;
   void fit(const btVector3& aabbMin, const btVector3& aabbMax, btDispatcher* dispatcher);
+  void setBounds(const btVector3& lo, const btVector3& hi, btDispatcher* dispatcher);
   void requantize(btDispatcher* dispatcher);
   int growths_ = 0;
 };

@@ -1,8 +1,8 @@
 // Bullet's sweep and prune quantizes inside the bounds it is built with; ours
 // grows them around boxes outside, so sap and sap32 keep every overlapping
 // pair and only a few more, wherever the boxes are: a row of boxes far
-// beyond the stated world, one that moves further out, and one created
-// through a world's broadphase outside its bounds.
+// beyond the stated world, one that moves further out, one box thrown far
+// and back, and one created through a world's broadphase outside its bounds.
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -52,6 +52,25 @@ TEST(GrowingSweepAndPrune, BoxesOutsideTheStatedWorldPairOnlyWithTheirNeighbours
       replay.findPairs();
       expectFewExtraPairs(replay, moved);
     }
+  }
+}
+
+// One box thrown far makes the grid coarse while it is there; once it is
+// back, the bounds shrink to the boxes and the grid is fine again.
+TEST(GrowingSweepAndPrune, TheBoundsShrinkBackWhenAFarBoxReturns) {
+  const Aabb stated{{0, 0, 0}, {6, 3, 3}};
+  for (const char* algo : {"sap", "sap32"}) {
+    BroadphaseReplay replay(algo, stated, kBoxes);
+    std::vector<Aabb> boxes = row(0);
+    replay.update(boxes);
+    replay.findPairs();
+    boxes[0] = Aabb{{1e6f, 0, 0}, {1e6f + 3, 3, 3}};
+    replay.update(boxes);
+    replay.findPairs();
+    boxes = row(0);
+    replay.update(boxes);
+    replay.findPairs();
+    expectFewExtraPairs(replay, boxes);
   }
 }
 
