@@ -439,8 +439,8 @@ void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) 
         reader.checkAll();
         header = reader.header();
       } else {
-        workload.read =
-            std::make_shared<physics::AabbStream>(physics::readAabbStream(workload.input));
+        // Through the reader that read the header: a pipe cannot be reopened.
+        workload.read = std::make_shared<physics::AabbStream>(physics::readAabbStream(reader));
         header = *workload.read;
       }
     } catch (const physics::AabbStreamError& error) {

@@ -50,7 +50,8 @@ void generate(const GenerateOptions& options) {
   std::vector<physics::Aabb> boxes;
   for (int step = 0; step <= steps; ++step) {
     if (step > 0) {
-      stopIfInterrupted("frame " + std::to_string(step) + " of " + std::to_string(steps + 1));
+      // Counted as the progress counts them: the frames stepped, 1 to `steps`.
+      stopIfInterrupted("frame " + std::to_string(step) + " of " + std::to_string(steps));
       generator->step();
       progress.update(step);
     }

@@ -300,8 +300,12 @@ void declareOutputs(OutputFolder& outputs, const RunPlan& plan) {
 // --task-load: the tasks sized against the scene's physics step, measured now.
 void calibrateTasks(RunPlan& plan) {
   if (!plan.task_load || !plan.tasks) return;
+  std::ostringstream load;
+  load << *plan.task_load;
+  Progress calibrating("overlap: calibrating --task-load " + load.str(), 0);
   plan.calibration =
       calibrateTaskLoad(*plan.task_load, plan.frames, plan.config, plan.world, plan.sound, plan.ai);
+  calibrating.finish();
   const TaskLoadCalibration& calibration = *plan.calibration;
   std::fprintf(stderr,
                "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
@@ -382,7 +386,8 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   std::optional<SteppedRun> sync_stepper;
   Timeline sync_timeline;  // not written: timeline.json is the async run's
   if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr, sync_timeline);
-  SteppedRun stepper(plan, plan.sync, wav, timeline);
+  std::optional<SteppedRun> stepper;
+  stepper.emplace(plan, plan.sync, wav, timeline);
   // Once the scene is built: a scene that cannot be placed says only that.
   if (!plan.default_algorithm_reason.empty()) {
     std::fprintf(stderr, "overlap: %s\n", plan.default_algorithm_reason.c_str());
@@ -392,16 +397,24 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   for (int frame = 0; frame < plan.frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(plan.frames));
     if (sync_stepper) sync_stepper->step();
-    FrameRow& row = stepper.step();
+    FrameRow& row = stepper->step();
     if (camera != nullptr && isKeyframe(plan, frame)) {
-      row.render_ms = camera->capture(stepper.world(), frame);
+      row.render_ms = camera->capture(stepper->world(), frame);
     }
     progress.update(frame + 1);
   }
   progress.finish();
   std::optional<RunResult> sync_run;
   if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
-  return {stepper.finish(progress.seconds()), std::move(sync_run)};
+  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run)};
+  // Millions of boxes take seconds to release: said past a second, and a
+  // signal meanwhile still stops the run before anything is published.
+  Progress releasing("overlap: releasing " + std::to_string(plan.config.objects) + " boxes", 0);
+  stepper.reset();
+  sync_stepper.reset();
+  releasing.finish();
+  stopIfInterrupted("the release of the boxes after the last frame");
+  return runs;
 }
 
 // ---- write ----
@@ -508,8 +521,9 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(plan.out);
   declareOutputs(outputs, plan);
-  OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
+  // Before any output is opened: a calibration stopped leaves no temporary.
   calibrateTasks(plan);
+  OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
   const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
   Timeline timeline;
   const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);

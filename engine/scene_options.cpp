@@ -16,7 +16,7 @@ CLI::Option* addSizeRange(CLI::App& command, const std::string& name, std::vecto
                           const physics::SizeRange& paper, const std::string& what) {
   return command.add_option(name, range, "scene 4: " + what + " edge factor range LO HI")
       ->expected(2)
-      ->check(realNumberIn(0, kMostReal, true))
+      ->check(realNumberIn(physics::kSmallestEdge, physics::kLargestEdge))
       ->default_str(CLI::detail::to_string(paper.lo) + " " + CLI::detail::to_string(paper.hi));
 }
 

@@ -59,6 +59,7 @@ struct PairsOptions {
 void printPairs(const PairsOptions& options) {
   std::string csv = "frame,a,b\n";
   int frame = 0;
+  int frames_sent = 0;  // frames whose rows went to stdout
   try {
     physics::AabbStreamReader reader(options.input);
     if (reader.sized()) reader.checkAll();
@@ -81,17 +82,31 @@ void printPairs(const PairsOptions& options) {
                         std::to_string(header.stored_frames));
       replay.update(boxes);
       replay.findPairs();
+      // A signal cuts cpubf's search short: its pairs are not whole.
+      if (pendingInterrupt() != 0) {
+        stopIfInterrupted("frame " + std::to_string(frame) + " of " +
+                          std::to_string(header.stored_frames) + ", its pair search");
+      }
       for (const auto& [a, b] : replay.pairs()) {
         csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
       }
       if (csv.size() > (1 << 20)) {
         writeStandardOutput(csv);
         csv.clear();
+        frames_sent = frame + 1;
       }
       progress.update(++frame);
     } while (reader.next(boxes));
     progress.finish();
     writeStandardOutput(csv);
+  } catch (Interrupted& stop) {
+    // The rows already on stdout stay there: the stop line says which.
+    if (frames_sent > 0) {
+      stop.already_sent = "standard output's rows of " +
+                          (frames_sent == 1 ? std::string("frame 0")
+                                            : "frames 0 to " + std::to_string(frames_sent - 1));
+    }
+    throw;
   } catch (const physics::AabbStreamError& error) {
     // From a pipe, the frames before the bad one (a file was checked first).
     if (frame > 0) writeStandardOutput(csv);

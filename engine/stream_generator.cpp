@@ -97,11 +97,20 @@ class GranularModel {
     const double depth = std::max(cell_, volume / kPileDensity / (4 * half * half));
     stiffness_ = g * depth / (kSqueeze * kPileDensity);
     const double sound_speed = std::sqrt(stiffness_ * kPileDensity);
-    substeps_ = std::max(
-        2, static_cast<int>(std::ceil(config.frame_time * sound_speed / (kCourant * cell_))));
+    const double needed = std::ceil(config.frame_time * sound_speed / (kCourant * cell_));
+    // The simulation's cap on substeps (physics::SubstepRule) holds here too:
+    // past it the pile is softer (squeezed beyond kSqueeze), as Bullet's
+    // pile gives way past it, instead of a frame of millions of substeps.
+    const int most = physics::SubstepRule{}.max_substeps;
+    substeps_ = static_cast<int>(std::clamp(needed, 2.0, static_cast<double>(most)));
+    if (needed > most) {
+      const double capped_speed = kCourant * cell_ * most / config.frame_time;
+      stiffness_ = capped_speed * capped_speed / kPileDensity;
+    }
   }
 
   double outerHalfExtent() const { return layout_.outerHalfExtent(); }
+  int substeps() const { return substeps_; }
 
   // One frame; a signal stops it between substeps (a strong gravity makes
   // a frame millions of substeps long).  `frame` is for the message.
@@ -349,6 +358,10 @@ StreamGenerator::StreamGenerator(const physics::SceneConfig& config, int frames,
 }
 
 StreamGenerator::~StreamGenerator() = default;
+
+int StreamGenerator::substepsPerFrame() const {
+  return model_->substeps();
+}
 
 void StreamGenerator::step() {
   if (done()) throw std::logic_error("StreamGenerator: stepped past the last frame");

@@ -52,7 +52,7 @@ std::string generatedSceneName(const physics::SceneConfig& config);
 // frame() until done(); each step is one frame of the model, so a caller
 // checks for signals and shows progress between them.  A signal
 // (gpu/base/interrupt.h) also stops a step between its substeps, with
-// Interrupted: a strong gravity makes one frame millions of substeps.
+// Interrupted.
 class GranularModel;  // engine/stream_generator.cpp
 
 class StreamGenerator {
@@ -68,6 +68,10 @@ class StreamGenerator {
   bool done() const { return steps_ == skip_ + frames_; }
   // Runs the model one frame on.
   void step();
+  // The model's substeps per frame: as many as its pressure needs to stay
+  // stable, at most physics::SubstepRule's max_substeps (the simulation's
+  // cap; past it the pile is softer).
+  int substepsPerFrame() const;
   // The boxes of the stored frame the model is at, into `boxes`.
   void frame(std::vector<physics::Aabb>& boxes);
 

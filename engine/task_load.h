@@ -12,6 +12,8 @@
 //          times, assuming cost ~ size^k with k measured from the last two
 //          guesses (the AI's cost grows faster than its agent count, as
 //          agents crowd each other).
+// A signal stops the calibration between two frames (Interrupted), and the
+// caller shows its progress (it can take a minute at large X).
 // X = 0 gives no voices and no agents: the tasks are scheduled and do
 // nothing.  The measured task time over the physics time of the run itself
 // (summary.json, and the study's `T/P measured`) is what to plot against.

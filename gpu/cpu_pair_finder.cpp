@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
 
@@ -176,6 +177,9 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
                       [&](const tbb::blocked_range<std::uint64_t>& blocks) {
                         Changes& changes = thread_changes_.local();
                         for (std::uint64_t block = blocks.begin(); block != blocks.end(); ++block) {
+                          // A signal cuts a long search short (the caller stops:
+                          // gpu/base/interrupt.h); the words left are not searched.
+                          if (pendingInterrupt() != 0) return;
                           const std::uint64_t first_word = block * kBlockWords;
                           searchWords(first_word, std::min(first_word + kBlockWords, word_count),
                                       changes);

@@ -10,6 +10,10 @@
 // an arena of its own, of that many threads or of as many as oneTBB allows,
 // so that its demand for workers ends with it (a oneTBB thread cap lifted
 // after the finder is gone starts no worker for it), as cpusap's does.
+// A signal (gpu/base/interrupt.h's flag) cuts a search short between blocks:
+// its result is then partial and the finder's words are not last frame's;
+// the caller stops (the world and the replay throw Interrupted) and only
+// destroys the finder after it.
 #pragma once
 
 #include <oneapi/tbb/enumerable_thread_specific.h>

@@ -261,6 +261,10 @@ void AabbStreamReader::checkAll() {
 
 AabbStream readAabbStream(const std::filesystem::path& path) {
   AabbStreamReader reader(path);
+  return readAabbStream(reader);
+}
+
+AabbStream readAabbStream(AabbStreamReader& reader) {
   AabbStream stream;
   const AabbStreamHeader& header = reader.header();
   static_cast<AabbStreamHeader&>(stream) = header;

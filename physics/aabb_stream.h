@@ -107,6 +107,10 @@ class AabbStreamReader {
 
 // The whole stream in memory, through AabbStreamReader.
 AabbStream readAabbStream(const std::filesystem::path& path);
+// The frames `reader` has not yet read, with its header: a stream without a
+// size (a pipe) can be read only once, so whoever opened it to check its
+// header reads it through the same reader.
+AabbStream readAabbStream(AabbStreamReader& reader);
 
 // Writes a stream a frame at a time through gpu/base/output_file.h, so a
 // writer holds one frame, not the whole stream: the header at construction,

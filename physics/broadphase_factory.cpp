@@ -9,6 +9,7 @@
 #include <string>
 
 #include "physics/ccd_query_broadphase.h"
+#include "physics/growing_sweep_and_prune.h"
 #include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
@@ -81,10 +82,10 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
     }
     // No ray-test tree of its own: makeWorldBroadphase() answers every
     // broadphase's ray and sweep queries through one shared tree.
-    choice.broadphase = std::make_unique<btAxisSweep3>(
+    choice.broadphase = std::make_unique<GrowingAxisSweep16>(
         world_min, world_max, static_cast<unsigned short>(max_objects + 1), nullptr, true);
   } else if (name == "sap32") {
-    choice.broadphase = std::make_unique<bt32BitAxisSweep3>(
+    choice.broadphase = std::make_unique<GrowingAxisSweep32>(
         world_min, world_max, static_cast<unsigned int>(max_objects + 1), nullptr, true);
   } else if (name == "bvh") {
     choice.broadphase = std::make_unique<btDbvtBroadphase>();

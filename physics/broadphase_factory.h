@@ -54,7 +54,8 @@ struct BroadphaseChoice {
 };
 
 // The pair search alone (what the benchmark times).  `world_min`/`world_max`
-// bound where objects may go (SAP quantizes inside them); `max_objects` is
+// are where objects are expected (SAP quantizes inside them first and grows
+// them around any box outside: physics/growing_sweep_and_prune.h); `max_objects` is
 // the most proxies the run will create.  Throws std::invalid_argument for an
 // unknown name or a count the algorithm can't hold.
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,

@@ -8,6 +8,7 @@
 
 #include "gpu/base/interrupt.h"
 #include "physics/broadphase_factory.h"
+#include "physics/growing_sweep_and_prune.h"
 #include "physics/pair_finder_broadphase.h"
 
 namespace overlap::physics {
@@ -32,10 +33,7 @@ struct BroadphaseReplay::Bullet {
     // frees whole (makeBroadphase() gives it no ray-test tree of proxies of
     // its own); removing them one by one would sort each handle's edges to
     // the end of every axis, n^2 in all.
-    if (dynamic_cast<btAxisSweep3Internal<unsigned short>*>(broadphase.get()) != nullptr ||
-        dynamic_cast<btAxisSweep3Internal<unsigned int>*>(broadphase.get()) != nullptr) {
-      return;
-    }
+    if (isSweepAndPrune(*broadphase)) return;
     for (btBroadphaseProxy* proxy : proxies) {
       if (proxy != nullptr) broadphase->destroyProxy(proxy, &dispatcher);
     }

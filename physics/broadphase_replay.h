@@ -76,7 +76,9 @@ class BroadphaseReplay {
   // outside its timing) spares the comparison of every box.  Not the first
   // update.
   void updateChanged(std::span<const Aabb> boxes, std::span<const std::uint32_t> changed);
-  // Finds the pairs and updates the persistent pair cache.
+  // Finds the pairs and updates the persistent pair cache.  A signal may cut
+  // a finder's search short (cpubf): the pairs are then not whole, and the
+  // caller, which looks at the flag after it, stops.
   void findPairs();
   // The cache's pairs as object indices (a < b), sorted.
   PairList pairs() const;

@@ -48,16 +48,21 @@ btBroadphaseProxy* CcdQueryBroadphase::createProxy(const btVector3& aabbMin,
       aabbMin, aabbMax, shapeType, userPtr, collisionFilterGroup, collisionFilterMask, dispatcher);
   btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
                                               collisionFilterGroup, collisionFilterMask, nullptr);
-  leaves_.emplace(proxy, Leaf{node, aabbMin, aabbMax, false});
+  leaves_.emplace(proxy, Leaf{node, aabbMin, aabbMax, false, 0});
   return proxy;
 }
 
-void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+void CcdQueryBroadphase::forgetProxy(btBroadphaseProxy* proxy) {
   const auto found = leaves_.find(proxy);
+  if (found == leaves_.end()) return;
   Leaf& leaf = found->second;
-  if (leaf.stale) std::erase(stale_, &leaf);
+  if (leaf.stale) stale_[leaf.stale_at] = nullptr;  // not erased: O(1) each
   tree_.destroyProxy(leaf.node, nullptr);
   leaves_.erase(found);
+}
+
+void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+  forgetProxy(proxy);
   pairs_->destroyProxy(proxy, dispatcher);
 }
 
@@ -68,12 +73,16 @@ void CcdQueryBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabb
   if (leaf.min == aabbMin && leaf.max == aabbMax) return;
   leaf.min = aabbMin;
   leaf.max = aabbMax;
-  if (!leaf.stale) stale_.push_back(&leaf);
+  if (!leaf.stale) {
+    leaf.stale_at = stale_.size();
+    stale_.push_back(&leaf);
+  }
   leaf.stale = true;
 }
 
 void CcdQueryBroadphase::refresh() {
   for (Leaf* leaf : stale_) {
+    if (leaf == nullptr) continue;
     tree_.setAabb(leaf->node, leaf->min, leaf->max, nullptr);
     leaf->stale = false;
   }

@@ -35,6 +35,10 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
 
   // The broadphase that finds the pairs.
   btBroadphaseInterface& pairSearch() { return *pairs_; }
+  // Drops the tree's leaf of `proxy` (nullptr: nothing) and leaves the
+  // wrapped proxy itself to its broadphase's destructor, for a teardown of a
+  // broadphase that frees its proxies whole (isSweepAndPrune()).
+  void forgetProxy(btBroadphaseProxy* proxy);
   // Time spent in rayTest and aabbTest (tree refresh included) since construction, ms.
   double queryMs() const { return query_ms_; }
 
@@ -61,6 +65,7 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
     btBroadphaseProxy* node;  // the tree's, whose client object is the wrapped proxy
     btVector3 min, max;       // the latest setAabb
     bool stale;               // min/max not yet in the tree (then it is in stale_)
+    std::size_t stale_at;     // its place in stale_, when stale
   };
   // Brings every stale leaf into the tree, in the order setAabb saw them.
   void refresh();
@@ -74,7 +79,7 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   // By the wrapped broadphase's proxy; a map's elements keep their addresses,
   // so stale_ can point at them.
   std::unordered_map<const btBroadphaseProxy*, Leaf> leaves_;
-  std::vector<Leaf*> stale_;  // in setAabb order
+  std::vector<Leaf*> stale_;  // in setAabb order; nullptr where a leaf was since destroyed
   double query_ms_ = 0;
 };
 

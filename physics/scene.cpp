@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 
 namespace overlap::physics {
@@ -26,6 +27,11 @@ constexpr int kMaxPlacementTries = 100000;
 // refused as an impossible packing.
 constexpr int kMaxPlacementAttempts = 64;
 constexpr int kRetryPlacementTries = 10000;
+// The container's reach from its centre (m): past it a float position is
+// coarser than 1 cm.
+constexpr double kMostHalfExtent = 1e5;
+// Boxes placed between two looks at the signal flag (gpu/base/interrupt.h).
+constexpr std::size_t kBoxesBetweenSignalChecks = 1024;
 
 void require(bool ok, const char* field, const std::string& problem) {
   if (!ok) throw std::invalid_argument(std::string(field) + ": " + problem);
@@ -131,7 +137,13 @@ std::optional<std::size_t> placeBoxes(const std::vector<std::pair<double, SizeCl
                                       const std::vector<std::size_t>& order, SceneLayout& layout,
                                       double cell, int max_tries, SeededRandom& random) {
   SphereGrid grid(layout.half_extent, cell, sizes.size());
+  std::size_t placed = 0;
   for (const std::size_t i : order) {
+    // Millions of boxes take seconds: a signal stops the placement within it.
+    if (placed++ % kBoxesBetweenSignalChecks == 0 && pendingInterrupt() != 0) {
+      stopIfInterrupted("placing box " + std::to_string(placed) + " of " +
+                        std::to_string(sizes.size()));
+    }
     const double radius = sizes[i].first * kSqrt3 / 2;
     const double reach = layout.half_extent - radius;  // sphere stays off the walls
     int tries = 0;
@@ -174,8 +186,23 @@ void SceneConfig::validate() const {
   for (const auto& [range, name] :
        {std::pair{small, "small-sizes"}, std::pair{average, "average-sizes"},
         std::pair{large, "large-sizes"}}) {
-    require(range.lo > 0 && range.lo <= range.hi && std::isfinite(range.hi), name,
-            "needs 0 < lo <= hi");
+    require(range.lo >= kSmallestEdge && range.lo <= range.hi && range.hi <= kLargestEdge, name,
+            "needs 0.01 <= lo <= hi <= 1000 (m): Bullet's contact distances are absolute (1 cm), "
+            "and a box's mass (edge^3) and inertia must stay floats");
+  }
+  if (mixedSizes()) {
+    const double smallest = std::min({small.lo, average.lo, large.lo});
+    const double largest = std::max({small.hi, average.hi, large.hi});
+    const char* largest_name = largest == large.hi     ? "large-sizes"
+                               : largest == average.hi ? "average-sizes"
+                                                       : "small-sizes";
+    std::ostringstream ratio;
+    ratio << "its " << largest << " is " << largest / smallest << " times the smallest edge, "
+          << smallest;
+    require(largest <= kMostEdgeRatio * smallest, largest_name,
+            ratio.str() +
+                "; scene 4's largest edge may be at most 100 times its smallest (a mass ratio "
+                "of 10^6, the most Bullet's contact solver holds without NaN)");
   }
 }
 
@@ -191,6 +218,14 @@ SceneLayout generateScene(const SceneConfig& config) {
   const double interior_edge = std::cbrt(volume / config.fill_fraction);
   layout.half_extent = interior_edge / 2;
   layout.wall_thickness = std::max(config.wall_min_thickness, interior_edge * config.wall_fraction);
+  if (!(layout.outerHalfExtent() <= kMostHalfExtent)) {
+    std::ostringstream text;
+    text << config.fill_fraction << " with " << config.objects << " boxes of these sizes needs a "
+         << "container reaching " << layout.outerHalfExtent() << " m from its centre, over 1e5 m "
+         << "(a float position there is coarser than 1 cm); raise --fill or lower --objects, "
+         << "the sizes or --wall-min";
+    throw std::invalid_argument("fill: " + text.str());
+  }
   layout.boxes.resize(sizes.size());
 
   // Largest first: they are the hardest to fit once the space fills up.

@@ -65,8 +65,17 @@ struct SceneLayout {
   double outerHalfExtent() const { return half_extent + wall_thickness; }
 };
 
+// Scene 4's edges (m), what SceneConfig::validate() accepts: Bullet's contact
+// distance and breaking threshold are absolute (1 and 2 cm), a box's mass
+// (edge^3) and inertia are floats, and the contact solver loses mass ratios
+// past 10^6 (an edge ratio of 100) to NaN.
+inline constexpr double kSmallestEdge = 0.01;
+inline constexpr double kLargestEdge = 1000;
+inline constexpr double kMostEdgeRatio = 100;
+
 // Throws std::invalid_argument naming the option at fault if the boxes cannot
-// be placed (--fill too high, or too few --objects for the biggest box).
+// be placed (--fill too high, or too few --objects for the biggest box); a
+// signal (gpu/base/interrupt.h) stops the placement with Interrupted.
 SceneLayout generateScene(const SceneConfig& config);
 
 std::string sizeClassName(SizeClass size_class);

@@ -15,10 +15,12 @@
 #include <utility>
 
 #include "gpu/base/checksum.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/broadphase_factory.h"
 #include "physics/ccd_query_broadphase.h"
+#include "physics/growing_sweep_and_prune.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -37,6 +39,8 @@ constexpr btScalar kContactDistance = 0.01f;
 // Past this distance from the origin a float has under 7 cm of resolution, no
 // container reaches it, and a box there is a broken state, not a physical one.
 constexpr double kFarAway = 1e6;
+// Bodies added between two looks at the signal flag (gpu/base/interrupt.h).
+constexpr int kBodiesBetweenSignalChecks = 1024;
 
 btVector3 toBullet(const Eigen::Vector3d& v) {
   return {static_cast<btScalar>(v.x()), static_cast<btScalar>(v.y()), static_cast<btScalar>(v.z())};
@@ -68,8 +72,27 @@ struct PhysicsWorld::Bullet {
   SeededRandom kick_random{0};
   GravityRotation gravity{0, 0};
 
+  // Linear in the bodies and pairs: removing the bodies one by one
+  // (removeRigidBody) would walk the whole pair cache for each body and, for
+  // a sweep and prune, sort each body's edges to the end of every axis: n^2.
   ~Bullet() {
-    for (auto& body : bodies) world->removeRigidBody(body.get());
+    if (world == nullptr) return;
+    // Every pair at once, their contact algorithms and manifolds with them.
+    struct RemoveEvery final : btOverlapCallback {
+      bool processOverlap(btBroadphasePair& /*pair*/) override { return true; }
+    } remove_every;
+    broadphase->getOverlappingPairCache()->processAllOverlappingPairs(&remove_every, &dispatcher);
+    // A sweep and prune frees its handles whole in its destructor: the
+    // world's bodies leave it without one removal each.
+    if (isSweepAndPrune(broadphase->pairSearch())) {
+      for (auto& body : bodies) {
+        broadphase->forgetProxy(body->getBroadphaseHandle());
+        body->setBroadphaseHandle(nullptr);
+      }
+    }
+    // The world removes what is left of each body's proxy (its list of
+    // bodies is not searched, as removeRigidBody would for each).
+    world.reset();
   }
   // True for the world's own boxes and walls, false for objects a user added
   // to bulletWorld() (a ghost object, say).
@@ -155,6 +178,12 @@ void PhysicsWorld::addBoxes(bool sleep) {
   const auto n = static_cast<int>(layout_.boxes.size());
   b.bodies.reserve(static_cast<std::size_t>(n + kWallCount));
   for (int i = 0; i < n; ++i) {
+    // A sweep and prune inserts a body in time proportional to those it
+    // holds: a signal stops the insertion within it.
+    if (i % kBodiesBetweenSignalChecks == 0 && pendingInterrupt() != 0) {
+      stopIfInterrupted("adding box " + std::to_string(i) + " of " + std::to_string(n) +
+                        " to the world");
+    }
     const BoxStart& start = layout_.boxes[static_cast<std::size_t>(i)];
     const auto half = static_cast<btScalar>(start.edge / 2);
     auto shape = std::make_unique<btBoxShape>(btVector3(half, half, half));
@@ -241,7 +270,14 @@ FrameReport PhysicsWorld::stepFrame() {
   FrameReport report;
   planFrame(report);
   const auto dt = static_cast<btScalar>(config_.frame_time / substeps_);
-  for (int k = 0; k < substeps_; ++k) b.world->stepReported(dt);
+  for (int k = 0; k < substeps_; ++k) {
+    // Between substeps the world is whole: a signal stops a long frame there.
+    if (k > 0 && pendingInterrupt() != 0) {
+      stopIfInterrupted("frame " + std::to_string(frame_) + ", substep " + std::to_string(k) +
+                        " of " + std::to_string(substeps_));
+    }
+    b.world->stepReported(dt);
+  }
   // The last substep's solver and integration may have broken a box: out now,
   // so that nothing reads it between frames (the next update would be late).
   removeBrokenBoxes();

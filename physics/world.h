@@ -113,7 +113,11 @@ class PhysicsWorld {
 
   // Runs one frame: scene forces (kicks, gravity), then K substeps, then
   // takes out any box the last substep broke (so no broken box is seen
-  // between frames).
+  // between frames).  A signal (gpu/base/interrupt.h) stops a long frame
+  // between substeps or after a substep's pair search with Interrupted; the
+  // world is then only to be destroyed.  Building the world (placing the
+  // boxes, adding them to Bullet) stops the same way, and destroying it is
+  // linear in the boxes and pairs.
   FrameReport stepFrame();
 
   const SceneConfig& config() const { return config_; }

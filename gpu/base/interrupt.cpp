@@ -10,11 +10,8 @@
 namespace overlap {
 namespace {
 
-std::atomic<int> received{0};
-static_assert(std::atomic<int>::is_always_lock_free, "the handler stores into it");
-
 extern "C" void onSignal(int signal_number) {
-  received.store(signal_number, std::memory_order_relaxed);
+  interrupt_detail::received.store(signal_number, std::memory_order_relaxed);
 }
 
 const char* signalName(int signal_number) {
@@ -40,7 +37,8 @@ constexpr int kCheckEveryMs = 100;
 
 Interrupted::Interrupted(int signal_number, const std::string& where)
     : std::runtime_error(std::string(signalName(signal_number)) + " at " + where),
-      signal(signal_number) {}
+      signal(signal_number),
+      where(where) {}
 
 void catchInterrupts() {
   struct sigaction action {};
@@ -54,10 +52,6 @@ void catchInterrupts() {
   }
   std::signal(SIGPIPE, SIG_IGN);
   std::signal(SIGXFSZ, SIG_IGN);  // past `ulimit -f` a write fails with EFBIG instead
-}
-
-int pendingInterrupt() {
-  return received.load(std::memory_order_relaxed);
 }
 
 void stopIfInterrupted(const std::string& where) {
@@ -81,10 +75,17 @@ void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::stri
 }
 
 int reportInterrupted(const char* program, const Interrupted& stop) {
-  std::fprintf(stderr,
-               "%s: stopped by %s; kept nothing of this run: its temporaries are removed and the "
-               "outputs hold what they held before\n",
-               program, stop.what());
+  if (stop.already_sent.empty()) {
+    std::fprintf(stderr,
+                 "%s: stopped by %s; kept nothing of this run: its temporaries are removed and "
+                 "the outputs hold what they held before\n",
+                 program, stop.what());
+  } else {
+    std::fprintf(stderr,
+                 "%s: stopped by %s; already sent, and staying sent: %s; kept nothing else: "
+                 "its temporaries are removed and the output files hold what they held before\n",
+                 program, stop.what(), stop.already_sent.c_str());
+  }
   return 128 + stop.signal;
 }
 

@@ -21,6 +21,7 @@
 //     async-signal-safe to do there.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -31,7 +32,19 @@ namespace overlap {
 struct Interrupted : std::runtime_error {
   Interrupted(int signal_number, const std::string& where);
   int signal;
+  std::string where;  // "frame 12 of 300"
+  // What of the run had already left the program when it stopped (rows
+  // written to standard output), for the stop line; empty: nothing.
+  std::string already_sent;
 };
+
+namespace interrupt_detail {
+// The signal that arrived, or 0.  Inline, so that code built without this
+// module's source (the installed pair finders) can look at it: there no
+// handler is installed and it stays 0.
+inline std::atomic<int> received{0};
+static_assert(std::atomic<int>::is_always_lock_free, "the handler stores into it");
+}  // namespace interrupt_detail
 
 // Installs the handlers for SIGINT, SIGTERM and SIGHUP and ignores SIGPIPE
 // and SIGXFSZ.
@@ -39,7 +52,11 @@ void catchInterrupts();
 
 // The signal that arrived (SIGINT, SIGTERM, SIGHUP), or 0: a check cheap
 // enough for a timed loop, which then builds its `where` only when needed.
-int pendingInterrupt();
+// Header-only: a pair finder's search looks at it between its pieces and
+// cuts the search short, leaving its caller (the world, the replay) to stop.
+inline int pendingInterrupt() {
+  return interrupt_detail::received.load(std::memory_order_relaxed);
+}
 
 // Throws Interrupted if a signal arrived; `where` ("frame 12 of 300") goes
 // into the message.
@@ -51,8 +68,8 @@ void stopIfInterrupted(const std::string& where);
 void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::string& waiting,
                const std::string& where);
 
-// Prints the one "stopped by" line for `program` and returns the exit code,
-// 128 + the signal.
+// Prints the one "stopped by" line for `program` (with what was already
+// sent, if anything) and returns the exit code, 128 + the signal.
 int reportInterrupted(const char* program, const Interrupted& stop);
 
 }  // namespace overlap

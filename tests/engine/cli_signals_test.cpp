@@ -77,14 +77,14 @@ class SignalsCliTest : public CliTest {
   }
 };
 
-// Row 2: generate stops at a frame boundary on SIGINT, and within a frame of
-// millions of substeps on SIGTERM; the old file is kept either way.
+// Row 2: generate stops at a frame boundary on SIGINT, and on SIGTERM under
+// the strongest gravity; the old file is kept either way.
 TEST_F(SignalsCliTest, Row2GenerateStopsOnSignalsAndKeepsTheOldFile) {
   const fs::path out = write("g.aabbs", "old\n");
   const std::vector<std::tuple<std::string, int, int, std::string>> cases = {
       {"--objects 200 --frames 1000000", SIGINT, 130, "overlap generate: "},
-      {"--gravity 1e6 --gravity-scale 1e6 --frame-time 1 --objects 200 --frames 20", SIGTERM, 143,
-       "the first frame still running"},
+      {"--gravity 1e6 --gravity-scale 1e6 --frame-time 1 --objects 200 --frames 1000000", SIGTERM,
+       143, "overlap generate: "},
   };
   for (const auto& [args, signal_number, code, progress] : cases) {
     Started generate("generate " + args + " --out " + out.string(), out_ / "err.txt");
@@ -336,6 +336,57 @@ TEST_F(SignalsCliTest, Row21TheBenchmarkStopsOnSigint) {
       << bench.stderrText();
   EXPECT_FALSE(fs::exists(out_ / "b.csv"));
   EXPECT_FALSE(holdsTemporaries(out_));
+}
+
+// A run of many boxes stops while it places them or adds them to the
+// broadphase (a sweep and prune adds each in time proportional to those it
+// holds), and takes its world apart at once; nothing is written.
+TEST_F(SignalsCliTest, ARunStopsWhileItPlacesItsBoxes) {
+  const fs::path folder = out_ / "many";
+  Started run("run --algo sap32 --objects 200000 --frames 1 --no-tasks --capture-every 0 --out " +
+                  folder.string(),
+              out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("overlap: placing 200000 boxes: ")) << run.stderrText();
+  run.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(run.wait(), 130)) << run.stderrText();
+  const std::string err = run.stderrText();
+  EXPECT_TRUE(err.find("stopped by SIGINT at placing box") != std::string::npos ||
+              err.find("stopped by SIGINT at adding box") != std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(folder / "summary.json"));
+  EXPECT_FALSE(holdsTemporaries(out_));
+}
+
+// A signal during one long frame (cpubf's search over 60 000 boxes) stops
+// the search within it, and the stop line says what already went to stdout
+// (frame 0's rows, flushed past a megabyte) instead of "kept nothing".
+TEST_F(SignalsCliTest, ASignalStopsALongFrameAndTheStopLineNamesWhatWasSent) {
+  const fs::path stream = write("line.aabbs", lineStream(60000, 3));  // 120 000 rows a frame
+  Started pairs("pairs --algo cpubf --input " + stream.string(), out_ / "err.txt");
+  ASSERT_TRUE(pairs.waitFor("overlap pairs: 1/4 frames")) << pairs.stderrText();
+  pairs.signal(SIGINT);
+  EXPECT_TRUE(exitedWith(pairs.wait(), 130)) << pairs.stderrText();
+  const std::string err = pairs.stderrText();
+  EXPECT_NE(err.find("stopped by SIGINT at "), std::string::npos) << err;
+  EXPECT_NE(err.find("standard output's rows of frame"), std::string::npos) << err;
+  EXPECT_EQ(err.find("kept nothing of this run"), std::string::npos) << err;
+}
+
+// --task-load's calibration says it is running and stops at the first
+// signal, before any output (the WAV's temporary included) is opened.
+TEST_F(SignalsCliTest, TheTaskLoadCalibrationShowsProgressAndStopsAtOnce) {
+  const fs::path folder = out_ / "calibrated";
+  Started run(
+      "run --objects 1000 --frames 64 --task-load 50 --capture-every 0 --out " + folder.string(),
+      out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("overlap: calibrating --task-load 50: ")) << run.stderrText();
+  run.signal(SIGTERM);
+  EXPECT_TRUE(exitedWith(run.wait(), 143)) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("stopped by SIGTERM at the --task-load calibration"),
+            std::string::npos)
+      << run.stderrText();
+  EXPECT_FALSE(holdsTemporaries(out_));
+  EXPECT_FALSE(fs::exists(folder / "sound.wav"));
 }
 
 }  // namespace

@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 #include <oneapi/tbb/global_control.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
 #include "engine/stream_statistics.h"
 #include "physics/aabb_stream.h"
+#include "physics/step_policy.h"
 #include "tests/scratch_path.h"
 
 namespace overlap::engine {
@@ -59,6 +61,35 @@ TEST(StreamGeneratorTest, EveryStreamReadsBackAsWritten) {
       }
     }
   }
+}
+
+// generate follows run's rule: a frame has at most SubstepRule's
+// max_substeps, however strong the gravity (the pile is softer past it),
+// and its boxes stay valid.
+TEST(StreamGeneratorTest, TheStrongestGravityKeepsTheSimulationsSubstepCap) {
+  physics::SceneConfig config = physics::SceneConfig::forScene(3);
+  config.objects = 200;
+  config.g = 1e6;
+  config.gravity_scale = 1e6;
+  config.frame_time = 1;
+  StreamGenerator generator(config, 3);
+  EXPECT_LE(generator.substepsPerFrame(), physics::SubstepRule{}.max_substeps);
+  std::vector<physics::Aabb> boxes;
+  generator.frame(boxes);
+  for (int frame = 0; frame < 3; ++frame) {
+    generator.step();
+    generator.frame(boxes);
+    for (const physics::Aabb& box : boxes) {
+      for (int axis = 0; axis < 3; ++axis) {
+        ASSERT_TRUE(std::isfinite(box.min[axis]) && box.min[axis] <= box.max[axis])
+            << "frame " << frame + 1;
+      }
+    }
+  }
+  // The paper's scenes need fewer: the cap leaves them as they were.
+  physics::SceneConfig paper = physics::SceneConfig::forScene(4);
+  paper.objects = 1000;
+  EXPECT_LT(StreamGenerator(paper, 1).substepsPerFrame(), physics::SubstepRule{}.max_substeps);
 }
 
 TEST(StreamGeneratorTest, SkippedFramesAreTheFramesOfALongerStream) {

@@ -50,6 +50,22 @@ TEST_F(StreamInputTest, AGeneratedStreamIsTimedByEveryAskedBroadphase) {
             0);
 }
 
+TEST_F(StreamInputTest, AStreamFromAPipeIsTimedAsTheSameStreamFromAFile) {
+  const std::filesystem::path a = out_ / "a.aabbs";
+  ASSERT_EQ(runOverlap("generate --scene 4 --objects 200 --frames 3 --out " + a.string()).exit_code,
+            0);
+  // The header is read once, by the reader that then reads the frames: a
+  // pipe cannot be opened again at its start.
+  const Result piped =
+      runCommand("cat " + a.string() + " | " +
+                 bench("--input /dev/stdin --algos cpusap --warmup 1 --repeats 1"));
+  ASSERT_EQ(piped.exit_code, 0) << piped.stderr_text;
+  std::stringstream csv(fileText(out_ / "bench.csv"));
+  int rows = 0;
+  for (std::string line; std::getline(csv, line);) rows += line.starts_with("200,");
+  EXPECT_EQ(rows, 1) << csv.str();
+}
+
 TEST_F(StreamInputTest, TheGpuColumnsHoldWhatTheGpuFindersDidAndNothingForTheOthers) {
   std::string why;
   if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;

@@ -148,6 +148,41 @@ TEST(Scene, BadConfigsNameTheField) {
   EXPECT_THROW(generateScene(config), std::invalid_argument);
 }
 
+// Scene 4's sizes are bounded by what Bullet holds: absolute contact
+// distances (1 cm), float masses, the solver's mass ratio, and a container
+// within float resolution.  Outside, the config is refused naming the option.
+TEST(Scene, SizesBulletCannotHoldAreRefusedNamingTheOption) {
+  const auto refusal = [](SceneConfig config) -> std::string {
+    try {
+      generateScene(config);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  SceneConfig config;
+  config.objects = 100;
+  config.small = config.average = config.large = {1e-30, 1e-30};
+  EXPECT_EQ(refusal(config).rfind("small-sizes: needs 0.01 <= lo", 0), 0u) << refusal(config);
+  config.small = config.average = config.large = {1e6, 1e6};
+  EXPECT_EQ(refusal(config).rfind("small-sizes: needs 0.01 <= lo", 0), 0u) << refusal(config);
+  config = SceneConfig{};
+  config.objects = 100;
+  config.large = {2e4, 2e4};
+  EXPECT_EQ(refusal(config).rfind("large-sizes:", 0), 0u) << refusal(config);
+  config.large = {20, 20};  // 200 times the smallest, 0.1
+  EXPECT_EQ(refusal(config).rfind("large-sizes: its 20 is 200 times the smallest edge, 0.1", 0), 0u)
+      << refusal(config);
+  config.large = {10, 10};  // 100 times: held
+  EXPECT_EQ(refusal(config), "");
+  // A container past 1e5 m: the largest boxes at a tiny fill.
+  config = SceneConfig{};
+  config.objects = 100;
+  config.small = config.average = config.large = {1000, 1000};
+  config.fill_fraction = 1e-6;
+  EXPECT_EQ(refusal(config).rfind("fill: ", 0), 0u) << refusal(config);
+}
+
 TEST(GravityRotation, KeepsMagnitudeStartsDownAndTurns) {
   GravityRotation rotation(50 * 9.798, 1.0 / 120);
   EXPECT_EQ(rotation.gravity(), Eigen::Vector3d(0, -50 * 9.798, 0));

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <string>
@@ -29,6 +31,30 @@ std::uint64_t hashAfter(const SceneConfig& config, const std::string& algorithm,
 }
 
 using physics::testing::oraclePairs;
+
+// At the edges of scene 4's size bounds (the smallest and largest edge, the
+// greatest ratio between them), the physics stays finite and keeps its boxes.
+TEST(PhysicsWorld, SizesAtTheirBoundsKeepEnergiesFiniteAndTheBoxesInside) {
+  const std::vector<std::array<SizeRange, 3>> cases = {
+      {{{kSmallestEdge, kSmallestEdge}, {0.1, 0.1}, {1, 1}}},  // the greatest ratio, small
+      {{{10, 10}, {100, 100}, {kLargestEdge, kLargestEdge}}},  // the greatest ratio, large
+      {{{kLargestEdge, kLargestEdge}, {kLargestEdge, kLargestEdge}, {kLargestEdge, kLargestEdge}}},
+  };
+  for (const auto& [small, average, large] : cases) {
+    SceneConfig config = SceneConfig::forScene(4);
+    config.objects = 150;
+    config.small = small;
+    config.average = average;
+    config.large = large;
+    PhysicsWorld world(config, WorldOptions{});
+    for (int frame = 0; frame < 90; ++frame) {
+      const FrameReport report = world.stepFrame();
+      ASSERT_TRUE(std::isfinite(report.kinetic_energy) && std::isfinite(report.potential_energy))
+          << small.lo << ".." << large.hi << ", frame " << frame;
+      ASSERT_EQ(report.removed_from_simulation, 0) << small.lo << ".." << large.hi;
+    }
+  }
+}
 
 TEST(PhysicsWorld, BuildsBoxesAndSixWalls) {
   PhysicsWorld world(smallScene(4, 120), WorldOptions{"bvh"});
