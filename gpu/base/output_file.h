@@ -38,9 +38,10 @@
 //     Files the program did not write are never removed: the manifest
 //     escapes every name (a newline cannot split one into two), one
 //     without this format's first line lists nothing, the manifest is never
-//     read through a link, and an entry is removed only if it is a regular
-//     file reached from the folder without following any link (openat,
-//     O_NOFOLLOW).
+//     read through a link (declare() refuses one that is a FIFO or a
+//     folder, which would hang or fail the commit), and an entry is
+//     removed only if it is a regular file reached from the folder without
+//     following any link (openat, O_NOFOLLOW).
 //   * Two outputs of one run never share a path: declare() refuses, before
 //     any work and however the names are spelled, a second name for a file
 //     already declared, a file that is the run folder, a folder above it or
