@@ -2,11 +2,13 @@
 
 #include <cstdio>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "engine/algorithm_list.h"
 #include "engine/cli_errors.h"
 #include "engine/commands.h"
+#include "engine/memory_bound.h"
 #include "gpu/base/interrupt.h"
 #include "overlap_build_info.h"
 
@@ -66,6 +68,9 @@ int runCommandLine(int argc, char** argv) {
     return 2;
   } catch (const Interrupted& stop) {
     return reportInterrupted("overlap", stop);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "overlap: %s\n", outOfMemoryMessage().c_str());
+    return 1;
   } catch (const std::exception& error) {
     std::fprintf(stderr, "overlap: error: %s\n", error.what());
     return 1;

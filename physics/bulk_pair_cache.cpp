@@ -1,14 +1,21 @@
 #include "physics/bulk_pair_cache.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <bit>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <memory>
 #include <new>
+#include <string>
 
 namespace overlap::physics {
 namespace {
 
 // How many pairs ahead applyChanges() fetches the index slots it will read.
-constexpr std::size_t kAhead = 16;
+constexpr std::size_t kAhead = 32;
 constexpr std::size_t kSmallestIndex = 16;
 
 // The key of the pair of ids `low` <= `high` (Bullet's order: by m_uniqueId).
@@ -24,14 +31,97 @@ void prefetch(const void* address) {
   __builtin_prefetch(address);
 }
 
+constexpr std::size_t kHugePage = std::size_t{2} << 20;
+
 }  // namespace
+
+void* allocateLookupMemory(std::size_t bytes) {
+  const bool huge = bytes >= kHugePage;
+  void* memory = nullptr;
+  if (::posix_memalign(&memory, huge ? kHugePage : 64, std::max<std::size_t>(bytes, 1)) != 0) {
+    throw std::bad_alloc();
+  }
+  // A hint: without huge pages the lookups only run slower.
+  if (huge) ::madvise(memory, bytes, MADV_HUGEPAGE);
+  return memory;
+}
+
+void freeLookupMemory(void* memory) noexcept {
+  std::free(memory);
+}
+
+PairMemoryError::PairMemoryError(std::uint64_t pair_count, std::uint64_t needed, std::uint64_t most)
+    : std::runtime_error(std::to_string(pair_count) + " pairs need " + std::to_string(needed) +
+                         " bytes, above the pair memory limit of " + std::to_string(most) +
+                         " bytes"),
+      pairs(pair_count),
+      bytes(needed),
+      limit(most) {}
 
 BulkPairCache::BulkPairCache() {
   index_.assign(kSmallestIndex, IndexSlot{kEmpty, 0, 0});
   index_shift_ = 64 - std::countr_zero(kSmallestIndex);
 }
 
-BulkPairCache::~BulkPairCache() = default;
+BulkPairCache::~BulkPairCache() {
+  pairs_.initializeFromBuffer(nullptr, 0, 0);
+  freeLookupMemory(owned_);
+}
+
+std::uint64_t BulkPairCache::bytesFor(std::size_t capacity, std::size_t index_slots) const {
+  return std::uint64_t{capacity} *
+             (sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_) +
+         std::uint64_t{index_slots} * sizeof(IndexSlot);
+}
+
+std::uint64_t BulkPairCache::bytesHeld() const {
+  return std::uint64_t{static_cast<std::size_t>(pairs_.capacity())} * sizeof(btBroadphasePair) +
+         keys_.capacity() * sizeof(std::uint64_t) + index_.size() * sizeof(IndexSlot);
+}
+
+// Doubles the array as Bullet's does where the limit allows, else takes all
+// the limit leaves (so that growing one pair at a time stays linear);
+// refuses what the limit cannot hold.
+void BulkPairCache::reserve(std::size_t pairs) {
+  const auto held = static_cast<std::size_t>(pairs_.capacity());
+  if (pairs <= held && index_.size() >= 2 * pairs) return;
+  const std::size_t index_slots = index_.size() >= 2 * pairs
+                                      ? index_.size()
+                                      : std::bit_ceil(std::max(2 * pairs, kSmallestIndex));
+  // Powers of two, as Bullet's array grows from 2 by doubling.
+  std::size_t capacity = pairs <= held ? held : std::max(std::bit_ceil(pairs), 2 * held);
+  if (memory_limit_ != 0 && bytesFor(capacity, index_slots) > memory_limit_) {
+    const std::uint64_t index_bytes = std::uint64_t{index_slots} * sizeof(IndexSlot);
+    const std::uint64_t per_pair =
+        sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_;
+    const std::uint64_t fits =
+        memory_limit_ > index_bytes ? (memory_limit_ - index_bytes) / per_pair : 0;
+    if (fits < pairs) {
+      throw PairMemoryError(pairs,
+                            bytesFor(pairs, std::bit_ceil(std::max(2 * pairs, kSmallestIndex))),
+                            memory_limit_);
+    }
+    capacity = std::max(held, static_cast<std::size_t>(std::min<std::uint64_t>(fits, capacity)));
+  }
+  if (capacity > held) growPairs(capacity);
+  if (index_slots > index_.size()) rehash(index_slots);
+}
+
+// The array on memory of our own: Bullet's array would write through a
+// failed allocation.
+void BulkPairCache::growPairs(std::size_t capacity) {
+  if (capacity > static_cast<std::size_t>(std::numeric_limits<int>::max())) throw std::bad_alloc();
+  std::unique_ptr<void, void (*)(void*) noexcept> fresh(
+      allocateLookupMemory(capacity * sizeof(btBroadphasePair)), freeLookupMemory);
+  keys_.reserve(capacity);
+  const int size = pairs_.size();
+  if (size > 0) {
+    std::memcpy(fresh.get(), &pairs_[0], sizeof(btBroadphasePair) * static_cast<std::size_t>(size));
+  }
+  pairs_.initializeFromBuffer(fresh.get(), size, static_cast<int>(capacity));
+  freeLookupMemory(owned_);
+  owned_ = static_cast<btBroadphasePair*>(fresh.release());
+}
 
 std::size_t BulkPairCache::home(std::uint64_t key) const {
   return static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ULL) >> index_shift_);
@@ -48,11 +138,10 @@ void BulkPairCache::prefetchSlot(std::uint64_t key) const {
   prefetch(&index_[home(key)]);
 }
 
-void BulkPairCache::reserveIndex(std::size_t pairs) {
-  if (index_.size() >= 2 * pairs) return;
-  const std::size_t size = std::bit_ceil(std::max(2 * pairs, kSmallestIndex));
-  index_.assign(size, IndexSlot{kEmpty, 0, 0});
-  index_shift_ = 64 - std::countr_zero(size);
+void BulkPairCache::rehash(std::size_t index_slots) {
+  decltype(index_) fresh(index_slots, IndexSlot{kEmpty, 0, 0});
+  index_.swap(fresh);
+  index_shift_ = 64 - std::countr_zero(index_slots);
   for (std::size_t i = 0; i < keys_.size(); ++i) {
     index_[slotOf(keys_[i])] = IndexSlot{keys_[i], static_cast<std::uint32_t>(i), 0};
   }
@@ -74,9 +163,12 @@ void BulkPairCache::eraseSlot(std::size_t slot) {
 
 btBroadphasePair* BulkPairCache::addOrdered(btBroadphaseProxy* low, btBroadphaseProxy* high) {
   const std::uint64_t key = orderedKey(low->m_uniqueId, high->m_uniqueId);
-  reserveIndex(static_cast<std::size_t>(pairs_.size()) + 1);
-  const std::size_t slot = slotOf(key);
+  std::size_t slot = slotOf(key);
   if (index_[slot].key == key) return &pairs_[static_cast<int>(index_[slot].pair)];
+  if (pairs_.size() == pairs_.capacity() || index_.size() < 2 * keys_.size() + 2) {
+    reserve(static_cast<std::size_t>(pairs_.size()) + 1);
+    slot = slotOf(key);
+  }
   const int count = pairs_.size();
   void* memory = &pairs_.expandNonInitializing();
   if (ghost_ != nullptr) ghost_->addOverlappingPair(low, high);
@@ -90,7 +182,12 @@ btBroadphasePair* BulkPairCache::addOrdered(btBroadphaseProxy* low, btBroadphase
 
 void* BulkPairCache::removeOrdered(btBroadphaseProxy* low, btBroadphaseProxy* high,
                                    btDispatcher* dispatcher) {
-  const std::size_t slot = slotOf(orderedKey(low->m_uniqueId, high->m_uniqueId));
+  return removeKey(orderedKey(low->m_uniqueId, high->m_uniqueId), low, high, dispatcher);
+}
+
+void* BulkPairCache::removeKey(std::uint64_t key, btBroadphaseProxy* low, btBroadphaseProxy* high,
+                               btDispatcher* dispatcher) {
+  const std::size_t slot = slotOf(key);
   if (index_[slot].key == kEmpty) return nullptr;
   const int at = static_cast<int>(index_[slot].pair);
   btBroadphasePair& pair = pairs_[at];
@@ -117,7 +214,10 @@ void BulkPairCache::applyChanges(std::span<const gpu::IndexPair> removed,
   // Removals: a slot is fetched kAhead pairs ahead; halfway there its pair
   // (and the slot of the last pair, which will move) is fetched too.
   for (std::size_t i = 0; i < removed.size(); ++i) {
-    if (i + kAhead < removed.size()) prefetchSlot(keyOf(removed[i + kAhead]));
+    if (i + kAhead < removed.size()) {
+      prefetchSlot(keyOf(removed[i + kAhead]));
+      prefetch(&proxies[removed[i + kAhead].b]);
+    }
     if (i + kAhead / 2 < removed.size()) {
       const IndexSlot& ahead = index_[slotOf(keyOf(removed[i + kAhead / 2]))];
       if (ahead.key != kEmpty) prefetch(&pairs_[static_cast<int>(ahead.pair)]);
@@ -126,17 +226,18 @@ void BulkPairCache::applyChanges(std::span<const gpu::IndexPair> removed,
     }
     btBroadphaseProxy* low = proxies[removed[i].a];
     btBroadphaseProxy* high = proxies[removed[i].b];
-    if (low != nullptr && high != nullptr) removeOrdered(low, high, dispatcher);
+    // The key from the slots (= ids), so no proxy is read.
+    if (low != nullptr && high != nullptr) removeKey(keyOf(removed[i]), low, high, dispatcher);
   }
   // Additions: room for all of them first, then each slot and the higher
   // proxy (read by the overlap filter) fetched ahead.
-  reserveIndex(keys_.size() + added.size());
+  reserve(keys_.size() + added.size());
   for (std::size_t i = 0; i < added.size(); ++i) {
     if (i + kAhead < added.size()) {
       prefetchSlot(keyOf(added[i + kAhead]));
       if (btBroadphaseProxy* next = proxies[added[i + kAhead].b]; next != nullptr) prefetch(next);
     }
-    if (i + 2 * kAhead < added.size()) prefetch(&proxies[added[i + 2 * kAhead].b]);
+    if (i + 4 * kAhead < added.size()) prefetch(&proxies[added[i + 4 * kAhead].b]);
     btBroadphaseProxy* low = proxies[added[i].a];
     btBroadphaseProxy* high = proxies[added[i].b];
     if (low != nullptr && high != nullptr && needsBroadphaseCollision(low, high)) {
@@ -260,15 +361,13 @@ void BulkPairCache::removeOverlappingPairsContainingProxy(btBroadphaseProxy* pro
 // As Bullet: every pair removed (its algorithm freed), then added back in
 // btBroadphasePairSortPredicate's order.
 void BulkPairCache::sortOverlappingPairs(btDispatcher* dispatcher) {
-  btBroadphasePairArray pairs;
-  for (int i = 0; i < pairs_.size(); ++i) pairs.push_back(pairs_[i]);
-  for (int i = 0; i < pairs.size(); ++i) {
-    removeOverlappingPair(pairs[i].m_pProxy0, pairs[i].m_pProxy1, dispatcher);
+  std::vector<btBroadphasePair> pairs(&pairs_[0], &pairs_[0] + pairs_.size());
+  for (const btBroadphasePair& pair : pairs) {
+    removeOverlappingPair(pair.m_pProxy0, pair.m_pProxy1, dispatcher);
   }
-  pairs.quickSort(btBroadphasePairSortPredicate());
-  for (int i = 0; i < pairs.size(); ++i) {
-    addOverlappingPair(pairs[i].m_pProxy0, pairs[i].m_pProxy1);
-  }
+  // Pairs are unique, so any sort gives Bullet's quickSort order.
+  std::sort(pairs.begin(), pairs.end(), btBroadphasePairSortPredicate());
+  for (const btBroadphasePair& pair : pairs) addOverlappingPair(pair.m_pProxy0, pair.m_pProxy1);
 }
 
 }  // namespace overlap::physics

@@ -12,10 +12,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <random>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/gpu/pair_test_support.h"
@@ -270,6 +272,44 @@ TEST(BulkPairCache, AnOverlapFilterDecidesWhatIsAdded) {
   EXPECT_EQ(cache.addOverlappingPair(&proxies[0], &proxies[2]), pair) << "added twice";
   EXPECT_EQ(cache.getNumOverlappingPairs(), 1);
   EXPECT_EQ(cache.findPair(&proxies[0], &proxies[1]), nullptr);
+}
+
+TEST(BulkPairCache, RefusesToGrowPastItsMemoryLimitAndKeepsThePairsItHeld) {
+  constexpr std::uint64_t kLimit = 64 * 1024;
+  BulkPairCache cache;
+  cache.setMemoryLimit(kLimit);
+  std::vector<std::pair<btBroadphaseProxy*, btBroadphaseProxy*>> held;
+  std::vector<btBroadphaseProxy> proxies(100);
+  for (std::size_t i = 0; i < proxies.size(); ++i) {
+    proxies[i].m_uniqueId = static_cast<int>(i);
+    proxies[i].m_collisionFilterGroup = btBroadphaseProxy::DefaultFilter;
+    proxies[i].m_collisionFilterMask = btBroadphaseProxy::AllFilter;
+  }
+  try {
+    for (btBroadphaseProxy& a : proxies) {
+      for (btBroadphaseProxy& b : proxies) {
+        if (a.m_uniqueId >= b.m_uniqueId) continue;
+        ASSERT_NE(cache.addOverlappingPair(&a, &b), nullptr);
+        held.emplace_back(&a, &b);
+      }
+    }
+    FAIL() << "4950 pairs fit in " << kLimit << " bytes";
+  } catch (const PairMemoryError& error) {
+    EXPECT_EQ(error.pairs, held.size() + 1);
+    EXPECT_GT(error.bytes, kLimit);
+    EXPECT_EQ(error.limit, kLimit);
+    EXPECT_NE(std::string(error.what()).find(std::to_string(held.size() + 1) + " pairs need"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_GT(held.size(), 500u);
+  EXPECT_LE(cache.bytesHeld(), kLimit);
+  ASSERT_EQ(cache.getNumOverlappingPairs(), static_cast<int>(held.size()));
+  for (const auto& [a, b] : held) {
+    const btBroadphasePair* pair = cache.findPair(b, a);
+    ASSERT_NE(pair, nullptr);
+    EXPECT_EQ(pair->m_pProxy0, a);
+  }
 }
 
 }  // namespace
