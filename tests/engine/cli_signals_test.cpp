@@ -219,7 +219,7 @@ TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
 }
 
 // Row 7: cpusap on identical boxes (every pair overlaps): memory bounded per
-// pair, as docs/CLI.md states (about 120 bytes a pair; 250 allowed here).
+// pair, as docs/CLI.md states (72 to 144 bytes a pair in the cache; 250 allowed here).
 TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
 #if defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "ThreadSanitizer's shadow memory is counted in the peak RSS this test reads";
