@@ -4,7 +4,7 @@
 // With a CUDA device: cpubf below kGpubfFrom boxes, gpubf up to kGpusapFrom,
 // gpusap from there.  The crossovers are the H100's finder times, launch()
 // to finish() on the host, on generated scene-4 streams
-// (docs/results/gpu/h100-2026-11-27/, docs/DESIGN.md "The default
+// (docs/results/gpu/h100/, docs/DESIGN.md "The default
 // broadphase"): at 500 boxes cpubf (16 threads) and gpubf tie at 60 us, and
 // below it a GPU round trip cannot win; gpubf beats gpusap at 10^4 (215 us
 // against 364) and loses at 3*10^4 (2550 against 567), and a power law
