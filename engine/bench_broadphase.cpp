@@ -43,6 +43,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <new>
 #include <optional>
 #include <set>
 #include <string>
@@ -232,7 +233,8 @@ std::vector<Row> measure(const Workload& workload, const physics::AabbStream& st
                              row->algorithm + ", repeat " + std::to_string(repeat + 1) + " of " +
                              std::to_string(options.repeats),
                          0);
-      replayOnce(stream, options.warmup, options.seed, reference, has_reference, *row);
+      replayOnce(stream, options.warmup, options.seed, options.max_memory_mb, reference,
+                 has_reference, *row);
       replaying.finish();
       char figure[96];
       std::snprintf(figure, sizeof(figure), " %s%s %.1f us", row->algorithm.c_str(),

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "engine/cli_errors.h"
+#include "engine/memory_bound.h"
 #include "engine/stream_statistics.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/grid_pair_checker.h"
@@ -132,7 +133,8 @@ struct ReplaySamples {
 }  // namespace
 
 void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
-                std::vector<physics::PairList>& reference, bool has_reference, Row& row) {
+                std::uint64_t max_memory_mb, std::vector<physics::PairList>& reference,
+                bool has_reference, Row& row) {
   std::optional<physics::BroadphaseReplay> made;
   try {
     made.emplace(row.algorithm, stream.world, stream.objects);
@@ -140,6 +142,12 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
     throw UsageError(std::string(error.what()) + " (n = " + std::to_string(stream.objects) + ")");
   }
   physics::BroadphaseReplay& replay = *made;
+  // The pairs get what the stream held and the replay's boxes leave.
+  const auto objects = static_cast<std::uint64_t>(stream.objects);
+  const std::uint64_t box_bytes =
+      replayBytes(row.algorithm, objects) +
+      objects * static_cast<std::uint64_t>(stream.stored_frames) * sizeof(physics::Aabb);
+  replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, max_memory_mb));
   if (replay.algorithm() != row.algorithm) {
     throw std::runtime_error("algorithm " + row.algorithm + " ran as " + replay.algorithm() + ": " +
                              replay.notice());
@@ -163,13 +171,20 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
     const bool only_changed = frame > 0 && row.churn <= 0;
     if (only_changed) changedBoxes(stream.frame(frame - 1), stream.frame(frame), changed);
     const Clock::time_point start = Clock::now();
-    if (only_changed) {
-      replay.updateChanged(stream.frame(frame), changed);
-    } else {
-      replay.update(stream.frame(frame), present);
+    double updated_us = 0;
+    try {  // Bullet's own broadphases find pairs as the boxes are written
+      if (only_changed) {
+        replay.updateChanged(stream.frame(frame), changed);
+      } else {
+        replay.update(stream.frame(frame), present);
+      }
+      updated_us = usSince(start);
+      replay.findPairs();
+    } catch (const physics::PairMemoryError& error) {
+      throw pairMemoryRefusal(error, max_memory_mb,
+                              "n=" + std::to_string(stream.objects) + " with --algos " +
+                                  row.algorithm + ", frame " + std::to_string(frame));
     }
-    const double updated_us = usSince(start);
-    replay.findPairs();
     const double elapsed_us = usSince(start);
     // After the clock: a signal cuts cpubf's search short, its pairs not whole.
     if (pendingInterrupt() != 0) stopHere();

@@ -76,9 +76,11 @@ std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& s
 // Replays the whole stream once in a fresh broadphase and adds one repeat to
 // `row`.  With `has_reference` and `reference` empty it fills it (this
 // algorithm is the reference; only without churn); otherwise every frame is
-// checked against it.  Throws UsageError for a count the algorithm cannot hold,
+// checked against it.  Throws UsageError for a count the algorithm cannot hold
+// or pairs that --max-memory (`max_memory_mb`, engine/memory_bound.h) cannot,
 // Interrupted (gpu/base/interrupt.h) for a signal, checked before each frame.
 void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
-                std::vector<physics::PairList>& reference, bool has_reference, Row& row);
+                std::uint64_t max_memory_mb, std::vector<physics::PairList>& reference,
+                bool has_reference, Row& row);
 
 }  // namespace overlap::engine

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <iostream>
 #include <iterator>
+#include <new>
 #include <regex>
 
 #include "gpu/base/interrupt.h"
@@ -82,6 +83,11 @@ int runProgram(const char* program, CLI::App& app, const std::function<int()>& b
     code = 2;
   } catch (const Interrupted& stop) {
     code = reportInterrupted(program, stop);
+  } catch (const std::bad_alloc&) {
+    printError(program,
+               "out of memory: an allocation failed (ulimit -v or the machine's memory); a "
+               "lower --max-memory refuses such a run before it allocates");
+    code = 1;
   } catch (const std::exception& error) {
     printError(program, std::string("error: ") + error.what());
     code = 1;

@@ -69,7 +69,8 @@ void refuseTogether(const CLI::Option* first, const CLI::Option* second, std::st
 // it throws into the exit code and one line on stderr, "PROGRAM: ...":
 // --help and --version print and exit 0; a ParseError or UsageError exits
 // 2 (an option given twice says so in plain words); Interrupted exits 128 +
-// the signal; anything else exits 1.  Control characters in a message are
+// the signal; running out of memory (std::bad_alloc) exits 1 saying so;
+// anything else exits 1.  Control characters in a message are
 // escaped (a value holding a newline stays on the one line).  Standard
 // output is flushed last: a failed write there (`> /dev/full`) exits 1
 // naming it, whatever printed it.

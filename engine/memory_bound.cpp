@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 
 #include "engine/cli_errors.h"
 #include "engine/number_options.h"
@@ -20,12 +21,20 @@ constexpr std::int64_t kMostMegabytes = 1'000'000'000;
 
 }  // namespace
 
-std::uint64_t defaultMemoryLimit() {
+namespace {
+
+std::uint64_t physicalMemory() {
   const long pages = ::sysconf(_SC_PHYS_PAGES);
   const long page_bytes = ::sysconf(_SC_PAGE_SIZE);
-  std::uint64_t limit = pages > 0 && page_bytes > 0 ? static_cast<std::uint64_t>(pages) *
-                                                          static_cast<std::uint64_t>(page_bytes)
-                                                    : UINT64_MAX;
+  return pages > 0 && page_bytes > 0
+             ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page_bytes)
+             : UINT64_MAX;
+}
+
+}  // namespace
+
+std::uint64_t defaultMemoryLimit() {
+  std::uint64_t limit = physicalMemory();
   rlimit address_space{};
   if (::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY) {
     limit = std::min<std::uint64_t>(limit, address_space.rlim_cur);
@@ -36,8 +45,8 @@ std::uint64_t defaultMemoryLimit() {
 void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb) {
   command
       .add_option("--max-memory", limit_mb,
-                  "MB the run may allocate for its boxes and cpubf's pair bits, checked before it "
-                  "does (default: the machine's memory, or ulimit -v if lower)")
+                  "MB the run may allocate for its boxes, cpubf's pair bits and the pairs found, "
+                  "checked before it does (default: the machine's memory, or ulimit -v if lower)")
       ->check(wholeNumberIn(1, kMostMegabytes))
       ->default_str(std::to_string(defaultMemoryLimit() / kMegabyte));
 }
@@ -51,12 +60,62 @@ std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects) {
   return bytes;
 }
 
+namespace {
+
+std::uint64_t limitBytes(std::uint64_t limit_mb) {
+  return limit_mb > 0 ? limit_mb * kMegabyte : defaultMemoryLimit();
+}
+
+bool addressSpaceLimited() {
+  rlimit address_space{};
+  return ::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY;
+}
+
+std::string aboveTheLimit(std::uint64_t limit_mb) {
+  const char* source = limit_mb > 0 ? " (--max-memory)"
+                       : addressSpaceLimited() && defaultMemoryLimit() < physicalMemory()
+                           ? " (ulimit -v)"
+                           : " (the machine's; raise it with --max-memory)";
+  return ", above the memory limit " + readableBytes(limitBytes(limit_mb)) + source;
+}
+
+}  // namespace
+
 void requireMemory(std::uint64_t bytes, std::uint64_t limit_mb, const std::string& what) {
-  const std::uint64_t limit = limit_mb > 0 ? limit_mb * kMegabyte : defaultMemoryLimit();
-  if (bytes <= limit) return;
-  throw UsageError(
-      what + " needs " + readableBytes(bytes) + ", above the memory limit " + readableBytes(limit) +
-      (limit_mb > 0 ? " (--max-memory)" : " (the machine's; raise it with --max-memory)"));
+  if (bytes <= limitBytes(limit_mb)) return;
+  throw UsageError(what + " needs " + readableBytes(bytes) + aboveTheLimit(limit_mb));
+}
+
+namespace {
+
+// The process's address space now (what ulimit -v bounds), 0 if unknown.
+std::uint64_t addressSpaceInUse() {
+  std::FILE* statm = std::fopen("/proc/self/statm", "r");
+  if (statm == nullptr) return 0;
+  unsigned long long pages = 0;
+  const bool read = std::fscanf(statm, "%llu", &pages) == 1;
+  std::fclose(statm);
+  const long page_bytes = ::sysconf(_SC_PAGE_SIZE);
+  return read && page_bytes > 0 ? pages * static_cast<std::uint64_t>(page_bytes) : 0;
+}
+
+}  // namespace
+
+std::uint64_t pairMemoryLimit(std::uint64_t counted, std::uint64_t limit_mb) {
+  const std::uint64_t limit = limitBytes(limit_mb);
+  // Under ulimit -v, what the process already maps counts too (its
+  // threads' stacks and heaps), so a refusal comes before a failed mapping.
+  if (addressSpaceLimited()) counted = std::max(counted, addressSpaceInUse());
+  return limit > counted ? limit - counted : 1;
+}
+
+UsageError pairMemoryRefusal(const physics::PairMemoryError& error, std::uint64_t limit_mb,
+                             const std::string& what) {
+  const std::uint64_t limit = limitBytes(limit_mb);
+  const std::uint64_t besides = limit > error.limit ? limit - error.limit : 0;
+  return UsageError(what + ": " + std::to_string(error.pairs) + " pairs need " +
+                    readableBytes(error.bytes) + ", with the " + readableBytes(besides) +
+                    " the run holds besides" + aboveTheLimit(limit_mb));
 }
 
 }  // namespace overlap::engine

@@ -75,13 +75,23 @@ void printPairs(const PairsOptions& options) {
     reader.next(boxes);
     physics::BroadphaseReplay replay(options.algorithm, header.world, header.objects);
     if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
+    // The pairs get what the boxes leave of the limit.
+    const std::uint64_t box_bytes =
+        replayBytes(options.algorithm, static_cast<std::uint64_t>(header.objects));
+    replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, options.max_memory_mb));
 
     Progress progress("overlap pairs", header.stored_frames);
     do {
       stopIfInterrupted("frame " + std::to_string(frame) + " of " +
                         std::to_string(header.stored_frames));
-      replay.update(boxes);
-      replay.findPairs();
+      try {  // Bullet's own broadphases find pairs as the boxes are written
+        replay.update(boxes);
+        replay.findPairs();
+      } catch (const physics::PairMemoryError& error) {
+        throw pairMemoryRefusal(error, options.max_memory_mb,
+                                "--input " + options.input.string() + ", frame " +
+                                    std::to_string(frame) + " with --algo " + options.algorithm);
+      }
       // A signal cuts cpubf's search short: its pairs are not whole.
       if (pendingInterrupt() != 0) {
         stopIfInterrupted("frame " + std::to_string(frame) + " of " +

@@ -5,9 +5,12 @@
 #include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
 
 #include <array>
+#include <cstdlib>
+#include <new>
 #include <stdexcept>
 #include <string>
 
+#include "physics/bulk_pair_cache.h"
 #include "physics/ccd_query_broadphase.h"
 #include "physics/growing_sweep_and_prune.h"
 #include "physics/pair_finder_broadphase.h"
@@ -41,6 +44,49 @@ constexpr std::array<std::string_view, kCatalogue.size()> kNames = [] {
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
 
+// Bullet's own broadphases with our pair cache, which holds the same pairs in
+// the same order as theirs (physics/bulk_pair_cache.h) but checks its
+// allocations and can be bounded.  The cache is the first base, so it is
+// built before the broadphase that keeps a pointer to it and outlives it.
+struct PairCacheOwner {
+  BulkPairCache cache;
+};
+
+class BruteForceBroadphase final : private PairCacheOwner, public btSimpleBroadphase {
+ public:
+  explicit BruteForceBroadphase(int max_objects) : btSimpleBroadphase(max_objects, &cache) {}
+};
+
+template <class Sweep, class Handle>
+class SweepBroadphase final : private PairCacheOwner, public Sweep {
+ public:
+  SweepBroadphase(const btVector3& world_min, const btVector3& world_max, Handle handles)
+      // No ray-test tree of its own: makeWorldBroadphase() answers every
+      // broadphase's ray and sweep queries through one shared tree.
+      : Sweep(world_min, world_max, handles, &cache, true) {}
+};
+
+class TreeBroadphase final : private PairCacheOwner, public btDbvtBroadphase {
+ public:
+  TreeBroadphase() : btDbvtBroadphase(&cache) {}
+};
+
+// Bullet's allocations return null when memory runs out, and Bullet writes
+// through it: a signal.  Through this allocator they throw std::bad_alloc.
+void* checkedAllocation(std::size_t bytes) {
+  void* memory = std::malloc(bytes);
+  if (memory == nullptr) throw std::bad_alloc();
+  return memory;
+}
+
+void checkBulletAllocations() {
+  static const bool installed = [] {
+    btAlignedAllocSetCustom(checkedAllocation, std::free);
+    return true;
+  }();
+  (void)installed;
+}
+
 }  // namespace
 
 std::span<const BroadphaseInfo> broadphaseCatalogue() {
@@ -71,24 +117,23 @@ std::string broadphaseCapacityProblem(std::string_view name, int objects, int re
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects) {
   const BroadphaseInfo& info = broadphaseInfo(name);
+  checkBulletAllocations();
   BroadphaseChoice choice;
   choice.name = std::string(name);
   if (name == "bf") {
-    choice.broadphase = std::make_unique<btSimpleBroadphase>(max_objects);
+    choice.broadphase = std::make_unique<BruteForceBroadphase>(max_objects);
   } else if (name == "sap") {
     if (const std::string problem = broadphaseCapacityProblem(name, max_objects);
         !problem.empty()) {
       throw std::invalid_argument("algo sap: " + problem);
     }
-    // No ray-test tree of its own: makeWorldBroadphase() answers every
-    // broadphase's ray and sweep queries through one shared tree.
-    choice.broadphase = std::make_unique<GrowingAxisSweep16>(
-        world_min, world_max, static_cast<unsigned short>(max_objects + 1), nullptr, true);
+    choice.broadphase = std::make_unique<SweepBroadphase<GrowingAxisSweep16, unsigned short>>(
+        world_min, world_max, static_cast<unsigned short>(max_objects + 1));
   } else if (name == "sap32") {
-    choice.broadphase = std::make_unique<GrowingAxisSweep32>(
-        world_min, world_max, static_cast<unsigned int>(max_objects + 1), nullptr, true);
+    choice.broadphase = std::make_unique<SweepBroadphase<GrowingAxisSweep32, unsigned int>>(
+        world_min, world_max, static_cast<unsigned int>(max_objects + 1));
   } else if (name == "bvh") {
-    choice.broadphase = std::make_unique<btDbvtBroadphase>();
+    choice.broadphase = std::make_unique<TreeBroadphase>();
   } else if (name == "cpubf") {
     choice.broadphase = std::make_unique<PairFinderBroadphase>(
         gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));

@@ -9,6 +9,11 @@
 //
 // Exact: the pair cache holds exactly the pairs whose AABBs overlap (touching
 // counts).  Not exact: it holds all of them and may hold more.
+// Every broadphase keeps its pairs in a BulkPairCache (physics/bulk_pair_cache.h:
+// the same pairs in the same order as Bullet's own cache), which checks its
+// allocations and can be bounded; and from the first broadphase made on,
+// Bullet's allocations throw std::bad_alloc when memory runs out instead of
+// returning null.
 // A device name without a CUDA device runs kDeviceFallback, the fastest exact
 // CPU finder; the returned notice says so in one line, and `name` is what
 // actually runs.

@@ -8,6 +8,7 @@
 
 #include "gpu/base/interrupt.h"
 #include "physics/broadphase_factory.h"
+#include "physics/bulk_pair_cache.h"
 #include "physics/growing_sweep_and_prune.h"
 #include "physics/pair_finder_broadphase.h"
 
@@ -157,6 +158,14 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
                       ours->lastCacheUpdateMs(),
                       ours->lastLaunchToFinishMs(),
                       ours->lastDeviceWork()};
+}
+
+void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes) {
+  auto* cache = dynamic_cast<BulkPairCache*>(bullet_->broadphase->getOverlappingPairCache());
+  if (cache == nullptr) throw std::logic_error("replay: the broadphase has no bulk pair cache");
+  // Our finders keep this and the last search's pairs, 8 bytes each.
+  const bool ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get()) != nullptr;
+  cache->setMemoryLimit(bytes, ours ? 16 : 0);
 }
 
 void BroadphaseReplay::findPairs() {

@@ -16,16 +16,16 @@ DefaultBroadphase defaultBroadphase(std::size_t objects, bool cuda_device,
   if (objects < kGpubfFrom) {
     return {"cpubf", "default broadphase cpubf for " + boxes + ": below " +
                          std::to_string(kGpubfFrom) +
-                         " boxes CPU threads beat a GPU round trip (H200, docs/DESIGN.md)"};
+                         " boxes a GPU round trip cannot beat CPU threads (H100, docs/DESIGN.md)"};
   }
   if (objects < kGpusapFrom) {
     return {"gpubf", "default broadphase gpubf for " + boxes + ": the fastest exact finder from " +
                          std::to_string(kGpubfFrom) + " to " + std::to_string(kGpusapFrom) +
-                         " boxes (H200, docs/DESIGN.md)"};
+                         " boxes (H100, docs/DESIGN.md)"};
   }
-  return {"gpusap",
-          "default broadphase gpusap for " + boxes + ": from " + std::to_string(kGpusapFrom) +
-              " boxes a brute force loses to a sort and sweep (H200, H100; docs/DESIGN.md)"};
+  return {"gpusap", "default broadphase gpusap for " + boxes + ": from " +
+                        std::to_string(kGpusapFrom) +
+                        " boxes a brute force loses to a sort and sweep (H100, docs/DESIGN.md)"};
 }
 
 DefaultBroadphase defaultBroadphaseHere(std::size_t objects) {

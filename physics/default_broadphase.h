@@ -2,12 +2,15 @@
 // scene's box count on this machine, by the one rule stated here.
 //
 // With a CUDA device: cpubf below kGpubfFrom boxes, gpubf up to kGpusapFrom,
-// gpusap from there.  Reasons, from the H200 figures (docs/DESIGN.md, "The
-// default broadphase"): gpubf's fixed cost (an upload, a launch, one copy
-// back) loses to cpubf's threads on the fewest boxes, and its n²/2 tests lose
-// to a sort-and-sweep past some tens of thousands.  gpusap's crossover is the
-// H200's brute-force limit; the H100 measured gpusap ahead of gpubf from
-// between 10^4 and 3*10^4 boxes (docs/results/gpu/h100/), not yet narrowed.
+// gpusap from there.  The crossovers are the H100's finder times, launch()
+// to finish() on the host, on generated scene-4 streams
+// (docs/results/gpu/h100/, docs/DESIGN.md "The default
+// broadphase"): at 500 boxes cpubf (16 threads) and gpubf tie at 60 us, and
+// below it a GPU round trip cannot win; gpubf beats gpusap at 10^4 (215 us
+// against 364) and loses at 3*10^4 (2550 against 567), and a power law
+// through each finder's two points crosses near 1.3*10^4.  Those were the
+// single-axis gpusap's; the slab version's crossover awaits a GPU
+// (docs/results/gpu_kernel_cost.md predicts it between the same two sizes).
 // Without a device: cpusap, the fastest exact CPU finder (kDeviceFallback).
 // Every name picked is exact (tests/physics/default_broadphase_test.cpp).
 #pragma once
@@ -19,7 +22,7 @@
 namespace overlap::physics {
 
 inline constexpr std::size_t kGpubfFrom = 500;
-inline constexpr std::size_t kGpusapFrom = 50000;
+inline constexpr std::size_t kGpusapFrom = 13000;
 
 struct DefaultBroadphase {
   std::string_view name;

@@ -27,7 +27,7 @@
 namespace overlap::physics {
 
 template <typename Sweep>
-class GrowingSweepAndPrune final : public Sweep {
+class GrowingSweepAndPrune : public Sweep {
  public:
   using Sweep::Sweep;
 

@@ -13,7 +13,7 @@
 
 namespace overlap::physics {
 PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder)
-    : finder_(std::move(finder)), pair_cache_(std::make_unique<btHashedOverlappingPairCache>()) {
+    : finder_(std::move(finder)), pair_cache_(std::make_unique<BulkPairCache>()) {
   if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
 }
 
@@ -35,6 +35,7 @@ btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
     slot = static_cast<std::uint32_t>(proxies_.size());
     proxies_.emplace_back();
     states_.push_back(SlotState::kFree);
+    live_proxies_.push_back(nullptr);
     aabb_valid_.push_back(true);
     search_entries_.emplace_back();
     changed_flags_.push_back(0);
@@ -44,6 +45,7 @@ btBroadphaseProxy* PairFinderBroadphase::createProxy(const btVector3& aabbMin,
                                                        collisionFilterGroup, collisionFilterMask);
   proxies_[slot]->m_uniqueId = static_cast<int>(slot);
   states_[slot] = SlotState::kLive;
+  live_proxies_[slot] = proxies_[slot].get();
   aabb_valid_[slot] = true;
   ++live_count_;
   updateSearchEntry(slot);
@@ -65,6 +67,7 @@ void PairFinderBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* 
   const std::uint32_t slot = liveSlotOf(proxy, "destroyProxy");
   pair_cache_->removeOverlappingPairsContainingProxy(proxy, dispatcher);
   states_[slot] = SlotState::kDestroyed;
+  live_proxies_[slot] = nullptr;
   setSearchEntry(slot, gpu::ObjectBounds{});
   destroyed_.push_back(slot);
   --live_count_;
@@ -164,20 +167,7 @@ void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   const HostStopwatch cache_watch;
   // A pair with a destroyed proxy already left the cache with it: only pairs
   // of two live proxies apply.
-  const auto bothLive = [&](const gpu::IndexPair& pair) {
-    return states_[pair.a] == SlotState::kLive && states_[pair.b] == SlotState::kLive;
-  };
-  for (const gpu::IndexPair& pair : delta.removed) {
-    if (bothLive(pair)) {
-      pair_cache_->removeOverlappingPair(proxies_[pair.a].get(), proxies_[pair.b].get(),
-                                         dispatcher);
-    }
-  }
-  for (const gpu::IndexPair& pair : delta.added) {
-    if (bothLive(pair)) {
-      pair_cache_->addOverlappingPair(proxies_[pair.a].get(), proxies_[pair.b].get());
-    }
-  }
+  pair_cache_->applyChanges(delta.removed, delta.added, live_proxies_, dispatcher);
   // The search saw the destroyed slots unused, so the finder holds no pair of
   // theirs any more: they may take new proxies.
   for (const std::uint32_t slot : destroyed_) {

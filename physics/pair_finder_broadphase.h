@@ -6,8 +6,10 @@
 // the same sequence of calls numbers proxies the same way on every run.
 // calculateOverlappingPairs() is one search: it hands the current boxes to
 // the finder, waits for its answer and applies what changed to the owned
-// btHashedOverlappingPairCache (removals through the dispatcher, which frees
-// the pair's algorithm; a pair that stays keeps its cache entry untouched).
+// pair cache in bulk (physics/bulk_pair_cache.h: Bullet's hashed cache call
+// for call, so the same pairs in the same order; removals through the
+// dispatcher, which frees the pair's algorithm; a pair that stays keeps its
+// cache entry untouched).
 // Each search also tells the finder which slots' boxes changed since the
 // last one (a move buffer, as Box2D keeps), so that cpusap re-queries only
 // the boxes that moved.  Where the finder has a staging area (gpubf's pinned
@@ -40,6 +42,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "physics/bulk_pair_cache.h"
 
 namespace overlap::physics {
 
@@ -106,11 +109,14 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void forEachSearchableProxy(const std::function<void(btBroadphaseProxy&)>& visit);
 
   std::unique_ptr<gpu::PairFinder> finder_;
-  std::unique_ptr<btHashedOverlappingPairCache> pair_cache_;
+  std::unique_ptr<BulkPairCache> pair_cache_;
   // Indexed by slot.  A destroyed proxy stays allocated until its slot is
   // reused, so a stale result never names freed memory.
   std::vector<std::unique_ptr<btBroadphaseProxy>> proxies_;
   std::vector<SlotState> states_;
+  // Indexed by slot: the live proxy, null where the slot is not live (what
+  // the cache skips in a search's changes).
+  std::vector<btBroadphaseProxy*> live_proxies_;
   std::vector<bool> aabb_valid_;
   std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
   // The finder's staging as the last search passed it; empty if it has none.

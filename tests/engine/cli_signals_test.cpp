@@ -219,7 +219,7 @@ TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
 }
 
 // Row 7: cpusap on identical boxes (every pair overlaps): memory bounded per
-// pair, as docs/CLI.md states (about 120 bytes a pair; 250 allowed here).
+// pair, as docs/CLI.md states (72 to 144 bytes a pair in the cache; 250 allowed here).
 TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
 #if defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "ThreadSanitizer's shadow memory is counted in the peak RSS this test reads";
@@ -245,6 +245,51 @@ TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
   };
   const double pairs = 1000.0 * 999 / 2;
   EXPECT_LT(peakBytes(many) - peakBytes(few), 250 * pairs);
+}
+
+// Pairs that memory cannot hold: 4000 identical boxes make 8 million pairs a
+// frame.  Under --max-memory every CPU broadphase and the benchmark exit 2
+// naming the pairs and the memory they need.  Under ulimit -v (not with a
+// sanitizer, whose shadow memory needs the address space) so do Bullet's
+// broadphases and cpubf, whose pairs reach the cache one by one or before
+// its lists grow; cpusap's own pair lists may run out first, which is exit 1
+// naming the memory.  Never a signal.
+TEST_F(SignalsCliTest, PairsBeyondTheMemoryLimitAreRefusedWithTheirCountAndSize) {
+  std::string identical = lineStream(4000, 1);
+  for (std::size_t box = 304; box < identical.size(); box += 32) {
+    const float same[8] = {0, 0, 0, 0, 1, 1, 1, 0};
+    std::memcpy(identical.data() + box, same, sizeof(same));
+  }
+  const fs::path ident = write("ident4k.aabbs", identical);
+  const auto expectRefused = [](const Result& result, const std::string& label) {
+    EXPECT_EQ(result.exit_code, 2) << label << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(" pairs need "), std::string::npos) << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("above the memory limit"), std::string::npos);
+  };
+  for (const char* algorithm : {"bf", "sap", "bvh", "cpubf", "cpusap"}) {
+    expectRefused(runOverlap(std::string("pairs --max-memory 300 --algo ") + algorithm +
+                             " --input " + ident.string()),
+                  algorithm);
+  }
+  expectRefused(runCommand(std::string(OVERLAP_BENCH_BINARY) +
+                           " --algos cpusap --warmup 0 --repeats 1 --max-memory 300 --input " +
+                           ident.string() + " --out " + (out_ / "b").string()),
+                "benchmark");
+  EXPECT_FALSE(fs::exists(out_ / "b.csv"));
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  const std::string ulimit = "ulimit -v 600000; ";
+  for (const char* algorithm : {"bf", "sap", "bvh", "cpubf"}) {
+    expectRefused(runCommand("(" + ulimit + OVERLAP_BINARY + " pairs --algo " + algorithm +
+                             " --input " + ident.string() + ")"),
+                  algorithm);
+  }
+  const Result cpusap = runCommand("(" + ulimit + OVERLAP_BINARY + " pairs --algo cpusap --input " +
+                                   ident.string() + ")");
+  EXPECT_TRUE(cpusap.exit_code == 2 || cpusap.exit_code == 1) << cpusap.stderr_text;
+  EXPECT_TRUE(cpusap.stderr_text.find(" pairs need ") != std::string::npos ||
+              cpusap.stderr_text.find("out of memory") != std::string::npos)
+      << cpusap.stderr_text;
+#endif
 }
 
 // Row 16: sap32 on 30000 boxes shows progress while its first frame (n^2

@@ -230,6 +230,12 @@ inline bool isGpuFinder(PairFinderKind kind) {
          kind == PairFinderKind::kGpuSweepAndPrune;
 }
 
+// Every finder, for tests parameterized over all of them.
+inline constexpr PairFinderKind kEveryFinder[] = {
+    PairFinderKind::kCpuBruteForce, PairFinderKind::kCpuSweepAndPrune,
+    PairFinderKind::kGpuBruteForce, PairFinderKind::kGpuBruteForcePaper,
+    PairFinderKind::kGpuSweepAndPrune};
+
 // Names parameterized tests after their finder.
 inline std::string finderTestName(const ::testing::TestParamInfo<PairFinderKind>& param_info) {
   return finderName(param_info.param);

@@ -475,11 +475,7 @@ TEST(PairFinderBroadphaseStagingTest, TheStagingHoldsEveryEntryAtEachLaunch) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
-                         ::testing::Values(PairFinderKind::kCpuBruteForce,
-                                           PairFinderKind::kCpuSweepAndPrune,
-                                           PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper,
-                                           PairFinderKind::kGpuSweepAndPrune),
+                         ::testing::ValuesIn(gpu::testing::kEveryFinder),
                          gpu::testing::finderTestName);
 }  // namespace
 }  // namespace overlap::physics
