@@ -42,7 +42,14 @@ enum class Collective {
 
 namespace detail {
 
-extern thread_local const ThreadCoordinates* t_coordinates;
+// The running fiber's coordinates; aborts naming the misuse when no kernel
+// thread is running on this OS thread.  A call, not the thread_local itself:
+// a kernel's translation unit then never addresses executor.cpp's
+// thread_local.  (Addressed from here, GCC 12 with -fsanitize=null tested the
+// variable's address using the flags of an `add x@gottpoff(%rip)`, which the
+// linker rewrites into a flag-less `lea` in an executable, so the check read
+// stale flags and reported a null pointer where there was none.)
+const ThreadCoordinates& coordinates();
 
 // Waits, in the running fiber, for the lanes of `mask` (or for the block) and
 // returns this lane's result: the ballot, the any/all flag, or the shuffled
@@ -86,10 +93,10 @@ T replaceWhile(T* address, T value, Replace replace) {
 }  // namespace detail
 }  // namespace overlap::cuda_emulation
 
-#define threadIdx (::overlap::cuda_emulation::detail::t_coordinates->thread_idx)
-#define blockIdx (::overlap::cuda_emulation::detail::t_coordinates->block_idx)
-#define blockDim (::overlap::cuda_emulation::detail::t_coordinates->block_dim)
-#define gridDim (::overlap::cuda_emulation::detail::t_coordinates->grid_dim)
+#define threadIdx (::overlap::cuda_emulation::detail::coordinates().thread_idx)
+#define blockIdx (::overlap::cuda_emulation::detail::coordinates().block_idx)
+#define blockDim (::overlap::cuda_emulation::detail::coordinates().block_dim)
+#define gridDim (::overlap::cuda_emulation::detail::coordinates().grid_dim)
 inline constexpr int warpSize = 32;
 
 inline void __syncthreads(std::source_location site = std::source_location::current()) {

@@ -33,9 +33,10 @@
 
 namespace overlap::cuda_emulation::detail {
 
-thread_local const ThreadCoordinates* t_coordinates = nullptr;
-
 namespace {
+
+// The running fiber's coordinates (its Lane's), null outside a kernel thread.
+thread_local const ThreadCoordinates* t_coordinates = nullptr;
 
 namespace fctx = boost::context::detail;
 
@@ -423,6 +424,13 @@ thread_local BlockRunner* BlockRunner::t_runner = nullptr;
 std::uint64_t collective(Collective kind, unsigned mask, std::uint64_t value, int operand,
                          int width, const std::source_location& site) {
   return BlockRunner::wait(kind, mask, value, operand, width, site);
+}
+
+const ThreadCoordinates& coordinates() {
+  if (t_coordinates == nullptr) {
+    fail("threadIdx, blockIdx, blockDim or gridDim read outside a kernel thread");
+  }
+  return *t_coordinates;
 }
 
 std::string where(const std::source_location& site) {

@@ -289,4 +289,16 @@ TEST_F(CudaEmulationDeathTest, AShuffleReadingALaneOutsideTheMaskAborts) {
       "__shfl_sync \\(mask 0x0000ffff\\) .* reading lane 20, which is not in the mask");
 }
 
+// --- the coordinates outside a kernel ---------------------------------------
+
+__device__ unsigned threadIndex() {
+  return threadIdx.x;
+}
+
+TEST_F(CudaEmulationDeathTest, ReadingThreadIdxOutsideAKernelAborts) {
+  EXPECT_DEATH(threadIndex(),
+               "CUDA emulation: threadIdx, blockIdx, blockDim or gridDim read outside a kernel "
+               "thread");
+}
+
 }  // namespace
