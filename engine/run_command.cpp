@@ -45,8 +45,8 @@ namespace overlap::engine {
 namespace {
 
 // `overlap run` with no options is the demo: scene 4 at a size that finishes
-// within a minute on two cores without a GPU (README.md has the time
-// measured), with every output written.
+// within a minute on two cores without a GPU (docs/results/run_costs.md has
+// the time measured), with every output written.
 // --paper is the paper's full run (docs/SCENES.md: 3500 boxes, 2048 frames).
 constexpr int kDemoObjects = 1000;
 constexpr int kDemoFrames = 300;
@@ -617,7 +617,7 @@ void addRunCommand(CLI::App& app) {
       "timeline.json, the sound as a WAV and keyframe PNGs.  With no options: the demo, scene 4 "
       "with " +
           std::to_string(kDemoObjects) + " boxes for " + std::to_string(kDemoFrames) +
-          " frames (its time on two cores: see README.md); --paper for the paper's full run");
+          " frames (its time on two cores: docs/results/run_costs.md); --paper for the paper's full run");
   arguments->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, arguments->algorithm);
   given->algo = command->get_option("--algo");
