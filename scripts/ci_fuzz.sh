@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Fuzzing for CI, after scripts/setup.sh: builds the libFuzzer targets of
+# Fuzzing, after scripts/setup.sh (.ci/run runs it when FUZZ_SECONDS is set;
+# the corpora are replayed in every CI run by scripts/ci_sanitizers.sh, in the
+# ASan build): builds the libFuzzer targets of
 # tests/fuzz in a clang build (ASan + UBSan, CUDA off), replays each
 # committed corpus, then fuzzes each target for FUZZ_SECONDS (default 20) on
 # a scratch copy of its corpus with its dictionary.  Exits non-zero on any

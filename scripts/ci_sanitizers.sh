@@ -1,13 +1,21 @@
 #!/usr/bin/env bash
-# CI under sanitizers, after scripts/setup.sh: the whole ctest suite under
+# CI under sanitizers, after scripts/setup.sh: the ctest suite under
 # AddressSanitizer + UBSan (preset "asan", a CUDA emulation build: the .cu
 # files run on the CPU, so every GPU test runs, none may skip, and ASan
-# stands in for compute-sanitizer's memcheck), then the threaded code (cpubf's
-# oneTBB search job, the frame scheduler, the sound and AI tasks)
-# under ThreadSanitizer (preset "tsan", CPU code only: TSan cannot follow
-# the emulation's fibers).  tests/lsan.supp holds OSMesa's known leak (the `overlap` binary
-# that the CLI tests run captures frames with it); tests/tsan.supp and the
-# TSan section below deal with oneTBB, which is not TSan-instrumented.
+# stands in for compute-sanitizer's memcheck; the fuzz corpora replayed,
+# label fuzz) but the whole runs of hundreds to thousands of frames (label
+# long: determinism, the 50 g scenes), which go through the code the
+# shorter tests run under ASan, for more frames, and run in the Release
+# stage; then the unit tests of the threaded code (label threads:
+# cpubf's and cpusap's oneTBB search jobs, the frame scheduler and job
+# graph, the sound and AI tasks, the stream generator) under
+# ThreadSanitizer (preset "tsan", CPU code only: TSan cannot follow the
+# emulation's fibers); the end-to-end CLI tests (label e2e) would run the
+# same threaded code again, on one CPU, so they run under ASan alone.
+# tests/lsan.supp holds OSMesa's known
+# leak (the `overlap` binary that the CLI tests run captures frames with it);
+# tests/tsan.supp and the TSan section below deal with oneTBB, which is not
+# TSan-instrumented.  Both builds go through ccache where it is installed.
 # Usage: [SANITIZERS="asan tsan"] scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
 # (default: both, in the presets' build-asan and build-tsan).
 set -euo pipefail
@@ -18,11 +26,10 @@ readonly JOBS="$(nproc)"
 # -O1 with line tables halves the compile time of -O2 -g (docs/CI.md) and
 # keeps the sanitizers' stack traces.
 readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
-# The threaded tests: their labels and the targets that hold them
-# (tests/*/CMakeLists.txt); engine's CLI tests run the `overlap` binary.
-readonly TSAN_LABELS="gpu|engine|scheduler|stubs"
-readonly TSAN_TARGETS=(overlap_gpu_tests overlap_engine_tests overlap_scheduler_tests stubs_tests
-                      overlap_stream_tests)
+# The test executables labelled threads (tests/*/CMakeLists.txt).
+readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests)
+launcher=()
+if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
 section() { printf '\n== %s: %s\n' "$(date +%T)" "$*"; }
 
@@ -30,13 +37,14 @@ readonly SANITIZERS="${SANITIZERS:-asan tsan}"
 
 if [[ " $SANITIZERS " == *" asan "* ]]; then
 section "ASan + UBSan: configure and build ($ASAN_DIR)"
-cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" >/dev/null
+cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
+  "${launcher[@]}" >/dev/null
 cmake --build "$ASAN_DIR" -j "$JOBS"
-section "ASan + UBSan: the whole suite, the GPU tests on the CUDA emulation"
+section "ASan + UBSan: the suite but the long whole runs, the GPU tests on the CUDA emulation"
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" \
 UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
-  ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" | tee "$ASAN_DIR/ctest.log"
+  ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" -LE long | tee "$ASAN_DIR/ctest.log"
 if grep -q "(Skipped)" "$ASAN_DIR/ctest.log"; then
   echo "ci_sanitizers: tests skipped in the CUDA emulation build (see above)" >&2
   exit 1
@@ -46,9 +54,10 @@ fi
 if [[ " $SANITIZERS " == *" tsan "* ]]; then
 
 section "TSan: configure and build ($TSAN_DIR)"
-cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" >/dev/null
+cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
+  "${launcher[@]}" >/dev/null
 cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
-section "TSan: tests labelled $TSAN_LABELS"
+section "TSan: the tests labelled threads"
 # oneTBB is not built with TSan: the hand-overs inside it are invisible, and
 # every task would look racy against the thread that spawned it.  On one CPU
 # oneTBB starts no worker threads (its default concurrency is the affinity
@@ -56,6 +65,6 @@ section "TSan: tests labelled $TSAN_LABELS"
 # here they run on the main thread: TSan checks the project's own atomics
 # and the code around the joins, not a second thread.
 TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1:second_deadlock_stack=1" \
-  taskset -c 0 ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L "$TSAN_LABELS"
+  taskset -c 0 ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L threads
 fi
 section "sanitizers: no finding"

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian packages Overlap needs (idempotent: apt-get update runs
 # once, and only when something is missing), then configures and builds the
-# project with CMake in Release.  Usage: scripts/setup.sh [BUILD_DIR] [PRESET]
+# project with CMake in Release, through ccache (a rebuild, or a build in
+# another clone with the same CCACHE_BASEDIR, compiles only what changed).
+# The CUDA architectures: CMakeLists.txt's five, or CMake's CUDAARCHS.
+# Usage: scripts/setup.sh [BUILD_DIR]
 set -euo pipefail
 
 readonly PACKAGES=(
@@ -10,7 +13,7 @@ readonly PACKAGES=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   nlohmann-json3-dev libpng-dev python3-matplotlib
   libboost-context-dev  # fibers for the CUDA emulation build (gpu/emulation/)
-  clang libclang-rt-14-dev  # the libFuzzer targets (scripts/ci_fuzz.sh); the runtime is only a Recommends of clang
+  ccache
 )
 
 missing=()
@@ -30,5 +33,6 @@ fi
 
 cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache
 cmake --build "$build_dir" -j "$(nproc)"

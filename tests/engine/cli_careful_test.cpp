@@ -56,9 +56,9 @@ class CarefulCliTest : public CliTest {
   }
 };
 
-// Row 1: an output that exists and is not a regular file is written
+// An output that exists and is not a regular file is written
 // through; a symlink's target is replaced and the link stays a link.
-TEST_F(CarefulCliTest, Row1DevicesFifosAndSymlinksAreWrittenThroughOrFollowed) {
+TEST_F(CarefulCliTest, DevicesFifosAndSymlinksAreWrittenThroughOrFollowed) {
   const fs::path stream = record("plain.aabbs");
   const std::string expected = fileText(stream);
 
@@ -98,10 +98,10 @@ TEST_F(CarefulCliTest, Row1DevicesFifosAndSymlinksAreWrittenThroughOrFollowed) {
   EXPECT_TRUE(fs::exists(out_ / "run" / "summary.json"));
 }
 
-// Row 2: a stream without a size is read a frame at a time; its header's
+// A stream without a size is read a frame at a time; its header's
 // counts alone allocate nothing.  The same stream through a pipe gives the
 // same pairs as the file.
-TEST_F(CarefulCliTest, Row2StreamsWithoutASizeEndAtOnceOrAreReadFrameByFrame) {
+TEST_F(CarefulCliTest, StreamsWithoutASizeEndAtOnceOrAreReadFrameByFrame) {
   for (const char* device : {"/dev/zero", "/dev/urandom"}) {
     const Result result = runOverlap(std::string("pairs --algo cpubf --input ") + device);
     EXPECT_EQ(result.exit_code, 2) << device << ": " << result.stderr_text;
@@ -133,9 +133,9 @@ TEST_F(CarefulCliTest, Row2StreamsWithoutASizeEndAtOnceOrAreReadFrameByFrame) {
       << message;
 }
 
-// Row 3: SIGINT and SIGTERM stop at a frame boundary, say in one line what
+// SIGINT and SIGTERM stop at a frame boundary, say in one line what
 // was kept, and leave the folder as the previous run left it.
-TEST_F(CarefulCliTest, Row3InterruptedRunLeavesThePreviousRunWhole) {
+TEST_F(CarefulCliTest, InterruptedRunLeavesThePreviousRunWhole) {
   const fs::path folder = out_ / "run";
   ASSERT_EQ(runOverlap("run --objects 50 --frames 4 --capture-every 2 --capture-size 32x24 --out " +
                        folder.string())
@@ -161,8 +161,8 @@ TEST_F(CarefulCliTest, Row3InterruptedRunLeavesThePreviousRunWhole) {
   }
 }
 
-// Row 4: a write that fails exits 1 naming the output.
-TEST_F(CarefulCliTest, Row4FailedWritesExit1NamingTheOutput) {
+// A write that fails exits 1 naming the output.
+TEST_F(CarefulCliTest, FailedWritesExit1NamingTheOutput) {
   const fs::path stream = record("s.aabbs");
   for (const std::string& args : {"pairs --algo bf --input " + stream.string(),
                                   std::string("latency --objects 20 --frames 2")}) {
@@ -178,9 +178,9 @@ TEST_F(CarefulCliTest, Row4FailedWritesExit1NamingTheOutput) {
       << record_full.stderr_text;
 }
 
-// Rows 5 to 12 and 16: bad values and combinations exit 2 before any work,
+// Bad values and combinations exit 2 before any work,
 // in one short line naming the option (both, for a conflict).
-TEST_F(CarefulCliTest, Rows5To12And16BadValuesAreRefusedBeforeAnyWork) {
+TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
   const std::string out = " --out " + out_.string();
   fs::create_directories(out_ / "dirs" / "summary.json");
   fs::create_directories(out_ / "dirs2" / "frames.csv");
@@ -225,9 +225,9 @@ TEST_F(CarefulCliTest, Rows5To12And16BadValuesAreRefusedBeforeAnyWork) {
   }
 }
 
-// Row 13: the layout requires the fourth floats to be 0 and the names
+// The layout requires the fourth floats to be 0 and the names
 // NUL-padded within their 128 bytes.
-TEST_F(CarefulCliTest, Row13FourthFloatsAndUnterminatedNamesAreRefused) {
+TEST_F(CarefulCliTest, FourthFloatsAndUnterminatedNamesAreRefused) {
   const std::string good = fileText(record("good.aabbs"));
   const float one = 1.0f, nan = std::nanf("");
   const std::vector<std::tuple<std::string, std::size_t, std::string, std::string>> cases = {
@@ -249,9 +249,9 @@ TEST_F(CarefulCliTest, Row13FourthFloatsAndUnterminatedNamesAreRefused) {
   }
 }
 
-// Row 14: a second run into the same folder removes what the first wrote
+// A second run into the same folder removes what the first wrote
 // and the second does not (old PNGs, the WAV), and nothing else.
-TEST_F(CarefulCliTest, Row14ARunsFolderNeverMixesRuns) {
+TEST_F(CarefulCliTest, ARunsFolderNeverMixesRuns) {
   const std::string args = " --objects 50 --frames 9 --capture-size 32x24 --out " + out_.string();
   ASSERT_EQ(runOverlap("run --capture-every 4" + args).exit_code, 0);
   EXPECT_TRUE(fs::exists(out_ / "frames" / "scene4_frame0008.png"));
@@ -270,8 +270,8 @@ TEST_F(CarefulCliTest, Row14ARunsFolderNeverMixesRuns) {
   EXPECT_FALSE(holdsTemporaries(out_));
 }
 
-// Row 15: writers of one name at once each use a temporary of their own.
-TEST_F(CarefulCliTest, Row15ConcurrentWritersOfOneNameAllSucceed) {
+// Writers of one name at once each use a temporary of their own.
+TEST_F(CarefulCliTest, ConcurrentWritersOfOneNameAllSucceed) {
   const fs::path same = out_ / "same.aabbs";
   const std::string command = "for i in 1 2 3 4; do (" + std::string(OVERLAP_BINARY) +
                               " record --objects 200 --frames 3 --out " + same.string() +
@@ -287,11 +287,11 @@ TEST_F(CarefulCliTest, Row15ConcurrentWritersOfOneNameAllSucceed) {
   EXPECT_FALSE(holdsTemporaries(out_));
 }
 
-// Row 17: placing ten million boxes says so on stderr while it runs (a
+// Placing ten million boxes says so on stderr while it runs (a
 // progress line each second; how soon the first one comes is a timing, which
 // a sanitizer's build stretches, so only its coming is asserted).  A second
 // signal ends the process at once.
-TEST_F(CarefulCliTest, Row17PlacingManyBoxesShowsProgress) {
+TEST_F(CarefulCliTest, PlacingManyBoxesShowsProgress) {
   Started record("record --objects 10000000 --frames 1 --out " + (out_ / "big.aabbs").string(),
                  out_ / "err.txt");
   EXPECT_TRUE(record.waitFor("overlap: placing 10000000 boxes: ")) << record.stderrText();
@@ -303,8 +303,8 @@ TEST_F(CarefulCliTest, Row17PlacingManyBoxesShowsProgress) {
   EXPECT_FALSE(fs::exists(out_ / "big.aabbs"));
 }
 
-// Row 18: the benchmark names a corrupt cached stream and exits 2.
-TEST_F(CarefulCliTest, Row18BenchmarkNamesACorruptCachedStream) {
+// The benchmark names a corrupt cached stream and exits 2.
+TEST_F(CarefulCliTest, BenchmarkNamesACorruptCachedStream) {
   const fs::path cached = out_ / "scene4_seed42_n100_f2.aabbs";
   std::ofstream(cached) << "not a stream";
   const std::string command = std::string(OVERLAP_BENCH_BINARY) +
@@ -318,8 +318,8 @@ TEST_F(CarefulCliTest, Row18BenchmarkNamesACorruptCachedStream) {
       << fileText(out_ / "err.txt");
 }
 
-// Row 19: a long capture says at the start how long it will take.
-TEST_F(CarefulCliTest, Row19ALongRunSaysHowLongItWillTake) {
+// A long capture says at the start how long it will take.
+TEST_F(CarefulCliTest, ALongCaptureSaysHowLongItWillTake) {
   Started capture("capture --objects 100 --keyframes 0,1000000 --capture-size 32x24 --out " +
                       (out_ / "shots").string(),
                   out_ / "err.txt");

@@ -125,10 +125,10 @@ class ProbeCliTest : public CliTest {
   }
 };
 
-// Rows 3 and 22: a name with a newline or a leading '#' is one name of the
+// A name with a newline or a leading '#' is one name of the
 // manifest, removed by the next run that does not write it; a user's file
 // is never removed.
-TEST_F(ProbeCliTest, Rows3And22TheManifestCannotBeMisread) {
+TEST_F(ProbeCliTest, NamesWithNewlinesOrHashesCannotMisleadTheManifest) {
   const fs::path res = out_ / "res";
   fs::create_directories(res);
   std::ofstream(res / "notes") << "data";
@@ -143,9 +143,9 @@ TEST_F(ProbeCliTest, Rows3And22TheManifestCannotBeMisread) {
   EXPECT_EQ(fileText(res / "notes"), "data");
 }
 
-// Row 8: the benchmark's --out names a file prefix; a folder is refused
+// The benchmark's --out names a file prefix; a folder is refused
 // before any work and nothing is written.
-TEST_F(ProbeCliTest, Row8TheBenchmarksOutMustNameAFile) {
+TEST_F(ProbeCliTest, TheBenchmarksOutMustNameAFile) {
   const fs::path stream = writeLine(out_ / "s.aabbs", 10, 2);
   fs::create_directories(out_ / "work");
   for (const char* bad : {"\"\"", ".", "sub/", "/", "..", "sub/."}) {
@@ -159,9 +159,9 @@ TEST_F(ProbeCliTest, Row8TheBenchmarksOutMustNameAFile) {
   EXPECT_FALSE(fs::exists("/.csv"));
 }
 
-// Row 9: outputs checked before any work, creating nothing; a legal name
+// Outputs checked before any work, creating nothing; a legal name
 // whose temporary would be too long is written.
-TEST_F(ProbeCliTest, Row9OutputsAreCheckedBeforeAnyWorkAndLegalNamesWritten) {
+TEST_F(ProbeCliTest, OutputsAreCheckedBeforeAnyWorkAndLegalNamesWritten) {
   const fs::path long_name = out_ / (std::string(245, 'r') + ".aabbs");
   const Result written = runOverlap("record --objects 20 --frames 2 --out " + long_name.string());
   EXPECT_EQ(written.exit_code, 0) << written.stderr_text;
@@ -191,9 +191,9 @@ TEST_F(ProbeCliTest, Row9OutputsAreCheckedBeforeAnyWorkAndLegalNamesWritten) {
   EXPECT_FALSE(fs::exists(out_ / "bd2.json"));
 }
 
-// Row 10: every --input is checked (header, size, boxes, frames against
+// Every --input is checked (header, size, boxes, frames against
 // --warmup, boxes against the algorithms) before the first is measured.
-TEST_F(ProbeCliTest, Row10EveryBenchmarkInputIsCheckedFirst) {
+TEST_F(ProbeCliTest, EveryBenchmarkInputIsCheckedBeforeTheFirstIsMeasured) {
   const std::string good = writeLine(out_ / "good.aabbs", 10, 3).string();
   std::vector<std::vector<Box>> frames(3, line(10));
   frames[2][4].min[0] = 1e30f;  // min above max
@@ -213,8 +213,8 @@ TEST_F(ProbeCliTest, Row10EveryBenchmarkInputIsCheckedFirst) {
   }
 }
 
-// Row 11: two outputs of one run cannot be one file.
-TEST_F(ProbeCliTest, Row11TwoOutputsOfOneRunCannotShareAName) {
+// Two outputs of one run cannot be one file.
+TEST_F(ProbeCliTest, TwoOutputsOfOneRunCannotShareAName) {
   const fs::path r2 = out_ / "r2";
   for (const char* name : {"summary.json", "frames.csv", ".overlap-outputs"}) {
     const std::string args = "--wav " + (r2 / name).string();
@@ -225,17 +225,17 @@ TEST_F(ProbeCliTest, Row11TwoOutputsOfOneRunCannotShareAName) {
   }
 }
 
-// Row 12: sap over Bullet's object limit is a bad input in `pairs`, as in
+// sap over Bullet's object limit is a bad input in `pairs`, as in
 // `run` and the benchmark.
-TEST_F(ProbeCliTest, Row12SapOverItsLimitExits2InPairs) {
+TEST_F(ProbeCliTest, SapOverBulletsObjectLimitExits2InPairs) {
   const std::string stream = writeLine(out_ / "line40k.aabbs", 40000, 2).string();
   const std::string args = "pairs --algo sap --input " + stream;
   expectRefused(runOverlap(args), args, "--algo sap: holds at most 32765 objects");
 }
 
-// Row 13: the churn column holds the share given, exactly; a share that
+// The churn column holds the share given, exactly; a share that
 // churns no box is refused.
-TEST_F(ProbeCliTest, Row13ChurnIsWrittenExactlyAndMustChurnABox) {
+TEST_F(ProbeCliTest, ChurnIsWrittenExactlyAndMustChurnABox) {
   const std::string stream = writeLine(out_ / "line.aabbs", 10000, 2).string();
   const std::string args = "--input " + stream +
                            " --algos cpusap --warmup 0 --repeats 1 --churn 0.0004,0.0001 --out " +
@@ -252,9 +252,9 @@ TEST_F(ProbeCliTest, Row13ChurnIsWrittenExactlyAndMustChurnABox) {
   expectRefused(runBench(tiny), tiny, "--churn 1e-300: churns no box");
 }
 
-// Row 14: a stream's name with a comma or a newline stays one field of one
+// A stream's name with a comma or a newline stays one field of one
 // row; the command comment stays one line.
-TEST_F(ProbeCliTest, Row14CsvFieldsAreQuoted) {
+TEST_F(ProbeCliTest, CsvFieldsWithCommasOrNewlinesAreQuoted) {
   const fs::path comma = writeLine(out_ / "n=300,line.aabbs", 30, 2);
   const fs::path newline = writeLine(out_ / "new\nline.aabbs", 30, 2);
   const std::string args = "--input '" + comma.string() + "' \"$(printf '" +
@@ -284,8 +284,8 @@ TEST_F(ProbeCliTest, Row14CsvFieldsAreQuoted) {
       << csv;
 }
 
-// Row 15: options a benchmark run would ignore are refused, naming both.
-TEST_F(ProbeCliTest, Row15OptionsTheBenchmarkWouldIgnoreAreRefused) {
+// Options a benchmark run would ignore are refused, naming both.
+TEST_F(ProbeCliTest, OptionsTheBenchmarkWouldIgnoreAreRefused) {
   const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
   const std::string input = "--input " + stream + " --warmup 0 ";
   const std::vector<std::pair<std::string, std::string>> bad = {
@@ -300,8 +300,8 @@ TEST_F(ProbeCliTest, Row15OptionsTheBenchmarkWouldIgnoreAreRefused) {
   for (const auto& [args, message] : bad) expectRefused(runBench(args), args, message);
 }
 
-// Row 20: every list refuses empty items, repeated items and leading zeros.
-TEST_F(ProbeCliTest, Row20ListsRefuseEmptyAndRepeatedItemsAndLeadingZeros) {
+// Every list refuses empty items, repeated items and leading zeros.
+TEST_F(ProbeCliTest, ListsRefuseEmptyAndRepeatedItemsAndLeadingZeros) {
   const std::vector<std::pair<std::string, std::string>> overlap = {
       {"latency --objects 20 --frames 2 --growth 1,,2", "--growth: \"1,,2\" has an empty item"},
       {"latency --objects 20 --frames 2 --algo bvh,", "--algo: \"bvh,\" has an empty item"},
@@ -326,8 +326,8 @@ TEST_F(ProbeCliTest, Row20ListsRefuseEmptyAndRepeatedItemsAndLeadingZeros) {
   EXPECT_FALSE(fs::exists(out_ / "o"));
 }
 
-// Row 23: "pairs changed per frame" of frames without pairs is no figure.
-TEST_F(ProbeCliTest, Row23PairsChangedWithoutPairsIsNotAFigure) {
+// "Pairs changed per frame" of frames without pairs is no figure.
+TEST_F(ProbeCliTest, PairsChangedWithoutPairsIsNotAFigure) {
   const std::vector<Box> touching = {{{0, 0, 0}, {1, 1, 1}}, {{0.5f, 0, 0}, {1.5f, 1, 1}}};
   const std::vector<Box> apart = {{{0, 0, 0}, {1, 1, 1}}, {{5, 0, 0}, {6, 1, 1}}};
   writeStream(out_ / "ex.aabbs", {touching, apart});
@@ -340,8 +340,8 @@ TEST_F(ProbeCliTest, Row23PairsChangedWithoutPairsIsNotAFigure) {
   EXPECT_NE(printed.find("pairs changed per frame n/a"), std::string::npos) << printed;
 }
 
-// Row 24: counts of one are singular; a size too large says so.
-TEST_F(ProbeCliTest, Row24TheWordsAreRight) {
+// Counts of one are singular; a size too large says so.
+TEST_F(ProbeCliTest, CountsOfOneAreSingularAndHugeSizesAreOutOfRange) {
   const Result record =
       runOverlap("record --objects 20 --frames 1 --out " + (out_ / "one.aabbs").string());
   EXPECT_NE(record.stderr_text.find("(20 objects, the start and 1 frame)"), std::string::npos)

@@ -77,9 +77,9 @@ class SignalsCliTest : public CliTest {
   }
 };
 
-// Row 2: generate stops at a frame boundary on SIGINT, and on SIGTERM under
+// Generate stops at a frame boundary on SIGINT, and on SIGTERM under
 // the strongest gravity; the old file is kept either way.
-TEST_F(SignalsCliTest, Row2GenerateStopsOnSignalsAndKeepsTheOldFile) {
+TEST_F(SignalsCliTest, GenerateStopsOnSignalsAndKeepsTheOldFile) {
   const fs::path out = write("g.aabbs", "old\n");
   const std::vector<std::tuple<std::string, int, int, std::string>> cases = {
       {"--objects 200 --frames 1000000", SIGINT, 130, "overlap generate: "},
@@ -99,9 +99,9 @@ TEST_F(SignalsCliTest, Row2GenerateStopsOnSignalsAndKeepsTheOldFile) {
   }
 }
 
-// Row 4: a FIFO whose reader goes away: exit 1 naming the output, every
+// A FIFO whose reader goes away: exit 1 naming the output, every
 // temporary removed (not a silent death by SIGPIPE).
-TEST_F(SignalsCliTest, Row4AReaderThatLeavesEndsTheRunWithExit1) {
+TEST_F(SignalsCliTest, AFifoReaderThatLeavesEndsTheRunWithExit1) {
   const fs::path wav = fifo("w.fifo");
   const fs::path stream = fifo("s.fifo");
   const std::vector<std::pair<std::string, fs::path>> cases = {
@@ -131,10 +131,10 @@ TEST_F(SignalsCliTest, Row4AReaderThatLeavesEndsTheRunWithExit1) {
   }
 }
 
-// Row 5: SIGHUP stops a run like SIGTERM; a run clears the temporaries that
+// SIGHUP stops a run like SIGTERM; a run clears the temporaries that
 // a killed run of the program left (dead writer), and nothing else: not a
 // live writer's, not a file of another pattern.
-TEST_F(SignalsCliTest, Row5SighupStopsARunAndStaleTemporariesAreCleared) {
+TEST_F(SignalsCliTest, SighupStopsARunAndStaleTemporariesAreCleared) {
   const fs::path folder = out_ / "rk";
   Started run("run --objects 100 --frames 100000 --capture-every 1 --capture-size 32x24 --out " +
                   folder.string(),
@@ -167,11 +167,11 @@ TEST_F(SignalsCliTest, Row5SighupStopsARunAndStaleTemporariesAreCleared) {
   for (const std::string& name : kept) EXPECT_EQ(fileText(folder / name), "mine") << name;
 }
 
-// Row 6: memory bounds checked before allocating, exit 2 naming the input
+// Memory bounds checked before allocating, exit 2 naming the input
 // or option and the memory it needs; generate writes as it goes (frame 0
 // arrives while later frames are still being made) and refuses a file its
 // disk cannot hold.
-TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
+TEST_F(SignalsCliTest, MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
   std::string huge = lineStream(2, 1).substr(0, 304 + 64);
   const std::int32_t most = 2147483647;
   std::memcpy(huge.data() + 256, &most, sizeof(most));
@@ -218,9 +218,9 @@ TEST_F(SignalsCliTest, Row6MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
   ::close(fd);
 }
 
-// Row 7: cpusap on identical boxes (every pair overlaps): memory bounded per
+// cpusap on identical boxes (every pair overlaps): memory bounded per
 // pair, as docs/CLI.md states (72 to 144 bytes a pair in the cache; 250 allowed here).
-TEST_F(SignalsCliTest, Row7MemoryGrowsBoundedPerPair) {
+TEST_F(SignalsCliTest, MemoryGrowsBoundedPerPair) {
 #if defined(__SANITIZE_THREAD__)
   GTEST_SKIP() << "ThreadSanitizer's shadow memory is counted in the peak RSS this test reads";
 #endif
@@ -292,9 +292,9 @@ TEST_F(SignalsCliTest, PairsBeyondTheMemoryLimitAreRefusedWithTheirCountAndSize)
 #endif
 }
 
-// Row 16: sap32 on 30000 boxes shows progress while its first frame (n^2
+// sap32 on 30000 boxes shows progress while its first frame (n^2
 // insertions) runs, and a SIGINT stops it within that frame.
-TEST_F(SignalsCliTest, Row16ALongFirstFrameShowsProgressAndStopsOnSigint) {
+TEST_F(SignalsCliTest, ALongFirstFrameShowsProgressAndStopsOnSigint) {
   const fs::path stream = out_ / "g30k.aabbs";
   ASSERT_EQ(runOverlap("generate --objects 30000 --frames 1 --out " + stream.string()).exit_code,
             0);
@@ -307,8 +307,8 @@ TEST_F(SignalsCliTest, Row16ALongFirstFrameShowsProgressAndStopsOnSigint) {
       << pairs.stderrText();
 }
 
-// Row 17: from a pipe, the frames before a bad one are printed, then exit 2.
-TEST_F(SignalsCliTest, Row17APipeGetsTheFramesBeforeABadOne) {
+// From a pipe, the frames before a bad one are printed, then exit 2.
+TEST_F(SignalsCliTest, APipeGetsTheFramesBeforeABadOne) {
   const fs::path bad = write("badlast.aabbs", lineStream(2, 2, true));
   int exit_code = -1;
   const std::string piped = shellStdout(
@@ -320,10 +320,10 @@ TEST_F(SignalsCliTest, Row17APipeGetsTheFramesBeforeABadOne) {
   EXPECT_EQ(exit_code, 2);
 }
 
-// Row 18: a FIFO with no writer, a writer that stalls, a --wav FIFO with no
+// A FIFO with no writer, a writer that stalls, a --wav FIFO with no
 // reader: each wait is said on stderr, and the first SIGINT ends it with
 // the "stopped by SIGINT" line and 130.
-TEST_F(SignalsCliTest, Row18WaitsOnFifosSayTheyWaitAndStopOnSigint) {
+TEST_F(SignalsCliTest, WaitsOnFifosSayTheyWaitAndStopOnSigint) {
   const fs::path input = fifo("in.fifo");
   const std::string header = lineStream(4, 2).substr(0, 304 + 32);  // a header and one box
   int writer = -1;
@@ -353,9 +353,9 @@ TEST_F(SignalsCliTest, Row18WaitsOnFifosSayTheyWaitAndStopOnSigint) {
   EXPECT_FALSE(holdsTemporaries(out_));
 }
 
-// Row 19: stdout closed early (`| head`): exit 1 naming standard output,
+// Stdout closed early (`| head`): exit 1 naming standard output,
 // not a silent death by SIGPIPE.
-TEST_F(SignalsCliTest, Row19AClosedStandardOutputExits1) {
+TEST_F(SignalsCliTest, AClosedStandardOutputExits1) {
   const fs::path stream = write("line.aabbs", lineStream(20000, 1));  // 40000 rows
   const Result result =
       runCommand("bash -c '" + std::string(OVERLAP_BINARY) + " pairs --algo cpusap --input " +
@@ -366,9 +366,9 @@ TEST_F(SignalsCliTest, Row19AClosedStandardOutputExits1) {
       << result.stderr_text;
 }
 
-// Row 21: the benchmark keeps the signal promise: the "stopped" line, 130,
+// The benchmark keeps the signal promise: the "stopped" line, 130,
 // nothing written.
-TEST_F(SignalsCliTest, Row21TheBenchmarkStopsOnSigint) {
+TEST_F(SignalsCliTest, TheBenchmarkStopsOnSigint) {
   const fs::path stream = write("s.aabbs", lineStream(200, 8));
   Started bench("--input " + stream.string() + " --algos bf --warmup 0 --repeats 1000 --out " +
                     (out_ / "b").string(),

@@ -429,7 +429,10 @@ TEST_F(CliTest, WavAndTasksAreDeterministicAndCompareSyncMatches) {
   const nlohmann::json summary = nlohmann::json::parse(summary_file);
   EXPECT_TRUE(summary["compare_sync"]["identical_state"].get<bool>());
   EXPECT_TRUE(summary["compare_sync"]["identical_tasks"].get<bool>());
-  EXPECT_GT(summary["compare_sync"]["speedup"].get<double>(), 0.0);
+  const nlohmann::json& compare = summary["compare_sync"];
+  EXPECT_DOUBLE_EQ(compare["speedup"].get<double>(),
+                   compare["sync_total_ms_median"].get<double>() /
+                       compare["async_total_ms_median"].get<double>());
   const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "run" / "timeline.json"));
   EXPECT_GT(timeline["traceEvents"].size(), 10u * 4u);
 }
