@@ -23,7 +23,7 @@ cd "$(dirname "$0")/.."
 readonly ASAN_DIR="${1:-build-asan}"
 readonly TSAN_DIR="${2:-build-tsan}"
 readonly JOBS="$(nproc)"
-# -O1 with line tables halves the compile time of -O2 -g (docs/CI.md) and
+# -O1 with line tables halves the compile time of -O2 -g (docs/results/ci_stages.md) and
 # keeps the sanitizers' stack traces.
 readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
 # The test executables labelled threads (tests/*/CMakeLists.txt).
