@@ -186,7 +186,7 @@ void TimedDynamicsWorld::searchPairs() {
   timings_.broadphase_ms += watch.ms();
   // A finder cuts its search short for a signal (cpubf on 300 000 boxes
   // searches for half a minute): the substep stops here, not at the frame's end.
-  if (pendingInterrupt() != 0) stopIfInterrupted("the pair search of a substep");
+  if (pendingInterrupt() != 0) stopIfInterrupted("a substep's pair search");
   if (substep != nullptr) substep->narrowphase_start = std::chrono::steady_clock::now();
 }
 

@@ -261,6 +261,11 @@ void PhysicsWorld::applySceneForces() {
   }
 }
 
+std::string PhysicsWorld::substepName(int substep) const {
+  return "frame " + std::to_string(frame_) + ", substep " + std::to_string(substep) + " of " +
+         std::to_string(substeps_);
+}
+
 FrameReport PhysicsWorld::stepFrame() {
   Bullet& b = *bullet_;
   const HostStopwatch frame_watch;
@@ -273,10 +278,15 @@ FrameReport PhysicsWorld::stepFrame() {
   for (int k = 0; k < substeps_; ++k) {
     // Between substeps the world is whole: a signal stops a long frame there.
     if (k > 0 && pendingInterrupt() != 0) {
-      stopIfInterrupted("frame " + std::to_string(frame_) + ", substep " + std::to_string(k) +
-                        " of " + std::to_string(substeps_));
+      stopIfInterrupted(substepName(k));
     }
-    b.world->stepReported(dt);
+    try {
+      b.world->stepReported(dt);
+    } catch (const Interrupted& stop) {  // inside the substep (its pair search): name the frame
+      Interrupted named(stop.signal, substepName(k) + ": " + stop.where);
+      named.already_sent = stop.already_sent;
+      throw named;
+    }
   }
   // The last substep's solver and integration may have broken a box: out now,
   // so that nothing reads it between frames (the next update would be late).

@@ -163,6 +163,8 @@ class PhysicsWorld {
  private:
   struct Bullet;
   void buildWorld(const WorldOptions& options);
+  // "frame 12, substep 2 of 4": where a signal stopped a frame.
+  std::string substepName(int substep) const;
   void addBoxes(bool sleep);
   void addWalls();
   void applySceneForces();
