@@ -19,7 +19,13 @@ struct BroadphaseReplay::Bullet {
   btCollisionDispatcher dispatcher{&collision_config};
   std::unique_ptr<btBroadphaseInterface> broadphase;
   std::vector<btBroadphaseProxy*> proxies;
-  std::vector<int> indices;   // proxies' user pointers point here
+  std::vector<int> indices;  // proxies' user pointers point here
+  // The cache under a memory limit (setPairMemoryLimit), else null: a pair
+  // it refuses inside a Bullet call is thrown after that call returns.
+  BulkPairCache* bounded = nullptr;
+  void throwIfPairsRefused() const {
+    if (bounded != nullptr) bounded->throwIfRefused();
+  }
   std::vector<Aabb> written;  // each proxy's box as last written
 
   ~Bullet() {
@@ -94,6 +100,7 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::
       b.proxies.push_back(b.broadphase->createProxy(
           corner(boxes[i].min), corner(boxes[i].max), BOX_SHAPE_PROXYTYPE, &b.indices[i],
           btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, &b.dispatcher));
+      b.throwIfPairsRefused();
     }
     b.written.assign(boxes.begin(), boxes.end());
     return;
@@ -104,6 +111,7 @@ void BroadphaseReplay::update(std::span<const Aabb> boxes, std::span<const std::
     b.written[i] = boxes[i];
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
   }
+  b.throwIfPairsRefused();
 }
 
 void BroadphaseReplay::updateChanged(std::span<const Aabb> boxes,
@@ -121,6 +129,7 @@ void BroadphaseReplay::updateChanged(std::span<const Aabb> boxes,
     b.written[i] = boxes[i];
     b.broadphase->setAabb(b.proxies[i], corner(boxes[i].min), corner(boxes[i].max), &b.dispatcher);
   }
+  b.throwIfPairsRefused();
 }
 
 void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
@@ -145,6 +154,7 @@ void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
                             &b.dispatcher);
     }
   }
+  b.throwIfPairsRefused();
 }
 
 std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
@@ -166,10 +176,12 @@ void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes) {
   // Our finders keep this and the last search's pairs, 8 bytes each.
   const bool ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get()) != nullptr;
   cache->setMemoryLimit(bytes, ours ? 16 : 0);
+  bullet_->bounded = bytes != 0 ? cache : nullptr;
 }
 
 void BroadphaseReplay::findPairs() {
   bullet_->broadphase->calculateOverlappingPairs(&bullet_->dispatcher);
+  bullet_->throwIfPairsRefused();
 }
 
 PairList BroadphaseReplay::pairs() const {

@@ -248,9 +248,14 @@ void BulkPairCache::applyChanges(std::span<const gpu::IndexPair> removed,
 
 btBroadphasePair* BulkPairCache::addOverlappingPair(btBroadphaseProxy* proxy0,
                                                     btBroadphaseProxy* proxy1) {
-  if (!needsBroadphaseCollision(proxy0, proxy1)) return nullptr;
+  if (refusal_ || !needsBroadphaseCollision(proxy0, proxy1)) return nullptr;
   if (proxy0->m_uniqueId > proxy1->m_uniqueId) std::swap(proxy0, proxy1);
-  return addOrdered(proxy0, proxy1);
+  try {
+    return addOrdered(proxy0, proxy1);
+  } catch (const PairMemoryError& refused) {  // never through Bullet's frames
+    refusal_ = refused;
+    return nullptr;
+  }
 }
 
 void* BulkPairCache::removeOverlappingPair(btBroadphaseProxy* proxy0, btBroadphaseProxy* proxy1,

@@ -21,8 +21,14 @@
 //
 // Memory: the cache allocates its pair array itself (Bullet's array does not
 // check its allocations), so running out throws std::bad_alloc, never a null
-// write.  With a memory limit, a growth past it throws PairMemoryError
-// before anything is allocated, naming the pairs and the bytes they need.
+// write.  With a memory limit, a growth past it is refused before anything
+// is allocated: applyChanges() throws PairMemoryError, naming the pairs and
+// the bytes they need; addOverlappingPair(), which Bullet's own broadphases
+// call from inside theirs, returns null instead (as for a filtered pair,
+// which they take as not added) and keeps the refusal for throwIfRefused(),
+// since an exception unwinding through Bullet leaves its state half-made (a
+// proxy created but not yet returned, never freed).  Once refused, it adds
+// no pair.
 //
 // Invariants:
 // - keys_[i] is the key of pairs_[i] (lower id in the high half), and the
@@ -35,6 +41,7 @@
 #include <btBulletCollisionCommon.h>
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <vector>
@@ -93,6 +100,11 @@ class BulkPairCache final : public btOverlappingPairCache {
   }
   // The pair array, keys and index as allocated.
   std::uint64_t bytesHeld() const;
+  // Throws the PairMemoryError of the first pair addOverlappingPair() refused
+  // under the memory limit, if any.  Call it after each call into Bullet.
+  void throwIfRefused() const {
+    if (refusal_) throw *refusal_;
+  }
 
   // btOverlappingPairCallback
   btBroadphasePair* addOverlappingPair(btBroadphaseProxy* proxy0,
@@ -156,6 +168,7 @@ class BulkPairCache final : public btOverlappingPairCache {
   btOverlappingPairCallback* ghost_ = nullptr;
   std::uint64_t memory_limit_ = 0;
   std::uint64_t elsewhere_per_pair_ = 0;
+  std::optional<PairMemoryError> refusal_;  // the first pair refused, if any
 };
 
 }  // namespace overlap::physics

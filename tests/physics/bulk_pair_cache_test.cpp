@@ -285,15 +285,23 @@ TEST(BulkPairCache, RefusesToGrowPastItsMemoryLimitAndKeepsThePairsItHeld) {
     proxies[i].m_collisionFilterGroup = btBroadphaseProxy::DefaultFilter;
     proxies[i].m_collisionFilterMask = btBroadphaseProxy::AllFilter;
   }
-  try {
-    for (btBroadphaseProxy& a : proxies) {
-      for (btBroadphaseProxy& b : proxies) {
-        if (a.m_uniqueId >= b.m_uniqueId) continue;
-        ASSERT_NE(cache.addOverlappingPair(&a, &b), nullptr);
-        held.emplace_back(&a, &b);
+  bool refused = false;
+  for (btBroadphaseProxy& a : proxies) {
+    for (btBroadphaseProxy& b : proxies) {
+      if (a.m_uniqueId >= b.m_uniqueId || refused) continue;
+      if (cache.addOverlappingPair(&a, &b) == nullptr) {
+        refused = true;
+        continue;
       }
+      held.emplace_back(&a, &b);
     }
-    FAIL() << "4950 pairs fit in " << kLimit << " bytes";
+  }
+  ASSERT_TRUE(refused) << "4950 pairs fit in " << kLimit << " bytes";
+  // Once refused it adds nothing more, and says why when asked.
+  EXPECT_EQ(cache.addOverlappingPair(&proxies[98], &proxies[99]), nullptr);
+  try {
+    cache.throwIfRefused();
+    FAIL() << "the refusal was not kept";
   } catch (const PairMemoryError& error) {
     EXPECT_EQ(error.pairs, held.size() + 1);
     EXPECT_GT(error.bytes, kLimit);

@@ -88,9 +88,10 @@ TEST(GrowingSweepAndPrune, AProxyOutsideTheBoundsKeepsItsPairsAndGainsNoFalseOne
     };
     // Two overlapping boxes inside, two apart far outside on +x.
     btBroadphaseProxy* a = make(0, btVector3(0, 0, 0), btVector3(0.5, 0.5, 0.5));
-    make(1, btVector3(0.25, 0.25, 0.25), btVector3(0.75, 0.75, 0.75));
-    make(2, btVector3(100, 0, 0), btVector3(101, 1, 1));
-    make(3, btVector3(200, 0, 0), btVector3(201, 1, 1));
+    btBroadphaseProxy* others[3] = {
+        make(1, btVector3(0.25, 0.25, 0.25), btVector3(0.75, 0.75, 0.75)),
+        make(2, btVector3(100, 0, 0), btVector3(101, 1, 1)),
+        make(3, btVector3(200, 0, 0), btVector3(201, 1, 1))};
     bp.calculateOverlappingPairs(&dispatcher);
     EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 1) << algo;
     // Box 0 moves out onto box 3: it leaves box 1 and meets box 3.
@@ -102,6 +103,9 @@ TEST(GrowingSweepAndPrune, AProxyOutsideTheBoundsKeepsItsPairsAndGainsNoFalseOne
     const int q = *static_cast<int*>(pairs[0].m_pProxy1->m_clientObject);
     EXPECT_EQ(p + q, 3) << algo;  // boxes 0 and 3
     EXPECT_EQ(p * q, 0) << algo;
+    for (btBroadphaseProxy* proxy : {a, others[0], others[1], others[2]}) {
+      bp.destroyProxy(proxy, &dispatcher);
+    }
   }
 }
 
