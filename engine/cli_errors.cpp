@@ -114,10 +114,8 @@ void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
   const std::filesystem::file_status status = std::filesystem::status(file, error);
   if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
   // The folder it goes to, or the nearest one that exists (made by the run).
-  std::filesystem::path folder = std::filesystem::absolute(file, error).parent_path();
-  while (!std::filesystem::exists(folder, error) && folder.has_relative_path()) {
-    folder = folder.parent_path();
-  }
+  const std::filesystem::path folder =
+      nearestExisting(std::filesystem::absolute(file, error).parent_path());
   const std::filesystem::space_info space = std::filesystem::space(folder, error);
   if (error) return;  // unknown here: a full disk is then reported by the write
   if (bytes > space.available) {

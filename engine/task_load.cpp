@@ -48,7 +48,7 @@ int sizeToBudget(double budget_ms, int guess, const std::function<double(int)>& 
 double frameMs(double budget_ms, const std::function<void()>& frame) {
   std::vector<double> times;
   for (int i = 0; i < kTimedFrames; ++i) {
-    stopIfInterrupted("the --task-load calibration, timing a task");
+    stopIfInterrupted("timing a task");
     const HostStopwatch watch;
     frame();
     times.push_back(watch.ms());
@@ -60,23 +60,6 @@ double frameMs(double budget_ms, const std::function<void()>& frame) {
 }  // namespace
 
 namespace {
-TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfig& config,
-                              const physics::WorldOptions& world_options, stubs::SoundConfig& sound,
-                              stubs::AiConfig& ai);
-}  // namespace
-
-TaskLoadCalibration calibrateTaskLoad(double load, int frames, const physics::SceneConfig& config,
-                                      const physics::WorldOptions& world_options,
-                                      stubs::SoundConfig& sound, stubs::AiConfig& ai) {
-  try {
-    return calibrate(load, frames, config, world_options, sound, ai);
-  } catch (const Interrupted& stop) {  // said as the calibration, not as the run's frame
-    if (stop.where.starts_with("the --task-load calibration")) throw;
-    throw Interrupted(stop.signal, "the --task-load calibration, " + stop.where);
-  }
-}
-
-namespace {
 
 TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfig& config,
                               const physics::WorldOptions& world_options, stubs::SoundConfig& sound,
@@ -86,8 +69,8 @@ TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfi
   result.physics_frames = std::min(frames, kMostCalibrationFrames);
   std::vector<double> physics_ms;
   for (int frame = 0; frame < result.physics_frames; ++frame) {
-    stopIfInterrupted("the --task-load calibration, physics frame " + std::to_string(frame) +
-                      " of " + std::to_string(result.physics_frames));
+    stopIfInterrupted("physics frame " + std::to_string(frame) + " of " +
+                      std::to_string(result.physics_frames));
     physics_ms.push_back(world.stepFrame().timings.total_ms);
   }
   result.physics_ms = median(physics_ms);
@@ -129,6 +112,16 @@ TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfi
 }
 
 }  // namespace
+
+TaskLoadCalibration calibrateTaskLoad(double load, int frames, const physics::SceneConfig& config,
+                                      const physics::WorldOptions& world_options,
+                                      stubs::SoundConfig& sound, stubs::AiConfig& ai) {
+  try {
+    return calibrate(load, frames, config, world_options, sound, ai);
+  } catch (const Interrupted& stop) {  // said as the calibration, not as the run's frame
+    throw Interrupted(stop.signal, "the --task-load calibration, " + stop.where);
+  }
+}
 
 nlohmann::json toJson(const TaskLoadCalibration& calibration) {
   return {{"physics_frames", calibration.physics_frames},

@@ -71,13 +71,6 @@ std::string temporaryPattern(const fs::path& target) {
   return (folderOf(target) / hidden).string();
 }
 
-// The nearest folder of `path` that exists ("." for a relative path with none).
-fs::path nearestExisting(fs::path path) {
-  std::error_code error;
-  while (!path.empty() && !fs::exists(fs::symlink_status(path, error))) path = path.parent_path();
-  return path.empty() ? fs::path(".") : path;
-}
-
 // Empty when a file can be made in the existing folder `folder`, else why
 // not.  Tried, not inferred from the permissions (root passes `access` on
 // /proc): a hidden file is made and removed at once.
@@ -231,6 +224,12 @@ bool safeRelative(const fs::path& path) {
 }
 
 }  // namespace
+
+fs::path nearestExisting(fs::path path) {
+  std::error_code error;
+  while (!path.empty() && !fs::exists(fs::symlink_status(path, error))) path = path.parent_path();
+  return path.empty() ? fs::path(".") : path;
+}
 
 std::string escapeManifestEntry(std::string_view name) {
   std::string line;

@@ -66,6 +66,9 @@ struct OutputError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// The nearest folder of `path` that exists, `path` itself included ("." for
+// a relative path with none): where a file of a folder not made yet will go.
+std::filesystem::path nearestExisting(std::filesystem::path path);
 // Empty when `file` can name a file to write, else why not: an empty name,
 // or one that names a folder ("dir/", "dir/.", "..").
 std::string outputNameProblem(const std::filesystem::path& file);
