@@ -40,10 +40,9 @@
 #include <string>
 #include <utility>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/finish_frame.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "gpu/row_words.h"
 #include "gpu/stage_events.h"
 
@@ -250,28 +249,25 @@ class GpuPairFinder final : public PairFinder {
   GpuPairFinder& operator=(const GpuPairFinder&) = delete;
 
   std::string_view name() const override { return "gpubf"; }
-  double lastSearchMs() const override {
-    return events_.ms(StageEvents::kStarted, StageEvents::kDone);
-  }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override {
-    DeviceWork work = last_work_;
-    work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
-    work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
-    work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
-    return work;
+
+ private:
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    stats.search_ms = events_.ms(StageEvents::kStarted, StageEvents::kDone);
+    stats.device = last_work_;
+    stats.device.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
+    stats.device.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
+    stats.device.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+    return stats;
   }
 
-  std::span<ObjectBounds> stagingFor(std::size_t count) override {
-    if (in_flight_)
-      throw std::runtime_error("gpubf: stagingFor() called between launch() and finish()");
+  std::span<ObjectBounds> staging(std::size_t count) override {
     reserveDiscarding(staging_, count);
     return {staging_.data(), count};
   }
 
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpubf: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     work_ = DeviceWork{};
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
@@ -303,18 +299,15 @@ class GpuPairFinder final : public PairFinder {
     events_.record(StageEvents::kSearched, stream_, work_.api_calls);
     enqueueBlockCopy();
     events_.record(StageEvents::kDone, stream_, work_.api_calls);
-    in_flight_ = true;
   }
 
   // The frame ends here whether this returns or throws.  After a throw no work
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
-  PairDelta finish() override {
-    return finishFrame(name(), in_flight_, stream_, launch_watch_, last_launch_to_finish_ms_,
-                       [&] { return collectDelta(); });
+  PairDelta finishSearch() override {
+    return finishFrame(stream_, [&] { return collectDelta(); });
   }
 
- private:
   PairDelta collectDelta() {
     events_.waitDone(work_.api_calls);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
@@ -440,9 +433,6 @@ class GpuPairFinder final : public PairFinder {
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
-  bool in_flight_ = false;
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
   DeviceWork work_;       // the frame in flight's counts (times are read from events_)
   DeviceWork last_work_;  // ... and the last finished frame's
 
@@ -464,7 +454,7 @@ class GpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuPairFinder() {
+std::unique_ptr<PairFinder> makeGpuPairFinder(int /*cpu_threads*/) {
   return std::make_unique<GpuPairFinder>();
 }
 

@@ -19,9 +19,9 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: the stage events of gpu/stage_events.h (lastSearchMs()
+// Timed as gpubf is: the stage events of gpu/stage_events.h (search_ms
 // from before the upload to after the copy back, the host's XOR and sort
-// outside it), lastLaunchToFinishMs() on the host's clock (everything).
+// outside it), launch_to_finish_ms on the host's clock (everything).
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -31,9 +31,8 @@
 #include <string>
 #include <vector>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "gpu/pair_logic.h"
 #include "gpu/stage_events.h"
 
@@ -62,9 +61,9 @@ class PaperGpuPairFinder final : public PairFinder {
 
   std::string_view name() const override { return "gpubf-paper"; }
 
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+ private:
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     work_ = DeviceWork{};
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
@@ -93,13 +92,9 @@ class PaperGpuPairFinder final : public PairFinder {
       CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
       events_.record(StageEvents::kSearched, nullptr, work_.api_calls);
     }
-    // Only a launched search is in flight: after a throw, finish() refuses.
-    in_flight_ = true;
   }
 
-  PairDelta finish() override {
-    if (!in_flight_) throw std::runtime_error("gpubf-paper: finish() called without launch()");
-    in_flight_ = false;
+  PairDelta finishSearch() override {
     added_.clear();
     removed_.clear();
     searched_ = false;
@@ -118,26 +113,22 @@ class PaperGpuPairFinder final : public PairFinder {
     std::sort(removed_.begin(), removed_.end());
     work_.host_entries_sorted = added_.size() + removed_.size();
     last_work_ = work_;
-    last_launch_to_finish_ms_ = launch_watch_.ms();
     return PairDelta{added_, removed_};
   }
 
-  // With no pairs there is no GPU work: 0.
-  double lastSearchMs() const override {
-    return searched_ ? events_.ms(StageEvents::kStarted, StageEvents::kDone) : 0;
-  }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override {
-    DeviceWork work = last_work_;
+  // With no pairs there is no GPU work: zero times.
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    stats.device = last_work_;
     if (searched_) {
-      work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
-      work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
-      work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+      stats.search_ms = events_.ms(StageEvents::kStarted, StageEvents::kDone);
+      stats.device.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
+      stats.device.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
+      stats.device.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
     }
-    return work;
+    return stats;
   }
 
- private:
   // The host side XOR, eight bytes at a time so that the unchanged majority
   // costs one comparison per eight pairs.
   void compareWithLastFrame() {
@@ -158,11 +149,8 @@ class PaperGpuPairFinder final : public PairFinder {
   }
 
   std::uint32_t slot_count_ = 0;
-  bool in_flight_ = false;
   bool searched_ = false;  // the last finished frame had pairs, so device work
   StageEvents events_;
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
   DeviceWork work_;       // the frame in flight's counts (times are read from events_)
   DeviceWork last_work_;  // ... and the last finished frame's
   DeviceBuffer<ObjectBounds> objects_;
@@ -175,7 +163,7 @@ class PaperGpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makePaperGpuPairFinder() {
+std::unique_ptr<PairFinder> makePaperGpuPairFinder(int /*cpu_threads*/) {
   return std::make_unique<PaperGpuPairFinder>();
 }
 

@@ -67,12 +67,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/cuda_check.h"
 #include "gpu/finish_frame.h"
-#include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
+#include "gpu/pair_finder.h"
 #include "gpu/pinned_staging.h"
 
 namespace overlap::gpu {
@@ -122,17 +121,19 @@ class GpuSapPairFinder final : public PairFinder {
   GpuSapPairFinder& operator=(const GpuSapPairFinder&) = delete;
 
   std::string_view name() const override { return "gpusap"; }
-  double lastSearchMs() const override { return last_search_ms_; }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override { return last_work_; }
 
-  std::span<ObjectBounds> stagingFor(std::size_t count) override {
-    return staging_.room(name(), in_flight_, count);
+ private:
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    stats.search_ms = last_search_ms_;
+    stats.device = last_work_;
+    return stats;
   }
 
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpusap: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+  std::span<ObjectBounds> staging(std::size_t count) override { return staging_.room(count); }
+
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     work_ = DeviceWork{};
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     reserveBoxBuffers(objects.size());
@@ -146,17 +147,14 @@ class GpuSapPairFinder final : public PairFinder {
     }
     record(kUploaded);
     enqueueSearch();
-    in_flight_ = true;
   }
 
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
-  PairDelta finish() override {
-    return finishFrame(name(), in_flight_, stream_, launch_watch_, last_launch_to_finish_ms_,
-                       [&] { return collectDelta(); });
+  PairDelta finishSearch() override {
+    return finishFrame(stream_, [&] { return collectDelta(); });
   }
 
- private:
   enum Event { kStarted, kUploaded, kSearched, kCopied, kTailsCopied, kEventCount };
 
   // Every runtime call of a frame is counted (DeviceWork::api_calls) and
@@ -398,10 +396,7 @@ class GpuSapPairFinder final : public PairFinder {
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
-  bool in_flight_ = false;
-  HostStopwatch launch_watch_;
   double last_search_ms_ = 0;
-  double last_launch_to_finish_ms_ = 0;
   DeviceWork work_;  // the frame in progress
   DeviceWork last_work_;
 
@@ -428,7 +423,7 @@ class GpuSapPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuSapPairFinder() {
+std::unique_ptr<PairFinder> makeGpuSapPairFinder(int /*cpu_threads*/) {
   return std::make_unique<GpuSapPairFinder>();
 }
 

@@ -7,9 +7,6 @@
 #include <cstddef>
 #include <cstring>
 #include <span>
-#include <stdexcept>
-#include <string>
-#include <string_view>
 
 #include "gpu/cuda_buffers.h"
 #include "gpu/pair_finder.h"
@@ -19,12 +16,8 @@ namespace overlap::gpu {
 class PinnedStaging {
  public:
   // PairFinder::stagingFor(): room for `count` boxes, lent only between
-  // frames (a search in flight may still read it).
-  std::span<ObjectBounds> room(std::string_view finder, bool in_flight, std::size_t count) {
-    if (in_flight) {
-      throw std::runtime_error(std::string(finder) +
-                               ": stagingFor() called between launch() and finish()");
-    }
+  // frames (a search in flight may still read it; the base class checks).
+  std::span<ObjectBounds> room(std::size_t count) {
     reserveDiscarding(boxes_, count);
     return {boxes_.data(), count};
   }

@@ -1,7 +1,7 @@
 // The CUDA events around a GPU finder's frame (nvcc only): one before the
 // upload, one after it, one after the kernels and one after the last copy
 // back, read as the upload, kernel and copy-back times of DeviceWork and, end
-// to end, as lastSearchMs().
+// to end, as SearchStats::search_ms.
 //
 // Rules:
 // - Two sets of events serve frames in turn, so the last finished frame's
