@@ -194,7 +194,7 @@ void CpuPairFinder::startSearch(std::span<const ObjectBounds> objects,
   }
   std::sort(result_.added.begin(), result_.added.end());
   std::sort(result_.removed.begin(), result_.removed.end());
-  last_search_ms_ = msSinceLaunch();
+  stats_.search_ms = msSinceLaunch();
 }
 
 PairDelta CpuPairFinder::finishSearch() {

@@ -274,9 +274,9 @@ void CpuSapPairFinder::startSearch(std::span<const ObjectBounds> objects,
                                    const std::span<const std::uint32_t>* changed) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
-  moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, phases_);
+  moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, stats_.phases);
   if (!moved_only_) searchAll(objects);
-  last_search_ms_ = msSinceLaunch();
+  stats_.search_ms = msSinceLaunch();
   moved_boxes_.searchFinished();
 }
 
@@ -285,15 +285,15 @@ void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
   const int last_sweep_axis = sweep_axis_;
   chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
   sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
-  phases_.sort_ms = msSinceLaunch();
+  stats_.phases.sort_ms = msSinceLaunch();
   layOut(objects);             // 4
   sweep();                     // 5
   testInvertedBoxes(objects);  // 6
-  phases_.sweep_ms = msSinceLaunch() - phases_.sort_ms;
+  stats_.phases.sweep_ms = msSinceLaunch() - stats_.phases.sort_ms;
   computeDelta();  // 7
   layout_.indexForQueries();
   moved_boxes_.keepFullFrame(objects.first(slot_count_), !inverted_.empty());
-  phases_.delta_ms = msSinceLaunch() - phases_.sort_ms - phases_.sweep_ms;
+  stats_.phases.delta_ms = msSinceLaunch() - stats_.phases.sort_ms - stats_.phases.sweep_ms;
 }
 
 void CpuSapPairFinder::computeDelta() {

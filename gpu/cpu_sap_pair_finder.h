@@ -70,12 +70,7 @@ class CpuSapPairFinder final : public PairFinder {
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* changed) override;
   PairDelta finishSearch() override;
-  SearchStats searchStats() const override {
-    SearchStats stats;
-    stats.search_ms = last_search_ms_;
-    stats.phases = phases_;
-    return stats;
-  }
+  SearchStats searchStats() const override { return stats_; }
 
   // What step 1 measures of the swept boxes, per axis.
   struct Spread {
@@ -126,8 +121,7 @@ class CpuSapPairFinder final : public PairFinder {
   PairSet previous_, current_;
   std::vector<DeltaPart> delta_parts_;
   std::vector<IndexPair> added_, removed_;
-  double last_search_ms_ = 0;
-  SearchPhases phases_;
+  SearchStats stats_;  // its search_ms and phases
 
   bool moved_only_ = false;
   SapMovedBoxes moved_boxes_{arena_};
