@@ -46,8 +46,8 @@ struct CudaEmulationStream {
   };
   bool blocking = true;  // synchronizes with the legacy default stream
   std::deque<Operation> pending;
-  std::uint64_t enqueued = 0;   // sequence number of the last operation enqueued
-  std::uint64_t completed = 0;  // ... and of the last one run
+  std::uint64_t enqueued = 0;             // sequence number of the last operation enqueued
+  std::uint64_t completed = 0;            // ... and of the last one run
   CudaEmulationGraph* capture = nullptr;  // the graph being captured, if capturing
   bool capture_spoiled = false;
 };
@@ -344,8 +344,8 @@ void checkCopy(Runtime& rt, void* to, const void* from, std::size_t bytes, cudaM
 }
 
 // A checked, counted copy enqueued on `target` (and waited for if blocking).
-void copyOn(Runtime& rt, CudaEmulationStream& target, void* to, const void* from,
-            std::size_t bytes, cudaMemcpyKind kind, bool blocking, const char* call,
+void copyOn(Runtime& rt, CudaEmulationStream& target, void* to, const void* from, std::size_t bytes,
+            cudaMemcpyKind kind, bool blocking, const char* call,
             const std::source_location& site) {
   checkCopy(rt, to, from, bytes, kind, call, site);
   countCopy(rt.onDevice(to), rt.onDevice(from), bytes, blocking);
@@ -395,9 +395,8 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
   if (target->capture != nullptr) {
     if (blocking) return refuseWhileCapturing(*target);
     rt.checkOperand(to, bytes, true, call, "destination", site);
-    target->capture->nodes.push_back([=, &rt](CudaEmulationStream& on) {
-      fillOn(rt, on, to, value, bytes, false, call, site);
-    });
+    target->capture->nodes.push_back(
+        [=, &rt](CudaEmulationStream& on) { fillOn(rt, on, to, value, bytes, false, call, site); });
     return cudaSuccess;
   }
   fillOn(rt, *target, to, value, bytes, blocking, call, site);
@@ -409,8 +408,7 @@ void recordOn(Runtime& rt, CudaEmulationStream& target, cudaEvent_t event) {
   count(&ApiCounters::event_records);
   event->stream = &target;
   event->recorded = true;
-  event->sequence =
-      rt.enqueue(target, [event] { event->when = std::chrono::steady_clock::now(); });
+  event->sequence = rt.enqueue(target, [event] { event->when = std::chrono::steady_clock::now(); });
 }
 
 }  // namespace

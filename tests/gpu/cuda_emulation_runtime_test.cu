@@ -241,7 +241,6 @@ TEST_F(CudaEmulationRuntimeDeathTest, AnOutOfBoundsWriteInAKernelIsCaughtUnderAs
 }
 #endif
 
-
 // --- graphs by stream capture --------------------------------------------------
 
 namespace graphs {
