@@ -69,10 +69,15 @@ constexpr std::size_t kHeadEntries = 1u << 12;
 constexpr std::size_t kInitialListCapacity = 1u << 14;
 constexpr unsigned kFullWarp = 0xFFFFFFFFu;
 // Blocks of the search kernels resident per multiprocessor, at least: their
-// registers are capped to fit (40 a thread at 256 threads), which the
-// search needs; the head sort, which would take over 100, is a call of its
-// own (OVERLAP_NOINLINE), so only it spills, in the one block that runs it.
+// registers are capped to fit (40 a thread at 256 threads from sm_80, 64 on
+// sm_75's 1024 threads), which the search needs; the head sort, which would
+// take over 100, is a call of its own (OVERLAP_NOINLINE), so only it spills,
+// in the one block that runs it.
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ < 800
+constexpr unsigned kSearchBlocksPerSm = 4;
+#else
 constexpr unsigned kSearchBlocksPerSm = 6;
+#endif
 
 // What one copy brings back each frame.
 struct ResultBlock {

@@ -267,8 +267,8 @@ class Runtime {
 
   // --- events --------------------------------------------------------------
   bool known(cudaEvent_t event) const { return events_.count(event) != 0; }
-  void addEvent(cudaEvent_t event) { events_.insert(event); }
-  void removeEvent(cudaEvent_t event) { events_.erase(event); }
+  void add(cudaEvent_t event) { events_.insert(event); }
+  void remove(cudaEvent_t event) { events_.erase(event); }
 
   // --- graphs --------------------------------------------------------------
   bool known(cudaGraph_t graph) const { return graphs_.count(graph) != 0; }
@@ -409,6 +409,18 @@ void recordOn(Runtime& rt, CudaEmulationStream& target, cudaEvent_t event) {
   event->stream = &target;
   event->recorded = true;
   event->sequence = rt.enqueue(target, [event] { event->when = std::chrono::steady_clock::now(); });
+}
+
+// Destroys a handle the runtime made (an event, a graph, a graph instance).
+template <class Handle>
+cudaError_t destroyKnown(Handle handle) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (!rt.known(handle)) return record(cudaErrorInvalidResourceHandle);
+  rt.remove(handle);
+  delete handle;
+  return cudaSuccess;
 }
 
 }  // namespace
@@ -650,18 +662,12 @@ cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
   const std::lock_guard lock(rt.mutex);
   *event = new CudaEmulationEvent;
   (*event)->timing = (flags & cudaEventDisableTiming) == 0;
-  rt.addEvent(*event);
+  rt.add(*event);
   return cudaSuccess;
 }
 
 cudaError_t cudaEventDestroy(cudaEvent_t event) {
-  countCall();
-  Runtime& rt = runtime();
-  const std::lock_guard lock(rt.mutex);
-  if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
-  rt.removeEvent(event);
-  delete event;
-  return cudaSuccess;
+  return destroyKnown(event);
 }
 
 cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream) {
@@ -776,32 +782,21 @@ cudaError_t cudaGraphLaunch(cudaGraphExec_t exec, cudaStream_t stream) {
   countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
-  CudaEmulationStream* target = rt.stream(stream);
-  if (target == nullptr || !rt.known(exec)) return record(cudaErrorInvalidResourceHandle);
-  // A graph launched into a capture becomes a child graph on a GPU; not emulated.
-  if (target->capture != nullptr) return refuseWhileCapturing(*target);
-  for (const auto& node : exec->nodes) node(*target);
-  return cudaSuccess;
+  if (CudaEmulationStream* target = rt.stream(stream); target != nullptr && rt.known(exec)) {
+    // A graph launched into a capture becomes a child graph on a GPU; not emulated.
+    if (target->capture != nullptr) return refuseWhileCapturing(*target);
+    for (const auto& node : exec->nodes) node(*target);
+    return cudaSuccess;
+  }
+  return record(cudaErrorInvalidResourceHandle);
 }
 
 cudaError_t cudaGraphExecDestroy(cudaGraphExec_t exec) {
-  countCall();
-  Runtime& rt = runtime();
-  const std::lock_guard lock(rt.mutex);
-  if (!rt.known(exec)) return record(cudaErrorInvalidResourceHandle);
-  rt.remove(exec);
-  delete exec;
-  return cudaSuccess;
+  return destroyKnown(exec);
 }
 
 cudaError_t cudaGraphDestroy(cudaGraph_t graph) {
-  countCall();
-  Runtime& rt = runtime();
-  const std::lock_guard lock(rt.mutex);
-  if (!rt.known(graph)) return record(cudaErrorInvalidResourceHandle);
-  rt.remove(graph);
-  delete graph;
-  return cudaSuccess;
+  return destroyKnown(graph);
 }
 
 namespace overlap::cuda_emulation {
