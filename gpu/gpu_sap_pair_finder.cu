@@ -250,9 +250,9 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
   // The frame's search, from the uploaded boxes to the result block's copy:
-  // nothing here waits, and every count it passes CUB is a capacity.  Five
-  // kernels and four CUB calls (two with no last frame, none of the first
-  // four with no boxes).
+  // nothing here waits, and every count it passes CUB is a capacity.  Four
+  // kernels and five CUB calls; with no last frame no removed selection, with
+  // no boxes only that selection and packKernel.
   void enqueueSearch() {
     const std::uint32_t n = slot_count_;
     const std::uint64_t entries = keys_[0].size();
