@@ -19,12 +19,21 @@
 // per-pair state across frames that a full GPU re-sort does not need.  Slabs
 // keep the sweep's flat, balanced candidate loop and cpusap's proven rules.
 //
-// The pair set stays on the device.  Each frame the found pairs (64-bit
-// pairKey()s) are radix sorted; added = this frame's pairs not in last
-// frame's, removed = last frame's not in this frame's, each found by binary
-// search and compacted in order, so both come back sorted (no host sort).
-// Sorts, scans and compactions are CUB's (the emulation build's stand-ins:
-// gpu/emulation/cub/).
+// The pair set stays on the device, as IndexPairs from the sweep to the
+// host (no other form, no conversion).  Each frame the found pairs are radix
+// sorted ((a, b) as one key, on the bits slots below n use); added = this
+// frame's pairs not in last frame's, removed = last frame's not in this
+// frame's, each found by binary search and compacted in order, so both come
+// back sorted (no host sort).  Sorts, scans and compactions are CUB's (the
+// emulation build's stand-ins: gpu/emulation/cub/).
+//
+// The steady frame's chain (docs/results/gpu_kernel_cost.md counts and
+// times it): the upload; boundsKernel (bounds, and the empty slots filled);
+// entryKernel (entries placed by atomics, no scan); CUB's sort of the
+// entries; CUB's scan of the candidate counts, which it computes as it
+// reads them; sweepKernel; CUB's sort of the pairs; CUB's two selections;
+// packKernel (the result block, and the counters zeroed for the next
+// frame); the copy back.  No memset a frame.
 //
 // One frame is one round trip: launch() uploads the boxes and enqueues the
 // whole search, the selections and one copy back of the result block (the
@@ -35,12 +44,13 @@
 // whose counts outgrow them is spoiled (it selects nothing, see the
 // kernels' header); finish() grows the room and runs the search again, once.
 // A frame that changed more pairs than the block holds fetches the lists'
-// tails in a second copy.  The emulation runs the same calls.  The chain is
-// not yet a CUDA graph (gpu/device_frame.h's enqueueChain(), as gpubf's): the
-// emulation's CUB stand-ins are host functions, which its capture refuses.
+// tails in a second copy.  The emulation runs the same calls.  A steady
+// frame's calls take the same arguments every frame but for the rotation
+// of the three pair buffers (three shapes), so a CUDA graph per shape could
+// replay the chain; none is built yet.
 //
 // Invariants, each with its reason:
-// - Device memory is 40 bytes per box slot (the box 32, its first entry 8),
+// - Device memory is 32 bytes per box slot (the box),
 //   32 per entry of capacity (keys 2 x 8, slots 2 x 4, candidate offsets 8),
 //   24 per pair of capacity (last frame's set, this frame's, the sort's other
 //   half), the counters and result block, and CUB's temporaries.  The lists
@@ -105,6 +115,8 @@ class GpuSapPairFinder final : public PairFinder {
     CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
     sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
     counters_ = DeviceBuffer<FrameCounters>(1);
+    // Zero for the first frame; each frame's last kernel zeroes them for the next.
+    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), frame_.stream()));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_ = PinnedBuffer<ResultBlock>(1);
   }
@@ -160,10 +172,7 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
   void reserveBoxBuffers(std::size_t n) {
-    if (n > objects_.size()) {
-      reserveDiscarding(objects_, n);
-      reserveDiscarding(first_entry_, objects_.size() + 1);
-    }
+    reserveDiscarding(objects_, n);
     reserveEntries(kFirstEntriesPerBox * n);
     pair_room_ = std::max(pair_room_, kFirstPairsPerBox * n);
     reservePairs(pair_room_);
@@ -198,88 +207,82 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
   // The frame's search, from the uploaded boxes to the result block's copy:
-  // nothing here waits, and every count it passes CUB is a capacity.
+  // nothing here waits, and every count it passes CUB is a capacity.  Four
+  // kernels and five CUB calls; with no last frame no removed selection, with
+  // no boxes only that selection and packKernel.
   void enqueueSearch() {
     const std::uint32_t n = slot_count_;
     const std::uint64_t entries = keys_[0].size();
     const std::uint64_t pairs = pairCapacity();
     const std::uint32_t max_slabs = maxSlabs();
     FrameCounters* const counters = counters_.data();
-    frame_.check(cudaMemsetAsync(counters, 0, sizeof(FrameCounters), frame_.stream()),
-                 "cudaMemsetAsync");
     const int first = (previous_ + 1) % 3;
     const int second = (previous_ + 2) % 3;
     current_ = first;
     if (n > 0) {
-      boundsKernel<<<blocksFor(n), kThreadsPerBlock, 0, frame_.stream()>>>(objects_.data(), n,
-                                                                           counters);
+      boundsKernel<<<blocksFor(std::max<std::uint64_t>({n, entries, pairs})), kThreadsPerBlock, 0,
+                     frame_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
+                                        pairs_[first].data(), pairs);
       frame_.launched();
-      spanKernel<<<blocksFor(std::uint64_t{n} + 1), kThreadsPerBlock, 0, frame_.stream()>>>(
-          objects_.data(), n, counters, max_slabs, first_entry_.data());
-      frame_.launched();
-      cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceScan::ExclusiveSum(temp, bytes, first_entry_.data(), first_entry_.data(),
-                                             std::uint64_t{n} + 1, frame_.stream());
-      });
-      entryKernel<<<blocksFor(std::max<std::uint64_t>(n, entries)), kThreadsPerBlock, 0,
-                    frame_.stream()>>>(objects_.data(), n, counters, max_slabs, first_entry_.data(),
-                                       entries, keys_[0].data(), slots_[0].data());
+      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, frame_.stream()>>>(
+          objects_.data(), n, counters, max_slabs, entries, keys_[0].data(), slots_[0].data());
       frame_.launched();
       cub::DoubleBuffer<std::uint64_t> keys(keys_[0].data(), keys_[1].data());
       cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
-      const int key_bits = 32 + std::bit_width(max_slabs - 1);
+      // The slab's bits and the min's top 32 - drop (the kernels' header).
+      const int drop = std::bit_width(max_slabs - 1);
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, 0, key_bits,
+        return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, drop, 32 + drop,
                                                frame_.stream());
       });
-      const std::uint64_t* const sorted_keys = keys.Current();
-      const std::uint32_t* const sorted_slots = slots.Current();
-      candidateCountKernel<<<blocksFor(entries + 1), kThreadsPerBlock, 0, frame_.stream()>>>(
-          objects_.data(), entries, counters, sorted_keys, sorted_slots, offsets_.data());
-      frame_.launched();
+      const CandidateCounts counts{.objects = objects_.data(),
+                                   .counters = counters,
+                                   .sorted_keys = keys.Current(),
+                                   .sorted_slots = slots.Current(),
+                                   .entries = entries,
+                                   .drop = static_cast<unsigned>(drop)};
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceScan::ExclusiveSum(temp, bytes, offsets_.data(), offsets_.data(),
-                                             entries + 1, frame_.stream());
+        return cub::DeviceScan::ExclusiveSum(temp, bytes, counts, offsets_.data(), entries + 1,
+                                             frame_.stream());
       });
-      // Slots past the frame's pairs read kNoPair, so the sort puts them last.
-      frame_.check(cudaMemsetAsync(pairs_[first].data(), 0xFF, pairs * sizeof(std::uint64_t),
-                                   frame_.stream()),
-                   "cudaMemsetAsync");
       sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
                     kThreadsPerBlock, 0, frame_.stream()>>>(
-          objects_.data(), entries, max_slabs, sorted_keys, sorted_slots, offsets_.data(), counters,
-          pairs_[first].data(), static_cast<unsigned long long>(pairs));
+          objects_.data(), entries, max_slabs, keys.Current(), slots.Current(), offsets_.data(),
+          counters, pairs_[first].data(), static_cast<unsigned long long>(pairs));
       frame_.launched();
-      cub::DoubleBuffer<std::uint64_t> pair_keys(pairs_[first].data(), pairs_[second].data());
-      // pairKey()s of slots below n: the low half needs bit_width(n) bits, and
-      // kNoPair has every bit set.
+      cub::DoubleBuffer<IndexPair> pair_buffers(pairs_[first].data(), pairs_[second].data());
+      // Slots below n: a and b need bit_width(n) bits each, b all 32 below a's,
+      // and kNoPair has every bit set.
       const int pair_bits = 32 + std::bit_width(n);
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_keys, pairs, 0, pair_bits,
-                                              frame_.stream());
+        return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_buffers, pairs, PairBits{}, 0,
+                                              pair_bits, frame_.stream());
       });
-      current_ = pair_keys.selector == 0 ? first : second;
+      current_ = pair_buffers.selector == 0 ? first : second;
     }
-    std::uint64_t* const this_frame = pairs_[current_].data();
-    std::uint64_t* const last_frame = pairs_[previous_].data();
-    std::uint64_t* const free = pairs_[freeBuffer()].data();
-    const auto previous_pairs = static_cast<std::int64_t>(previous_pairs_);
-    if (n > 0) {
+    // Both sets are searched and selected over their rooms (sorted pairs, then
+    // kNoPair), not their counts, so a steady frame's calls take the same
+    // arguments every frame but the buffers' rotation.
+    this_set_room_ = n > 0 ? pairs : 0;
+    const IndexPair* const this_frame = pairs_[current_].data();
+    IndexPair* const last_frame = pairs_[previous_].data();
+    IndexPair* const free = pairs_[freeBuffer()].data();
+    if (this_set_room_ > 0) {
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceSelect::If(
-            temp, bytes, this_frame, free, &counters->added, static_cast<std::int64_t>(pairs),
-            NotIn{last_frame, previous_pairs_, counters, entries, pairs}, frame_.stream());
-      });
-    }
-    if (previous_pairs > 0) {
-      cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceSelect::If(temp, bytes, last_frame, &counters->removed, previous_pairs,
-                                     NotIn{this_frame, n > 0 ? pairs : 0, counters, entries, pairs},
+        return cub::DeviceSelect::If(temp, bytes, this_frame, free, &counters->added,
+                                     static_cast<std::int64_t>(this_set_room_),
+                                     NotIn{last_frame, last_set_room_, counters, entries, pairs},
                                      frame_.stream());
       });
     }
-    packKernel<<<blocksFor(std::max<std::uint64_t>(pairs, previous_pairs_)), kThreadsPerBlock, 0,
-                 frame_.stream()>>>(free, last_frame, counters, block_.data());
+    if (last_set_room_ > 0) {
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceSelect::If(
+            temp, bytes, last_frame, &counters->removed, static_cast<std::int64_t>(last_set_room_),
+            NotIn{this_frame, this_set_room_, counters, entries, pairs}, frame_.stream());
+      });
+    }
+    packKernel<<<1, kPackThreads, 0, frame_.stream()>>>(free, last_frame, counters, block_.data());
     frame_.launched();
     frame_.record(DeviceFrame::kSearched);
     frame_.download(host_.data(), block_.data(), sizeof(ResultBlock));
@@ -306,7 +309,6 @@ class GpuSapPairFinder final : public PairFinder {
         throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
       }
     }
-    const std::size_t pairs = block.pairs;
     const std::size_t added_count = block.added;
     const std::size_t removed_count = block.removed;
     const IndexPair* added = block.head;
@@ -320,7 +322,7 @@ class GpuSapPairFinder final : public PairFinder {
       work.download_ms += frame_.elapsed(DeviceFrame::kDone, DeviceFrame::kTailsDone);
     }
     previous_ = current_;  // nothing below can fail: this frame is now the reference
-    previous_pairs_ = pairs;
+    last_set_room_ = this_set_room_;
     frame_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
@@ -330,7 +332,7 @@ class GpuSapPairFinder final : public PairFinder {
   // filled with that part of the head and (queued; the caller waits) the
   // rest from the device list.
   const IndexPair* joinHeadAndTail(const IndexPair* head, std::size_t from,
-                                   const DeviceBuffer<std::uint64_t>& list,
+                                   const DeviceBuffer<IndexPair>& list,
                                    PinnedBuffer<IndexPair>& host, std::size_t count) {
     const std::size_t in_head = std::min(count, kHeadEntries - from);
     if (count == in_head) return head + from;
@@ -360,21 +362,22 @@ class GpuSapPairFinder final : public PairFinder {
   double last_search_ms_ = 0;
   double last_launch_to_finish_ms_ = 0;
 
-  DeviceBuffer<ObjectBounds> objects_;            // ... uploaded, by slot
-  DeviceBuffer<unsigned long long> first_entry_;  // per slot: entries, then their scan
-  DeviceBuffer<std::uint64_t> keys_[2];           // entry keys, and CUB's other half
-  DeviceBuffer<std::uint32_t> slots_[2];          // entry slots, and CUB's other half
-  DeviceBuffer<unsigned long long> offsets_;      // per entry rank: candidates, then their scan
+  DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
+  DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
+  DeviceBuffer<std::uint32_t> slots_[2];      // entry slots, and CUB's other half
+  DeviceBuffer<unsigned long long> offsets_;  // per entry rank: its candidates' scan
   DeviceBuffer<FrameCounters> counters_;
   DeviceBuffer<ResultBlock> block_;   // what comes back, assembled on the device
   DeviceBuffer<unsigned char> temp_;  // CUB's temporary storage, shared by its calls
-  // pairs_[previous_] holds last frame's sorted pair keys (previous_pairs_ of
-  // them); the other two are this frame's (current_) and the sort's other half.
-  DeviceBuffer<std::uint64_t> pairs_[3];
+  // pairs_[previous_] holds last frame's sorted pairs, then kNoPair, over
+  // last_set_room_ slots (0 before the first frame); the other two are this
+  // frame's (current_, this_set_room_ slots) and the sort's other half.
+  DeviceBuffer<IndexPair> pairs_[3];
   std::size_t pair_room_ = 0;  // the capacity this frame's two buffers get
   int previous_ = 0;
   int current_ = 1;
-  std::size_t previous_pairs_ = 0;
+  std::size_t last_set_room_ = 0;
+  std::size_t this_set_room_ = 0;
   PinnedBuffer<ResultBlock> host_;
   PinnedBuffer<IndexPair> host_added_;  // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;
