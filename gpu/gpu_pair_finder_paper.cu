@@ -19,7 +19,7 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: the stage events of gpu/stage_events.h (lastSearchMs()
+// Timed as gpubf is: the stage events of gpu/device_frame.h (lastSearchMs()
 // from before the upload to after the copy back, the host's XOR and sort
 // outside it), lastLaunchToFinishMs() on the host's clock (everything).
 #include <cuda_runtime.h>
@@ -33,9 +33,9 @@
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
+#include "gpu/device_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stage_events.h"
 
 namespace overlap::gpu {
 namespace {
@@ -65,7 +65,7 @@ class PaperGpuPairFinder final : public PairFinder {
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
     launch_watch_ = HostStopwatch();
-    work_ = DeviceWork{};
+    frame_.begin();
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
     const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
@@ -80,18 +80,17 @@ class PaperGpuPairFinder final : public PairFinder {
     // New pairs had no overlap last frame.
     previous_.resize(pair_count, 0);
     current_.resize(pair_count);
-    events_.beginFrame();
     if (pair_count > 0) {
-      events_.record(StageEvents::kStarted, nullptr, work_.api_calls);
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(objects_.data(), objects.data(),
-                                                     objects.size_bytes(), cudaMemcpyHostToDevice));
-      work_.bytes_to_device += objects.size_bytes();
-      events_.record(StageEvents::kUploaded, nullptr, work_.api_calls);
-      ++work_.api_calls;
+      frame_.record(DeviceFrame::kStarted);
+      frame_.check(
+          cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(), cudaMemcpyHostToDevice),
+          "cudaMemcpy");
+      frame_.work().bytes_to_device += objects.size_bytes();
+      frame_.record(DeviceFrame::kUploaded);
       paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
           objects_.data(), slot_count_, results_.data());
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
-      events_.record(StageEvents::kSearched, nullptr, work_.api_calls);
+      frame_.launched();
+      frame_.record(DeviceFrame::kSearched);
     }
     // Only a launched search is in flight: after a throw, finish() refuses.
     in_flight_ = true;
@@ -104,11 +103,12 @@ class PaperGpuPairFinder final : public PairFinder {
     removed_.clear();
     searched_ = false;
     if (!current_.empty()) {
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(current_.data(), results_.data(),
-                                                     current_.size(), cudaMemcpyDeviceToHost));
-      work_.bytes_from_device += current_.size();
-      events_.record(StageEvents::kDone, nullptr, work_.api_calls);
-      events_.waitDone(work_.api_calls);
+      frame_.check(
+          cudaMemcpy(current_.data(), results_.data(), current_.size(), cudaMemcpyDeviceToHost),
+          "cudaMemcpy");
+      frame_.work().bytes_from_device += current_.size();
+      frame_.record(DeviceFrame::kDone);
+      frame_.wait(DeviceFrame::kDone);
       searched_ = true;
       compareWithLastFrame();
       std::swap(current_, previous_);
@@ -116,25 +116,19 @@ class PaperGpuPairFinder final : public PairFinder {
     // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
     std::sort(added_.begin(), added_.end());
     std::sort(removed_.begin(), removed_.end());
-    work_.host_entries_sorted = added_.size() + removed_.size();
-    last_work_ = work_;
+    frame_.work().host_entries_sorted = added_.size() + removed_.size();
+    frame_.end();
     last_launch_to_finish_ms_ = launch_watch_.ms();
     return PairDelta{added_, removed_};
   }
 
   // With no pairs there is no GPU work: 0.
   double lastSearchMs() const override {
-    return searched_ ? events_.ms(StageEvents::kStarted, StageEvents::kDone) : 0;
+    return searched_ ? frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone) : 0;
   }
   double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
   DeviceWork lastDeviceWork() const override {
-    DeviceWork work = last_work_;
-    if (searched_) {
-      work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
-      work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
-      work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
-    }
-    return work;
+    return searched_ ? frame_.lastWorkTimed() : frame_.lastWork();
   }
 
  private:
@@ -160,11 +154,9 @@ class PaperGpuPairFinder final : public PairFinder {
   std::uint32_t slot_count_ = 0;
   bool in_flight_ = false;
   bool searched_ = false;  // the last finished frame had pairs, so device work
-  StageEvents events_;
+  DeviceFrame frame_{DeviceFrame::StreamKind::kLegacyDefault};
   HostStopwatch launch_watch_;
   double last_launch_to_finish_ms_ = 0;
-  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
-  DeviceWork last_work_;  // ... and the last finished frame's
   DeviceBuffer<ObjectBounds> objects_;
   DeviceBuffer<std::uint8_t> results_;
   std::vector<std::uint8_t> current_;  // pageable, as in the paper

@@ -80,11 +80,10 @@
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
-#include "gpu/cuda_check.h"
+#include "gpu/device_frame.h"
 #include "gpu/finish_frame.h"
 #include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
-#include "gpu/pinned_staging.h"
 
 namespace overlap::gpu {
 namespace {
@@ -110,8 +109,6 @@ unsigned blocksFor(std::uint64_t items) {
 class GpuSapPairFinder final : public PairFinder {
  public:
   GpuSapPairFinder() {
-    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    for (cudaEvent_t& event : events_) CUDA_CHECK(cudaEventCreate(&event));
     int device = 0;
     cudaDeviceProp properties{};
     CUDA_CHECK(cudaGetDevice(&device));
@@ -119,16 +116,9 @@ class GpuSapPairFinder final : public PairFinder {
     sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
     counters_ = DeviceBuffer<FrameCounters>(1);
     // Zero for the first frame; each frame's last kernel zeroes them for the next.
-    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), stream_));
+    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), frame_.stream()));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_ = PinnedBuffer<ResultBlock>(1);
-  }
-
-  // Waits for work in flight before the buffers go; errors cannot be thrown here.
-  ~GpuSapPairFinder() override {
-    cudaStreamSynchronize(stream_);
-    for (cudaEvent_t event : events_) cudaEventDestroy(event);
-    cudaStreamDestroy(stream_);
   }
 
   GpuSapPairFinder(const GpuSapPairFinder&) = delete;
@@ -137,27 +127,22 @@ class GpuSapPairFinder final : public PairFinder {
   std::string_view name() const override { return "gpusap"; }
   double lastSearchMs() const override { return last_search_ms_; }
   double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override { return last_work_; }
+  DeviceWork lastDeviceWork() const override { return frame_.lastWork(); }
 
   std::span<ObjectBounds> stagingFor(std::size_t count) override {
-    return staging_.room(name(), in_flight_, count);
+    return frame_.stagingRoom(name(), in_flight_, count);
   }
 
   void launch(std::span<const ObjectBounds> objects) override {
     if (in_flight_) throw std::runtime_error("gpusap: launch() called twice without finish()");
     launch_watch_ = HostStopwatch();
-    work_ = DeviceWork{};
+    frame_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     reserveBoxBuffers(objects.size());
-    work_.host_bytes_copied += staging_.stage(objects);
-    record(kStarted);
-    if (!objects.empty()) {
-      CUDA_CHECK_COUNTED(work_.api_calls,
-                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                                         cudaMemcpyHostToDevice, stream_));
-      work_.bytes_to_device += objects.size_bytes();
-    }
-    record(kUploaded);
+    frame_.stage(objects);
+    frame_.record(DeviceFrame::kStarted);
+    frame_.upload(objects_.data(), objects.size());
+    frame_.record(DeviceFrame::kUploaded);
     enqueueSearch();
     in_flight_ = true;
   }
@@ -165,53 +150,25 @@ class GpuSapPairFinder final : public PairFinder {
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
   PairDelta finish() override {
-    return finishFrame(name(), in_flight_, stream_, launch_watch_, last_launch_to_finish_ms_,
-                       [&] { return collectDelta(); });
+    return finishFrame(name(), in_flight_, frame_.stream(), launch_watch_,
+                       last_launch_to_finish_ms_, [&] { return collectDelta(); });
   }
 
  private:
-  enum Event { kStarted, kUploaded, kSearched, kCopied, kTailsCopied, kEventCount };
-
   // Every runtime call of a frame is counted (DeviceWork::api_calls) and
-  // checked: in place with CUDA_CHECK_COUNTED, or, when a helper below makes
-  // it for its caller, with the caller's file and line.
+  // checked with its caller's file and line, by frame_ (gpu/device_frame.h).
   using Where = std::source_location;
-  void call(cudaError_t status, const char* what, Where where) {
-    ++work_.api_calls;
-    checkCuda(status, what, where);
-  }
-
-  void record(Event event, Where where = Where::current()) {
-    call(cudaEventRecord(events_[event], stream_), "cudaEventRecord", where);
-  }
-
-  void download(void* to, const void* from, std::size_t bytes, Where where = Where::current()) {
-    if (bytes == 0) return;
-    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_), "cudaMemcpyAsync",
-         where);
-    work_.bytes_from_device += bytes;
-  }
-
-  void wait(Event event, Where where = Where::current()) {
-    call(cudaEventSynchronize(events_[event]), "cudaEventSynchronize", where);
-  }
 
   // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
   // temp_ grown to fit) the work.
   template <class CubCall>
   void cub(CubCall cub_call, Where where = Where::current()) {
     std::size_t bytes = 0;
-    call(cub_call(nullptr, bytes), "a CUB size query", where);
+    frame_.check(cub_call(nullptr, bytes), "a CUB size query", where);
     // At least one byte: a null temp_ would make the second call a query too.
     reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
     bytes = temp_.size();
-    call(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
-  }
-
-  // After each kernel launch: its own errors, and the launch counted.
-  void launched(Where where = Where::current()) {
-    call(cudaGetLastError(), "a gpusap kernel launch", where);
-    ++work_.api_calls;
+    frame_.check(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
   }
 
   void reserveBoxBuffers(std::size_t n) {
@@ -264,19 +221,19 @@ class GpuSapPairFinder final : public PairFinder {
     current_ = first;
     if (n > 0) {
       boundsKernel<<<blocksFor(std::max<std::uint64_t>({n, entries, pairs})), kThreadsPerBlock, 0,
-                     stream_>>>(objects_.data(), n, counters, keys_[0].data(), entries,
-                                pairs_[first].data(), pairs);
-      launched();
-      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, stream_>>>(
+                     frame_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
+                                        pairs_[first].data(), pairs);
+      frame_.launched();
+      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, frame_.stream()>>>(
           objects_.data(), n, counters, max_slabs, entries, keys_[0].data(), slots_[0].data());
-      launched();
+      frame_.launched();
       cub::DoubleBuffer<std::uint64_t> keys(keys_[0].data(), keys_[1].data());
       cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
       // The slab's bits and the min's top 32 - drop (the kernels' header).
       const int drop = std::bit_width(max_slabs - 1);
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, drop, 32 + drop,
-                                               stream_);
+                                               frame_.stream());
       });
       const CandidateCounts counts{.objects = objects_.data(),
                                    .counters = counters,
@@ -286,20 +243,20 @@ class GpuSapPairFinder final : public PairFinder {
                                    .drop = static_cast<unsigned>(drop)};
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceScan::ExclusiveSum(temp, bytes, counts, offsets_.data(), entries + 1,
-                                             stream_);
+                                             frame_.stream());
       });
       sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
-                    kThreadsPerBlock, 0, stream_>>>(
+                    kThreadsPerBlock, 0, frame_.stream()>>>(
           objects_.data(), entries, max_slabs, keys.Current(), slots.Current(), offsets_.data(),
           counters, pairs_[first].data(), static_cast<unsigned long long>(pairs));
-      launched();
+      frame_.launched();
       cub::DoubleBuffer<IndexPair> pair_buffers(pairs_[first].data(), pairs_[second].data());
       // Slots below n: a and b need bit_width(n) bits each, b all 32 below a's,
       // and kNoPair has every bit set.
       const int pair_bits = 32 + std::bit_width(n);
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_buffers, pairs, PairBits{}, 0,
-                                              pair_bits, stream_);
+                                              pair_bits, frame_.stream());
       });
       current_ = pair_buffers.selector == 0 ? first : second;
     }
@@ -315,37 +272,38 @@ class GpuSapPairFinder final : public PairFinder {
         return cub::DeviceSelect::If(temp, bytes, this_frame, free, &counters->added,
                                      static_cast<std::int64_t>(this_set_room_),
                                      NotIn{last_frame, last_set_room_, counters, entries, pairs},
-                                     stream_);
+                                     frame_.stream());
       });
     }
     if (last_set_room_ > 0) {
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceSelect::If(
             temp, bytes, last_frame, &counters->removed, static_cast<std::int64_t>(last_set_room_),
-            NotIn{this_frame, this_set_room_, counters, entries, pairs}, stream_);
+            NotIn{this_frame, this_set_room_, counters, entries, pairs}, frame_.stream());
       });
     }
-    packKernel<<<1, kPackThreads, 0, stream_>>>(free, last_frame, counters, block_.data());
-    launched();
-    record(kSearched);
-    download(host_.data(), block_.data(), sizeof(ResultBlock));
-    record(kCopied);
+    packKernel<<<1, kPackThreads, 0, frame_.stream()>>>(free, last_frame, counters, block_.data());
+    frame_.launched();
+    frame_.record(DeviceFrame::kSearched);
+    frame_.download(host_.data(), block_.data(), sizeof(ResultBlock));
+    frame_.record(DeviceFrame::kDone);
   }
 
   // The one of the three pair buffers that is neither last frame's nor this one's.
   int freeBuffer() const { return 3 - previous_ - current_; }
 
   PairDelta collectDelta() {
-    wait(kCopied);
-    work_.upload_ms = elapsed(kStarted, kUploaded);
+    DeviceWork& work = frame_.work();
+    frame_.wait(DeviceFrame::kDone);
+    work.upload_ms = frame_.elapsed(DeviceFrame::kStarted, DeviceFrame::kUploaded);
     noteSearchTimes();
     const ResultBlock& block = *host_.data();
     if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
       reserveEntries(withHeadroom(block.entries));
       reservePairs(withHeadroom(block.pairs));
-      record(kUploaded);
+      frame_.record(DeviceFrame::kUploaded);
       enqueueSearch();
-      wait(kCopied);
+      frame_.wait(DeviceFrame::kDone);
       noteSearchTimes();
       if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
         throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
@@ -359,13 +317,13 @@ class GpuSapPairFinder final : public PairFinder {
       added = joinHeadAndTail(block.head, 0, pairs_[freeBuffer()], host_added_, added_count);
       removed = joinHeadAndTail(block.head, std::min<std::size_t>(added_count, kHeadEntries),
                                 pairs_[previous_], host_removed_, removed_count);
-      record(kTailsCopied);
-      wait(kTailsCopied);
-      work_.download_ms += elapsed(kCopied, kTailsCopied);
+      frame_.record(DeviceFrame::kTailsDone);
+      frame_.wait(DeviceFrame::kTailsDone);
+      work.download_ms += frame_.elapsed(DeviceFrame::kDone, DeviceFrame::kTailsDone);
     }
     previous_ = current_;  // nothing below can fail: this frame is now the reference
     last_set_room_ = this_set_room_;
-    last_work_ = work_;
+    frame_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
@@ -380,27 +338,22 @@ class GpuSapPairFinder final : public PairFinder {
     if (count == in_head) return head + from;
     reserveDiscarding(host, count);
     std::memcpy(host.data(), head + from, in_head * sizeof(IndexPair));
-    work_.host_bytes_copied += in_head * sizeof(IndexPair);
-    download(host.data() + in_head, list.data() + in_head, (count - in_head) * sizeof(IndexPair));
+    frame_.work().host_bytes_copied += in_head * sizeof(IndexPair);
+    frame_.download(host.data() + in_head, list.data() + in_head,
+                    (count - in_head) * sizeof(IndexPair));
     return host.data();
-  }
-
-  float elapsed(Event from, Event to, Where where = Where::current()) {
-    float ms = 0;
-    call(cudaEventElapsedTime(&ms, events_[from], events_[to]), "cudaEventElapsedTime", where);
-    return ms;
   }
 
   // The search just waited for: its kernels and its copy back.  A frame run
   // twice adds both runs, never the host's time between them.
   void noteSearchTimes() {
-    work_.kernels_ms += elapsed(kUploaded, kSearched);
-    work_.download_ms += elapsed(kSearched, kCopied);
-    last_search_ms_ = work_.upload_ms + work_.kernels_ms + work_.download_ms;
+    DeviceWork& work = frame_.work();
+    work.kernels_ms += frame_.elapsed(DeviceFrame::kUploaded, DeviceFrame::kSearched);
+    work.download_ms += frame_.elapsed(DeviceFrame::kSearched, DeviceFrame::kDone);
+    last_search_ms_ = work.upload_ms + work.kernels_ms + work.download_ms;
   }
 
-  cudaStream_t stream_ = nullptr;
-  cudaEvent_t events_[kEventCount] = {};
+  DeviceFrame frame_;  // the stream, events, staging and counted calls
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
@@ -408,10 +361,7 @@ class GpuSapPairFinder final : public PairFinder {
   HostStopwatch launch_watch_;
   double last_search_ms_ = 0;
   double last_launch_to_finish_ms_ = 0;
-  DeviceWork work_;  // the frame in progress
-  DeviceWork last_work_;
 
-  PinnedStaging staging_;                     // this frame's boxes, from the caller
   DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
   DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
   DeviceBuffer<std::uint32_t> slots_[2];      // entry slots, and CUB's other half
