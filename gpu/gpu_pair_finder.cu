@@ -13,17 +13,22 @@
 // capacity: an overflow is seen on the host and the changes are collected
 // again, from the two frames' words, into longer lists.
 //
-// A second, one-block-per-list kernel sorts each list's head in place
-// (CUB's block-wide radix sort), so the changes come back sorted and the
-// host sorts nothing unless a list outgrew its head.
+// The last block of the grid to finish (the one that sees the others' count
+// of finished blocks at gridDim.x - 1, after their fences) sorts each list's
+// head in place (CUB's block-wide radix sort, two keys a thread when the list
+// is short), so the changes come back sorted, from one kernel, and the host
+// sorts nothing unless a list outgrew its head.
 //
 // One frame is: an upload of the boxes from pinned staging (which the caller
-// may fill itself: stagingFor()), the two kernels, one copy back of a result
+// may fill itself: stagingFor()), the one kernel, one copy back of a result
 // block holding both counts and the first kHeadEntries of both lists, and the
-// four stage events (gpu/stage_events.h); nothing else unless more changed
-// than the block holds.  The kernel zeroes the counts the next counting
-// kernel will use (two pairs of counts, used in turn), so no memset is queued
-// per frame.
+// four stage events (gpu/device_frame.h); nothing else unless more changed
+// than the block holds.  That chain is a CUDA graph, captured when the sizes,
+// buffers or parities it bakes in are new and launched with one call when
+// they are as in one of the last two frames (a steady frame: two calls, the
+// launch and finish()'s wait).  The kernel zeroes the counts the next
+// counting kernel will use (two pairs of counts, used in turn), so no memset
+// is queued per frame.
 //
 // Memory: two word buffers (last frame's, read; this frame's, written) swap
 // roles every frame; words past the last row are zero, so growing the slot
@@ -41,10 +46,10 @@
 #include <utility>
 
 #include "gpu/cuda_buffers.h"
+#include "gpu/device_frame.h"
 #include "gpu/finish_frame.h"
 #include "gpu/pair_finder.h"
 #include "gpu/row_words.h"
-#include "gpu/stage_events.h"
 
 namespace overlap::gpu {
 namespace {
@@ -62,8 +67,16 @@ constexpr std::size_t kHeadEntries = 1u << 12;
 // Each list holds this many entries at first, the head included.
 constexpr std::size_t kInitialListCapacity = 1u << 14;
 constexpr unsigned kFullWarp = 0xFFFFFFFFu;
-// One block sorts one list's head.
-constexpr unsigned kSortThreads = 512;
+// Blocks of the search kernels resident per multiprocessor, at least: their
+// registers are capped to fit (40 a thread at 256 threads from sm_80, 64 on
+// sm_75's 1024 threads), which the search needs; the head sort, which would
+// take over 100, is a call of its own (OVERLAP_NOINLINE), so only it spills,
+// in the one block that runs it.
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ < 800
+constexpr unsigned kSearchBlocksPerSm = 4;
+#else
+constexpr unsigned kSearchBlocksPerSm = 6;
+#endif
 
 // What one copy brings back each frame.
 struct ResultBlock {
@@ -80,6 +93,8 @@ struct ChangeLists {
   IndexPair* added_tail;  // entries from kHeadEntries on
   IndexPair* removed_tail;
   unsigned long long tail_capacity;
+  unsigned* blocks_done;  // blocks of this launch that finished; the last sets it back to 0
+  unsigned slot_bits;     // every slot is below 2^slot_bits (at least 1, at most 32)
 };
 
 // One thread of the grid zeroes the count pair the next counting kernel uses;
@@ -124,6 +139,76 @@ __device__ void appendChanges(std::uint32_t previous, std::uint32_t current, std
   }
 }
 
+// The head sort, by the grid's last block: a list of up to kSmallItems keys
+// a thread in one sort, else the whole head, kHeadItems keys a thread.
+constexpr unsigned kSmallItems = 2;
+constexpr unsigned kHeadItems = kHeadEntries / kThreadsPerBlock;
+static_assert(kHeadItems * kThreadsPerBlock == kHeadEntries, "the sort's keys cover the head");
+using SmallSort = cub::BlockRadixSort<std::uint64_t, kThreadsPerBlock, kSmallItems>;
+using HeadSort = cub::BlockRadixSort<std::uint64_t, kThreadsPerBlock, kHeadItems>;
+union SortStorage {
+  SmallSort::TempStorage small;
+  HeadSort::TempStorage head;
+};
+
+// Sorts list[0 .. count) by (a, b), count at most kItems keys a thread.  A
+// pair is one key, a above b, each in slot_bits bits, so the sort reads
+// 2 * slot_bits bits, not 64.  Keys past the count are all ones, which sort
+// last (no pair is one: b > a).
+#if defined(OVERLAP_CUDA_EMULATION)
+#define OVERLAP_NOINLINE
+#else
+#define OVERLAP_NOINLINE __noinline__
+#endif
+template <class Sort, unsigned kItems>
+__device__ OVERLAP_NOINLINE void sortList(IndexPair* list, unsigned long long count,
+                                          unsigned slot_bits, typename Sort::TempStorage& storage) {
+  const std::uint64_t b_mask = (std::uint64_t{1} << slot_bits) - 1;
+  std::uint64_t keys[kItems];
+  for (unsigned item = 0; item < kItems; ++item) {
+    const unsigned i = threadIdx.x * kItems + item;
+    keys[item] =
+        i < count ? (std::uint64_t{list[i].a} << slot_bits) | list[i].b : ~std::uint64_t{0};
+  }
+  Sort(storage).Sort(keys, 0, static_cast<int>(2 * slot_bits));
+  for (unsigned item = 0; item < kItems; ++item) {
+    const unsigned i = threadIdx.x * kItems + item;
+    if (i < count) {
+      list[i] = IndexPair{static_cast<std::uint32_t>(keys[item] >> slot_bits),
+                          static_cast<std::uint32_t>(keys[item] & b_mask)};
+    }
+  }
+}
+
+// Called by every thread of every block once its changes are appended: the
+// grid's last block to get here sorts the heads of both lists (a list longer
+// than its head is left to the host, which sorts it whole with its tail).
+// Each thread fences its own appends before its block counts itself done, so
+// the last block sees every block's entries and counts.
+__device__ void sortHeadsInLastBlock(const ChangeLists& lists) {
+  __shared__ bool last_block;
+  __shared__ SortStorage storage;
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) last_block = atomicAdd(lists.blocks_done, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!last_block) return;  // uniform across the block
+  __threadfence();
+  if (threadIdx.x == 0) *lists.blocks_done = 0;  // for the next launch
+  for (unsigned which = 0; which < 2; ++which) {
+    IndexPair* const list = which == 0 ? lists.block->added : lists.block->removed;
+    const unsigned long long count =
+        *static_cast<volatile unsigned long long*>(&lists.block->counts[lists.counting][which]);
+    if (count < 2 || count > kHeadEntries) continue;  // uniform
+    if (count <= kSmallItems * kThreadsPerBlock) {
+      sortList<SmallSort, kSmallItems>(list, count, lists.slot_bits, storage.small);
+    } else {
+      sortList<HeadSort, kHeadItems>(list, count, lists.slot_bits, storage.head);
+    }
+    __syncthreads();  // the storage serves the next list
+  }
+}
+
 // Calls visit(run, a, first_word) for each non-empty run this warp takes
 // (grid-stride), a being this lane's box A and first_word the run's column
 // in its first row.
@@ -143,7 +228,7 @@ __device__ void forEachRun(std::uint32_t n, Visit visit) {
   }
 }
 
-__global__ void __launch_bounds__(kThreadsPerBlock)
+__global__ void __launch_bounds__(kThreadsPerBlock, kSearchBlocksPerSm)
     findPairsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
                     const std::uint32_t* __restrict__ previous_words,
                     std::uint32_t* __restrict__ current_words, ChangeLists lists) {
@@ -168,10 +253,11 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
       current_word += to_next_row;
     }
   });
+  sortHeadsInLastBlock(lists);
 }
 
 // The change collection alone, rerun into longer lists after an overflow.
-__global__ void __launch_bounds__(kThreadsPerBlock)
+__global__ void __launch_bounds__(kThreadsPerBlock, kSearchBlocksPerSm)
     collectChangesKernel(std::uint32_t n, const std::uint32_t* __restrict__ previous_words,
                          const std::uint32_t* __restrict__ current_words, ChangeLists lists) {
   zeroNextCounts(lists);
@@ -184,42 +270,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
       word += row_words::rowWords(b);
     }
   });
-}
-
-// The head sort: one block per list, the whole head in one CUB block-wide
-// radix sort, kSortItems keys a thread.
-constexpr unsigned kSortItems = kHeadEntries / kSortThreads;
-static_assert(kSortItems * kSortThreads == kHeadEntries, "the sort's keys cover the head exactly");
-using HeadSort = cub::BlockRadixSort<std::uint64_t, kSortThreads, kSortItems>;
-
-// Sorts the first counts[counting][list] entries of each list's head by
-// (a, b), block 0 the added list and block 1 the removed one.  A pair is one
-// key, a above b, each in `slot_bits` bits (every slot is below
-// 2^slot_bits), so the sort reads 2 * slot_bits bits, not 64.  Entries past
-// the count are padded with all-ones keys, which sort last (no pair is one:
-// b > a).  A list longer than its head is left to the host, which sorts it
-// whole with its tail.
-__global__ void __launch_bounds__(kSortThreads)
-    sortHeadsKernel(ResultBlock* block, unsigned counting, unsigned slot_bits) {
-  __shared__ typename HeadSort::TempStorage storage;
-  IndexPair* const list = blockIdx.x == 0 ? block->added : block->removed;
-  const unsigned long long count = block->counts[counting][blockIdx.x];
-  if (count < 2 || count > kHeadEntries) return;  // uniform across the block
-  const std::uint64_t b_mask = (std::uint64_t{1} << slot_bits) - 1;
-  std::uint64_t keys[kSortItems];
-  for (unsigned item = 0; item < kSortItems; ++item) {
-    const unsigned i = threadIdx.x * kSortItems + item;
-    keys[item] =
-        i < count ? (std::uint64_t{list[i].a} << slot_bits) | list[i].b : ~std::uint64_t{0};
-  }
-  HeadSort(storage).Sort(keys, 0, static_cast<int>(2 * slot_bits));
-  for (unsigned item = 0; item < kSortItems; ++item) {
-    const unsigned i = threadIdx.x * kSortItems + item;
-    if (i < count) {
-      list[i] = IndexPair{static_cast<std::uint32_t>(keys[item] >> slot_bits),
-                          static_cast<std::uint32_t>(keys[item] & b_mask)};
-    }
-  }
+  sortHeadsInLastBlock(lists);
 }
 
 unsigned blocksFor(std::uint64_t runs) {
@@ -229,20 +280,16 @@ unsigned blocksFor(std::uint64_t runs) {
 class GpuPairFinder final : public PairFinder {
  public:
   GpuPairFinder() {
-    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_block_ = PinnedBuffer<ResultBlock>(1);
+    blocks_done_ = DeviceBuffer<unsigned>(1);
     // Once: from here on each counting kernel zeroes the count pair the next
-    // one uses.  The whole block, as every frame copies all of it back
-    // (compute-sanitizer's initcheck reports a copy of unwritten memory).
-    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock), stream_));
+    // one uses, and its last block sets blocks_done_ back to 0.  The whole
+    // block, as every frame copies all of it back (compute-sanitizer's
+    // initcheck reports a copy of unwritten memory).
+    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock), frame_.stream()));
+    CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned), frame_.stream()));
     growTails(kInitialListCapacity - kHeadEntries);
-  }
-
-  // Waits for work in flight before the buffers go; errors cannot be thrown here.
-  ~GpuPairFinder() override {
-    cudaStreamSynchronize(stream_);
-    cudaStreamDestroy(stream_);
   }
 
   GpuPairFinder(const GpuPairFinder&) = delete;
@@ -253,63 +300,60 @@ class GpuPairFinder final : public PairFinder {
  private:
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.search_ms = events_.ms(StageEvents::kStarted, StageEvents::kDone);
-    stats.device = last_work_;
-    stats.device.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
-    stats.device.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
-    stats.device.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+    stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
+    stats.device = frame_.lastWorkTimed();
     return stats;
   }
 
-  std::span<ObjectBounds> staging(std::size_t count) override {
-    reserveDiscarding(staging_, count);
-    return {staging_.data(), count};
-  }
+  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
 
+  // Grows what the frame needs first (a capture refuses allocations), then
+  // enqueues the frame's chain: a graph launch when it is as in one of the
+  // last two frames.
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    work_ = DeviceWork{};
+    frame_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
     reserveDiscarding(objects_, objects.size());
-    if (!objects.empty() && objects.data() != staging_.data()) {
-      // The caller's memory is pageable and may change once we return: stage it.
-      reserveDiscarding(staging_, objects.size());
-      std::memcpy(staging_.data(), objects.data(), objects.size_bytes());
-      work_.host_bytes_copied += objects.size_bytes();
-    }
-    events_.beginFrame();
-    events_.record(StageEvents::kStarted, stream_, work_.api_calls);
-    if (!objects.empty()) {
-      CUDA_CHECK_COUNTED(work_.api_calls,
-                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                                         cudaMemcpyHostToDevice, stream_));
-      work_.bytes_to_device += objects.size_bytes();
-    }
-    events_.record(StageEvents::kUploaded, stream_, work_.api_calls);
+    frame_.stage(objects);
     reading_ = counting_;
-    if (row_words::runCount(slot_count_) > 0) {
-      ++work_.api_calls;
-      findPairsKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
-                        stream_>>>(objects_.data(), slot_count_, words_[previous_].data(),
-                                   words_[1 - previous_].data(), changeLists());
-      enqueueHeadSort();
-      counting_ = 1 - counting_;
-    }
-    events_.record(StageEvents::kSearched, stream_, work_.api_calls);
-    enqueueBlockCopy();
-    events_.record(StageEvents::kDone, stream_, work_.api_calls);
+    const bool searches = row_words::runCount(slot_count_) > 0;
+    const ChangeLists lists = changeLists();
+    const auto as_key = [](const void* pointer) {
+      return reinterpret_cast<std::uintptr_t>(pointer);
+    };
+    frame_.enqueueChain(
+        {slot_count_, as_key(objects_.data()), as_key(words_[previous_].data()),
+         as_key(words_[1 - previous_].data()), as_key(block_.data()), as_key(host_block_.data()),
+         lists.counting, as_key(lists.added_tail), as_key(lists.removed_tail),
+         static_cast<std::uintptr_t>(lists.tail_capacity), as_key(lists.blocks_done)},
+        [&] {
+          frame_.record(DeviceFrame::kStarted);
+          frame_.upload(objects_.data(), objects.size());
+          frame_.record(DeviceFrame::kUploaded);
+          if (searches) {
+            findPairsKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+                objects_.data(), slot_count_, words_[previous_].data(),
+                words_[1 - previous_].data(), lists);
+            frame_.launched();
+          }
+          frame_.record(DeviceFrame::kSearched);
+          enqueueBlockCopy();
+          frame_.record(DeviceFrame::kDone);
+        });
+    if (searches) counting_ = 1 - counting_;
   }
 
   // The frame ends here whether this returns or throws.  After a throw no work
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
   PairDelta finishSearch() override {
-    return finishFrame(stream_, [&] { return collectDelta(); });
+    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
   }
 
   PairDelta collectDelta() {
-    events_.waitDone(work_.api_calls);
+    frame_.wait(DeviceFrame::kDone);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
     std::size_t removed_count = host_block_.data()->counts[reading_][1];
     IndexPair* added = host_block_.data()->added;
@@ -322,8 +366,8 @@ class GpuPairFinder final : public PairFinder {
       added = joinHeadAndTail(host_block_.data()->added, added_tail_, host_added_, added_count);
       removed =
           joinHeadAndTail(host_block_.data()->removed, removed_tail_, host_removed_, removed_count);
-      events_.record(StageEvents::kDone, stream_, work_.api_calls);
-      events_.waitDone(work_.api_calls);
+      frame_.record(DeviceFrame::kDone);
+      frame_.wait(DeviceFrame::kDone);
     }
     previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
@@ -333,9 +377,9 @@ class GpuPairFinder final : public PairFinder {
          {std::pair{added, added_count}, std::pair{removed, removed_count}}) {
       if (count <= kHeadEntries) continue;
       std::sort(list, list + count);
-      work_.host_entries_sorted += count;
+      frame_.work().host_entries_sorted += count;
     }
-    last_work_ = work_;
+    frame_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
@@ -347,36 +391,28 @@ class GpuPairFinder final : public PairFinder {
     if (count <= kHeadEntries) return head;
     reserveDiscarding(host, count);
     std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
-    work_.host_bytes_copied += kHeadEntries * sizeof(IndexPair);
-    const std::size_t tail_bytes = (count - kHeadEntries) * sizeof(IndexPair);
-    CUDA_CHECK_COUNTED(work_.api_calls,
-                       cudaMemcpyAsync(host.data() + kHeadEntries, tail.data(), tail_bytes,
-                                       cudaMemcpyDeviceToHost, stream_));
-    work_.bytes_from_device += tail_bytes;
+    frame_.work().host_bytes_copied += kHeadEntries * sizeof(IndexPair);
+    frame_.download(host.data() + kHeadEntries, tail.data(),
+                    (count - kHeadEntries) * sizeof(IndexPair));
     return host.data();
   }
 
   ChangeLists changeLists() const {
-    return ChangeLists{block_.data(), counting_, added_tail_.data(), removed_tail_.data(),
-                       std::min(added_tail_.size(), removed_tail_.size())};
-  }
-
-  void enqueueBlockCopy() {
-    CUDA_CHECK_COUNTED(work_.api_calls,
-                       cudaMemcpyAsync(host_block_.data(), block_.data(), sizeof(ResultBlock),
-                                       cudaMemcpyDeviceToHost, stream_));
-    work_.bytes_from_device += sizeof(ResultBlock);
-  }
-
-  // Sorts the heads of the lists the last counting kernel filled, after it;
-  // one launch check covers both kernels (a failed launch's error stays
-  // until read).
-  void enqueueHeadSort() {
-    ++work_.api_calls;
     // Every slot is below 2^bits: the keys' width (at least 1, at most 32).
     const auto slot_bits = std::max(1u, static_cast<unsigned>(std::bit_width(slot_count_)));
-    sortHeadsKernel<<<2, kSortThreads, 0, stream_>>>(block_.data(), reading_, slot_bits);
-    CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
+    return ChangeLists{block_.data(),
+                       counting_,
+                       added_tail_.data(),
+                       removed_tail_.data(),
+                       std::min(added_tail_.size(), removed_tail_.size()),
+                       blocks_done_.data(),
+                       slot_bits};
+  }
+
+  unsigned searchBlocks() const { return blocksFor(row_words::runCount(slot_count_)); }
+
+  void enqueueBlockCopy() {
+    frame_.download(host_block_.data(), block_.data(), sizeof(ResultBlock));
   }
 
   // Both tails are replaced only once both exist: they share one capacity.
@@ -396,15 +432,16 @@ class GpuPairFinder final : public PairFinder {
       const std::size_t capacity = std::max<std::size_t>(words, 2 * words_[0].size());
       DeviceBuffer<std::uint32_t> last_frame(capacity);
       DeviceBuffer<std::uint32_t> this_frame(capacity);
-      CUDA_CHECK(cudaMemsetAsync(last_frame.data(), 0, capacity * sizeof(std::uint32_t), stream_));
-      CUDA_CHECK(cudaMemsetAsync(this_frame.data(), 0, capacity * sizeof(std::uint32_t), stream_));
+      const cudaStream_t stream = frame_.stream();
+      CUDA_CHECK(cudaMemsetAsync(last_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
+      CUDA_CHECK(cudaMemsetAsync(this_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
       if (word_count_ > 0) {
         CUDA_CHECK(cudaMemcpyAsync(last_frame.data(), words_[previous_].data(),
                                    word_count_ * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice,
-                                   stream_));
+                                   stream));
       }
       // The copy reads the old buffer, freed below.  Growth is rare: waiting costs nothing.
-      CUDA_CHECK(cudaStreamSynchronize(stream_));
+      CUDA_CHECK(cudaStreamSynchronize(stream));
       words_[previous_] = std::move(last_frame);
       words_[1 - previous_] = std::move(this_frame);
     }
@@ -417,33 +454,28 @@ class GpuPairFinder final : public PairFinder {
   void recollectChanges(std::size_t needed) {
     growTails(needed);
     reading_ = counting_;
-    ++work_.api_calls;
-    collectChangesKernel<<<blocksFor(row_words::runCount(slot_count_)), kThreadsPerBlock, 0,
-                           stream_>>>(slot_count_, words_[previous_].data(),
-                                      words_[1 - previous_].data(), changeLists());
-    enqueueHeadSort();
+    collectChangesKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+        slot_count_, words_[previous_].data(), words_[1 - previous_].data(), changeLists());
+    frame_.launched();
     counting_ = 1 - counting_;
     enqueueBlockCopy();
-    events_.record(StageEvents::kDone, stream_, work_.api_calls);
-    events_.waitDone(work_.api_calls);
+    frame_.record(DeviceFrame::kDone);
+    frame_.wait(DeviceFrame::kDone);
   }
 
-  cudaStream_t stream_ = nullptr;
-  StageEvents events_;
+  DeviceFrame frame_;  // the stream, events, staging, counted calls and graphs
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
-  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
-  DeviceWork last_work_;  // ... and the last finished frame's
 
-  PinnedBuffer<ObjectBounds> staging_;  // this frame's boxes, from the caller
-  DeviceBuffer<ObjectBounds> objects_;  // ... and uploaded from staging_
+  DeviceBuffer<ObjectBounds> objects_;  // this frame's boxes, uploaded from the staging
   // One bit per pair: words_[previous_] holds the last finished frame's, the
   // other the frame being searched (or last searched, if finish() threw).
   DeviceBuffer<std::uint32_t> words_[2];
   int previous_ = 0;
   DeviceBuffer<ResultBlock> block_;
   PinnedBuffer<ResultBlock> host_block_;
+  DeviceBuffer<unsigned> blocks_done_;
   unsigned counting_ = 0;                 // the count pair the next counting kernel adds to
   unsigned reading_ = 0;                  // ... and the one the block copied back holds
   DeviceBuffer<IndexPair> added_tail_;    // entries from kHeadEntries on, in atomic order

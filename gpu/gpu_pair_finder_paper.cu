@@ -19,7 +19,7 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: the stage events of gpu/stage_events.h (search_ms
+// Timed as gpubf is: the stage events of gpu/device_frame.h (search_ms
 // from before the upload to after the copy back, the host's XOR and sort
 // outside it), launch_to_finish_ms on the host's clock (everything).
 #include <cuda_runtime.h>
@@ -32,9 +32,9 @@
 #include <vector>
 
 #include "gpu/cuda_buffers.h"
+#include "gpu/device_frame.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pair_logic.h"
-#include "gpu/stage_events.h"
 
 namespace overlap::gpu {
 namespace {
@@ -64,7 +64,7 @@ class PaperGpuPairFinder final : public PairFinder {
  private:
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    work_ = DeviceWork{};
+    frame_.begin();
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
     const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
@@ -79,18 +79,17 @@ class PaperGpuPairFinder final : public PairFinder {
     // New pairs had no overlap last frame.
     previous_.resize(pair_count, 0);
     current_.resize(pair_count);
-    events_.beginFrame();
     if (pair_count > 0) {
-      events_.record(StageEvents::kStarted, nullptr, work_.api_calls);
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(objects_.data(), objects.data(),
-                                                     objects.size_bytes(), cudaMemcpyHostToDevice));
-      work_.bytes_to_device += objects.size_bytes();
-      events_.record(StageEvents::kUploaded, nullptr, work_.api_calls);
-      ++work_.api_calls;
+      frame_.record(DeviceFrame::kStarted);
+      frame_.check(
+          cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(), cudaMemcpyHostToDevice),
+          "cudaMemcpy");
+      frame_.work().bytes_to_device += objects.size_bytes();
+      frame_.record(DeviceFrame::kUploaded);
       paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
           objects_.data(), slot_count_, results_.data());
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
-      events_.record(StageEvents::kSearched, nullptr, work_.api_calls);
+      frame_.launched();
+      frame_.record(DeviceFrame::kSearched);
     }
   }
 
@@ -99,11 +98,12 @@ class PaperGpuPairFinder final : public PairFinder {
     removed_.clear();
     searched_ = false;
     if (!current_.empty()) {
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(current_.data(), results_.data(),
-                                                     current_.size(), cudaMemcpyDeviceToHost));
-      work_.bytes_from_device += current_.size();
-      events_.record(StageEvents::kDone, nullptr, work_.api_calls);
-      events_.waitDone(work_.api_calls);
+      frame_.check(
+          cudaMemcpy(current_.data(), results_.data(), current_.size(), cudaMemcpyDeviceToHost),
+          "cudaMemcpy");
+      frame_.work().bytes_from_device += current_.size();
+      frame_.record(DeviceFrame::kDone);
+      frame_.wait(DeviceFrame::kDone);
       searched_ = true;
       compareWithLastFrame();
       std::swap(current_, previous_);
@@ -111,21 +111,16 @@ class PaperGpuPairFinder final : public PairFinder {
     // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
     std::sort(added_.begin(), added_.end());
     std::sort(removed_.begin(), removed_.end());
-    work_.host_entries_sorted = added_.size() + removed_.size();
-    last_work_ = work_;
+    frame_.work().host_entries_sorted = added_.size() + removed_.size();
+    frame_.end();
     return PairDelta{added_, removed_};
   }
 
   // With no pairs there is no GPU work: zero times.
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.device = last_work_;
-    if (searched_) {
-      stats.search_ms = events_.ms(StageEvents::kStarted, StageEvents::kDone);
-      stats.device.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
-      stats.device.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
-      stats.device.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
-    }
+    if (searched_) stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
+    stats.device = searched_ ? frame_.lastWorkTimed() : frame_.lastWork();
     return stats;
   }
 
@@ -150,9 +145,7 @@ class PaperGpuPairFinder final : public PairFinder {
 
   std::uint32_t slot_count_ = 0;
   bool searched_ = false;  // the last finished frame had pairs, so device work
-  StageEvents events_;
-  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
-  DeviceWork last_work_;  // ... and the last finished frame's
+  DeviceFrame frame_{DeviceFrame::StreamKind::kLegacyDefault};
   DeviceBuffer<ObjectBounds> objects_;
   DeviceBuffer<std::uint8_t> results_;
   std::vector<std::uint8_t> current_;  // pageable, as in the paper

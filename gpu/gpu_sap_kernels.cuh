@@ -1,7 +1,8 @@
 // gpusap's kernels and device helpers (included by gpu/gpu_sap_pair_finder.cu
-// only): the axes and slabs, the entries and their sort keys, each entry's
-// candidate count, the balanced sweep, the pair-set helpers the CUB
-// selections use, and the packing of the frame's result block.
+// only): the frame's bounds and the fill of its empty slots, the entries and
+// their sort keys, each entry's candidate count (read by the scan), the
+// balanced sweep, the pair-set helpers the CUB sort and selections use, and
+// the packing of the frame's result block.
 //
 // Rules the kernels share, each with its reason:
 // - A box is swept only if it can pair: no NaN coordinate (NaN compares false
@@ -22,25 +23,47 @@
 // - An entry's key is its slab in the high 32 bits and the ordered bits of
 //   the box's min on the sweep axis, -0 read as +0 (-0 == +0 as floats, and
 //   an order that split them would miss a box starting at +0 against one
-//   ending at -0), in the low.  Entries past the frame's count are kNoEntry,
-//   above every key, so they sort last and fall in no candidate range.
-// - Sorted by key, entry r pairs only with entries after it whose key is at
-//   most (its slab, the key of its box's max): ranks r + 1 .. upper_bound - 1,
-//   its candidates, all in its slab.  The other half of the sweep axis' test
-//   holds by the order; every candidate gets pair_logic's full test, so the
-//   pairs are exactly the brute force's.
+//   ending at -0), in the low.  Entry slots the frame leaves empty hold
+//   kNoEntry (boundsKernel fills every slot first), above every key, so they
+//   sort last and fall in no candidate range.  A box takes its entries'
+//   places by one atomic add a warp: the places vary from run to run, but the
+//   sort orders entries by key, and entries with equal keys find the same
+//   pairs in either order (each pair once, by whichever comes first), so the
+//   sorted pair set is the same every run.
+// - The sort orders entries by their keys' bits from `drop` up, drop = the
+//   slab's bit width, so that the bits sorted fit 32 (four radix passes, not
+//   six): a key read so (key >> drop, its sort key) is monotone in the key,
+//   and the slab keeps all its bits.
+// - Sorted so, entry r pairs only with entries after it whose sort key is at
+//   most that of (its slab, the key of its box's max): ranks r + 1 ..
+//   upper_bound - 1, its candidates, all in its slab.  A box l after r that
+//   meets r's box on the sweep axis starts at most at r's max, so its sort
+//   key is at most r's end (monotone), and it is in that range; the earlier
+//   of two boxes finds the later, so each pair once.  Every candidate gets
+//   pair_logic's full test, so the pairs are exactly the brute force's (the
+//   dropped bits only add candidates: boxes starting within 2^(drop - 23)
+//   of the magnitude of r's max past it).
 // - Candidate t (0 .. total) belongs to the rank r with offset[r] <= t <
 //   offset[r + 1] (an exclusive scan of the counts): the sweep hands out
 //   candidates, not entries, so one long box spreads over many warps.
 // - Counts that outgrow the host's capacities (entries, pairs) are still
 //   counted; such a frame is spoiled: its selections select nothing (last
 //   frame's set stays whole), and the host runs the frame again with room.
+// - Pairs are IndexPairs from the sweep to the host (a < b), sorted by CUB
+//   through PairBits, (a, b) as one key; slots past the frame's pairs hold
+//   kNoPair, above every real pair in the bits sorted.
+// - The counters are zero when a frame starts: the finder zeroes them once,
+//   and every frame's last kernel (packKernel, one block) zeroes them after
+//   it has read them.
 #pragma once
 
 #include <cuda_runtime.h>
 #include <string.h>  // ::memcpy, which device code may call too
 
+#include <cstddef>
 #include <cstdint>
+#include <cuda/std/tuple>
+#include <iterator>
 #include <type_traits>
 
 #include "gpu/pair_logic.h"
@@ -58,13 +81,15 @@ inline constexpr std::uint32_t kNoKey = 0xFFFFFFFFu;
 // An entry slot the frame left empty, and a pair-buffer slot past the
 // frame's pairs: all ones, above every real key in any bit range sorted.
 inline constexpr std::uint64_t kNoEntry = ~std::uint64_t{0};
-inline constexpr std::uint64_t kNoPair = ~std::uint64_t{0};
+inline constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;  // both slots of kNoPair
+// packKernel's one block: it copies at most kHeadEntries pairs.
+inline constexpr unsigned kPackThreads = 1024;
 // The entries of the changes that come back in the result block, added's
 // first, then removed's: a frame that changes fewer pairs (the common case)
 // needs no further copy.  32 KiB.
 inline constexpr std::uint32_t kHeadEntries = 1u << 12;
 
-// Per frame, on the device, zeroed by one memset: what the kernels count.
+// Per frame, on the device, zero at its start: what the kernels count.
 // centre_bounds holds, per axis, the complement of the ordered bits of the
 // least centre and the ordered bits of the greatest, both raised by
 // atomicMax from 0 (0 on both reads as NaN: no finite centre).
@@ -73,6 +98,7 @@ struct FrameCounters {
   unsigned long long finite_boxes;  // swept boxes with every coordinate finite
   double extent_sum[3];             // their extents, per axis
   unsigned long long entries;       // wanted; may exceed the entry capacity
+  std::uint32_t sweep_axis;         // the frame's, set by entryKernel for the scan
   unsigned long long pairs;         // found; may exceed the pair capacity
   unsigned long long added;
   unsigned long long removed;
@@ -135,14 +161,16 @@ __host__ __device__ inline sap::SweepAxes frameAxes(const FrameCounters& counter
                               max_slabs);
 }
 
-// The first index in [first, last) whose value exceeds `value`; values sorted.
+// The first index in [first, last) whose value exceeds `value`, values read
+// from bit `drop` up and sorted so.
 template <class T>
 __host__ __device__ inline std::uint64_t upperBound(const T* values, std::uint64_t first,
                                                     std::uint64_t last,
-                                                    std::type_identity_t<T> value) {
+                                                    std::type_identity_t<T> value,
+                                                    unsigned drop = 0) {
   while (first < last) {
     const std::uint64_t middle = first + (last - first) / 2;
-    if (values[middle] <= value) {
+    if ((values[middle] >> drop) <= (value >> drop)) {
       first = middle + 1;
     } else {
       last = middle;
@@ -167,14 +195,24 @@ __device__ inline T warpSum(T value) {
 }
 
 // The least and greatest finite centre of the swept boxes on each axis, and
-// the count and extents of the swept boxes with every coordinate finite.
+// the count and extents of the swept boxes with every coordinate finite; and
+// every entry slot set to kNoEntry and every pair slot to kNoPair, so that
+// the slots the frame leaves empty sort last.
 __global__ void __launch_bounds__(kThreadsPerBlock)
     boundsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
-                 FrameCounters* __restrict__ counters) {
+                 FrameCounters* __restrict__ counters, std::uint64_t* __restrict__ entry_keys,
+                 std::uint64_t entry_capacity, IndexPair* __restrict__ pairs,
+                 std::uint64_t pair_capacity) {
   std::uint32_t low[3] = {kNoKey, kNoKey, kNoKey};
   std::uint32_t high[3] = {0, 0, 0};
   unsigned long long finite = 0;
   double extents[3] = {0, 0, 0};
+  for (std::uint64_t i = globalThread(); i < entry_capacity; i += gridThreads()) {
+    entry_keys[i] = kNoEntry;
+  }
+  for (std::uint64_t i = globalThread(); i < pair_capacity; i += gridThreads()) {
+    pairs[i] = IndexPair{kNoSlot, kNoSlot};  // kNoPair
+  }
   for (std::uint64_t i = globalThread(); i < n; i += gridThreads()) {
     const ObjectBounds box = objects[i];
     if (!swept(box)) continue;
@@ -212,41 +250,33 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
   if (finite != 0) atomicAdd(&counters->finite_boxes, finite);
 }
 
-// spans[i] = the entries of box i; spans[n] = 0, so that the exclusive scan
-// of n + 1 spans ends in the total.
-__global__ void __launch_bounds__(kThreadsPerBlock)
-    spanKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
-               const FrameCounters* __restrict__ counters, std::uint32_t max_slabs,
-               unsigned long long* __restrict__ spans) {
-  const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
-  for (std::uint64_t i = globalThread(); i <= n; i += gridThreads()) {
-    unsigned long long span = 0;
-    if (i < n && swept(objects[i])) {
-      const SlabRange slabs = slabsOf(axes, objects[i]);
-      span = slabs.last - slabs.first + 1;
-    }
-    spans[i] = span;
-  }
-}
-
-// Writes each box's entries at its scanned offset (those that fit in
-// `capacity`), kNoEntry after the last, and the count wanted.
+// Writes each swept box's entries (those that fit in `capacity`) at places
+// its warp takes with one atomic add, and counts the entries wanted.
 __global__ void __launch_bounds__(kThreadsPerBlock)
     entryKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
                 FrameCounters* __restrict__ counters, std::uint32_t max_slabs,
-                const unsigned long long* __restrict__ first_entry, std::uint64_t capacity,
-                std::uint64_t* __restrict__ keys, std::uint32_t* __restrict__ slots) {
+                std::uint64_t capacity, std::uint64_t* __restrict__ keys,
+                std::uint32_t* __restrict__ slots) {
   const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
-  const unsigned long long total = first_entry[n];
-  if (globalThread() == 0) counters->entries = total;
-  const std::uint64_t items = n > capacity ? n : capacity;
-  for (std::uint64_t i = globalThread(); i < items; i += gridThreads()) {
-    if (i >= total && i < capacity) keys[i] = kNoEntry;
-    if (i >= n || first_entry[i] == first_entry[i + 1]) continue;
-    const ObjectBounds& box = objects[i];
-    const SlabRange slabs = slabsOf(axes, box);
-    const std::uint64_t min_key = orderedKey(box.min[axes.sweep]);
-    std::uint64_t entry = first_entry[i];
+  if (globalThread() == 0) counters->sweep_axis = static_cast<std::uint32_t>(axes.sweep);
+  const unsigned lane = threadIdx.x % kLanes;
+  // i - lane is the same in the whole warp, so every lane stays for the collectives.
+  for (std::uint64_t i = globalThread(); i - lane < n; i += gridThreads()) {
+    SlabRange slabs{1, 0};  // none
+    if (i < n && swept(objects[i])) slabs = slabsOf(axes, objects[i]);
+    const unsigned long long span = slabs.last + 1 - slabs.first;
+    unsigned long long before = span;  // this lane's inclusive prefix, then exclusive
+    for (int offset = 1; offset < static_cast<int>(kLanes); offset *= 2) {
+      const unsigned long long other = __shfl_up_sync(kFullWarp, before, offset);
+      if (static_cast<int>(lane) >= offset) before += other;
+    }
+    const unsigned long long warp_total = __shfl_sync(kFullWarp, before, kLanes - 1);
+    before -= span;
+    unsigned long long first = 0;
+    if (lane == 0 && warp_total != 0) first = atomicAdd(&counters->entries, warp_total);
+    std::uint64_t entry = __shfl_sync(kFullWarp, first, 0) + before;
+    if (span == 0) continue;
+    const std::uint64_t min_key = orderedKey(objects[i].min[axes.sweep]);
     for (std::uint32_t slab = slabs.first; slab <= slabs.last && entry < capacity;
          ++slab, ++entry) {
       keys[entry] = (std::uint64_t{slab} << 32) | min_key;
@@ -255,37 +285,59 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
   }
 }
 
-// counts[r] = the candidates of the entry at rank r; counts[entries] = 0, so
-// that the exclusive scan of entries + 1 counts ends in the total.
-__global__ void __launch_bounds__(kThreadsPerBlock)
-    candidateCountKernel(const ObjectBounds* __restrict__ objects, std::uint64_t entries,
-                         const FrameCounters* __restrict__ counters,
-                         const std::uint64_t* __restrict__ sorted_keys,
-                         const std::uint32_t* __restrict__ sorted_slots,
-                         unsigned long long* __restrict__ counts) {
-  const sap::SweepAxes axes = frameAxes(*counters, 1);  // the sweep axis only
-  for (std::uint64_t rank = globalThread(); rank <= entries; rank += gridThreads()) {
-    unsigned long long count = 0;
-    if (rank < entries && sorted_keys[rank] != kNoEntry) {
-      const std::uint64_t slab = sorted_keys[rank] >> 32;
-      const std::uint64_t end_key =
-          (slab << 32) | orderedKey(objects[sorted_slots[rank]].max[axes.sweep]);
-      const std::uint64_t end = upperBound(sorted_keys, rank + 1, entries, end_key);
-      count = end - rank - 1;
-    }
-    counts[rank] = count;
+// The candidates of the entry at each rank, computed where the scan that
+// hands them out reads them (CUB's input iterator): the entries after it in
+// its slab that start inside its extent on the sweep axis, up to the first
+// key above (its slab, the key of its max).  Rank `entries` reads 0, so that
+// the exclusive scan of entries + 1 counts ends in the total.
+struct CandidateCounts {
+  using value_type = unsigned long long;
+  using difference_type = std::ptrdiff_t;
+  using pointer = const value_type*;
+  using reference = value_type;
+  using iterator_category = std::random_access_iterator_tag;
+
+  const ObjectBounds* objects;
+  const FrameCounters* counters;
+  const std::uint64_t* sorted_keys;
+  const std::uint32_t* sorted_slots;
+  std::uint64_t entries;
+  unsigned drop;  // the sort's begin bit
+  std::uint64_t rank = 0;
+
+  __host__ __device__ value_type operator[](difference_type offset) const {
+    const std::uint64_t r = rank + static_cast<std::uint64_t>(offset);
+    if (r >= entries || sorted_keys[r] == kNoEntry) return 0;
+    const std::uint64_t slab = sorted_keys[r] >> 32;
+    const std::uint64_t end_key =
+        (slab << 32) | orderedKey(objects[sorted_slots[r]].max[counters->sweep_axis]);
+    return upperBound(sorted_keys, r + 1, entries, end_key, drop) - r - 1;
   }
-}
+  __host__ __device__ value_type operator*() const { return (*this)[0]; }
+  __host__ __device__ CandidateCounts operator+(difference_type offset) const {
+    CandidateCounts moved = *this;
+    moved.rank += static_cast<std::uint64_t>(offset);
+    return moved;
+  }
+  __host__ __device__ CandidateCounts& operator+=(difference_type offset) {
+    rank += static_cast<std::uint64_t>(offset);
+    return *this;
+  }
+  __host__ __device__ CandidateCounts& operator++() { return *this += 1; }
+  __host__ __device__ difference_type operator-(const CandidateCounts& other) const {
+    return static_cast<difference_type>(rank - other.rank);
+  }
+};
 
 // Tests every candidate (owner rank r, candidate rank j) and appends the
-// pairs' keys, one atomic per warp step.  Pairs past `capacity` are counted,
-// not stored.
+// pairs, one atomic per warp step.  Pairs past `capacity` are counted, not
+// stored.
 __global__ void __launch_bounds__(kThreadsPerBlock)
     sweepKernel(const ObjectBounds* __restrict__ objects, std::uint64_t entries,
                 std::uint32_t max_slabs, const std::uint64_t* __restrict__ sorted_keys,
                 const std::uint32_t* __restrict__ sorted_slots,
                 const unsigned long long* __restrict__ offsets,
-                FrameCounters* __restrict__ counters, std::uint64_t* __restrict__ pairs,
+                FrameCounters* __restrict__ counters, IndexPair* __restrict__ pairs,
                 unsigned long long capacity) {
   const sap::SweepAxes axes = frameAxes(*counters, max_slabs);
   const unsigned long long total = offsets[entries];
@@ -319,12 +371,25 @@ __global__ void __launch_bounds__(kThreadsPerBlock)
         first = atomicAdd(&counters->pairs, static_cast<unsigned long long>(__popc(ballot)));
       first = __shfl_sync(kFullWarp, first, 0);
       const unsigned long long slot = first + __popc(ballot & ((1u << lane) - 1u));
-      if (found && slot < capacity) {
-        // pairKey()'s form (lower slot high), which device code cannot call.
-        pairs[slot] = a < b ? (std::uint64_t{a} << 32) | b : (std::uint64_t{b} << 32) | a;
-      }
+      if (found && slot < capacity) pairs[slot] = a < b ? IndexPair{a, b} : IndexPair{b, a};
     }
   }
+}
+
+// CUB's radix sort of IndexPairs (its decomposer): a, then b, as one key.
+struct PairBits {
+  __host__ __device__ ::cuda::std::tuple<std::uint32_t&, std::uint32_t&> operator()(
+      IndexPair& pair) const {
+    return ::cuda::std::tie(pair.a, pair.b);
+  }
+};
+
+__host__ __device__ inline bool pairLess(const IndexPair& x, const IndexPair& y) {
+  return x.a < y.a || (x.a == y.a && x.b < y.b);
+}
+
+__host__ __device__ inline bool samePair(const IndexPair& x, const IndexPair& y) {
+  return x.a == y.a && x.b == y.b;
 }
 
 // Whether the frame outgrew the host's capacities: then its pairs are not all there.
@@ -333,48 +398,55 @@ __host__ __device__ inline bool spoiled(std::uint64_t entries, std::uint64_t pai
   return entries > entry_capacity || pairs > pair_capacity;
 }
 
-// The selection rule of the frame's changes: a real key not in a sorted set
+// The selection rule of the frame's changes: a real pair not in a sorted set
 // (whose tail may be kNoPair), and nothing at all in a spoiled frame.
 struct NotIn {
-  const std::uint64_t* set;
+  const IndexPair* set;
   std::uint64_t count;
   const FrameCounters* counters;
   std::uint64_t entry_capacity;
   std::uint64_t pair_capacity;
-  __host__ __device__ bool operator()(std::uint64_t key) const {
-    if (key == kNoPair ||
+  __host__ __device__ bool operator()(const IndexPair& pair) const {
+    if ((pair.a == kNoSlot && pair.b == kNoSlot) ||  // kNoPair
         spoiled(counters->entries, counters->pairs, entry_capacity, pair_capacity))
       return false;
-    const std::uint64_t after = upperBound(set, 0, count, key);
-    return after == 0 || set[after - 1] != key;
+    std::uint64_t first = 0;  // the first element of the set not below `pair`
+    std::uint64_t last = count;
+    while (first < last) {
+      const std::uint64_t middle = first + (last - first) / 2;
+      if (pairLess(set[middle], pair)) {
+        first = middle + 1;
+      } else {
+        last = middle;
+      }
+    }
+    return first == count || !samePair(set[first], pair);
   }
 };
 
-// Rewrites the selected keys of `added` and `removed` in place as IndexPairs
-// (the same 8 bytes), the form the host hands out, and fills the result
-// block: the counts and the lists' heads.
-__global__ void __launch_bounds__(kThreadsPerBlock)
-    packKernel(std::uint64_t* __restrict__ added, std::uint64_t* __restrict__ removed,
-               const FrameCounters* __restrict__ counters, ResultBlock* __restrict__ block) {
+// The frame's last kernel, one block of kPackThreads: fills the result block
+// (the counts and the lists' heads, added's then removed's), then zeroes the
+// counters for the next frame.
+__global__ void __launch_bounds__(kPackThreads)
+    packKernel(const IndexPair* __restrict__ added, const IndexPair* __restrict__ removed,
+               FrameCounters* __restrict__ counters, ResultBlock* __restrict__ block) {
   const unsigned long long added_count = counters->added;
   const unsigned long long removed_count = counters->removed;
-  if (globalThread() == 0) {
+  if (threadIdx.x == 0) {
     block->entries = counters->entries;
     block->pairs = counters->pairs;
     block->added = added_count;
     block->removed = removed_count;
   }
-  for (int list = 0; list < 2; ++list) {
-    std::uint64_t* const keys = list == 0 ? added : removed;
-    const unsigned long long count = list == 0 ? added_count : removed_count;
-    const unsigned long long head_start = list == 0 ? 0 : added_count;
-    for (std::uint64_t i = globalThread(); i < count; i += gridThreads()) {
-      const std::uint64_t key = keys[i];
-      const IndexPair pair{static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key)};
-      ::memcpy(&keys[i], &pair, sizeof pair);
-      if (head_start + i < kHeadEntries) block->head[head_start + i] = pair;
+  for (std::uint64_t i = threadIdx.x; i < kHeadEntries; i += kPackThreads) {
+    if (i < added_count) {
+      block->head[i] = added[i];
+    } else if (i - added_count < removed_count) {
+      block->head[i] = removed[i - added_count];
     }
   }
+  __syncthreads();  // every thread has read the counts
+  if (threadIdx.x == 0) *counters = FrameCounters{};
 }
 
 }  // namespace overlap::gpu::sap_kernels

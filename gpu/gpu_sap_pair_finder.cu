@@ -19,12 +19,21 @@
 // per-pair state across frames that a full GPU re-sort does not need.  Slabs
 // keep the sweep's flat, balanced candidate loop and cpusap's proven rules.
 //
-// The pair set stays on the device.  Each frame the found pairs (64-bit
-// pairKey()s) are radix sorted; added = this frame's pairs not in last
-// frame's, removed = last frame's not in this frame's, each found by binary
-// search and compacted in order, so both come back sorted (no host sort).
-// Sorts, scans and compactions are CUB's (the emulation build's stand-ins:
-// gpu/emulation/cub/).
+// The pair set stays on the device, as IndexPairs from the sweep to the
+// host (no other form, no conversion).  Each frame the found pairs are radix
+// sorted ((a, b) as one key, on the bits slots below n use); added = this
+// frame's pairs not in last frame's, removed = last frame's not in this
+// frame's, each found by binary search and compacted in order, so both come
+// back sorted (no host sort).  Sorts, scans and compactions are CUB's (the
+// emulation build's stand-ins: gpu/emulation/cub/).
+//
+// The steady frame's chain (docs/results/gpu_kernel_cost.md counts and
+// times it): the upload; boundsKernel (bounds, and the empty slots filled);
+// entryKernel (entries placed by atomics, no scan); CUB's sort of the
+// entries; CUB's scan of the candidate counts, which it computes as it
+// reads them; sweepKernel; CUB's sort of the pairs; CUB's two selections;
+// packKernel (the result block, and the counters zeroed for the next
+// frame); the copy back.  No memset a frame.
 //
 // One frame is one round trip: launch() uploads the boxes and enqueues the
 // whole search, the selections and one copy back of the result block (the
@@ -35,11 +44,13 @@
 // whose counts outgrow them is spoiled (it selects nothing, see the
 // kernels' header); finish() grows the room and runs the search again, once.
 // A frame that changed more pairs than the block holds fetches the lists'
-// tails in a second copy.  The emulation runs the same calls; a CUDA graph
-// of the chain is not built yet (the chain's last-frame pointers rotate).
+// tails in a second copy.  The emulation runs the same calls.  A steady
+// frame's calls take the same arguments every frame but for the rotation
+// of the three pair buffers (three shapes), so a CUDA graph per shape could
+// replay the chain; none is built yet.
 //
 // Invariants, each with its reason:
-// - Device memory is 40 bytes per box slot (the box 32, its first entry 8),
+// - Device memory is 32 bytes per box slot (the box),
 //   32 per entry of capacity (keys 2 x 8, slots 2 x 4, candidate offsets 8),
 //   24 per pair of capacity (last frame's set, this frame's, the sort's other
 //   half), the counters and result block, and CUB's temporaries.  The lists
@@ -68,11 +79,10 @@
 #include <string>
 
 #include "gpu/cuda_buffers.h"
-#include "gpu/cuda_check.h"
+#include "gpu/device_frame.h"
 #include "gpu/finish_frame.h"
 #include "gpu/gpu_sap_kernels.cuh"
 #include "gpu/pair_finder.h"
-#include "gpu/pinned_staging.h"
 
 namespace overlap::gpu {
 namespace {
@@ -98,23 +108,16 @@ unsigned blocksFor(std::uint64_t items) {
 class GpuSapPairFinder final : public PairFinder {
  public:
   GpuSapPairFinder() {
-    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    for (cudaEvent_t& event : events_) CUDA_CHECK(cudaEventCreate(&event));
     int device = 0;
     cudaDeviceProp properties{};
     CUDA_CHECK(cudaGetDevice(&device));
     CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
     sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
     counters_ = DeviceBuffer<FrameCounters>(1);
+    // Zero for the first frame; each frame's last kernel zeroes them for the next.
+    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), frame_.stream()));
     block_ = DeviceBuffer<ResultBlock>(1);
     host_ = PinnedBuffer<ResultBlock>(1);
-  }
-
-  // Waits for work in flight before the buffers go; errors cannot be thrown here.
-  ~GpuSapPairFinder() override {
-    cudaStreamSynchronize(stream_);
-    for (cudaEvent_t event : events_) cudaEventDestroy(event);
-    cudaStreamDestroy(stream_);
   }
 
   GpuSapPairFinder(const GpuSapPairFinder&) = delete;
@@ -126,84 +129,48 @@ class GpuSapPairFinder final : public PairFinder {
   SearchStats searchStats() const override {
     SearchStats stats;
     stats.search_ms = last_search_ms_;
-    stats.device = last_work_;
+    stats.device = frame_.lastWork();
     return stats;
   }
 
-  std::span<ObjectBounds> staging(std::size_t count) override { return staging_.room(count); }
+  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
 
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    work_ = DeviceWork{};
+    frame_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     reserveBoxBuffers(objects.size());
-    work_.host_bytes_copied += staging_.stage(objects);
-    record(kStarted);
-    if (!objects.empty()) {
-      CUDA_CHECK_COUNTED(work_.api_calls,
-                         cudaMemcpyAsync(objects_.data(), staging_.data(), objects.size_bytes(),
-                                         cudaMemcpyHostToDevice, stream_));
-      work_.bytes_to_device += objects.size_bytes();
-    }
-    record(kUploaded);
+    frame_.stage(objects);
+    frame_.record(DeviceFrame::kStarted);
+    frame_.upload(objects_.data(), objects.size());
+    frame_.record(DeviceFrame::kUploaded);
     enqueueSearch();
   }
 
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
   PairDelta finishSearch() override {
-    return finishFrame(stream_, [&] { return collectDelta(); });
+    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
   }
-
-  enum Event { kStarted, kUploaded, kSearched, kCopied, kTailsCopied, kEventCount };
 
   // Every runtime call of a frame is counted (DeviceWork::api_calls) and
-  // checked: in place with CUDA_CHECK_COUNTED, or, when a helper below makes
-  // it for its caller, with the caller's file and line.
+  // checked with its caller's file and line, by frame_ (gpu/device_frame.h).
   using Where = std::source_location;
-  void call(cudaError_t status, const char* what, Where where) {
-    ++work_.api_calls;
-    checkCuda(status, what, where);
-  }
-
-  void record(Event event, Where where = Where::current()) {
-    call(cudaEventRecord(events_[event], stream_), "cudaEventRecord", where);
-  }
-
-  void download(void* to, const void* from, std::size_t bytes, Where where = Where::current()) {
-    if (bytes == 0) return;
-    call(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_), "cudaMemcpyAsync",
-         where);
-    work_.bytes_from_device += bytes;
-  }
-
-  void wait(Event event, Where where = Where::current()) {
-    call(cudaEventSynchronize(events_[event]), "cudaEventSynchronize", where);
-  }
 
   // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
   // temp_ grown to fit) the work.
   template <class CubCall>
   void cub(CubCall cub_call, Where where = Where::current()) {
     std::size_t bytes = 0;
-    call(cub_call(nullptr, bytes), "a CUB size query", where);
+    frame_.check(cub_call(nullptr, bytes), "a CUB size query", where);
     // At least one byte: a null temp_ would make the second call a query too.
     reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
     bytes = temp_.size();
-    call(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
-  }
-
-  // After each kernel launch: its own errors, and the launch counted.
-  void launched(Where where = Where::current()) {
-    call(cudaGetLastError(), "a gpusap kernel launch", where);
-    ++work_.api_calls;
+    frame_.check(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
   }
 
   void reserveBoxBuffers(std::size_t n) {
-    if (n > objects_.size()) {
-      reserveDiscarding(objects_, n);
-      reserveDiscarding(first_entry_, objects_.size() + 1);
-    }
+    reserveDiscarding(objects_, n);
     reserveEntries(kFirstEntriesPerBox * n);
     pair_room_ = std::max(pair_room_, kFirstPairsPerBox * n);
     reservePairs(pair_room_);
@@ -238,111 +205,108 @@ class GpuSapPairFinder final : public PairFinder {
   }
 
   // The frame's search, from the uploaded boxes to the result block's copy:
-  // nothing here waits, and every count it passes CUB is a capacity.
+  // nothing here waits, and every count it passes CUB is a capacity.  Four
+  // kernels and five CUB calls; with no last frame no removed selection, with
+  // no boxes only that selection and packKernel.
   void enqueueSearch() {
     const std::uint32_t n = slot_count_;
     const std::uint64_t entries = keys_[0].size();
     const std::uint64_t pairs = pairCapacity();
     const std::uint32_t max_slabs = maxSlabs();
     FrameCounters* const counters = counters_.data();
-    CUDA_CHECK_COUNTED(work_.api_calls,
-                       cudaMemsetAsync(counters, 0, sizeof(FrameCounters), stream_));
     const int first = (previous_ + 1) % 3;
     const int second = (previous_ + 2) % 3;
     current_ = first;
     if (n > 0) {
-      boundsKernel<<<blocksFor(n), kThreadsPerBlock, 0, stream_>>>(objects_.data(), n, counters);
-      launched();
-      spanKernel<<<blocksFor(std::uint64_t{n} + 1), kThreadsPerBlock, 0, stream_>>>(
-          objects_.data(), n, counters, max_slabs, first_entry_.data());
-      launched();
-      cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceScan::ExclusiveSum(temp, bytes, first_entry_.data(), first_entry_.data(),
-                                             std::uint64_t{n} + 1, stream_);
-      });
-      entryKernel<<<blocksFor(std::max<std::uint64_t>(n, entries)), kThreadsPerBlock, 0, stream_>>>(
-          objects_.data(), n, counters, max_slabs, first_entry_.data(), entries, keys_[0].data(),
-          slots_[0].data());
-      launched();
+      boundsKernel<<<blocksFor(std::max<std::uint64_t>({n, entries, pairs})), kThreadsPerBlock, 0,
+                     frame_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
+                                        pairs_[first].data(), pairs);
+      frame_.launched();
+      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, frame_.stream()>>>(
+          objects_.data(), n, counters, max_slabs, entries, keys_[0].data(), slots_[0].data());
+      frame_.launched();
       cub::DoubleBuffer<std::uint64_t> keys(keys_[0].data(), keys_[1].data());
       cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
-      const int key_bits = 32 + std::bit_width(max_slabs - 1);
+      // The slab's bits and the min's top 32 - drop (the kernels' header).
+      const int drop = std::bit_width(max_slabs - 1);
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, 0, key_bits,
-                                               stream_);
+        return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, drop, 32 + drop,
+                                               frame_.stream());
       });
-      const std::uint64_t* const sorted_keys = keys.Current();
-      const std::uint32_t* const sorted_slots = slots.Current();
-      candidateCountKernel<<<blocksFor(entries + 1), kThreadsPerBlock, 0, stream_>>>(
-          objects_.data(), entries, counters, sorted_keys, sorted_slots, offsets_.data());
-      launched();
+      const CandidateCounts counts{.objects = objects_.data(),
+                                   .counters = counters,
+                                   .sorted_keys = keys.Current(),
+                                   .sorted_slots = slots.Current(),
+                                   .entries = entries,
+                                   .drop = static_cast<unsigned>(drop)};
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceScan::ExclusiveSum(temp, bytes, offsets_.data(), offsets_.data(),
-                                             entries + 1, stream_);
+        return cub::DeviceScan::ExclusiveSum(temp, bytes, counts, offsets_.data(), entries + 1,
+                                             frame_.stream());
       });
-      // Slots past the frame's pairs read kNoPair, so the sort puts them last.
-      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemsetAsync(pairs_[first].data(), 0xFF,
-                                                          pairs * sizeof(std::uint64_t), stream_));
       sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
-                    kThreadsPerBlock, 0, stream_>>>(
-          objects_.data(), entries, max_slabs, sorted_keys, sorted_slots, offsets_.data(), counters,
-          pairs_[first].data(), static_cast<unsigned long long>(pairs));
-      launched();
-      cub::DoubleBuffer<std::uint64_t> pair_keys(pairs_[first].data(), pairs_[second].data());
-      // pairKey()s of slots below n: the low half needs bit_width(n) bits, and
-      // kNoPair has every bit set.
+                    kThreadsPerBlock, 0, frame_.stream()>>>(
+          objects_.data(), entries, max_slabs, keys.Current(), slots.Current(), offsets_.data(),
+          counters, pairs_[first].data(), static_cast<unsigned long long>(pairs));
+      frame_.launched();
+      cub::DoubleBuffer<IndexPair> pair_buffers(pairs_[first].data(), pairs_[second].data());
+      // Slots below n: a and b need bit_width(n) bits each, b all 32 below a's,
+      // and kNoPair has every bit set.
       const int pair_bits = 32 + std::bit_width(n);
       cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_keys, pairs, 0, pair_bits, stream_);
+        return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_buffers, pairs, PairBits{}, 0,
+                                              pair_bits, frame_.stream());
       });
-      current_ = pair_keys.selector == 0 ? first : second;
+      current_ = pair_buffers.selector == 0 ? first : second;
     }
-    std::uint64_t* const this_frame = pairs_[current_].data();
-    std::uint64_t* const last_frame = pairs_[previous_].data();
-    std::uint64_t* const free = pairs_[freeBuffer()].data();
-    const auto previous_pairs = static_cast<std::int64_t>(previous_pairs_);
-    if (n > 0) {
+    // Both sets are searched and selected over their rooms (sorted pairs, then
+    // kNoPair), not their counts, so a steady frame's calls take the same
+    // arguments every frame but the buffers' rotation.
+    this_set_room_ = n > 0 ? pairs : 0;
+    const IndexPair* const this_frame = pairs_[current_].data();
+    IndexPair* const last_frame = pairs_[previous_].data();
+    IndexPair* const free = pairs_[freeBuffer()].data();
+    if (this_set_room_ > 0) {
+      cub([&](void* temp, std::size_t& bytes) {
+        return cub::DeviceSelect::If(temp, bytes, this_frame, free, &counters->added,
+                                     static_cast<std::int64_t>(this_set_room_),
+                                     NotIn{last_frame, last_set_room_, counters, entries, pairs},
+                                     frame_.stream());
+      });
+    }
+    if (last_set_room_ > 0) {
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceSelect::If(
-            temp, bytes, this_frame, free, &counters->added, static_cast<std::int64_t>(pairs),
-            NotIn{last_frame, previous_pairs_, counters, entries, pairs}, stream_);
+            temp, bytes, last_frame, &counters->removed, static_cast<std::int64_t>(last_set_room_),
+            NotIn{this_frame, this_set_room_, counters, entries, pairs}, frame_.stream());
       });
     }
-    if (previous_pairs > 0) {
-      cub([&](void* temp, std::size_t& bytes) {
-        return cub::DeviceSelect::If(temp, bytes, last_frame, &counters->removed, previous_pairs,
-                                     NotIn{this_frame, n > 0 ? pairs : 0, counters, entries, pairs},
-                                     stream_);
-      });
-    }
-    packKernel<<<blocksFor(std::max<std::uint64_t>(pairs, previous_pairs_)), kThreadsPerBlock, 0,
-                 stream_>>>(free, last_frame, counters, block_.data());
-    launched();
-    record(kSearched);
-    download(host_.data(), block_.data(), sizeof(ResultBlock));
-    record(kCopied);
+    packKernel<<<1, kPackThreads, 0, frame_.stream()>>>(free, last_frame, counters, block_.data());
+    frame_.launched();
+    frame_.record(DeviceFrame::kSearched);
+    frame_.download(host_.data(), block_.data(), sizeof(ResultBlock));
+    frame_.record(DeviceFrame::kDone);
   }
 
   // The one of the three pair buffers that is neither last frame's nor this one's.
   int freeBuffer() const { return 3 - previous_ - current_; }
 
   PairDelta collectDelta() {
-    wait(kCopied);
-    work_.upload_ms = elapsed(kStarted, kUploaded);
+    DeviceWork& work = frame_.work();
+    frame_.wait(DeviceFrame::kDone);
+    work.upload_ms = frame_.elapsed(DeviceFrame::kStarted, DeviceFrame::kUploaded);
     noteSearchTimes();
     const ResultBlock& block = *host_.data();
     if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
       reserveEntries(withHeadroom(block.entries));
       reservePairs(withHeadroom(block.pairs));
-      record(kUploaded);
+      frame_.record(DeviceFrame::kUploaded);
       enqueueSearch();
-      wait(kCopied);
+      frame_.wait(DeviceFrame::kDone);
       noteSearchTimes();
       if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
         throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
       }
     }
-    const std::size_t pairs = block.pairs;
     const std::size_t added_count = block.added;
     const std::size_t removed_count = block.removed;
     const IndexPair* added = block.head;
@@ -351,13 +315,13 @@ class GpuSapPairFinder final : public PairFinder {
       added = joinHeadAndTail(block.head, 0, pairs_[freeBuffer()], host_added_, added_count);
       removed = joinHeadAndTail(block.head, std::min<std::size_t>(added_count, kHeadEntries),
                                 pairs_[previous_], host_removed_, removed_count);
-      record(kTailsCopied);
-      wait(kTailsCopied);
-      work_.download_ms += elapsed(kCopied, kTailsCopied);
+      frame_.record(DeviceFrame::kTailsDone);
+      frame_.wait(DeviceFrame::kTailsDone);
+      work.download_ms += frame_.elapsed(DeviceFrame::kDone, DeviceFrame::kTailsDone);
     }
     previous_ = current_;  // nothing below can fail: this frame is now the reference
-    previous_pairs_ = pairs;
-    last_work_ = work_;
+    last_set_room_ = this_set_room_;
+    frame_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
@@ -366,56 +330,49 @@ class GpuSapPairFinder final : public PairFinder {
   // filled with that part of the head and (queued; the caller waits) the
   // rest from the device list.
   const IndexPair* joinHeadAndTail(const IndexPair* head, std::size_t from,
-                                   const DeviceBuffer<std::uint64_t>& list,
+                                   const DeviceBuffer<IndexPair>& list,
                                    PinnedBuffer<IndexPair>& host, std::size_t count) {
     const std::size_t in_head = std::min(count, kHeadEntries - from);
     if (count == in_head) return head + from;
     reserveDiscarding(host, count);
     std::memcpy(host.data(), head + from, in_head * sizeof(IndexPair));
-    work_.host_bytes_copied += in_head * sizeof(IndexPair);
-    download(host.data() + in_head, list.data() + in_head, (count - in_head) * sizeof(IndexPair));
+    frame_.work().host_bytes_copied += in_head * sizeof(IndexPair);
+    frame_.download(host.data() + in_head, list.data() + in_head,
+                    (count - in_head) * sizeof(IndexPair));
     return host.data();
-  }
-
-  float elapsed(Event from, Event to, Where where = Where::current()) {
-    float ms = 0;
-    call(cudaEventElapsedTime(&ms, events_[from], events_[to]), "cudaEventElapsedTime", where);
-    return ms;
   }
 
   // The search just waited for: its kernels and its copy back.  A frame run
   // twice adds both runs, never the host's time between them.
   void noteSearchTimes() {
-    work_.kernels_ms += elapsed(kUploaded, kSearched);
-    work_.download_ms += elapsed(kSearched, kCopied);
-    last_search_ms_ = work_.upload_ms + work_.kernels_ms + work_.download_ms;
+    DeviceWork& work = frame_.work();
+    work.kernels_ms += frame_.elapsed(DeviceFrame::kUploaded, DeviceFrame::kSearched);
+    work.download_ms += frame_.elapsed(DeviceFrame::kSearched, DeviceFrame::kDone);
+    last_search_ms_ = work.upload_ms + work.kernels_ms + work.download_ms;
   }
 
-  cudaStream_t stream_ = nullptr;
-  cudaEvent_t events_[kEventCount] = {};
+  DeviceFrame frame_;  // the stream, events, staging and counted calls
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
   double last_search_ms_ = 0;
-  DeviceWork work_;  // the frame in progress
-  DeviceWork last_work_;
 
-  PinnedStaging staging_;                         // this frame's boxes, from the caller
-  DeviceBuffer<ObjectBounds> objects_;            // ... uploaded, by slot
-  DeviceBuffer<unsigned long long> first_entry_;  // per slot: entries, then their scan
-  DeviceBuffer<std::uint64_t> keys_[2];           // entry keys, and CUB's other half
-  DeviceBuffer<std::uint32_t> slots_[2];          // entry slots, and CUB's other half
-  DeviceBuffer<unsigned long long> offsets_;      // per entry rank: candidates, then their scan
+  DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
+  DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
+  DeviceBuffer<std::uint32_t> slots_[2];      // entry slots, and CUB's other half
+  DeviceBuffer<unsigned long long> offsets_;  // per entry rank: its candidates' scan
   DeviceBuffer<FrameCounters> counters_;
   DeviceBuffer<ResultBlock> block_;   // what comes back, assembled on the device
   DeviceBuffer<unsigned char> temp_;  // CUB's temporary storage, shared by its calls
-  // pairs_[previous_] holds last frame's sorted pair keys (previous_pairs_ of
-  // them); the other two are this frame's (current_) and the sort's other half.
-  DeviceBuffer<std::uint64_t> pairs_[3];
+  // pairs_[previous_] holds last frame's sorted pairs, then kNoPair, over
+  // last_set_room_ slots (0 before the first frame); the other two are this
+  // frame's (current_, this_set_room_ slots) and the sort's other half.
+  DeviceBuffer<IndexPair> pairs_[3];
   std::size_t pair_room_ = 0;  // the capacity this frame's two buffers get
   int previous_ = 0;
   int current_ = 1;
-  std::size_t previous_pairs_ = 0;
+  std::size_t last_set_room_ = 0;
+  std::size_t this_set_room_ = 0;
   PinnedBuffer<ResultBlock> host_;
   PinnedBuffer<IndexPair> host_added_;  // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;

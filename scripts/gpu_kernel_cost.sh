@@ -24,8 +24,7 @@
 #    sweepKernel ballots once per 32 candidates (a candidate is a pair it
 #    tests), so its figures are per 32 candidates; its other kernels have no
 #    ballot and are given per pass of their innermost loop (a grid-stride
-#    pass is one box; candidateCountKernel's is one step of its binary
-#    search).
+#    pass is one box; packKernel's one pair of the head).
 # 3. Per frame, the API calls, copies and bytes over the bus of one steady
 #    frame of each finder, from the emulation build's counters
 #    (overlap_gpu_frame_cost in EMULATION_BUILD_DIR, default build-emulation;

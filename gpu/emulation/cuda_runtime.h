@@ -16,6 +16,13 @@
 //   memsets, frees and a kernel's pointer arguments are checked against the
 //   live allocations, and a violation aborts naming the call site.
 // - Launch limits give cudaErrorInvalidConfiguration through cudaGetLastError.
+// - Stream capture records what is enqueued on the capturing stream (copies,
+//   memsets, launches, external event records) as a graph; a launched graph
+//   enqueues it all again, checking its pointers anew.  While a thread
+//   captures, what would not be legal on a GPU fails with
+//   cudaErrorStreamCaptureUnsupported and spoils the capture: waiting on the
+//   capturing stream, allocating or freeing, a plain event record on it (the
+//   emulation records only external ones into a graph).
 // What it cannot show: timing, memory ordering and races between threads
 // (a block's threads run one at a time on one OS thread), the real driver.
 #pragma once
@@ -37,6 +44,8 @@
 
 using cudaEvent_t = struct CudaEmulationEvent*;
 using cudaStream_t = struct CudaEmulationStream*;
+using cudaGraph_t = struct CudaEmulationGraph*;
+using cudaGraphExec_t = struct CudaEmulationGraphExec*;
 
 // The values of the toolkit's driver_types.h, so codes compare as on a GPU.
 enum cudaError_t {
@@ -49,6 +58,9 @@ enum cudaError_t {
   cudaErrorInvalidDevice = 101,
   cudaErrorInvalidResourceHandle = 400,
   cudaErrorNotReady = 600,
+  cudaErrorStreamCaptureUnsupported = 900,
+  cudaErrorStreamCaptureInvalidated = 901,
+  cudaErrorStreamCaptureWrongThread = 908,
 };
 using cudaError = cudaError_t;
 
@@ -65,6 +77,14 @@ inline constexpr unsigned cudaStreamNonBlocking = 0x01;
 inline constexpr unsigned cudaEventDefault = 0x00;
 inline constexpr unsigned cudaEventBlockingSync = 0x01;
 inline constexpr unsigned cudaEventDisableTiming = 0x02;
+inline constexpr unsigned cudaEventRecordDefault = 0x00;
+inline constexpr unsigned cudaEventRecordExternal = 0x01;
+
+enum cudaStreamCaptureMode {
+  cudaStreamCaptureModeGlobal = 0,
+  cudaStreamCaptureModeThreadLocal = 1,
+  cudaStreamCaptureModeRelaxed = 2,
+};
 
 struct uint3 {
   unsigned x, y, z;
@@ -139,9 +159,23 @@ cudaError_t cudaEventCreate(cudaEvent_t* event);
 cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags);
 cudaError_t cudaEventDestroy(cudaEvent_t event);
 cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream = nullptr);
+// cudaEventRecordExternal: while `stream` captures, the record becomes a node
+// of the graph (and is made each time the graph is launched).
+cudaError_t cudaEventRecordWithFlags(cudaEvent_t event, cudaStream_t stream = nullptr,
+                                     unsigned flags = cudaEventRecordDefault);
 cudaError_t cudaEventSynchronize(cudaEvent_t event, OVERLAP_CUDA_SITE);
 cudaError_t cudaEventQuery(cudaEvent_t event, OVERLAP_CUDA_SITE);
 cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end);
+
+// Graphs, by stream capture only.  The emulation captures on the calling
+// thread alone, whatever the mode.
+cudaError_t cudaStreamBeginCapture(cudaStream_t stream, cudaStreamCaptureMode mode);
+cudaError_t cudaStreamEndCapture(cudaStream_t stream, cudaGraph_t* graph);
+cudaError_t cudaGraphInstantiate(cudaGraphExec_t* exec, cudaGraph_t graph,
+                                 unsigned long long flags = 0);
+cudaError_t cudaGraphLaunch(cudaGraphExec_t exec, cudaStream_t stream);
+cudaError_t cudaGraphExecDestroy(cudaGraphExec_t exec);
+cudaError_t cudaGraphDestroy(cudaGraph_t graph);
 
 // Every kernel is an ordinary function here; its attributes are the device's.
 template <class... Params>

@@ -177,6 +177,12 @@ inline int __ffsll(long long x) {
   return x == 0 ? 0 : std::countr_zero(static_cast<unsigned long long>(x)) + 1;
 }
 
+// A fence for the whole device: this thread's writes before it are seen
+// before its writes after it (with the atomics below, the last-block pattern).
+inline void __threadfence() {
+  std::atomic_thread_fence(std::memory_order_seq_cst);
+}
+
 // Atomics return the old value, as on the device.
 template <class T>
 T atomicAdd(T* address, std::type_identity_t<T> value) {

@@ -12,6 +12,13 @@
 // streams, each other's earlier work, as CUDA orders them.  Work enqueued and
 // never waited for does not run, so a missing synchronization reads garbage.
 // One mutex serializes the API: the emulated device runs one thing at a time.
+//
+// Graphs: while a stream captures, each copy, memset, launch and external
+// event record enqueued on it is checked as usual and kept, as a node, instead
+// of enqueued; a launched graph enqueues its nodes on the launch's stream in
+// capture order, each checked and counted again as if called then (the
+// launch itself is the one API call).  Calls a GPU refuses while capturing
+// spoil the capture (cudaStreamEndCapture then fails): see cuda_runtime.h.
 #include <unistd.h>
 
 #include <chrono>
@@ -30,6 +37,8 @@
 #include "gpu/emulation/api_counters.h"
 #include "gpu/emulation/executor.h"
 
+struct CudaEmulationGraph;
+
 struct CudaEmulationStream {
   struct Operation {
     std::function<void()> run;
@@ -37,8 +46,19 @@ struct CudaEmulationStream {
   };
   bool blocking = true;  // synchronizes with the legacy default stream
   std::deque<Operation> pending;
-  std::uint64_t enqueued = 0;   // sequence number of the last operation enqueued
-  std::uint64_t completed = 0;  // ... and of the last one run
+  std::uint64_t enqueued = 0;             // sequence number of the last operation enqueued
+  std::uint64_t completed = 0;            // ... and of the last one run
+  CudaEmulationGraph* capture = nullptr;  // the graph being captured, if capturing
+  bool capture_spoiled = false;
+};
+
+// A node enqueues its work, checked and counted, on the stream it is given.
+struct CudaEmulationGraph {
+  std::vector<std::function<void(CudaEmulationStream&)>> nodes;
+};
+
+struct CudaEmulationGraphExec {
+  std::vector<std::function<void(CudaEmulationStream&)>> nodes;
 };
 
 struct CudaEmulationEvent {
@@ -57,10 +77,25 @@ constexpr std::size_t kAlignment = 256;  // cudaMalloc's guarantee
 constexpr std::size_t kMaxSharedBytesPerBlock = 48 * 1024;
 
 thread_local cudaError_t t_last_error = cudaSuccess;
+// The stream this thread captures, if any.
+thread_local CudaEmulationStream* t_capturing = nullptr;
 
 cudaError_t record(cudaError_t error) {
   if (error != cudaSuccess) t_last_error = error;
   return error;
+}
+
+// A call a GPU refuses while `target` captures: it spoils the capture.
+cudaError_t refuseWhileCapturing(CudaEmulationStream& target) {
+  target.capture_spoiled = true;
+  return record(cudaErrorStreamCaptureUnsupported);
+}
+
+// Memory calls and device-wide waits are refused while this thread captures.
+bool refusedWhileThisThreadCaptures(cudaError_t& error) {
+  if (t_capturing == nullptr) return false;
+  error = refuseWhileCapturing(*t_capturing);
+  return true;
 }
 
 // The counts of gpu/emulation/api_counters.h, under their own mutex: some
@@ -232,8 +267,16 @@ class Runtime {
 
   // --- events --------------------------------------------------------------
   bool known(cudaEvent_t event) const { return events_.count(event) != 0; }
-  void addEvent(cudaEvent_t event) { events_.insert(event); }
-  void removeEvent(cudaEvent_t event) { events_.erase(event); }
+  void add(cudaEvent_t event) { events_.insert(event); }
+  void remove(cudaEvent_t event) { events_.erase(event); }
+
+  // --- graphs --------------------------------------------------------------
+  bool known(cudaGraph_t graph) const { return graphs_.count(graph) != 0; }
+  bool known(cudaGraphExec_t exec) const { return execs_.count(exec) != 0; }
+  void add(cudaGraph_t graph) { graphs_.insert(graph); }
+  void add(cudaGraphExec_t exec) { execs_.insert(exec); }
+  void remove(cudaGraph_t graph) { graphs_.erase(graph); }
+  void remove(cudaGraphExec_t exec) { execs_.erase(exec); }
 
  private:
   static std::uintptr_t address(const void* pointer) {
@@ -259,6 +302,8 @@ class Runtime {
   CudaEmulationStream legacy_;
   std::set<CudaEmulationStream*> streams_;
   std::set<CudaEmulationEvent*> events_;
+  std::set<CudaEmulationGraph*> graphs_;
+  std::set<CudaEmulationGraphExec*> execs_;
 };
 
 Runtime& runtime() {
@@ -284,14 +329,8 @@ void countCopy(bool to_device, bool from_device, std::size_t bytes, bool blockin
   }
 }
 
-cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
-                 cudaStream_t handle, bool blocking, const char* call,
-                 const std::source_location& site) {
-  Runtime& rt = runtime();
-  const std::lock_guard lock(rt.mutex);
-  CudaEmulationStream* target = rt.stream(handle);
-  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
-  if (kind < cudaMemcpyHostToHost || kind > cudaMemcpyDefault) return record(cudaErrorInvalidValue);
+void checkCopy(Runtime& rt, void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+               const char* call, const std::source_location& site) {
   if (kind == cudaMemcpyDefault) {
     // Unified addressing: the table knows which side each pointer is on.
     rt.checkRange(to, bytes, call, "destination", site);
@@ -302,12 +341,49 @@ cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind k
     rt.checkOperand(from, bytes, kind == cudaMemcpyDeviceToHost || kind == cudaMemcpyDeviceToDevice,
                     call, "source", site);
   }
+}
+
+// A checked, counted copy enqueued on `target` (and waited for if blocking).
+void copyOn(Runtime& rt, CudaEmulationStream& target, void* to, const void* from, std::size_t bytes,
+            cudaMemcpyKind kind, bool blocking, const char* call,
+            const std::source_location& site) {
+  checkCopy(rt, to, from, bytes, kind, call, site);
   countCopy(rt.onDevice(to), rt.onDevice(from), bytes, blocking);
-  const std::uint64_t sequence = rt.enqueue(*target, [=] {
+  const std::uint64_t sequence = rt.enqueue(target, [=] {
     if (bytes != 0) std::memmove(to, from, bytes);
   });
-  if (blocking) rt.runUntil(*target, sequence);
+  if (blocking) rt.runUntil(target, sequence);
+}
+
+cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind kind,
+                 cudaStream_t handle, bool blocking, const char* call,
+                 const std::source_location& site) {
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(handle);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  if (kind < cudaMemcpyHostToHost || kind > cudaMemcpyDefault) return record(cudaErrorInvalidValue);
+  if (target->capture != nullptr) {
+    if (blocking) return refuseWhileCapturing(*target);
+    checkCopy(rt, to, from, bytes, kind, call, site);
+    target->capture->nodes.push_back([=, &rt](CudaEmulationStream& on) {
+      copyOn(rt, on, to, from, bytes, kind, false, call, site);
+    });
+    return cudaSuccess;
+  }
+  copyOn(rt, *target, to, from, bytes, kind, blocking, call, site);
   return cudaSuccess;
+}
+
+void fillOn(Runtime& rt, CudaEmulationStream& target, void* to, int value, std::size_t bytes,
+            bool blocking, const char* call, const std::source_location& site) {
+  rt.checkOperand(to, bytes, true, call, "destination", site);
+  count(&ApiCounters::memsets);
+  if (blocking) count(&ApiCounters::host_waits);
+  const std::uint64_t sequence = rt.enqueue(target, [=] {
+    if (bytes != 0) std::memset(to, value, bytes);
+  });
+  if (blocking) rt.runUntil(target, sequence);
 }
 
 cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bool blocking,
@@ -316,13 +392,34 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(handle);
   if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
-  rt.checkOperand(to, bytes, true, call, "destination", site);
-  count(&ApiCounters::memsets);
-  if (blocking) count(&ApiCounters::host_waits);
-  const std::uint64_t sequence = rt.enqueue(*target, [=] {
-    if (bytes != 0) std::memset(to, value, bytes);
-  });
-  if (blocking) rt.runUntil(*target, sequence);
+  if (target->capture != nullptr) {
+    if (blocking) return refuseWhileCapturing(*target);
+    rt.checkOperand(to, bytes, true, call, "destination", site);
+    target->capture->nodes.push_back(
+        [=, &rt](CudaEmulationStream& on) { fillOn(rt, on, to, value, bytes, false, call, site); });
+    return cudaSuccess;
+  }
+  fillOn(rt, *target, to, value, bytes, blocking, call, site);
+  return cudaSuccess;
+}
+
+// An event's record on `target`: its timestamp when the stream reaches it.
+void recordOn(Runtime& rt, CudaEmulationStream& target, cudaEvent_t event) {
+  count(&ApiCounters::event_records);
+  event->stream = &target;
+  event->recorded = true;
+  event->sequence = rt.enqueue(target, [event] { event->when = std::chrono::steady_clock::now(); });
+}
+
+// Destroys a handle the runtime made (an event, a graph, a graph instance).
+template <class Handle>
+cudaError_t destroyKnown(Handle handle) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (!rt.known(handle)) return record(cudaErrorInvalidResourceHandle);
+  rt.remove(handle);
+  delete handle;
   return cudaSuccess;
 }
 
@@ -330,7 +427,6 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
 
 void enqueueLaunch(KernelLaunch launch) {
   countCall();
-  count(&ApiCounters::kernel_launches);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(launch.stream);
@@ -346,10 +442,22 @@ void enqueueLaunch(KernelLaunch launch) {
     record(cudaErrorInvalidConfiguration);
     return;
   }
-  for (std::size_t i = 0; i < launch.pointer_arguments.size(); ++i) {
-    rt.checkKernelArgument(launch.pointer_arguments[i], i, launch);
+  const auto launchOn = [&rt](CudaEmulationStream& on, const KernelLaunch& checked) {
+    count(&ApiCounters::kernel_launches);
+    for (std::size_t i = 0; i < checked.pointer_arguments.size(); ++i) {
+      rt.checkKernelArgument(checked.pointer_arguments[i], i, checked);
+    }
+    rt.enqueue(on, [checked] { runGrid(checked); });
+  };
+  if (target->capture != nullptr) {
+    for (std::size_t i = 0; i < launch.pointer_arguments.size(); ++i) {
+      rt.checkKernelArgument(launch.pointer_arguments[i], i, launch);
+    }
+    target->capture->nodes.push_back(
+        [launchOn, launch](CudaEmulationStream& on) { launchOn(on, launch); });
+    return;
   }
-  rt.enqueue(*target, [launch = std::move(launch)] { runGrid(launch); });
+  launchOn(*target, launch);
 }
 
 }  // namespace overlap::cuda_emulation::detail
@@ -402,6 +510,7 @@ cudaError_t cudaDeviceSynchronize(CudaSite) {
   count(&ApiCounters::host_waits);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   rt.synchronizeAll();
   return cudaSuccess;
 }
@@ -420,6 +529,7 @@ cudaError_t cudaMalloc(void** pointer, std::size_t bytes, CudaSite site) {
   countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   return record(rt.allocate(pointer, bytes, Space::kDevice, site));
 }
 
@@ -427,6 +537,7 @@ cudaError_t cudaMallocHost(void** pointer, std::size_t bytes, CudaSite site) {
   countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   return record(rt.allocate(pointer, bytes, Space::kPinned, site));
 }
 
@@ -434,6 +545,7 @@ cudaError_t cudaFree(void* pointer, CudaSite site) {
   countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   return record(rt.release(pointer, Space::kDevice, "cudaFree", site));
 }
 
@@ -441,6 +553,7 @@ cudaError_t cudaFreeHost(void* pointer, CudaSite site) {
   countCall();
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   return record(rt.release(pointer, Space::kPinned, "cudaFreeHost", site));
 }
 
@@ -500,6 +613,7 @@ cudaError_t cudaStreamSynchronize(cudaStream_t stream, CudaSite) {
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(stream);
   if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  if (target->capture != nullptr) return refuseWhileCapturing(*target);
   rt.runUntil(*target, target->enqueued);
   return cudaSuccess;
 }
@@ -516,6 +630,7 @@ cudaError_t cudaStreamWaitEvent(cudaStream_t stream, cudaEvent_t event, unsigned
   CudaEmulationStream* target = rt.stream(stream);
   if (target == nullptr || !rt.known(event)) return record(cudaErrorInvalidResourceHandle);
   if (flags != 0) return record(cudaErrorInvalidValue);
+  if (target->capture != nullptr) return refuseWhileCapturing(*target);
   if (event->recorded && event->stream != nullptr) {
     rt.enqueue(*target, [] {}, {{event->stream, event->sequence}});
   }
@@ -529,6 +644,7 @@ cudaError_t cudaLaunchHostFunc(cudaStream_t stream, cudaHostFn_t fn, void* user_
   CudaEmulationStream* target = rt.stream(stream);
   if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
   if (fn == nullptr) return record(cudaErrorInvalidValue);
+  if (target->capture != nullptr) return refuseWhileCapturing(*target);
   rt.enqueue(*target, [fn, user_data] { fn(user_data); });
   return cudaSuccess;
 }
@@ -546,31 +662,35 @@ cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
   const std::lock_guard lock(rt.mutex);
   *event = new CudaEmulationEvent;
   (*event)->timing = (flags & cudaEventDisableTiming) == 0;
-  rt.addEvent(*event);
+  rt.add(*event);
   return cudaSuccess;
 }
 
 cudaError_t cudaEventDestroy(cudaEvent_t event) {
-  countCall();
-  Runtime& rt = runtime();
-  const std::lock_guard lock(rt.mutex);
-  if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
-  rt.removeEvent(event);
-  delete event;
-  return cudaSuccess;
+  return destroyKnown(event);
 }
 
 cudaError_t cudaEventRecord(cudaEvent_t event, cudaStream_t stream) {
+  return cudaEventRecordWithFlags(event, stream, cudaEventRecordDefault);
+}
+
+cudaError_t cudaEventRecordWithFlags(cudaEvent_t event, cudaStream_t stream, unsigned flags) {
   countCall();
-  count(&ApiCounters::event_records);
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
   CudaEmulationStream* target = rt.stream(stream);
   if (target == nullptr || !rt.known(event)) return record(cudaErrorInvalidResourceHandle);
-  event->stream = target;
-  event->recorded = true;
-  event->sequence =
-      rt.enqueue(*target, [event] { event->when = std::chrono::steady_clock::now(); });
+  if ((flags & ~cudaEventRecordExternal) != 0) return record(cudaErrorInvalidValue);
+  if (target->capture != nullptr) {
+    // A plain record in a capture only orders streams on a GPU; not emulated.
+    if (flags != cudaEventRecordExternal) return refuseWhileCapturing(*target);
+    target->capture->nodes.push_back([event, &rt](CudaEmulationStream& on) {
+      if (!rt.known(event)) fail("a graph launched an event record node of a destroyed event");
+      recordOn(rt, on, event);
+    });
+    return cudaSuccess;
+  }
+  recordOn(rt, *target, event);
   return cudaSuccess;
 }
 
@@ -604,6 +724,79 @@ cudaError_t cudaEventElapsedTime(float* ms, cudaEvent_t start, cudaEvent_t end) 
   }
   *ms = std::chrono::duration<float, std::milli>(end->when - start->when).count();
   return cudaSuccess;
+}
+
+cudaError_t cudaStreamBeginCapture(cudaStream_t stream, cudaStreamCaptureMode mode) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
+  if (mode < cudaStreamCaptureModeGlobal || mode > cudaStreamCaptureModeRelaxed) {
+    return record(cudaErrorInvalidValue);
+  }
+  // The legacy default stream cannot capture; nor can a stream twice, or a
+  // thread two streams.
+  if (stream == nullptr || target->capture != nullptr || t_capturing != nullptr) {
+    return record(cudaErrorStreamCaptureUnsupported);
+  }
+  target->capture = new CudaEmulationGraph;
+  target->capture_spoiled = false;
+  t_capturing = target;
+  return cudaSuccess;
+}
+
+cudaError_t cudaStreamEndCapture(cudaStream_t stream, cudaGraph_t* graph) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  CudaEmulationStream* target = rt.stream(stream);
+  if (target == nullptr || graph == nullptr) return record(cudaErrorInvalidValue);
+  if (target->capture == nullptr) return record(cudaErrorInvalidValue);
+  if (t_capturing != target) return record(cudaErrorStreamCaptureWrongThread);
+  CudaEmulationGraph* captured = std::exchange(target->capture, nullptr);
+  t_capturing = nullptr;
+  if (target->capture_spoiled) {
+    delete captured;
+    *graph = nullptr;
+    return record(cudaErrorStreamCaptureInvalidated);
+  }
+  rt.add(captured);
+  *graph = captured;
+  return cudaSuccess;
+}
+
+cudaError_t cudaGraphInstantiate(cudaGraphExec_t* exec, cudaGraph_t graph,
+                                 unsigned long long flags) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (exec == nullptr || flags != 0) return record(cudaErrorInvalidValue);
+  if (!rt.known(graph)) return record(cudaErrorInvalidResourceHandle);
+  *exec = new CudaEmulationGraphExec{graph->nodes};
+  rt.add(*exec);
+  return cudaSuccess;
+}
+
+cudaError_t cudaGraphLaunch(cudaGraphExec_t exec, cudaStream_t stream) {
+  countCall();
+  Runtime& rt = runtime();
+  const std::lock_guard lock(rt.mutex);
+  if (CudaEmulationStream* target = rt.stream(stream); target != nullptr && rt.known(exec)) {
+    // A graph launched into a capture becomes a child graph on a GPU; not emulated.
+    if (target->capture != nullptr) return refuseWhileCapturing(*target);
+    for (const auto& node : exec->nodes) node(*target);
+    return cudaSuccess;
+  }
+  return record(cudaErrorInvalidResourceHandle);
+}
+
+cudaError_t cudaGraphExecDestroy(cudaGraphExec_t exec) {
+  return destroyKnown(exec);
+}
+
+cudaError_t cudaGraphDestroy(cudaGraph_t graph) {
+  return destroyKnown(graph);
 }
 
 namespace overlap::cuda_emulation {

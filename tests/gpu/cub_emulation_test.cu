@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cub/cub.cuh>
+#include <cuda/std/tuple>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -192,6 +193,47 @@ TEST(CubStandIns, SortKeysMatchesStdSort) {
     std::vector<std::uint64_t> expected = keys;
     std::sort(expected.begin(), expected.end());
     EXPECT_EQ(keys_out.toHost(), expected);
+  }
+}
+
+// A key of two members, sorted through a decomposer: `high` the more
+// significant, the bit range over both as one 64-bit number.
+struct TwoPartKey {
+  std::uint32_t high;
+  std::uint32_t low;
+};
+
+struct TwoPartBits {
+  ::cuda::std::tuple<std::uint32_t&, std::uint32_t&> operator()(TwoPartKey& key) const {
+    return ::cuda::std::tie(key.high, key.low);
+  }
+};
+
+TEST(CubStandIns, SortKeysThroughADecomposerOrdersByTheMembersBitsAsOneKey) {
+  for (const std::size_t n : kSizes) {
+    SCOPED_TRACE(::testing::Message() << n << " keys");
+    std::vector<TwoPartKey> keys(n);
+    std::mt19937 random(6);
+    for (TwoPartKey& key : keys)
+      key = {static_cast<std::uint32_t>(random()), static_cast<std::uint32_t>(random() % 64u)};
+    const auto bits = [](const TwoPartKey& key) {  // [0, 38): low, then high's 6 lowest bits
+      return (std::uint64_t{key.high & 63u} << 32) | key.low;
+    };
+    std::vector<TwoPartKey> expected = keys;
+    std::stable_sort(expected.begin(), expected.end(),
+                     [&](const TwoPartKey& x, const TwoPartKey& y) { return bits(x) < bits(y); });
+    const DeviceArray<TwoPartKey> keys_a(keys), keys_b(n);
+    cub::DoubleBuffer<TwoPartKey> buffers(keys_a.data(), keys_b.data());
+    TempStorage temp;
+    ASSERT_EQ(temp.run([&](void* storage, std::size_t& bytes) {
+      return cub::DeviceRadixSort::SortKeys(storage, bytes, buffers, n, TwoPartBits{}, 0, 38);
+    }),
+              cudaSuccess);
+    const std::vector<TwoPartKey> got = (buffers.selector == 0 ? keys_a : keys_b).toHost();
+    ASSERT_EQ(got.size(), expected.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      EXPECT_TRUE(got[i].high == expected[i].high && got[i].low == expected[i].low) << i;
+    }
   }
 }
 

@@ -1,12 +1,15 @@
 // The CUDA emulation's runtime (gpu/emulation/runtime.cpp): lazy streams and
 // their order, events, garbage-filled and checked memory, and launch limits
-// with the error codes of a real device.  Emulation build only.
+// with the error codes of a real device, and graphs by stream capture.
+// Emulation build only.
 #include <cuda_runtime.h>
 #include <gtest/gtest.h>
 
 #include <cstdint>
 #include <cstring>
 #include <vector>
+
+#include "gpu/emulation/api_counters.h"
 
 namespace {
 
@@ -237,5 +240,104 @@ TEST_F(CudaEmulationRuntimeDeathTest, AnOutOfBoundsWriteInAKernelIsCaughtUnderAs
   cudaFree(values);
 }
 #endif
+
+// --- graphs by stream capture --------------------------------------------------
+
+namespace graphs {
+
+// A stream with an upload, a kernel, an external event record and a copy back
+// captured as a graph, then launched on it twice.
+struct CapturedChain {
+  cudaStream_t stream = nullptr;
+  cudaEvent_t done = nullptr;
+  int* device = nullptr;
+  int* host = nullptr;
+  cudaGraphExec_t exec = nullptr;
+
+  CapturedChain() {
+    cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking);
+    cudaEventCreate(&done);
+    cudaMalloc(reinterpret_cast<void**>(&device), 64 * sizeof(int));
+    cudaMallocHost(reinterpret_cast<void**>(&host), 64 * sizeof(int));
+    for (int i = 0; i < 64; ++i) host[i] = i;
+  }
+  ~CapturedChain() {
+    if (exec != nullptr) cudaGraphExecDestroy(exec);
+    cudaFreeHost(host);
+    cudaFree(device);
+    cudaEventDestroy(done);
+    cudaStreamDestroy(stream);
+  }
+
+  cudaError_t capture() {
+    EXPECT_EQ(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal), cudaSuccess);
+    cudaMemcpyAsync(device, host, 64 * sizeof(int), cudaMemcpyHostToDevice, stream);
+    addOne<<<1, 64, 0, stream>>>(device, 64);
+    cudaMemcpyAsync(host, device, 64 * sizeof(int), cudaMemcpyDeviceToHost, stream);
+    cudaEventRecordWithFlags(done, stream, cudaEventRecordExternal);
+    cudaGraph_t graph = nullptr;
+    const cudaError_t ended = cudaStreamEndCapture(stream, &graph);
+    if (ended != cudaSuccess) return ended;
+    EXPECT_EQ(cudaGraphInstantiate(&exec, graph, 0), cudaSuccess);
+    EXPECT_EQ(cudaGraphDestroy(graph), cudaSuccess);  // the instance keeps its nodes
+    return cudaSuccess;
+  }
+};
+
+}  // namespace graphs
+
+TEST(CudaEmulationRuntime, ACapturedGraphRunsNothingUntilLaunchedThenRunsOnEachLaunch) {
+  graphs::CapturedChain chain;
+  ASSERT_EQ(chain.capture(), cudaSuccess);
+  ASSERT_EQ(cudaStreamSynchronize(chain.stream), cudaSuccess);
+  EXPECT_EQ(chain.host[5], 5) << "capturing ran the work";
+  for (int launch = 1; launch <= 2; ++launch) {
+    const overlap::cuda_emulation::ApiCounters before = overlap::cuda_emulation::apiCounters();
+    ASSERT_EQ(cudaGraphLaunch(chain.exec, chain.stream), cudaSuccess);
+    ASSERT_EQ(cudaEventSynchronize(chain.done), cudaSuccess);
+    const overlap::cuda_emulation::ApiCounters counted =
+        overlap::cuda_emulation::apiCounters() - before;
+    EXPECT_EQ(chain.host[5], 5 + launch);
+    // One call launches the graph, one waits; the nodes' work is counted as done.
+    EXPECT_EQ(counted.api_calls, 2u);
+    EXPECT_EQ(counted.kernel_launches, 1u);
+    EXPECT_EQ(counted.copies_to_device, 1u);
+    EXPECT_EQ(counted.copies_to_host, 1u);
+    EXPECT_EQ(counted.bytes_to_host, 64 * sizeof(int));
+    EXPECT_EQ(counted.event_records, 1u);
+  }
+}
+
+TEST(CudaEmulationRuntime, WaitingOrAllocatingWhileCapturingSpoilsTheCapture) {
+  graphs::CapturedChain chain;
+  ASSERT_EQ(cudaStreamBeginCapture(chain.stream, cudaStreamCaptureModeThreadLocal), cudaSuccess);
+  EXPECT_EQ(cudaStreamSynchronize(chain.stream), cudaErrorStreamCaptureUnsupported);
+  cudaGraph_t graph = nullptr;
+  EXPECT_EQ(cudaStreamEndCapture(chain.stream, &graph), cudaErrorStreamCaptureInvalidated);
+  EXPECT_EQ(graph, nullptr);
+
+  ASSERT_EQ(cudaStreamBeginCapture(chain.stream, cudaStreamCaptureModeThreadLocal), cudaSuccess);
+  void* memory = nullptr;
+  EXPECT_EQ(cudaMalloc(&memory, 16), cudaErrorStreamCaptureUnsupported);
+  EXPECT_EQ(cudaEventRecord(chain.done, chain.stream), cudaErrorStreamCaptureUnsupported);
+  EXPECT_EQ(cudaStreamEndCapture(chain.stream, &graph), cudaErrorStreamCaptureInvalidated);
+  cudaGetLastError();
+  // The stream works as before once the capture ended.
+  ASSERT_EQ(chain.capture(), cudaSuccess);
+  ASSERT_EQ(cudaGraphLaunch(chain.exec, chain.stream), cudaSuccess);
+  ASSERT_EQ(cudaStreamSynchronize(chain.stream), cudaSuccess);
+  EXPECT_EQ(chain.host[0], 1);
+}
+
+TEST_F(CudaEmulationRuntimeDeathTest, AGraphLaunchChecksItsPointersAgain) {
+  EXPECT_DEATH(
+      {
+        graphs::CapturedChain chain;
+        chain.capture();
+        cudaFree(chain.device);
+        cudaGraphLaunch(chain.exec, chain.stream);
+      },
+      "not in a live device");
+}
 
 }  // namespace

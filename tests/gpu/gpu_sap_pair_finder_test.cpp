@@ -98,6 +98,27 @@ TEST_F(GpuSapTest, ABoxSpanningTheWorldPairsWithEveryBoxAtEverySize) {
   }
 }
 
+// Far from the origin on the sweep axis, where the entry sort's dropped low
+// bits (a slab's width of them) join starts several units apart: boxes
+// whose sort keys tie while their starts, ends and overlaps differ.
+TEST_F(GpuSapTest, StartsCloserThanTheSortsResolutionStayExact) {
+  const auto gpusap = makePairFinder("gpusap");
+  CpuPairFinder cpubf;
+  for (int frame = 0; frame < 3; ++frame) {
+    std::mt19937 random(5u + static_cast<unsigned>(frame));
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::vector<ObjectBounds> boxes;
+    for (std::uint32_t i = 0; i < 4096; ++i) {
+      const float x = 300000.0f + 400.0f * unit(random);
+      const float y = 40.0f * unit(random);
+      const float z = 40.0f * unit(random);
+      const float edge = i % 3 == 0 ? 0.03125f : 2.0f * unit(random);  // the least float step there
+      boxes.push_back(testing::box(x, y, z, x + edge, y + 2.0f, z + 2.0f));
+    }
+    ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, boxes)) << "frame " << frame;
+  }
+}
+
 // Sparse, then every box on one spot (half a million pairs, far past the
 // room the sparse frames left), then sparse again: the crowded frame runs
 // again with room, and last frame's set survives its first run whole.
