@@ -108,12 +108,13 @@ struct ReplaySamples {
     frame_us.push_back(elapsed_us);
     update_us.push_back(updated_us);
     if (!phases) return;  // Bullet's own broadphases split nothing
-    sort_us.push_back(1e3 * phases->sort_ms);
-    sweep_us.push_back(1e3 * phases->sweep_ms);
-    delta_us.push_back(1e3 * phases->delta_ms);
+    const gpu::SearchStats& search = phases->search;
+    sort_us.push_back(1e3 * search.phases.sort_ms);
+    sweep_us.push_back(1e3 * search.phases.sweep_ms);
+    delta_us.push_back(1e3 * search.phases.delta_ms);
     cache_us.push_back(1e3 * phases->cache_update_ms);
-    launch_to_finish_us.push_back(1e3 * phases->launch_to_finish_ms);
-    if (phases->device.api_calls > 0) device.push_back(deviceFigures(phases->device));
+    launch_to_finish_us.push_back(1e3 * search.launch_to_finish_ms);
+    if (search.device.api_calls > 0) device.push_back(deviceFigures(search.device));
   }
 
   void foldInto(Row& row) {

@@ -10,7 +10,6 @@
 #include <string>
 
 #include "gpu/base/interrupt.h"
-#include "gpu/base/stopwatch.h"
 #include "gpu/pair_logic.h"
 
 namespace overlap::gpu {
@@ -158,9 +157,8 @@ OVERLAP_VECTOR_CLONES void CpuPairFinder::searchWords(std::uint64_t first_word,
   }
 }
 
-void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
-  if (searched_) throw std::runtime_error("cpubf: launch() called twice without finish()");
-  launch_watch_ = HostStopwatch();
+void CpuPairFinder::startSearch(std::span<const ObjectBounds> objects,
+                                const std::span<const std::uint32_t>* /*changed*/) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   storeObjects(objects);
   // New words start at zero: new slots had no pairs last frame.
@@ -196,14 +194,10 @@ void CpuPairFinder::launch(std::span<const ObjectBounds> objects) {
   }
   std::sort(result_.added.begin(), result_.added.end());
   std::sort(result_.removed.begin(), result_.removed.end());
-  last_search_ms_ = launch_watch_.ms();
-  searched_ = true;
+  stats_.search_ms = msSinceLaunch();
 }
 
-PairDelta CpuPairFinder::finish() {
-  if (!searched_) throw std::runtime_error("cpubf: finish() called without launch()");
-  searched_ = false;
-  last_launch_to_finish_ms_ = launch_watch_.ms();
+PairDelta CpuPairFinder::finishSearch() {
   return PairDelta{result_.added, result_.removed};
 }
 

@@ -22,7 +22,6 @@
 #include <cstdint>
 #include <vector>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
@@ -33,12 +32,13 @@ class CpuPairFinder final : public PairFinder {
   explicit CpuPairFinder(int threads = 0);
 
   std::string_view name() const override { return "cpubf"; }
-  void launch(std::span<const ObjectBounds> objects) override;
-  PairDelta finish() override;
-  double lastSearchMs() const override { return last_search_ms_; }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
 
  private:
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* changed) override;
+  PairDelta finishSearch() override;
+  SearchStats searchStats() const override { return stats_; }
+
   struct Changes {
     std::vector<IndexPair> added;
     std::vector<IndexPair> removed;
@@ -59,10 +59,7 @@ class CpuPairFinder final : public PairFinder {
   std::vector<std::uint32_t> words_;  // last frame's bits, overwritten in place
 
   Changes result_;
-  bool searched_ = false;
-  double last_search_ms_ = 0;
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
+  SearchStats stats_;  // its search_ms only
 };
 
 }  // namespace overlap::gpu

@@ -13,7 +13,6 @@
 #include <string>
 #include <utility>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/for_pieces.h"
 #include "gpu/pair_logic.h"
 
@@ -271,26 +270,14 @@ void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) 
   }
 }
 
-void CpuSapPairFinder::launch(std::span<const ObjectBounds> objects) {
-  search(objects, nullptr);
-}
-
-void CpuSapPairFinder::launchWithChanges(std::span<const ObjectBounds> objects,
-                                         std::span<const std::uint32_t> changed) {
-  search(objects, &changed);
-}
-
-void CpuSapPairFinder::search(std::span<const ObjectBounds> objects,
-                              const std::span<const std::uint32_t>* changed) {
-  if (searched_) throw std::runtime_error("cpusap: launch() called twice without finish()");
-  launch_watch_ = HostStopwatch();
+void CpuSapPairFinder::startSearch(std::span<const ObjectBounds> objects,
+                                   const std::span<const std::uint32_t>* changed) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
-  moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, phases_);
+  moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, stats_.phases);
   if (!moved_only_) searchAll(objects);
-  last_search_ms_ = launch_watch_.ms();
+  stats_.search_ms = msSinceLaunch();
   moved_boxes_.searchFinished();
-  searched_ = true;
 }
 
 void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
@@ -298,15 +285,15 @@ void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
   const int last_sweep_axis = sweep_axis_;
   chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
   sortBoxes(objects, sweep_axis_ == last_sweep_axis);  // 3
-  phases_.sort_ms = launch_watch_.ms();
+  stats_.phases.sort_ms = msSinceLaunch();
   layOut(objects);             // 4
   sweep();                     // 5
   testInvertedBoxes(objects);  // 6
-  phases_.sweep_ms = launch_watch_.ms() - phases_.sort_ms;
+  stats_.phases.sweep_ms = msSinceLaunch() - stats_.phases.sort_ms;
   computeDelta();  // 7
   layout_.indexForQueries();
   moved_boxes_.keepFullFrame(objects.first(slot_count_), !inverted_.empty());
-  phases_.delta_ms = launch_watch_.ms() - phases_.sort_ms - phases_.sweep_ms;
+  stats_.phases.delta_ms = msSinceLaunch() - stats_.phases.sort_ms - stats_.phases.sweep_ms;
 }
 
 void CpuSapPairFinder::computeDelta() {
@@ -350,10 +337,7 @@ void CpuSapPairFinder::computeDelta() {
   std::swap(previous_, current_);
 }
 
-PairDelta CpuSapPairFinder::finish() {
-  if (!searched_) throw std::runtime_error("cpusap: finish() called without launch()");
-  searched_ = false;
-  last_launch_to_finish_ms_ = launch_watch_.ms();
+PairDelta CpuSapPairFinder::finishSearch() {
   return PairDelta{added_, removed_};
 }
 

@@ -40,7 +40,6 @@
 #include <cstdint>
 #include <vector>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cpu_sap_moved_boxes.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pair_set.h"
@@ -55,12 +54,6 @@ class CpuSapPairFinder final : public PairFinder {
   explicit CpuSapPairFinder(int threads = 0, sap::SweepKernel kernel = sap::SweepKernel::kFastest);
 
   std::string_view name() const override { return "cpusap"; }
-  void launch(std::span<const ObjectBounds> objects) override;
-  void launchWithChanges(std::span<const ObjectBounds> objects,
-                         std::span<const std::uint32_t> changed) override;
-  PairDelta finish() override;
-  double lastSearchMs() const override { return last_search_ms_; }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
 
   // kScalar or kAvx2: the kernel that sweeps.
   sap::SweepKernel kernel() const { return kernel_; }
@@ -71,9 +64,14 @@ class CpuSapPairFinder final : public PairFinder {
   bool lastSortWasIncremental() const { return sorted_incrementally_; }
   // Whether the last search queried only the moved boxes.
   bool lastSearchWasMovedOnly() const { return moved_only_; }
-  SearchPhases lastPhases() const override { return phases_; }
 
  private:
+  // changed: the caller's changed slots, or null to compare every box.
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* changed) override;
+  PairDelta finishSearch() override;
+  SearchStats searchStats() const override { return stats_; }
+
   // What step 1 measures of the swept boxes, per axis.
   struct Spread {
     std::array<double, 3> variance{};          // of the centres
@@ -94,8 +92,6 @@ class CpuSapPairFinder final : public PairFinder {
   void sweep();
   void testInvertedBoxes(std::span<const ObjectBounds> objects);
   void computeDelta();
-  // changed: the caller's changed slots, or null to compare every box.
-  void search(std::span<const ObjectBounds> objects, const std::span<const std::uint32_t>* changed);
   // Steps 1 to 7, after which the moved-box path queries this frame's layout.
   void searchAll(std::span<const ObjectBounds> objects);
 
@@ -125,14 +121,10 @@ class CpuSapPairFinder final : public PairFinder {
   PairSet previous_, current_;
   std::vector<DeltaPart> delta_parts_;
   std::vector<IndexPair> added_, removed_;
-  bool searched_ = false;
-  double last_search_ms_ = 0;
-  SearchPhases phases_;
+  SearchStats stats_;  // its search_ms and phases
 
   bool moved_only_ = false;
   SapMovedBoxes moved_boxes_{arena_};
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
 };
 
 }  // namespace overlap::gpu

@@ -1,9 +1,10 @@
 // The GPU entry points of a build without CUDA (OVERLAP_HAVE_CUDA=0): the
-// project still builds and runs with the CPU finder, and asking for a GPU
-// finder says why it cannot have one.
-#include <stdexcept>
+// project still builds and runs with the CPU finders, and asking for a GPU
+// finder says why it cannot have one (makePairFinder asks
+// cudaDeviceAvailable() first).
+#include <string>
 
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
 
@@ -18,18 +19,6 @@ bool cudaDeviceAvailable(std::string* why) {
 
 std::string cudaDeviceName() {
   return {};
-}
-
-std::unique_ptr<PairFinder> makeGpuPairFinder() {
-  throw std::runtime_error(std::string("gpubf: ") + kReason);
-}
-
-std::unique_ptr<PairFinder> makePaperGpuPairFinder() {
-  throw std::runtime_error(std::string("gpubf-paper: ") + kReason);
-}
-
-std::unique_ptr<PairFinder> makeGpuSapPairFinder() {
-  throw std::runtime_error(std::string("gpusap: ") + kReason);
 }
 
 }  // namespace overlap::gpu

@@ -156,12 +156,9 @@ class DeviceFrame {
   }
 
   // --- pinned staging --------------------------------------------------------
-  // PairFinder::stagingFor(): room for `count` boxes, lent only between frames.
-  std::span<ObjectBounds> stagingRoom(std::string_view finder, bool in_flight, std::size_t count) {
-    if (in_flight) {
-      throw std::runtime_error(std::string(finder) +
-                               ": stagingFor() called between launch() and finish()");
-    }
+  // PairFinder::stagingFor(): room for `count` boxes, lent only between
+  // frames (the base class checks).
+  std::span<ObjectBounds> stagingRoom(std::size_t count) {
     reserveDiscarding(staging_, count);
     return {staging_.data(), count};
   }

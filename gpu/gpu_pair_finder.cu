@@ -45,11 +45,10 @@
 #include <string>
 #include <utility>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/device_frame.h"
 #include "gpu/finish_frame.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "gpu/row_words.h"
 
 namespace overlap::gpu {
@@ -297,22 +296,22 @@ class GpuPairFinder final : public PairFinder {
   GpuPairFinder& operator=(const GpuPairFinder&) = delete;
 
   std::string_view name() const override { return "gpubf"; }
-  double lastSearchMs() const override {
-    return frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
-  }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override { return frame_.lastWorkTimed(); }
 
-  std::span<ObjectBounds> stagingFor(std::size_t count) override {
-    return frame_.stagingRoom(name(), in_flight_, count);
+ private:
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
+    stats.device = frame_.lastWorkTimed();
+    return stats;
   }
+
+  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
 
   // Grows what the frame needs first (a capture refuses allocations), then
   // enqueues the frame's chain: a graph launch when it is as in one of the
   // last two frames.
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpubf: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     frame_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
@@ -344,18 +343,15 @@ class GpuPairFinder final : public PairFinder {
           frame_.record(DeviceFrame::kDone);
         });
     if (searches) counting_ = 1 - counting_;
-    in_flight_ = true;
   }
 
   // The frame ends here whether this returns or throws.  After a throw no work
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
-  PairDelta finish() override {
-    return finishFrame(name(), in_flight_, frame_.stream(), launch_watch_,
-                       last_launch_to_finish_ms_, [&] { return collectDelta(); });
+  PairDelta finishSearch() override {
+    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
   }
 
- private:
   PairDelta collectDelta() {
     frame_.wait(DeviceFrame::kDone);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
@@ -471,9 +467,6 @@ class GpuPairFinder final : public PairFinder {
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
-  bool in_flight_ = false;
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
 
   DeviceBuffer<ObjectBounds> objects_;  // this frame's boxes, uploaded from the staging
   // One bit per pair: words_[previous_] holds the last finished frame's, the
@@ -493,7 +486,7 @@ class GpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuPairFinder() {
+std::unique_ptr<PairFinder> makeGpuPairFinder(int /*cpu_threads*/) {
   return std::make_unique<GpuPairFinder>();
 }
 

@@ -19,9 +19,9 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: the stage events of gpu/device_frame.h (lastSearchMs()
+// Timed as gpubf is: the stage events of gpu/device_frame.h (search_ms
 // from before the upload to after the copy back, the host's XOR and sort
-// outside it), lastLaunchToFinishMs() on the host's clock (everything).
+// outside it), launch_to_finish_ms on the host's clock (everything).
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -31,10 +31,9 @@
 #include <string>
 #include <vector>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/device_frame.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "gpu/pair_logic.h"
 
 namespace overlap::gpu {
@@ -62,9 +61,9 @@ class PaperGpuPairFinder final : public PairFinder {
 
   std::string_view name() const override { return "gpubf-paper"; }
 
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+ private:
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     frame_.begin();
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
@@ -92,13 +91,9 @@ class PaperGpuPairFinder final : public PairFinder {
       frame_.launched();
       frame_.record(DeviceFrame::kSearched);
     }
-    // Only a launched search is in flight: after a throw, finish() refuses.
-    in_flight_ = true;
   }
 
-  PairDelta finish() override {
-    if (!in_flight_) throw std::runtime_error("gpubf-paper: finish() called without launch()");
-    in_flight_ = false;
+  PairDelta finishSearch() override {
     added_.clear();
     removed_.clear();
     searched_ = false;
@@ -118,20 +113,17 @@ class PaperGpuPairFinder final : public PairFinder {
     std::sort(removed_.begin(), removed_.end());
     frame_.work().host_entries_sorted = added_.size() + removed_.size();
     frame_.end();
-    last_launch_to_finish_ms_ = launch_watch_.ms();
     return PairDelta{added_, removed_};
   }
 
-  // With no pairs there is no GPU work: 0.
-  double lastSearchMs() const override {
-    return searched_ ? frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone) : 0;
-  }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override {
-    return searched_ ? frame_.lastWorkTimed() : frame_.lastWork();
+  // With no pairs there is no GPU work: zero times.
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    if (searched_) stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
+    stats.device = searched_ ? frame_.lastWorkTimed() : frame_.lastWork();
+    return stats;
   }
 
- private:
   // The host side XOR, eight bytes at a time so that the unchanged majority
   // costs one comparison per eight pairs.
   void compareWithLastFrame() {
@@ -152,11 +144,8 @@ class PaperGpuPairFinder final : public PairFinder {
   }
 
   std::uint32_t slot_count_ = 0;
-  bool in_flight_ = false;
   bool searched_ = false;  // the last finished frame had pairs, so device work
   DeviceFrame frame_{DeviceFrame::StreamKind::kLegacyDefault};
-  HostStopwatch launch_watch_;
-  double last_launch_to_finish_ms_ = 0;
   DeviceBuffer<ObjectBounds> objects_;
   DeviceBuffer<std::uint8_t> results_;
   std::vector<std::uint8_t> current_;  // pageable, as in the paper
@@ -167,7 +156,7 @@ class PaperGpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makePaperGpuPairFinder() {
+std::unique_ptr<PairFinder> makePaperGpuPairFinder(int /*cpu_threads*/) {
   return std::make_unique<PaperGpuPairFinder>();
 }
 

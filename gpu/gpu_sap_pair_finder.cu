@@ -78,12 +78,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "gpu/base/stopwatch.h"
 #include "gpu/cuda_buffers.h"
 #include "gpu/device_frame.h"
 #include "gpu/finish_frame.h"
-#include "gpu/gpu_pair_finders.h"
 #include "gpu/gpu_sap_kernels.cuh"
+#include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
 namespace {
@@ -125,17 +124,19 @@ class GpuSapPairFinder final : public PairFinder {
   GpuSapPairFinder& operator=(const GpuSapPairFinder&) = delete;
 
   std::string_view name() const override { return "gpusap"; }
-  double lastSearchMs() const override { return last_search_ms_; }
-  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
-  DeviceWork lastDeviceWork() const override { return frame_.lastWork(); }
 
-  std::span<ObjectBounds> stagingFor(std::size_t count) override {
-    return frame_.stagingRoom(name(), in_flight_, count);
+ private:
+  SearchStats searchStats() const override {
+    SearchStats stats;
+    stats.search_ms = last_search_ms_;
+    stats.device = frame_.lastWork();
+    return stats;
   }
 
-  void launch(std::span<const ObjectBounds> objects) override {
-    if (in_flight_) throw std::runtime_error("gpusap: launch() called twice without finish()");
-    launch_watch_ = HostStopwatch();
+  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
+
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     frame_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     reserveBoxBuffers(objects.size());
@@ -144,17 +145,14 @@ class GpuSapPairFinder final : public PairFinder {
     frame_.upload(objects_.data(), objects.size());
     frame_.record(DeviceFrame::kUploaded);
     enqueueSearch();
-    in_flight_ = true;
   }
 
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
-  PairDelta finish() override {
-    return finishFrame(name(), in_flight_, frame_.stream(), launch_watch_,
-                       last_launch_to_finish_ms_, [&] { return collectDelta(); });
+  PairDelta finishSearch() override {
+    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
   }
 
- private:
   // Every runtime call of a frame is counted (DeviceWork::api_calls) and
   // checked with its caller's file and line, by frame_ (gpu/device_frame.h).
   using Where = std::source_location;
@@ -357,10 +355,7 @@ class GpuSapPairFinder final : public PairFinder {
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
-  bool in_flight_ = false;
-  HostStopwatch launch_watch_;
   double last_search_ms_ = 0;
-  double last_launch_to_finish_ms_ = 0;
 
   DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
   DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
@@ -385,7 +380,7 @@ class GpuSapPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuSapPairFinder() {
+std::unique_ptr<PairFinder> makeGpuSapPairFinder(int /*cpu_threads*/) {
   return std::make_unique<GpuSapPairFinder>();
 }
 

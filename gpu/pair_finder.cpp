@@ -4,23 +4,74 @@
 #include <stdexcept>
 #include <string>
 
-#include "gpu/cpu_pair_finder.h"
-#include "gpu/cpu_sap_pair_finder.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/base/stopwatch.h"
 
 namespace overlap::gpu {
 
-std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads) {
-  if (kind == PairFinderKind::kCpuBruteForce) return std::make_unique<CpuPairFinder>(cpu_threads);
-  if (kind == PairFinderKind::kCpuSweepAndPrune) {
-    return std::make_unique<CpuSapPairFinder>(cpu_threads);
+void PairFinder::launch(std::span<const ObjectBounds> objects) {
+  start(objects, nullptr);
+}
+
+void PairFinder::launchWithChanges(std::span<const ObjectBounds> objects,
+                                   std::span<const std::uint32_t> changed) {
+  start(objects, &changed);
+}
+
+void PairFinder::start(std::span<const ObjectBounds> objects,
+                       const std::span<const std::uint32_t>* changed) {
+  if (in_flight_) {
+    throw std::runtime_error(std::string(name()) + ": launch() called twice without finish()");
   }
-  std::string why;
-  if (!cudaDeviceAvailable(&why)) {
-    throw std::runtime_error("makePairFinder: the GPU pair finders need a CUDA device: " + why);
+  launched_at_ = SteadyClock::now();
+  startSearch(objects, changed);
+  in_flight_ = true;
+}
+
+PairDelta PairFinder::finish() {
+  if (!in_flight_) {
+    throw std::runtime_error(std::string(name()) + ": finish() called without launch()");
   }
-  if (kind == PairFinderKind::kGpuSweepAndPrune) return makeGpuSapPairFinder();
-  return kind == PairFinderKind::kGpuBruteForce ? makeGpuPairFinder() : makePaperGpuPairFinder();
+  in_flight_ = false;
+  const PairDelta delta = finishSearch();
+  launch_to_finish_ms_ = msSinceLaunch();
+  return delta;
+}
+
+std::span<ObjectBounds> PairFinder::stagingFor(std::size_t count) {
+  if (in_flight_) {
+    throw std::runtime_error(std::string(name()) +
+                             ": stagingFor() called between launch() and finish()");
+  }
+  return staging(count);
+}
+
+SearchStats PairFinder::lastStats() const {
+  SearchStats stats = searchStats();
+  stats.launch_to_finish_ms = launch_to_finish_ms_;
+  return stats;
+}
+
+double PairFinder::msSinceLaunch() const {
+  return toMilliseconds(SteadyClock::now() - launched_at_);
+}
+
+const PairFinderRow& pairFinderRow(std::string_view name, std::span<const PairFinderRow> table) {
+  for (const PairFinderRow& row : table) {
+    if (row.name == name) return row;
+  }
+  throw std::invalid_argument("pair finder: unknown name '" + std::string(name) + "'");
+}
+
+std::unique_ptr<PairFinder> makePairFinder(std::string_view name, int cpu_threads,
+                                           std::span<const PairFinderRow> table) {
+  const PairFinderRow& row = pairFinderRow(name, table);
+  if (row.needs_device) {
+    std::string why;
+    if (!cudaDeviceAvailable(&why)) {
+      throw std::runtime_error("makePairFinder: the GPU pair finders need a CUDA device: " + why);
+    }
+  }
+  return row.make(cpu_threads);
 }
 
 std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,

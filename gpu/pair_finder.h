@@ -15,7 +15,11 @@
 // what it needs, so the caller may change its boxes as soon as launch()
 // returns.  The split lets a caller put work between the two or time the
 // whole (the benchmark times launch to finish); the Bullet adapter,
-// physics/pair_finder_broadphase.h, calls them back to back.
+// physics/pair_finder_broadphase.h, calls them back to back.  The base class
+// PairFinder enforces that order and keeps the launch-to-finish clock for
+// every finder; a finder implements its hooks and reports its search in one
+// record, SearchStats.  Every finder has a row in the table of finders
+// (PairFinderRow, pairFinderTable()), by which it is made by name.
 //
 // Invariants: added and removed are sorted by (a, b), hold no duplicates, and
 // are disjoint; the slot count may grow between frames (new slots start with
@@ -23,6 +27,7 @@
 // shared by every finder.
 #pragma once
 
+#include <chrono>
 #include <compare>
 #include <cstddef>
 #include <cstdint>
@@ -90,31 +95,42 @@ struct DeviceWork {
   std::uint64_t host_entries_sorted = 0;  // entries sorted on the host
 };
 
+// Everything a finder reports of its last finished search, in one record
+// (PairFinder::lastStats()).
+struct SearchStats {
+  // By the finder's own clock: on the GPU finders CUDA events from before the
+  // upload to after the last copy back (device time: the host's work around
+  // it is not in it), on the CPU the searching thread's clock.
+  double search_ms = 0;
+  // On the host's clock, from launch()'s entry to finish()'s return, whatever
+  // the caller did between.
+  double launch_to_finish_ms = 0;
+  SearchPhases phases;
+  DeviceWork device;
+};
+
+// The interface every finder implements.  The base class keeps the calls'
+// order and the launch-to-finish clock, once for every finder: launch()
+// (or launchWithChanges()) and finish() strictly alternate, stagingFor()
+// only between frames; a call out of order throws std::runtime_error naming
+// the finder and leaves it as it was.  A launch() that throws starts no
+// frame (finish() then refuses); a finish() that throws ends its frame.  A
+// finder implements the protected hooks, which the base calls in order only.
 class PairFinder {
  public:
   virtual ~PairFinder() = default;
   virtual std::string_view name() const = 0;
   // Starts this frame's search over objects[0..n).  n must not shrink.
-  virtual void launch(std::span<const ObjectBounds> objects) = 0;
+  void launch(std::span<const ObjectBounds> objects);
   // launch() from a caller that knows which boxes it changed since its last
   // launch: every slot whose box differs from that launch's is in `changed`,
   // each once (a slot that did not change may be there too).  A finder that
   // re-queries only moved boxes (cpusap) then skips comparing every box, so a
   // frame where few moved costs in proportion to them (Box2D's move buffer).
-  virtual void launchWithChanges(std::span<const ObjectBounds> objects,
-                                 std::span<const std::uint32_t> /*changed*/) {
-    launch(objects);
-  }
+  void launchWithChanges(std::span<const ObjectBounds> objects,
+                         std::span<const std::uint32_t> changed);
   // Waits for the search started by launch() and returns what changed.
-  virtual PairDelta finish() = 0;
-  // How long the last finished search took by its own clock: on the GPU
-  // finders CUDA events from before the upload to after the last copy back
-  // (device time: the host's work around it is not in it), on the CPU the
-  // searching thread's clock.
-  virtual double lastSearchMs() const = 0;
-  // How long the last finished search took on the host's clock, from
-  // launch()'s entry to finish()'s return, whatever the caller did between.
-  virtual double lastLaunchToFinishMs() const = 0;
+  PairDelta finish();
   // Room for `count` boxes that the caller may fill and then pass to
   // launch(), which then copies nothing on the host (gpubf: its pinned
   // staging).  Empty where the finder has none.  Write boxes only between
@@ -123,19 +139,31 @@ class PairFinder {
   // than the last one's returns the same memory, contents and all, so the
   // caller need rewrite only the boxes that changed; a larger count may move
   // it and drop its contents (write all `count` boxes then).
-  virtual std::span<ObjectBounds> stagingFor(std::size_t /*count*/) { return {}; }
-  // The last finished search's phases.
-  virtual SearchPhases lastPhases() const { return {}; }
-  // The last finished search's device stages and host work.
-  virtual DeviceWork lastDeviceWork() const { return {}; }
-};
+  std::span<ObjectBounds> stagingFor(std::size_t count);
+  // The last finished search's record (zeros before the first).
+  SearchStats lastStats() const;
 
-enum class PairFinderKind {
-  kCpuBruteForce,       // cpubf
-  kGpuBruteForce,       // gpubf
-  kGpuBruteForcePaper,  // gpubf-paper
-  kCpuSweepAndPrune,    // cpusap
-  kGpuSweepAndPrune,    // gpusap
+ protected:
+  // launch()'s work, called between frames only.  `changed` is null for
+  // launch(), else launchWithChanges()'s list (a finder may ignore it).
+  virtual void startSearch(std::span<const ObjectBounds> objects,
+                           const std::span<const std::uint32_t>* changed) = 0;
+  // finish()'s work, called only with a search started.
+  virtual PairDelta finishSearch() = 0;
+  // stagingFor()'s room, called between frames only.
+  virtual std::span<ObjectBounds> staging(std::size_t /*count*/) { return {}; }
+  // The last finished search's record but its launch_to_finish_ms, which the
+  // base fills in; asked for only when the caller asks (lastStats()).
+  virtual SearchStats searchStats() const = 0;
+  // Milliseconds since the current (or last) launch() began.
+  double msSinceLaunch() const;
+
+ private:
+  void start(std::span<const ObjectBounds> objects, const std::span<const std::uint32_t>* changed);
+
+  bool in_flight_ = false;
+  std::chrono::steady_clock::time_point launched_at_{};
+  double launch_to_finish_ms_ = 0;
 };
 
 // True when a CUDA device can run the GPU finders; otherwise `why` (if not
@@ -146,10 +174,33 @@ bool cudaDeviceAvailable(std::string* why);
 // empty when cudaDeviceAvailable() is false.
 std::string cudaDeviceName();
 
-// Makes a finder.  The GPU kinds need cudaDeviceAvailable() and throw
-// std::runtime_error with its reason otherwise; cpu_threads = 0 lets a CPU
-// finder use every thread of the caller's oneTBB arena.
-std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads = 0);
+// One row of the table of finders: all the program knows of a finder
+// besides its own file.  Adding a finder is adding its row to the table
+// (gpu/pair_finder_table.cpp); the broadphase catalogue, the CLI's names and
+// --list-algos, and the tests over every finder follow from it.
+struct PairFinderRow {
+  std::string_view name;         // as --algo takes it
+  bool needs_device;             // runs on a CUDA device
+  std::string_view description;  // one line, for --list-algos
+  // Makes one.  cpu_threads = 0 lets a CPU finder use every thread of the
+  // caller's oneTBB arena; the GPU finders ignore it.
+  std::unique_ptr<PairFinder> (*make)(int cpu_threads);
+};
+
+// The product's finders, CPU ones first: cpubf, cpusap, gpubf, gpubf-paper,
+// gpusap.  A test may copy it and add rows of its own.
+std::span<const PairFinderRow> pairFinderTable();
+
+// The row of `table` named `name`; throws std::invalid_argument for a name
+// not in it.
+const PairFinderRow& pairFinderRow(std::string_view name,
+                                   std::span<const PairFinderRow> table = pairFinderTable());
+
+// Makes the finder named `name`.  A device finder needs cudaDeviceAvailable()
+// and throws std::runtime_error with its reason otherwise.
+std::unique_ptr<PairFinder> makePairFinder(
+    std::string_view name, int cpu_threads = 0,
+    std::span<const PairFinderRow> table = pairFinderTable());
 
 // The new slot count for a launch() over `objects` slots, after the checks
 // every finder makes: it must not shrink below `previous` and must fit the

@@ -4,7 +4,6 @@
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
 #include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
 
-#include <array>
 #include <cstdlib>
 #include <new>
 #include <stdexcept>
@@ -17,29 +16,6 @@
 
 namespace overlap::physics {
 namespace {
-
-constexpr std::array<BroadphaseInfo, 9> kCatalogue = {{
-    {"bf", true, false, "Bullet's btSimpleBroadphase: every pair tested (the paper's BF)"},
-    {"sap", false, false,
-     "Bullet's btAxisSweep3: sweep and prune on 16-bit quantized bounds, under 32766 objects"},
-    {"sap32", false, false,
-     "Bullet's bt32BitAxisSweep3: sweep and prune on 32-bit quantized bounds"},
-    {"bvh", false, false, "Bullet's btDbvtBroadphase: trees of fattened boxes (the paper's BVH)"},
-    {"cpubf", true, false, "ours: brute force on CPU threads, gpubf's twin and the reference"},
-    {"cpusap", true, false,
-     "ours: sort and sweep on CPU threads (AVX2), the fastest exact CPU finder"},
-    {"gpubf", true, true, "ours: CUDA brute force, pairs as bits, only the changes copied back"},
-    {"gpubf-paper", true, true,
-     "the paper's CUDA brute force as published: a byte per pair, all copied back"},
-    {"gpusap", true, true,
-     "ours: CUDA sort and sweep (CUB), pairs kept on the device, only the changes copied back"},
-}};
-
-constexpr std::array<std::string_view, kCatalogue.size()> kNames = [] {
-  std::array<std::string_view, kCatalogue.size()> names{};
-  for (std::size_t i = 0; i < names.size(); ++i) names[i] = kCatalogue[i].name;
-  return names;
-}();
 
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
@@ -71,6 +47,43 @@ class TreeBroadphase final : private PairCacheOwner, public btDbvtBroadphase {
   TreeBroadphase() : btDbvtBroadphase(&cache) {}
 };
 
+// Bullet's broadphases: the catalogue's first entries, each with what makes it.
+struct BulletRow {
+  BroadphaseInfo info;
+  std::unique_ptr<btBroadphaseInterface> (*make)(const btVector3& world_min,
+                                                 const btVector3& world_max, int max_objects);
+};
+
+constexpr BulletRow kBulletRows[] = {
+    {{"bf", true, false, "Bullet's btSimpleBroadphase: every pair tested (the paper's BF)"},
+     [](const btVector3&, const btVector3&,
+        int max_objects) -> std::unique_ptr<btBroadphaseInterface> {
+       return std::make_unique<BruteForceBroadphase>(max_objects);
+     }},
+    {{"sap", false, false,
+      "Bullet's btAxisSweep3: sweep and prune on 16-bit quantized bounds, under 32766 objects"},
+     [](const btVector3& world_min, const btVector3& world_max,
+        int max_objects) -> std::unique_ptr<btBroadphaseInterface> {
+       if (const std::string problem = broadphaseCapacityProblem("sap", max_objects);
+           !problem.empty()) {
+         throw std::invalid_argument("algo sap: " + problem);
+       }
+       return std::make_unique<SweepBroadphase<GrowingAxisSweep16, unsigned short>>(
+           world_min, world_max, static_cast<unsigned short>(max_objects + 1));
+     }},
+    {{"sap32", false, false,
+      "Bullet's bt32BitAxisSweep3: sweep and prune on 32-bit quantized bounds"},
+     [](const btVector3& world_min, const btVector3& world_max,
+        int max_objects) -> std::unique_ptr<btBroadphaseInterface> {
+       return std::make_unique<SweepBroadphase<GrowingAxisSweep32, unsigned int>>(
+           world_min, world_max, static_cast<unsigned int>(max_objects + 1));
+     }},
+    {{"bvh", false, false, "Bullet's btDbvtBroadphase: trees of fattened boxes (the paper's BVH)"},
+     [](const btVector3&, const btVector3&, int) -> std::unique_ptr<btBroadphaseInterface> {
+       return std::make_unique<TreeBroadphase>();
+     }},
+};
+
 // Bullet's allocations return null when memory runs out, and Bullet writes
 // through it: a signal.  Through this allocator they throw std::bad_alloc.
 void* checkedAllocation(std::size_t bytes) {
@@ -89,16 +102,18 @@ void checkBulletAllocations() {
 
 }  // namespace
 
-std::span<const BroadphaseInfo> broadphaseCatalogue() {
-  return kCatalogue;
+BroadphaseCatalogue::BroadphaseCatalogue(std::span<const gpu::PairFinderRow> finders)
+    : finders_(finders.begin(), finders.end()) {
+  for (const BulletRow& row : kBulletRows) entries_.push_back(row.info);
+  // Every pair finder is exact (gpu/pair_finder.h).
+  for (const gpu::PairFinderRow& row : finders_) {
+    entries_.push_back({row.name, true, row.needs_device, row.description});
+  }
+  for (const BroadphaseInfo& info : entries_) names_.push_back(info.name);
 }
 
-std::span<const std::string_view> broadphaseNames() {
-  return kNames;
-}
-
-const BroadphaseInfo& broadphaseInfo(std::string_view name) {
-  for (const BroadphaseInfo& info : kCatalogue) {
+const BroadphaseInfo& BroadphaseCatalogue::info(std::string_view name) const {
+  for (const BroadphaseInfo& info : entries_) {
     if (info.name == name) return info;
   }
   throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
@@ -114,53 +129,62 @@ std::string broadphaseCapacityProblem(std::string_view name, int objects, int re
          ", asked for " + std::to_string(objects) + "; use sap32";
 }
 
-BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
-                                const btVector3& world_max, int max_objects) {
-  const BroadphaseInfo& info = broadphaseInfo(name);
+BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector3& world_min,
+                                           const btVector3& world_max, int max_objects) const {
+  const BroadphaseInfo& info = this->info(name);
   checkBulletAllocations();
   BroadphaseChoice choice;
   choice.name = std::string(name);
-  if (name == "bf") {
-    choice.broadphase = std::make_unique<BruteForceBroadphase>(max_objects);
-  } else if (name == "sap") {
-    if (const std::string problem = broadphaseCapacityProblem(name, max_objects);
-        !problem.empty()) {
-      throw std::invalid_argument("algo sap: " + problem);
-    }
-    choice.broadphase = std::make_unique<SweepBroadphase<GrowingAxisSweep16, unsigned short>>(
-        world_min, world_max, static_cast<unsigned short>(max_objects + 1));
-  } else if (name == "sap32") {
-    choice.broadphase = std::make_unique<SweepBroadphase<GrowingAxisSweep32, unsigned int>>(
-        world_min, world_max, static_cast<unsigned int>(max_objects + 1));
-  } else if (name == "bvh") {
-    choice.broadphase = std::make_unique<TreeBroadphase>();
-  } else if (name == "cpubf") {
-    choice.broadphase = std::make_unique<PairFinderBroadphase>(
-        gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));
-  } else if (name == "cpusap") {
-    choice.broadphase = std::make_unique<PairFinderBroadphase>(
-        gpu::makePairFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
-  } else if (info.needs_device) {
-    std::string why;
-    if (gpu::cudaDeviceAvailable(&why)) {
-      choice.broadphase = std::make_unique<PairFinderBroadphase>(
-          gpu::makePairFinder(name == "gpubf"    ? gpu::PairFinderKind::kGpuBruteForce
-                              : name == "gpusap" ? gpu::PairFinderKind::kGpuSweepAndPrune
-                                                 : gpu::PairFinderKind::kGpuBruteForcePaper));
-    } else {
-      choice = makeBroadphase(kDeviceFallback, world_min, world_max, max_objects);
-      choice.notice =
-          "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
+  for (const BulletRow& row : kBulletRows) {
+    if (row.info.name == name) {
+      choice.broadphase = row.make(world_min, world_max, max_objects);
+      return choice;
     }
   }
+  std::string why;
+  if (info.needs_device && !gpu::cudaDeviceAvailable(&why)) {
+    choice = make(kDeviceFallback, world_min, world_max, max_objects);
+    choice.notice =
+        "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
+    return choice;
+  }
+  choice.broadphase =
+      std::make_unique<PairFinderBroadphase>(gpu::makePairFinder(name, 0, finders_));
   return choice;
+}
+
+BroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name, const btVector3& world_min,
+                                                const btVector3& world_max, int max_objects) const {
+  BroadphaseChoice choice = make(name, world_min, world_max, max_objects);
+  choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
+  return choice;
+}
+
+const BroadphaseCatalogue& productCatalogue() {
+  static const BroadphaseCatalogue catalogue;
+  return catalogue;
+}
+
+std::span<const BroadphaseInfo> broadphaseCatalogue() {
+  return productCatalogue().entries();
+}
+
+std::span<const std::string_view> broadphaseNames() {
+  return productCatalogue().names();
+}
+
+const BroadphaseInfo& broadphaseInfo(std::string_view name) {
+  return productCatalogue().info(name);
+}
+
+BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
+                                const btVector3& world_max, int max_objects) {
+  return productCatalogue().make(name, world_min, world_max, max_objects);
 }
 
 BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
                                      const btVector3& world_max, int max_objects) {
-  BroadphaseChoice choice = makeBroadphase(name, world_min, world_max, max_objects);
-  choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
-  return choice;
+  return productCatalogue().makeWorld(name, world_min, world_max, max_objects);
 }
 
 }  // namespace overlap::physics

@@ -1,8 +1,12 @@
 // Broadphases by the names the paper and the CLI use, and their catalogue:
-// the one table of every name, whether it is exact, whether it needs a CUDA
-// device, and what it is.  The CLI's --algo check and help, `overlap
-// --list-algos`, the benchmark and the tests read it; README's table is
-// checked against it (tests/physics/broadphase_catalogue_test.cpp).
+// every name, whether it is exact, whether it needs a CUDA device, and what
+// it is.  Bullet's four are listed here; ours are the rows of the table of
+// pair finders (gpu/pair_finder.h, gpu::pairFinderTable()), each exact.  The
+// CLI's --algo check and help, `overlap --list-algos`, the benchmark and the
+// tests read the catalogue; README's table is checked against it
+// (tests/physics/broadphase_catalogue_test.cpp).  The catalogue is a value:
+// the free functions below use the product's, and a test may build one from
+// a copy of the finder table with rows of its own.
 //
 // This is the package's public header (docs/PACKAGE.md): any Bullet program
 // gets a btBroadphaseInterface by name from makeWorldBroadphase().
@@ -25,6 +29,9 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
+
+#include "gpu/pair_finder.h"
 
 namespace overlap::physics {
 
@@ -34,14 +41,6 @@ struct BroadphaseInfo {
   bool needs_device;             // runs on a CUDA device
   std::string_view description;  // one line
 };
-
-// Every broadphase, Bullet's first, then ours; the first exact one (bf) is
-// the reference the others are checked against.
-std::span<const BroadphaseInfo> broadphaseCatalogue();
-// The catalogue's names, in its order.
-std::span<const std::string_view> broadphaseNames();
-// The entry named `name`; throws std::invalid_argument for an unknown name.
-const BroadphaseInfo& broadphaseInfo(std::string_view name);
 
 // Empty when broadphase `name` can hold `objects` proxies and `reserved`
 // more (a world's walls), else why not, counting in `objects` as the user
@@ -58,20 +57,54 @@ struct BroadphaseChoice {
   std::string notice;  // empty, or why it is not the one asked for
 };
 
-// The pair search alone (what the benchmark times).  `world_min`/`world_max`
-// are where objects are expected (SAP quantizes inside them first and grows
-// them around any box outside: physics/growing_sweep_and_prune.h); `max_objects` is
-// the most proxies the run will create.  Throws std::invalid_argument for an
-// unknown name or a count the algorithm can't hold.
+// Every broadphase, Bullet's first, then one per pair finder of a table.
+class BroadphaseCatalogue {
+ public:
+  explicit BroadphaseCatalogue(
+      std::span<const gpu::PairFinderRow> finders = gpu::pairFinderTable());
+
+  // Every entry; the first exact one (bf) is the reference the others are
+  // checked against.
+  std::span<const BroadphaseInfo> entries() const { return entries_; }
+  // The entries' names, in their order.
+  std::span<const std::string_view> names() const { return names_; }
+  // The entry named `name`; throws std::invalid_argument for an unknown name.
+  const BroadphaseInfo& info(std::string_view name) const;
+
+  // The pair search alone (what the benchmark times).  `world_min`/`world_max`
+  // are where objects are expected (SAP quantizes inside them first and grows
+  // them around any box outside: physics/growing_sweep_and_prune.h);
+  // `max_objects` is the most proxies the run will create.  Throws
+  // std::invalid_argument for an unknown name or a count the algorithm can't
+  // hold.
+  BroadphaseChoice make(std::string_view name, const btVector3& world_min,
+                        const btVector3& world_max, int max_objects) const;
+  // What a btCollisionWorld should get: make()'s pair search, with its ray
+  // and sweep queries (raycasts, CCD) answered by one shared tree (the
+  // broadphase returned is a CcdQueryBroadphase,
+  // physics/ccd_query_broadphase.h).  Our finders and bf answer a query by
+  // visiting every proxy; through the tree it costs O(log n) under every
+  // name, and a program that never queries never builds it.
+  BroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
+                             const btVector3& world_max, int max_objects) const;
+
+ private:
+  std::vector<gpu::PairFinderRow> finders_;
+  std::vector<BroadphaseInfo> entries_;
+  std::vector<std::string_view> names_;
+};
+
+// The product's catalogue: Bullet's broadphases and gpu::pairFinderTable().
+const BroadphaseCatalogue& productCatalogue();
+
+// The product catalogue's entries(), names() and info().
+std::span<const BroadphaseInfo> broadphaseCatalogue();
+std::span<const std::string_view> broadphaseNames();
+const BroadphaseInfo& broadphaseInfo(std::string_view name);
+
+// The product catalogue's make() and makeWorld().
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects);
-
-// What a btCollisionWorld should get: makeBroadphase()'s pair search, with
-// its ray and sweep queries (raycasts, CCD) answered by one shared tree
-// (the broadphase returned is a CcdQueryBroadphase,
-// physics/ccd_query_broadphase.h).  Our finders and bf answer a query by
-// visiting every proxy; through the tree it costs O(log n) under every name,
-// and a program that never queries never builds it.
 BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
                                      const btVector3& world_max, int max_objects);
 

@@ -41,13 +41,8 @@ inline std::size_t countMissing(const PairList& wanted, const PairList& held) {
 
 // Where one findPairs() of one of our broadphases (physics/pair_finder_broadphase.h) went.
 struct ReplayPhases {
-  double search_ms = 0;            // the finder's search by its own clock
-  double sort_ms = 0;              // of it: sorting (cpusap; 0 for the others)
-  double sweep_ms = 0;             //   finding the pairs
-  double delta_ms = 0;             //   turning them into changes
-  double cache_update_ms = 0;      // applying the changes to Bullet's pair cache
-  double launch_to_finish_ms = 0;  // the finder's launch() to finish()'s return, host clock
-  gpu::DeviceWork device;          // its device stages and host work (zero on the CPU)
+  gpu::SearchStats search;     // the finder's record of its search
+  double cache_update_ms = 0;  // applying the changes to Bullet's pair cache
 };
 
 class BroadphaseReplay {

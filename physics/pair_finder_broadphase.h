@@ -78,16 +78,10 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void resetPool(btDispatcher* dispatcher) override;
   void printStats() override;
 
-  // The last search by the finder's own clock (gpu::PairFinder::lastSearchMs).
-  double lastSearchMs() const { return finder_->lastSearchMs(); }
+  // The finder's record of its last search (gpu::PairFinder::lastStats).
+  gpu::SearchStats lastSearchStats() const { return finder_->lastStats(); }
   // The last search's time applying the finder's changes to the pair cache.
   double lastCacheUpdateMs() const { return last_cache_update_ms_; }
-  // The finder's split of its last search (cpusap's sort, sweep and delta).
-  gpu::SearchPhases lastPhases() const { return finder_->lastPhases(); }
-  // The finder's own launch() to finish() on the host clock, and its device
-  // stages and host work (zero on the CPU finders).
-  double lastLaunchToFinishMs() const { return finder_->lastLaunchToFinishMs(); }
-  gpu::DeviceWork lastDeviceWork() const { return finder_->lastDeviceWork(); }
 
  private:
   enum class SlotState : std::uint8_t {

@@ -1,4 +1,4 @@
-// What the GPU finders report of a frame (PairFinder::lastDeviceWork),
+// What the GPU finders report of a frame (PairFinder::lastStats().device),
 // against what the CUDA emulation counted, and gpubf's changes sorted on the
 // device: the host sorts only a list longer than the result block's head.
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "gpu/emulation/api_counters.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "tests/gpu/frame_cost.h"
 #include "tests/gpu/pair_test_support.h"
 
@@ -44,13 +44,13 @@ TEST(GpubfDeviceWorkTest, ASteadyFrameIsOneGraphLaunchAndOneWait) {
   for (const std::uint32_t n : {0u, 1u, 2u, 31u, 32u, 33u, 1023u, 1025u}) {
     for (const bool staged : {true, false}) {
       SCOPED_TRACE("n = " + std::to_string(n) + (staged ? ", staged" : ", pageable"));
-      const auto finder = makeGpuPairFinder();
+      const auto finder = makePairFinder("gpubf");
       for (int frame = 0; frame < 3; ++frame) {
         countedFrame(*finder, testing::steppingBoxes(n, frame), staged);
       }
       const cuda_emulation::ApiCounters counted =
           countedFrame(*finder, testing::steppingBoxes(n, 3), staged);
-      const DeviceWork work = finder->lastDeviceWork();
+      const DeviceWork work = finder->lastStats().device;
       EXPECT_EQ(work.api_calls, counted.api_calls);
       EXPECT_EQ(work.bytes_to_device, counted.bytes_to_device);
       EXPECT_EQ(work.bytes_from_device, counted.bytes_to_host);
@@ -68,8 +68,8 @@ TEST(GpubfDeviceWorkTest, ASteadyFrameIsOneGraphLaunchAndOneWait) {
       EXPECT_EQ(work.host_bytes_copied, staged ? 0u : 32u * n);
       EXPECT_EQ(work.host_entries_sorted, 0u);
       // The three stages are contiguous: together they are the search, end to end.
-      EXPECT_NEAR(work.upload_ms + work.kernels_ms + work.download_ms, finder->lastSearchMs(),
-                  1e-3);
+      EXPECT_NEAR(work.upload_ms + work.kernels_ms + work.download_ms,
+                  finder->lastStats().search_ms, 1e-3);
     }
   }
 }
@@ -77,14 +77,14 @@ TEST(GpubfDeviceWorkTest, ASteadyFrameIsOneGraphLaunchAndOneWait) {
 // A frame whose sizes are new captures its chain again (more calls, the same
 // answer); two frames later the new graph is replayed.
 TEST(GpubfDeviceWorkTest, AGrownFrameIsCapturedAgainThenReplayed) {
-  const auto finder = makeGpuPairFinder();
+  const auto finder = makePairFinder("gpubf");
   std::vector<IndexPair> pairs;
   int frame = 0;
   for (const std::uint32_t n : {40u, 40u, 40u, 300u, 300u, 300u, 300u}) {
     SCOPED_TRACE("frame " + std::to_string(frame) + ", n = " + std::to_string(n));
     const std::vector<ObjectBounds> boxes = testing::steppingBoxes(n, frame);
     testing::expectFrameMatchesOracle(*finder, boxes, pairs);
-    const std::uint64_t calls = finder->lastDeviceWork().api_calls;
+    const std::uint64_t calls = finder->lastStats().device.api_calls;
     const bool replayed = frame == 2 || frame >= 5;
     if (replayed) {
       EXPECT_EQ(calls, 2u);
@@ -98,12 +98,12 @@ TEST(GpubfDeviceWorkTest, AGrownFrameIsCapturedAgainThenReplayed) {
 TEST(GpubfPaperDeviceWorkTest, CountsEveryPairsByteAndTheHostSort) {
   for (const std::uint32_t n : {2u, 33u, 1025u}) {
     SCOPED_TRACE("n = " + std::to_string(n));
-    const auto finder = makePaperGpuPairFinder();
+    const auto finder = makePairFinder("gpubf-paper");
     countedFrame(*finder, testing::steppingBoxes(n, 0), false);
     PairDelta delta;
     const cuda_emulation::ApiCounters counted =
         countedFrame(*finder, testing::steppingBoxes(n, 1), false, &delta);
-    const DeviceWork work = finder->lastDeviceWork();
+    const DeviceWork work = finder->lastStats().device;
     EXPECT_EQ(work.api_calls, counted.api_calls);
     EXPECT_EQ(work.bytes_to_device, 32u * n);
     EXPECT_EQ(work.bytes_from_device, std::uint64_t{n} * (n - 1) / 2);
@@ -142,7 +142,7 @@ TEST(GpubfDeviceSortTest, ChangesComeBackSortedWithNoHostSortUnlessAListOutgrows
   for (const std::size_t changes :
        {0u, 1u, 31u, 32u, 33u, 512u, 513u, 1023u, 1025u, 4096u, 4097u}) {
     SCOPED_TRACE(std::to_string(changes) + " changes");
-    const auto finder = makeGpuPairFinder();
+    const auto finder = makePairFinder("gpubf");
     const std::vector<ObjectBounds> apart = shuffledCliques(0, 7);
     const std::vector<ObjectBounds> together = shuffledCliques(changes, 7);
     ASSERT_EQ(testing::oraclePairs(together).size(), changes);
@@ -150,7 +150,7 @@ TEST(GpubfDeviceSortTest, ChangesComeBackSortedWithNoHostSortUnlessAListOutgrows
     testing::expectFrameMatchesOracle(*finder, apart, pairs);
     for (const auto* boxes : {&together, &apart}) {
       testing::expectFrameMatchesOracle(*finder, *boxes, pairs);
-      const DeviceWork work = finder->lastDeviceWork();
+      const DeviceWork work = finder->lastStats().device;
       const bool overflow = changes > kHeadEntries;
       EXPECT_EQ(work.host_entries_sorted, overflow ? changes : 0u);
       // The boxes come from pageable memory: staged by a host copy.

@@ -1,7 +1,7 @@
 // overlap_gpu_frame_cost: what one steady frame of each GPU finder asks of
 // the device, counted by the CUDA emulation (calls, copies, bytes over the
 // bus; never a time), and the finder's own count of its host work
-// (PairFinder::lastDeviceWork: bytes memcpy'd and entries sorted on the
+// (PairFinder::lastStats().device: bytes memcpy'd and entries sorted on the
 // host).  Run by scripts/gpu_kernel_cost.sh.
 //   overlap_gpu_frame_cost [N...]     (default 3500)
 #include <cstdio>
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 #include "tests/gpu/frame_cost.h"
 
 int main(int argc, char** argv) {
@@ -30,10 +30,11 @@ int main(int argc, char** argv) {
               "api_calls", "launches", "uploads", "copies", "d2d", "memsets", "bytes_to_dev",
               "bytes_to_host", "events", "waits", "host_copied", "host_sorted");
   for (const std::uint32_t n : sizes) {
-    for (const auto make : {makeGpuPairFinder, makePaperGpuPairFinder, makeGpuSapPairFinder}) {
-      const auto finder = make();
+    for (const PairFinderRow& row : pairFinderTable()) {
+      if (!row.needs_device) continue;
+      const auto finder = makePairFinder(row.name);
       const auto c = testing::steadyFrameCost(*finder, n);
-      const DeviceWork work = finder->lastDeviceWork();
+      const DeviceWork work = finder->lastStats().device;
       std::printf(
           "%-12s %6u %9llu %8llu %7llu %7llu %7llu %7llu %14llu %12llu %7llu %6llu %12llu %11llu\n",
           std::string(finder->name()).c_str(), n, static_cast<unsigned long long>(c.api_calls),

@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/pair_finder.h"
 
 namespace overlap::gpu {
 namespace {
@@ -20,14 +20,13 @@ namespace {
 // mid-frame.
 TEST(LeanFrameCostTest, OneUploadOneCopyBackAndOneWaitAFrame) {
   struct Expected {
-    std::unique_ptr<PairFinder> (*make)();
+    std::string_view finder;
     std::uint64_t kernels;
     std::uint64_t memsets;
   };
-  for (const Expected expected :
-       {Expected{makeGpuPairFinder, 1, 0}, Expected{makeGpuSapPairFinder, 4, 0}}) {
+  for (const Expected expected : {Expected{"gpubf", 1, 0}, Expected{"gpusap", 4, 0}}) {
     for (const std::uint32_t n : {2u, 33u, 1025u}) {
-      const auto finder = expected.make();
+      const auto finder = makePairFinder(expected.finder);
       SCOPED_TRACE(std::string(finder->name()) + ", n = " + std::to_string(n));
       const cuda_emulation::ApiCounters frame = testing::steadyFrameCost(*finder, n);
       EXPECT_EQ(frame.kernel_launches, expected.kernels);
@@ -42,7 +41,7 @@ TEST(LeanFrameCostTest, OneUploadOneCopyBackAndOneWaitAFrame) {
 }
 
 TEST(GpubfFrameCostTest, TheCallerFillsTheStagingItself) {
-  const auto finder = makeGpuPairFinder();
+  const auto finder = makePairFinder("gpubf");
   const std::span<ObjectBounds> staging = finder->stagingFor(40);
   ASSERT_EQ(staging.size(), 40u);
   const std::vector<ObjectBounds> boxes = testing::steppingBoxes(40, 0);
@@ -60,7 +59,7 @@ TEST(GpubfFrameCostTest, TheCallerFillsTheStagingItself) {
 }
 
 TEST(GpubfPaperFrameCostTest, CopiesEveryPairsByteBack) {
-  const auto finder = makePaperGpuPairFinder();
+  const auto finder = makePairFinder("gpubf-paper");
   const cuda_emulation::ApiCounters frame = testing::steadyFrameCost(*finder, 1025);
   EXPECT_EQ(frame.kernel_launches, 1u);
   EXPECT_EQ(frame.bytes_to_host, 1025u * 1024u / 2u);

@@ -22,7 +22,7 @@ TEST(GpuSapMemoryTest, ThirtyTwoBytesPerBoxThirtyTwoPerEntryAndTwentyFourPerPair
   // The frame's counters, the result block (32 KiB of changes) and CUB's temporaries.
   constexpr std::uint64_t kFixedBytes = 40 * 1024;
   const std::uint64_t before = cuda_emulation::liveDeviceBytes();
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   const std::vector<ObjectBounds> boxes = testing::makeBoxes(testing::BoxSet::kTouching, kBoxes, 0);
   std::uint64_t pairs = 0;
   for (int frame = 0; frame < 3; ++frame) {  // every pair buffer in use by the third

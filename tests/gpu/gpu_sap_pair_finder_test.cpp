@@ -36,7 +36,7 @@ TEST_F(GpuSapTest, SameDeltasAsCpubfAtTheCubBoundarySizes) {
       // 4096 identical boxes make 8 million pairs: 1025 has the many-pairs path.
       if (set == BoxSet::kIdentical && n > 1025) continue;
       SCOPED_TRACE(testing::boxSetName(set) + ", n = " + std::to_string(n));
-      const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+      const auto gpusap = makePairFinder("gpusap");
       CpuPairFinder cpubf;
       for (int frame = 0; frame < 4; ++frame) {
         ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, testing::makeBoxes(set, n, frame)))
@@ -74,7 +74,7 @@ std::vector<ObjectBounds> skewedBoxes(std::uint32_t n, int frame) {
 }
 
 TEST_F(GpuSapTest, ManySmallBoxesAndAFewHugeOnesStayExact) {
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   CpuPairFinder cpubf;
   for (int frame = 0; frame < 5; ++frame) {
     ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, skewedBoxes(6000, frame)))
@@ -88,7 +88,7 @@ TEST_F(GpuSapTest, ManySmallBoxesAndAFewHugeOnesStayExact) {
 TEST_F(GpuSapTest, ABoxSpanningTheWorldPairsWithEveryBoxAtEverySize) {
   for (const std::uint32_t n : {1u, 2u, 31u, 32u, 33u, 1023u, 1025u, 6000u}) {
     SCOPED_TRACE("n = " + std::to_string(n));
-    const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+    const auto gpusap = makePairFinder("gpusap");
     CpuPairFinder cpubf;
     for (int frame = 0; frame < 3; ++frame) {
       std::vector<ObjectBounds> boxes = skewedBoxes(n, frame);
@@ -102,7 +102,7 @@ TEST_F(GpuSapTest, ABoxSpanningTheWorldPairsWithEveryBoxAtEverySize) {
 // bits (a slab's width of them) join starts several units apart: boxes
 // whose sort keys tie while their starts, ends and overlaps differ.
 TEST_F(GpuSapTest, StartsCloserThanTheSortsResolutionStayExact) {
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   CpuPairFinder cpubf;
   for (int frame = 0; frame < 3; ++frame) {
     std::mt19937 random(5u + static_cast<unsigned>(frame));
@@ -123,7 +123,7 @@ TEST_F(GpuSapTest, StartsCloserThanTheSortsResolutionStayExact) {
 // room the sparse frames left), then sparse again: the crowded frame runs
 // again with room, and last frame's set survives its first run whole.
 TEST_F(GpuSapTest, AFrameThatOutgrowsItsRoomRunsAgainAndStaysExact) {
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   CpuPairFinder cpubf;
   for (int frame = 0; frame < 4; ++frame) {
     const BoxSet set = frame == 2 ? BoxSet::kIdentical : BoxSet::kRandom;
@@ -135,7 +135,7 @@ TEST_F(GpuSapTest, AFrameThatOutgrowsItsRoomRunsAgainAndStaysExact) {
 TEST_F(GpuSapTest, NaNInvertedInfiniteAndUnusedBoxesPairAsCpubfDoes) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   CpuPairFinder cpubf;
   for (int frame = 0; frame < 3; ++frame) {
     std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 300, frame);
@@ -157,7 +157,7 @@ TEST_F(GpuSapTest, NaNInvertedInfiniteAndUnusedBoxesPairAsCpubfDoes) {
 // axis, a few tens within the slabs of a second, which is what lets the
 // emulation run it in seconds.
 TEST_F(GpuSapTest, ExactAgainstTheGridCheckerAtAHundredThousandBoxes) {
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   const float extent[3] = {155.0f, 155.0f, 20.0f};
   std::vector<std::uint64_t> pairs;  // last frame's, as pairKey()s, sorted
   for (int frame = 0; frame < 2; ++frame) {
@@ -182,7 +182,7 @@ TEST_F(GpuSapTest, ExactAgainstTheGridCheckerAtAHundredThousandBoxes) {
 }
 
 TEST_F(GpuSapTest, OnlyBoxesGoUpAndOnlyTheResultBlockComesBackWithNoHostSort) {
-  const auto gpusap = makePairFinder(PairFinderKind::kGpuSweepAndPrune);
+  const auto gpusap = makePairFinder("gpusap");
   const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 2000, 0);
   gpusap->launch(boxes);
   gpusap->finish();
@@ -190,7 +190,7 @@ TEST_F(GpuSapTest, OnlyBoxesGoUpAndOnlyTheResultBlockComesBackWithNoHostSort) {
   const PairDelta delta = gpusap->finish();
   EXPECT_TRUE(delta.added.empty());
   EXPECT_TRUE(delta.removed.empty());
-  const DeviceWork work = gpusap->lastDeviceWork();
+  const DeviceWork work = gpusap->lastStats().device;
   EXPECT_EQ(work.bytes_to_device, boxes.size() * sizeof(ObjectBounds));
   // Four counts and the changes' head (4096 entries), whatever the counts;
   // nothing beyond.

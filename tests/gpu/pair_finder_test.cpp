@@ -19,7 +19,7 @@ namespace {
 using testing::box;
 using testing::BoxSet;
 
-class PairFinderTest : public ::testing::TestWithParam<PairFinderKind> {
+class PairFinderTest : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {
     std::string why;
@@ -147,12 +147,24 @@ TEST_P(PairFinderTest, RejectsFinishWithoutLaunch) {
   EXPECT_THROW(finder_->finish(), std::runtime_error);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest,
-                         ::testing::Values(PairFinderKind::kCpuBruteForce,
-                                           PairFinderKind::kCpuSweepAndPrune,
-                                           PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper,
-                                           PairFinderKind::kGpuSweepAndPrune),
+TEST_P(PairFinderTest, RefusesCallsOutOfOrderByNameAndKeepsTheFrame) {
+  const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 100, 0);
+  finder_->launch(boxes);
+  try {
+    finder_->launch(boxes);
+    ADD_FAILURE() << "a second launch() was accepted";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()),
+              std::string(GetParam()) + ": launch() called twice without finish()");
+  }
+  EXPECT_THROW(finder_->launchWithChanges(boxes, {}), std::runtime_error);
+  EXPECT_THROW(finder_->stagingFor(boxes.size()), std::runtime_error);
+  const PairDelta delta = finder_->finish();
+  EXPECT_TRUE(testing::samePairs(delta.added, testing::oraclePairs(boxes)));
+  EXPECT_THROW(finder_->finish(), std::runtime_error);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest, ::testing::ValuesIn(testing::finderNames()),
                          testing::finderTestName);
 
 // The GPU finders give exactly cpubf's deltas on a long random run.
@@ -172,10 +184,7 @@ TEST_P(GpuAgreesWithCpuTest, SameDeltasAsCpubf) {
 }
 
 INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
-                         ::testing::Values(PairFinderKind::kGpuBruteForce,
-                                           PairFinderKind::kGpuBruteForcePaper,
-                                           PairFinderKind::kGpuSweepAndPrune),
-                         testing::finderTestName);
+                         ::testing::ValuesIn(testing::finderNames(true)), testing::finderTestName);
 
 TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   CpuPairFinder one(1);
@@ -197,15 +206,14 @@ TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
 }
 
 TEST(CpuPairFinderTest, ReportNoDeviceWork) {
-  for (const PairFinderKind kind :
-       {PairFinderKind::kCpuBruteForce, PairFinderKind::kCpuSweepAndPrune}) {
-    SCOPED_TRACE(testing::finderName(kind));
-    const auto finder = makePairFinder(kind);
+  for (const std::string_view name : testing::finderNames(false)) {
+    SCOPED_TRACE(name);
+    const auto finder = makePairFinder(name);
     for (int frame = 0; frame < 2; ++frame) {
       finder->launch(testing::makeBoxes(BoxSet::kRandom, 100, frame));
       EXPECT_FALSE(finder->finish().added.empty() && frame == 0);
     }
-    const DeviceWork work = finder->lastDeviceWork();
+    const DeviceWork work = finder->lastStats().device;
     EXPECT_EQ(work.upload_ms + work.kernels_ms + work.download_ms, 0.0);
     EXPECT_EQ(work.bytes_to_device + work.bytes_from_device + work.api_calls +
                   work.host_bytes_copied + work.host_entries_sorted,
@@ -236,20 +244,19 @@ TEST(CpuPairFinderTest, RejectsANegativeThreadCount) {
   EXPECT_THROW(CpuPairFinder(-1), std::runtime_error);
 }
 
-TEST(MakePairFinderTest, GpuKindsNeedADevice) {
+TEST(MakePairFinderTest, MakesEachRowsFinderByNameAndDeviceOnesOnlyWithADevice) {
   std::string why;
-  if (cudaDeviceAvailable(&why)) {
-    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForce)->name(), "gpubf");
-    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuBruteForcePaper)->name(), "gpubf-paper");
-    EXPECT_EQ(makePairFinder(PairFinderKind::kGpuSweepAndPrune)->name(), "gpusap");
-  } else {
-    EXPECT_FALSE(why.empty());
-    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForce), std::runtime_error);
-    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuBruteForcePaper), std::runtime_error);
-    EXPECT_THROW(makePairFinder(PairFinderKind::kGpuSweepAndPrune), std::runtime_error);
+  const bool device = cudaDeviceAvailable(&why);
+  EXPECT_TRUE(device || !why.empty());
+  for (const PairFinderRow& row : pairFinderTable()) {
+    SCOPED_TRACE(row.name);
+    if (row.needs_device && !device) {
+      EXPECT_THROW(makePairFinder(row.name), std::runtime_error);
+    } else {
+      EXPECT_EQ(makePairFinder(row.name)->name(), row.name);
+    }
   }
-  EXPECT_EQ(makePairFinder(PairFinderKind::kCpuBruteForce)->name(), "cpubf");
-  EXPECT_EQ(makePairFinder(PairFinderKind::kCpuSweepAndPrune)->name(), "cpusap");
+  EXPECT_THROW(makePairFinder("no-such-finder"), std::invalid_argument);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gpu/pair_finder.h"
@@ -23,26 +24,6 @@ namespace overlap::gpu {
 
 inline void PrintTo(const IndexPair& pair, std::ostream* out) {
   *out << "(" << pair.a << ", " << pair.b << ")";
-}
-
-inline void PrintTo(PairFinderKind kind, std::ostream* out) {
-  switch (kind) {
-    case PairFinderKind::kCpuBruteForce:
-      *out << "cpubf";
-      return;
-    case PairFinderKind::kCpuSweepAndPrune:
-      *out << "cpusap";
-      return;
-    case PairFinderKind::kGpuBruteForce:
-      *out << "gpubf";
-      return;
-    case PairFinderKind::kGpuBruteForcePaper:
-      *out << "gpubf-paper";
-      return;
-    case PairFinderKind::kGpuSweepAndPrune:
-      *out << "gpusap";
-      return;
-  }
 }
 
 }  // namespace overlap::gpu
@@ -209,36 +190,30 @@ inline std::vector<ObjectBounds> pileOfThreeSizes(std::uint32_t n, const float (
   return boxes;
 }
 
-inline std::string finderName(PairFinderKind kind) {
-  switch (kind) {
-    case PairFinderKind::kCpuBruteForce:
-      return "cpubf";
-    case PairFinderKind::kCpuSweepAndPrune:
-      return "cpusap";
-    case PairFinderKind::kGpuBruteForce:
-      return "gpubf";
-    case PairFinderKind::kGpuBruteForcePaper:
-      return "gpubf_paper";
-    case PairFinderKind::kGpuSweepAndPrune:
-      return "gpusap";
+inline bool isGpuFinder(std::string_view name) {
+  return pairFinderRow(name).needs_device;
+}
+
+// The names of the finders of the product's table (gpu::pairFinderTable()),
+// for tests parameterized over them; `device` picks the CPU or GPU ones.
+inline std::vector<std::string_view> finderNames() {
+  std::vector<std::string_view> names;
+  for (const PairFinderRow& row : pairFinderTable()) names.push_back(row.name);
+  return names;
+}
+inline std::vector<std::string_view> finderNames(bool device) {
+  std::vector<std::string_view> names;
+  for (const PairFinderRow& row : pairFinderTable()) {
+    if (row.needs_device == device) names.push_back(row.name);
   }
-  return "unknown";
+  return names;
 }
 
-inline bool isGpuFinder(PairFinderKind kind) {
-  return kind == PairFinderKind::kGpuBruteForce || kind == PairFinderKind::kGpuBruteForcePaper ||
-         kind == PairFinderKind::kGpuSweepAndPrune;
-}
-
-// Every finder, for tests parameterized over all of them.
-inline constexpr PairFinderKind kEveryFinder[] = {
-    PairFinderKind::kCpuBruteForce, PairFinderKind::kCpuSweepAndPrune,
-    PairFinderKind::kGpuBruteForce, PairFinderKind::kGpuBruteForcePaper,
-    PairFinderKind::kGpuSweepAndPrune};
-
-// Names parameterized tests after their finder.
-inline std::string finderTestName(const ::testing::TestParamInfo<PairFinderKind>& param_info) {
-  return finderName(param_info.param);
+// Names parameterized tests after their finder (gtest takes no '-').
+inline std::string finderTestName(const ::testing::TestParamInfo<std::string_view>& param_info) {
+  std::string name(param_info.param);
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
 }
 
 // Equal lists, or a short account of the first difference (the lists can

@@ -169,10 +169,10 @@ RecordedFrames recordScene4(int objects, int frames) {
 }
 
 std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int threads,
-                                        gpu::PairFinderKind kind) {
+                                        std::string_view finder) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);
-  physics::PairFinderBroadphase broadphase(gpu::makePairFinder(kind, threads));
+  physics::PairFinderBroadphase broadphase(gpu::makePairFinder(finder, threads));
   auto corner = [](const float(&xyz)[3]) { return btVector3(xyz[0], xyz[1], xyz[2]); };
   std::vector<btBroadphaseProxy*> proxies;
   for (const physics::Aabb& b : frames.front()) {
@@ -200,7 +200,7 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
   return pairs_per_frame;
 }
 
-class FinderThreads : public ::testing::TestWithParam<gpu::PairFinderKind> {};
+class FinderThreads : public ::testing::TestWithParam<std::string_view> {};
 
 TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
   const tbb::global_control allow_four(tbb::global_control::max_allowed_parallelism, 4);
@@ -221,8 +221,7 @@ TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
 }
 
 INSTANTIATE_TEST_SUITE_P(CpuFinders, FinderThreads,
-                         ::testing::Values(gpu::PairFinderKind::kCpuBruteForce,
-                                           gpu::PairFinderKind::kCpuSweepAndPrune),
+                         ::testing::ValuesIn(gpu::testing::finderNames(false)),
                          gpu::testing::finderTestName);
 
 }  // namespace

@@ -27,7 +27,6 @@ namespace {
 
 using gpu::IndexPair;
 using gpu::ObjectBounds;
-using gpu::PairFinderKind;
 
 // Every add and removal the ghost callback hears, in order, as (id0, id1).
 class CallLog : public btOverlappingPairCallback {
@@ -161,7 +160,7 @@ void applyOneByOne(btOverlappingPairCache& cache, const gpu::PairDelta& delta,
   }
 }
 
-class BulkPairCacheFinders : public ::testing::TestWithParam<PairFinderKind> {};
+class BulkPairCacheFinders : public ::testing::TestWithParam<std::string_view> {};
 
 TEST_P(BulkPairCacheFinders, HoldsTheSamePairsInTheSameOrderAsBulletsCacheCallByCall) {
   std::string why;
@@ -190,7 +189,7 @@ TEST_P(BulkPairCacheFinders, HoldsTheSamePairsInTheSameOrderAsBulletsCacheCallBy
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, BulkPairCacheFinders,
-                         ::testing::ValuesIn(gpu::testing::kEveryFinder),
+                         ::testing::ValuesIn(gpu::testing::finderNames()),
                          gpu::testing::finderTestName);
 
 // Records the visits; where `remove`, removes every pair whose ids sum to a

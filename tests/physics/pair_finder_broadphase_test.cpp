@@ -24,7 +24,6 @@ namespace {
 
 using gpu::IndexPair;
 using gpu::ObjectBounds;
-using gpu::PairFinderKind;
 
 constexpr int kDefault = btBroadphaseProxy::DefaultFilter;
 constexpr int kAll = btBroadphaseProxy::AllFilter;
@@ -54,7 +53,7 @@ class PairLedger : public btOverlappingPairCallback {
   std::set<std::pair<int, int>> pairs_;
 };
 
-class PairFinderBroadphaseTest : public ::testing::TestWithParam<PairFinderKind> {
+class PairFinderBroadphaseTest : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {
     std::string why;
@@ -345,15 +344,19 @@ class ChangeRecorder final : public gpu::PairFinder {
  public:
   explicit ChangeRecorder(std::vector<std::vector<std::uint32_t>>* heard) : heard_(heard) {}
   std::string_view name() const override { return "recorder"; }
-  void launch(std::span<const ObjectBounds> /*objects*/) override { heard_->push_back({999}); }
-  void launchWithChanges(std::span<const ObjectBounds> /*objects*/,
-                         std::span<const std::uint32_t> changed) override {
-    heard_->emplace_back(changed.begin(), changed.end());
+
+ private:
+  void startSearch(std::span<const ObjectBounds> /*objects*/,
+                   const std::span<const std::uint32_t>* changed) override {
+    if (changed == nullptr) {
+      heard_->push_back({999});
+      return;
+    }
+    heard_->emplace_back(changed->begin(), changed->end());
     std::sort(heard_->back().begin(), heard_->back().end());
   }
-  gpu::PairDelta finish() override { return {}; }
-  double lastSearchMs() const override { return 0; }
-  double lastLaunchToFinishMs() const override { return 0; }
+  gpu::PairDelta finishSearch() override { return {}; }
+  gpu::SearchStats searchStats() const override { return {}; }
 
  private:
   std::vector<std::vector<std::uint32_t>>* heard_;
@@ -401,8 +404,8 @@ TEST_P(PairFinderBroadphaseTest, FillsTheFindersStagingSoItCopiesNoBoxes) {
     broadphase_->calculateOverlappingPairs(&dispatcher_);
     EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
     // gpubf has a staging, filled by the broadphase; the others copy as before.
-    if (GetParam() == PairFinderKind::kGpuBruteForce) {
-      EXPECT_EQ(broadphase_->lastDeviceWork().host_bytes_copied, 0u) << "frame " << frame;
+    if (GetParam() == "gpubf") {
+      EXPECT_EQ(broadphase_->lastSearchStats().device.host_bytes_copied, 0u) << "frame " << frame;
     }
   }
 }
@@ -413,22 +416,23 @@ class StagingChecker final : public gpu::PairFinder {
  public:
   explicit StagingChecker(std::vector<std::vector<ObjectBounds>>* seen) : seen_(seen) {}
   std::string_view name() const override { return "staging checker"; }
-  std::span<ObjectBounds> stagingFor(std::size_t count) override {
+
+ private:
+  std::span<ObjectBounds> staging(std::size_t count) override {
     if (count > staging_.size()) {
       staging_ = std::vector<ObjectBounds>(2 * count);
       std::memset(staging_.data(), 0xA5, staging_.size() * sizeof(ObjectBounds));
     }
     return {staging_.data(), count};
   }
-  void launch(std::span<const ObjectBounds> objects) override {
+  void startSearch(std::span<const ObjectBounds> objects,
+                   const std::span<const std::uint32_t>* /*changed*/) override {
     EXPECT_EQ(objects.data(), staging_.data()) << "launched without the staging";
     seen_->emplace_back(objects.begin(), objects.end());
   }
-  gpu::PairDelta finish() override { return {}; }
-  double lastSearchMs() const override { return 0; }
-  double lastLaunchToFinishMs() const override { return 0; }
+  gpu::PairDelta finishSearch() override { return {}; }
+  gpu::SearchStats searchStats() const override { return {}; }
 
- private:
   std::vector<ObjectBounds> staging_;
   std::vector<std::vector<ObjectBounds>>* seen_;
 };
@@ -475,7 +479,7 @@ TEST(PairFinderBroadphaseStagingTest, TheStagingHoldsEveryEntryAtEachLaunch) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
-                         ::testing::ValuesIn(gpu::testing::kEveryFinder),
+                         ::testing::ValuesIn(gpu::testing::finderNames()),
                          gpu::testing::finderTestName);
 }  // namespace
 }  // namespace overlap::physics

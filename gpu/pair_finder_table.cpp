@@ -1,0 +1,51 @@
+// The table of finders (gpu/pair_finder.h, PairFinderRow): one row per
+// finder.  Adding a finder is its own file (a PairFinder and a function that
+// makes one) plus its row here; nothing else names it.
+#include <memory>
+
+#include "gpu/cpu_pair_finder.h"
+#include "gpu/cpu_sap_pair_finder.h"
+#include "gpu/pair_finder.h"
+
+namespace overlap::gpu {
+
+#if OVERLAP_HAVE_CUDA
+// Defined in the GPU finders' own .cu files.
+std::unique_ptr<PairFinder> makeGpuPairFinder(int cpu_threads);
+std::unique_ptr<PairFinder> makePaperGpuPairFinder(int cpu_threads);
+std::unique_ptr<PairFinder> makeGpuSapPairFinder(int cpu_threads);
+#define OVERLAP_GPU_FINDER(make) make
+#else
+// Never called: makePairFinder() refuses a device finder without a device.
+#define OVERLAP_GPU_FINDER(make) nullptr
+#endif
+
+namespace {
+
+template <class Finder>
+std::unique_ptr<PairFinder> makeCpuFinder(int cpu_threads) {
+  return std::make_unique<Finder>(cpu_threads);
+}
+
+constexpr PairFinderRow kTable[] = {
+    {"cpubf", false, "ours: brute force on CPU threads, gpubf's twin and the reference",
+     makeCpuFinder<CpuPairFinder>},
+    {"cpusap", false, "ours: sort and sweep on CPU threads (AVX2), the fastest exact CPU finder",
+     makeCpuFinder<CpuSapPairFinder>},
+    {"gpubf", true, "ours: CUDA brute force, pairs as bits, only the changes copied back",
+     OVERLAP_GPU_FINDER(makeGpuPairFinder)},
+    {"gpubf-paper", true,
+     "the paper's CUDA brute force as published: a byte per pair, all copied back",
+     OVERLAP_GPU_FINDER(makePaperGpuPairFinder)},
+    {"gpusap", true,
+     "ours: CUDA sort and sweep (CUB), pairs kept on the device, only the changes copied back",
+     OVERLAP_GPU_FINDER(makeGpuSapPairFinder)},
+};
+
+}  // namespace
+
+std::span<const PairFinderRow> pairFinderTable() {
+  return kTable;
+}
+
+}  // namespace overlap::gpu
