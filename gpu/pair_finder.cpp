@@ -4,11 +4,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "gpu/cpu_pair_finder.h"
-#include "gpu/cpu_sap_pair_finder.h"
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cuda/gpu_pair_finders.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 std::unique_ptr<PairFinder> makePairFinder(PairFinderKind kind, int cpu_threads) {
   if (kind == PairFinderKind::kCpuBruteForce) return std::make_unique<CpuPairFinder>(cpu_threads);
@@ -37,4 +37,4 @@ std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,
   return static_cast<std::uint32_t>(objects);
 }
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

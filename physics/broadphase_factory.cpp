@@ -136,17 +136,17 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
     choice.broadphase = std::make_unique<TreeBroadphase>();
   } else if (name == "cpubf") {
     choice.broadphase = std::make_unique<PairFinderBroadphase>(
-        gpu::makePairFinder(gpu::PairFinderKind::kCpuBruteForce));
+        finders::makePairFinder(finders::PairFinderKind::kCpuBruteForce));
   } else if (name == "cpusap") {
     choice.broadphase = std::make_unique<PairFinderBroadphase>(
-        gpu::makePairFinder(gpu::PairFinderKind::kCpuSweepAndPrune));
+        finders::makePairFinder(finders::PairFinderKind::kCpuSweepAndPrune));
   } else if (info.needs_device) {
     std::string why;
-    if (gpu::cudaDeviceAvailable(&why)) {
-      choice.broadphase = std::make_unique<PairFinderBroadphase>(
-          gpu::makePairFinder(name == "gpubf"    ? gpu::PairFinderKind::kGpuBruteForce
-                              : name == "gpusap" ? gpu::PairFinderKind::kGpuSweepAndPrune
-                                                 : gpu::PairFinderKind::kGpuBruteForcePaper));
+    if (finders::cudaDeviceAvailable(&why)) {
+      choice.broadphase = std::make_unique<PairFinderBroadphase>(finders::makePairFinder(
+          name == "gpubf"    ? finders::PairFinderKind::kGpuBruteForce
+          : name == "gpusap" ? finders::PairFinderKind::kGpuSweepAndPrune
+                             : finders::PairFinderKind::kGpuBruteForcePaper));
     } else {
       choice = makeBroadphase(kDeviceFallback, world_min, world_max, max_objects);
       choice.notice =

@@ -160,7 +160,7 @@ void BroadphaseReplay::updatePresent(std::span<const Aabb> boxes,
 std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   const auto* ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get());
   if (ours == nullptr) return std::nullopt;
-  const gpu::SearchPhases split = ours->lastPhases();
+  const finders::SearchPhases split = ours->lastPhases();
   return ReplayPhases{ours->lastSearchMs(),
                       split.sort_ms,
                       split.sweep_ms,

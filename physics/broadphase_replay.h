@@ -47,7 +47,7 @@ struct ReplayPhases {
   double delta_ms = 0;             //   turning them into changes
   double cache_update_ms = 0;      // applying the changes to Bullet's pair cache
   double launch_to_finish_ms = 0;  // the finder's launch() to finish()'s return, host clock
-  gpu::DeviceWork device;          // its device stages and host work (zero on the CPU)
+  finders::DeviceWork device;      // its device stages and host work (zero on the CPU)
 };
 
 class BroadphaseReplay {

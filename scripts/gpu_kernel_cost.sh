@@ -3,8 +3,8 @@
 # CUDA emulation; no GPU is needed and no time is measured.
 #   scripts/gpu_kernel_cost.sh [--rev REV] [EMULATION_BUILD_DIR]
 #
-# 1. Compiles gpu/gpu_pair_finder.cu, gpu/gpu_pair_finder_paper.cu and
-#    gpu/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
+# 1. Compiles gpu/cuda/gpu_pair_finder.cu, gpu/cuda/gpu_pair_finder_paper.cu and
+#    gpu/cuda/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
 #    revision without gpusap skips it) for sm_90 with this machine's nvcc at
 #    -O3, and disassembles them (cuobjdump -sass).  CUB's own kernels (gpusap's
 #    sorts, scan and selections) are listed by name only: they are the

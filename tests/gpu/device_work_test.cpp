@@ -8,12 +8,12 @@
 #include <random>
 #include <vector>
 
+#include "gpu/cuda/gpu_pair_finders.h"
 #include "gpu/emulation/api_counters.h"
-#include "gpu/gpu_pair_finders.h"
 #include "tests/gpu/frame_cost.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using testing::box;
@@ -136,4 +136,4 @@ TEST(GpubfDeviceSortTest, ChangesComeBackSortedWithNoHostSortUnlessAListOutgrows
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/cuda/gpu_pair_finders.h"
 #include "tests/gpu/frame_cost.h"
 
 int main(int argc, char** argv) {
-  using namespace overlap::gpu;
+  using namespace overlap::finders;
   std::vector<std::uint32_t> sizes;
   for (int i = 1; i < argc; ++i) {
     char* end = nullptr;

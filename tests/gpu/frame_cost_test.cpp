@@ -8,9 +8,9 @@
 #include <memory>
 #include <string>
 
-#include "gpu/gpu_pair_finders.h"
+#include "gpu/cuda/gpu_pair_finders.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 // Both lean finders' steady frame: one upload, one copy back, one host wait,
@@ -66,4 +66,4 @@ TEST(GpubfPaperFrameCostTest, CopiesEveryPairsByteBack) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -14,7 +14,7 @@
 #include "gpu/pair_finder.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 TEST(GpuSapMemoryTest, FortyBytesPerBoxThirtyTwoPerEntryAndTwentyFourPerPairOfCapacity) {
@@ -39,4 +39,4 @@ TEST(GpuSapMemoryTest, FortyBytesPerBoxThirtyTwoPerEntryAndTwentyFourPerPairOfCa
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -1,5 +1,5 @@
 // Test support for the pair finders: an exact brute-force oracle, written
-// independently of gpu/pair_logic.h, and box sets that probe the edges of the
+// independently of gpu/pairs/pair_logic.h, and box sets that probe the edges of the
 // overlap test (touching faces/edges/corners, one ulp apart, identical,
 // degenerate, far from the origin) and move from frame to frame.
 #pragma once
@@ -19,7 +19,7 @@
 
 #include "gpu/pair_finder.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 inline void PrintTo(const IndexPair& pair, std::ostream* out) {
   *out << "(" << pair.a << ", " << pair.b << ")";
@@ -45,9 +45,9 @@ inline void PrintTo(PairFinderKind kind, std::ostream* out) {
   }
 }
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders
 
-namespace overlap::gpu::testing {
+namespace overlap::finders::testing {
 
 inline bool oracleOverlap(const ObjectBounds& x, const ObjectBounds& y) {
   for (int axis = 0; axis < 3; ++axis) {
@@ -294,4 +294,4 @@ inline void expectFrameMatchesOracle(PairFinder& finder, std::span<const ObjectB
   pairs = std::move(now);
 }
 
-}  // namespace overlap::gpu::testing
+}  // namespace overlap::finders::testing

@@ -128,7 +128,7 @@ ScheduledRun scheduledRun(bool sync) {
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
     const physics::PairList pairs = world.cachedPairs();
-    run.pairs_digest = fnv1a(std::span<const gpu::IndexPair>(pairs), run.pairs_digest);
+    run.pairs_digest = fnv1a(std::span<const finders::IndexPair>(pairs), run.pairs_digest);
     const std::array<int, 1> frame_separator{-1};
     run.pairs_digest = fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
@@ -169,10 +169,10 @@ RecordedFrames recordScene4(int objects, int frames) {
 }
 
 std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int threads,
-                                        gpu::PairFinderKind kind) {
+                                        finders::PairFinderKind kind) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);
-  physics::PairFinderBroadphase broadphase(gpu::makePairFinder(kind, threads));
+  physics::PairFinderBroadphase broadphase(finders::makePairFinder(kind, threads));
   auto corner = [](const float(&xyz)[3]) { return btVector3(xyz[0], xyz[1], xyz[2]); };
   std::vector<btBroadphaseProxy*> proxies;
   for (const physics::Aabb& b : frames.front()) {
@@ -200,7 +200,7 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
   return pairs_per_frame;
 }
 
-class FinderThreads : public ::testing::TestWithParam<gpu::PairFinderKind> {};
+class FinderThreads : public ::testing::TestWithParam<finders::PairFinderKind> {};
 
 TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
   const tbb::global_control allow_four(tbb::global_control::max_allowed_parallelism, 4);
@@ -221,9 +221,9 @@ TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
 }
 
 INSTANTIATE_TEST_SUITE_P(CpuFinders, FinderThreads,
-                         ::testing::Values(gpu::PairFinderKind::kCpuBruteForce,
-                                           gpu::PairFinderKind::kCpuSweepAndPrune),
-                         gpu::testing::finderTestName);
+                         ::testing::Values(finders::PairFinderKind::kCpuBruteForce,
+                                           finders::PairFinderKind::kCpuSweepAndPrune),
+                         finders::testing::finderTestName);
 
 }  // namespace
 }  // namespace overlap::hard_cases

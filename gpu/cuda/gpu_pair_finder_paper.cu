@@ -1,0 +1,182 @@
+// gpubf-paper: the GPU brute force of Serpa & Rodrigues (SBGames 2014),
+// reproduced as the paper describes it, as the baseline gpubf is measured
+// against.
+//
+// The paper's algorithm: n * n threads; thread i tests object A = i / n
+// against B = i % n and, only for A < B, writes one result byte for the pair;
+// every byte is copied back to the host each frame with a plain synchronous
+// cudaMemcpy into ordinary (pageable) memory, where the host XORs them with
+// last frame's bytes to find the pairs that appeared and disappeared.
+//
+// What the paper leaves unsaid, and the choices made here:
+// - The byte layout: pair (A, B) is byte p(A, B) of gpu/pairs/pair_logic.h, so the
+//   buffer holds exactly n (n - 1) / 2 bytes and every byte is written each
+//   frame (no clearing pass is needed).
+// - Buffer lifetime: device buffers are kept across frames and regrown only
+//   when n grows, so allocation is not charged to every frame.
+// - The upload: a synchronous cudaMemcpy of the boxes, as for the results.
+// - The filter test: the paper tests AABBs only; the collision-filter test of
+//   the other finders is applied too, so that all three give one answer.
+// - Block size 256 and the default stream.
+// launch() uploads and starts the kernel; finish() copies back and compares.
+// Timed as gpubf is: the stage events of gpu/cuda/stage_events.h (lastSearchMs()
+// from before the upload to after the copy back, the host's XOR and sort
+// outside it), lastLaunchToFinishMs() on the host's clock (everything).
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "gpu/base/stopwatch.h"
+#include "gpu/cuda/cuda_buffers.h"
+#include "gpu/cuda/gpu_pair_finders.h"
+#include "gpu/cuda/stage_events.h"
+#include "gpu/pairs/pair_logic.h"
+
+namespace overlap::finders {
+namespace {
+
+constexpr unsigned kThreadsPerBlock = 256;
+
+__global__ void paperPairsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
+                                 std::uint8_t* __restrict__ results) {
+  const std::uint64_t i = static_cast<std::uint64_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i >= static_cast<std::uint64_t>(n) * n) return;
+  const auto object_a = static_cast<std::uint32_t>(i / n);
+  const auto object_b = static_cast<std::uint32_t>(i % n);
+  if (object_a < object_b) {
+    results[pair_logic::pairIndex(object_a, object_b)] =
+        pair_logic::objectsPair(objects[object_a], objects[object_b]) ? 1 : 0;
+  }
+}
+
+class PaperGpuPairFinder final : public PairFinder {
+ public:
+  PaperGpuPairFinder() = default;
+  PaperGpuPairFinder(const PaperGpuPairFinder&) = delete;
+  PaperGpuPairFinder& operator=(const PaperGpuPairFinder&) = delete;
+
+  std::string_view name() const override { return "gpubf-paper"; }
+
+  void launch(std::span<const ObjectBounds> objects) override {
+    if (in_flight_) throw std::runtime_error("gpubf-paper: launch() called twice without finish()");
+    launch_watch_ = HostStopwatch();
+    work_ = DeviceWork{};
+    const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
+    const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
+    const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
+    if (block_count > static_cast<std::uint64_t>(std::numeric_limits<int>::max())) {
+      throw std::runtime_error("gpubf-paper: " + std::to_string(slot_count) +
+                               " slots need more than the 2^31 - 1 blocks of one launch");
+    }
+    slot_count_ = slot_count;
+    const std::uint64_t pair_count = pair_logic::pairsBelow(slot_count_);
+    reserveDiscarding(objects_, objects.size());
+    reserveDiscarding(results_, pair_count);
+    // New pairs had no overlap last frame.
+    previous_.resize(pair_count, 0);
+    current_.resize(pair_count);
+    events_.beginFrame();
+    if (pair_count > 0) {
+      events_.record(StageEvents::kStarted, nullptr, work_.api_calls);
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(objects_.data(), objects.data(),
+                                                     objects.size_bytes(), cudaMemcpyHostToDevice));
+      work_.bytes_to_device += objects.size_bytes();
+      events_.record(StageEvents::kUploaded, nullptr, work_.api_calls);
+      ++work_.api_calls;
+      paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
+          objects_.data(), slot_count_, results_.data());
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaGetLastError());
+      events_.record(StageEvents::kSearched, nullptr, work_.api_calls);
+    }
+    // Only a launched search is in flight: after a throw, finish() refuses.
+    in_flight_ = true;
+  }
+
+  PairDelta finish() override {
+    if (!in_flight_) throw std::runtime_error("gpubf-paper: finish() called without launch()");
+    in_flight_ = false;
+    added_.clear();
+    removed_.clear();
+    searched_ = false;
+    if (!current_.empty()) {
+      CUDA_CHECK_COUNTED(work_.api_calls, cudaMemcpy(current_.data(), results_.data(),
+                                                     current_.size(), cudaMemcpyDeviceToHost));
+      work_.bytes_from_device += current_.size();
+      events_.record(StageEvents::kDone, nullptr, work_.api_calls);
+      events_.waitDone(work_.api_calls);
+      searched_ = true;
+      compareWithLastFrame();
+      std::swap(current_, previous_);
+    }
+    // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
+    std::sort(added_.begin(), added_.end());
+    std::sort(removed_.begin(), removed_.end());
+    work_.host_entries_sorted = added_.size() + removed_.size();
+    last_work_ = work_;
+    last_launch_to_finish_ms_ = launch_watch_.ms();
+    return PairDelta{added_, removed_};
+  }
+
+  // With no pairs there is no GPU work: 0.
+  double lastSearchMs() const override {
+    return searched_ ? events_.ms(StageEvents::kStarted, StageEvents::kDone) : 0;
+  }
+  double lastLaunchToFinishMs() const override { return last_launch_to_finish_ms_; }
+  DeviceWork lastDeviceWork() const override {
+    DeviceWork work = last_work_;
+    if (searched_) {
+      work.upload_ms = events_.ms(StageEvents::kStarted, StageEvents::kUploaded);
+      work.kernels_ms = events_.ms(StageEvents::kUploaded, StageEvents::kSearched);
+      work.download_ms = events_.ms(StageEvents::kSearched, StageEvents::kDone);
+    }
+    return work;
+  }
+
+ private:
+  // The host side XOR, eight bytes at a time so that the unchanged majority
+  // costs one comparison per eight pairs.
+  void compareWithLastFrame() {
+    const std::size_t size = current_.size();
+    for (std::size_t chunk = 0; chunk < size; chunk += sizeof(std::uint64_t)) {
+      const std::size_t length = std::min(sizeof(std::uint64_t), size - chunk);
+      std::uint64_t now = 0;
+      std::uint64_t before = 0;
+      std::memcpy(&now, current_.data() + chunk, length);
+      std::memcpy(&before, previous_.data() + chunk, length);
+      if ((now ^ before) == 0) continue;
+      for (std::size_t p = chunk; p < chunk + length; ++p) {
+        if (current_[p] != previous_[p]) {
+          (current_[p] != 0 ? added_ : removed_).push_back(pair_logic::pairAt(p));
+        }
+      }
+    }
+  }
+
+  std::uint32_t slot_count_ = 0;
+  bool in_flight_ = false;
+  bool searched_ = false;  // the last finished frame had pairs, so device work
+  StageEvents events_;
+  HostStopwatch launch_watch_;
+  double last_launch_to_finish_ms_ = 0;
+  DeviceWork work_;       // the frame in flight's counts (times are read from events_)
+  DeviceWork last_work_;  // ... and the last finished frame's
+  DeviceBuffer<ObjectBounds> objects_;
+  DeviceBuffer<std::uint8_t> results_;
+  std::vector<std::uint8_t> current_;  // pageable, as in the paper
+  std::vector<std::uint8_t> previous_;
+  std::vector<IndexPair> added_;
+  std::vector<IndexPair> removed_;
+};
+
+}  // namespace
+
+std::unique_ptr<PairFinder> makePaperGpuPairFinder() {
+  return std::make_unique<PaperGpuPairFinder>();
+}
+
+}  // namespace overlap::finders
