@@ -79,12 +79,15 @@ if [[ -n "$rev" ]]; then
 fi
 
 echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "$rev" && -n "$(git status --porcelain gpu)" ]] && echo ' + uncommitted gpu/ changes'), nvcc $("$nvcc" --version | sed -n 's/.*release \([0-9.]*\), V\([0-9.]*\).*/\2/p'), sm_90, -O3"
+# The CUDA finders' folder: gpu/cuda/, or gpu/ in revisions before it.
+cuda_dir=gpu/cuda
+[[ -d "$source_root/$cuda_dir" ]] || cuda_dir=gpu
 sources=(gpu_pair_finder gpu_pair_finder_paper)
-[[ -f "$source_root/gpu/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
+[[ -f "$source_root/$cuda_dir/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
 for source in "${sources[@]}"; do
   "$nvcc" -std=c++20 -O3 -arch=sm_90 -cubin -I"$source_root" \
-    "$source_root/gpu/$source.cu" -o "$work/$source.cubin" ||
-    fail "nvcc could not compile gpu/$source.cu"
+    "$source_root/$cuda_dir/$source.cu" -o "$work/$source.cubin" ||
+    fail "nvcc could not compile $cuda_dir/$source.cu"
   "$cuobjdump" -sass "$work/$source.cubin" >"$work/$source.sass"
 done
 
