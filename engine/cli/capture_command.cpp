@@ -13,6 +13,7 @@
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
 #include "engine/cli/wording.h"
+#include "engine/cli/world_setup.h"
 #include "gpu/base/interrupt.h"
 
 namespace overlap::engine {

@@ -43,6 +43,7 @@
 #include "engine/cli/physics_options.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/world_setup.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"

@@ -30,6 +30,7 @@
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
 #include "engine/cli/wording.h"
+#include "engine/cli/world_setup.h"
 #include "engine/runtime/frame_scheduler.h"
 #include "engine/runtime/sound_and_ai.h"
 #include "engine/runtime/statistics.h"

@@ -1,12 +1,11 @@
 #include "engine/cli/scene_options.h"
 
-#include <cstdio>
+#include <stdexcept>
 #include <string_view>
 #include <tuple>
 
 #include "engine/cli/cli_errors.h"
 #include "engine/cli/number_options.h"
-#include "engine/cli/progress.h"
 #include "physics/broadphase_factory.h"
 
 namespace overlap::engine {
@@ -164,22 +163,6 @@ void addThreadsOption(CLI::App& command, int& threads) {
                   "workers run the tasks and cpubf's search (0: one per hardware thread)")
       ->check(wholeNumberIn(0, kMostThreads))
       ->capture_default_str();
-}
-
-std::unique_ptr<physics::PhysicsWorld> makeWorld(const physics::SceneConfig& config,
-                                                 const physics::WorldOptions& options) {
-  std::unique_ptr<physics::PhysicsWorld> world;
-  Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
-  try {
-    world = std::make_unique<physics::PhysicsWorld>(config, options);
-  } catch (const std::invalid_argument& error) {
-    throw UsageError(std::string("--") + error.what());
-  }
-  placing.finish();
-  if (!world->algorithmNotice().empty()) {
-    std::fprintf(stderr, "overlap: %s\n", world->algorithmNotice().c_str());
-  }
-  return world;
 }
 
 std::optional<tbb::global_control> capThreads(int threads) {

@@ -10,14 +10,12 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "physics/scene.h"
-#include "physics/world.h"
 
 namespace overlap::engine {
 
@@ -73,12 +71,6 @@ void checkBroadphaseCapacity(std::string_view option, std::string_view algorithm
 CLI::Validator broadphaseNameCheck();
 // "bf, sap, ..., gpubf-paper": every name --algo takes.
 std::string broadphaseNameList();
-
-// The world the options describe, its algorithm notice printed on stderr; a
-// scene the options cannot build (std::invalid_argument: no room for the
-// boxes, say) is a UsageError naming the option.
-std::unique_ptr<physics::PhysicsWorld> makeWorld(const physics::SceneConfig& config,
-                                                 const physics::WorldOptions& options);
 
 // Caps every oneTBB pool of the process (cpubf's search, the tasks) at
 // `threads` for as long as the result lives; 0 leaves oneTBB's default.
