@@ -1,10 +1,17 @@
 # The modules' layering, the link graph's own: a file of a module may include
 # the headers of the modules its library links, and no others.
-#   gpu/base        gpu/base                (random numbers, checksums, the stopwatch)
-#   gpu             gpu, gpu/base           (the pair finders, free of Bullet)
-#   physics         physics, gpu, gpu/base  (knows nothing of the engine)
+#   gpu/base        gpu/base                (the base library: output files, signals,
+#                                            checksums, random numbers, the stopwatch)
+#   gpu             all of gpu/             (the pair finders, free of Bullet: pair_finder.h
+#                                            their interface and factory)
+#   gpu/pairs       gpu/pairs, gpu, gpu/base (the pair logic CPU and CUDA finders share)
+#   gpu/cpu         gpu/cpu, gpu/pairs, gpu, gpu/base   (never a CUDA finder's header)
+#   gpu/cuda        gpu/cuda, gpu/pairs, gpu, gpu/base  (never a CPU finder's header)
+#   physics         physics, gpu, gpu/pairs, gpu/base   (knows nothing of the engine)
 #   render          render, gpu/base
 #   audio_ai_stubs  audio_ai_stubs, gpu/base (free of Bullet)
+#   engine/runtime  engine/runtime, physics, gpu, gpu/pairs, gpu/base, audio_ai_stubs
+#                   (the frame runtime: no command line, tool or renderer)
 #   engine          everything
 # A module in a folder of another (gpu/base in gpu) is its own: an include of
 # "gpu/base/..." counts as gpu/base, never as gpu.
@@ -14,16 +21,22 @@
 # line; the build runs it before each module's library, and ctest runs it.
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in script mode
 set(allowed_gpu/base gpu/base)
-set(allowed_gpu gpu gpu/base)
-set(allowed_physics physics gpu gpu/base)
+set(allowed_gpu gpu gpu/pairs gpu/cpu gpu/cuda gpu/base)
+set(allowed_gpu/pairs gpu/pairs gpu gpu/base)
+set(allowed_gpu/cpu gpu/cpu gpu/pairs gpu gpu/base)
+set(allowed_gpu/cuda gpu/cuda gpu/pairs gpu gpu/base)
+set(allowed_physics physics gpu gpu/pairs gpu/base)
 set(allowed_render render gpu/base)
 set(allowed_audio_ai_stubs audio_ai_stubs gpu/base)
+set(allowed_engine/runtime engine/runtime physics gpu gpu/pairs gpu/base audio_ai_stubs)
 # Nested modules first: the include pattern tries them in this order.
-set(modules gpu/base gpu physics render audio_ai_stubs engine)
+set(modules gpu/base gpu/pairs gpu/cpu gpu/cuda gpu physics render audio_ai_stubs engine/runtime
+            engine)
 
 if(NOT DEFINED MODULE OR NOT DEFINED allowed_${MODULE})
-  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu/base, gpu, physics, "
-                      "render, audio_ai_stubs (got '${MODULE}')")
+  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu/base, gpu/pairs, gpu/cpu, "
+                      "gpu/cuda, gpu, physics, render, audio_ai_stubs, engine/runtime "
+                      "(got '${MODULE}')")
 endif()
 if(NOT DEFINED DIR)
   get_filename_component(DIR "${CMAKE_CURRENT_LIST_DIR}/../${MODULE}" ABSOLUTE)

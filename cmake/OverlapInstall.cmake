@@ -1,6 +1,7 @@
 # `cmake --install BUILD --prefix P`: the broadphase package any Bullet program
 # can link (docs/PACKAGE.md).  It installs
-#   P/include/overlap/{physics,gpu}/*.h   the public headers, paths as in the tree
+#   P/include/overlap/{physics,gpu}/*.h   the public headers, included under the
+#                                         project's name: <overlap/physics/...>
 #   P/lib/liboverlap_{broadphase,gpu}.a   the libraries
 #   P/lib/cmake/Overlap/                  find_package(Overlap): Overlap::broadphase
 #                                         (catalogue, factory, Bullet adapter) and
@@ -16,8 +17,36 @@ set(OVERLAP_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/Overlap)
 install(TARGETS overlap_gpu overlap_broadphase
   EXPORT OverlapTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-  FILE_SET HEADERS DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/overlap
-  INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/overlap)
+  INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+
+# The public headers: those of overlap_broadphase and overlap_gpu's interface.
+# Inside the tree they include each other as "physics/..." and "gpu/..."; the
+# installed copies say "overlap/physics/..." and "overlap/gpu/...", so a
+# program's include path holds only include/, never a folder named physics or
+# gpu.  The copies are written at configure time, again whenever a header changes.
+set(OVERLAP_PUBLIC_HEADERS
+  gpu/pair_finder.h
+  physics/broadphase_factory.h
+  physics/default_broadphase.h
+  physics/bulk_pair_cache.h
+  physics/pair_finder_broadphase.h
+  physics/ccd_query_broadphase.h)
+foreach(header IN LISTS OVERLAP_PUBLIC_HEADERS)
+  set(source ${PROJECT_SOURCE_DIR}/${header})
+  set_property(DIRECTORY ${PROJECT_SOURCE_DIR} APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${source})
+  file(READ ${source} text)
+  string(REGEX REPLACE "(#[ \t]*include[ \t]*\")(physics|gpu)/" "\\1overlap/\\2/" text "${text}")
+  set(copy ${PROJECT_BINARY_DIR}/installed_headers/overlap/${header})
+  set(written "")
+  if(EXISTS ${copy})
+    file(READ ${copy} written)
+  endif()
+  if(NOT written STREQUAL text)
+    file(WRITE ${copy} "${text}")
+  endif()
+  get_filename_component(folder ${header} DIRECTORY)
+  install(FILES ${copy} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/overlap/${folder})
+endforeach()
 install(EXPORT OverlapTargets NAMESPACE Overlap:: DESTINATION ${OVERLAP_CMAKE_DIR})
 
 configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/OverlapConfig.cmake.in

@@ -6,7 +6,7 @@
 
 #include "gpu/base/stopwatch.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 void PairFinder::launch(std::span<const ObjectBounds> objects) {
   start(objects, nullptr);
@@ -88,4 +88,4 @@ std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,
   return static_cast<std::uint32_t>(objects);
 }
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -23,7 +23,7 @@
 //
 // Invariants: added and removed are sorted by (a, b), hold no duplicates, and
 // are disjoint; the slot count may grow between frames (new slots start with
-// no pairs) but never shrinks.  The per-pair rules live in gpu/pair_logic.h,
+// no pairs) but never shrinks.  The per-pair rules live in gpu/pairs/pair_logic.h,
 // shared by every finder.
 #pragma once
 
@@ -36,7 +36,7 @@
 #include <string>
 #include <string_view>
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 // One slot's box and collision filter, as the caller hands it over.  32 bytes
 // and 16-byte aligned so the GPU reads one object with two vector loads.
@@ -58,7 +58,7 @@ struct IndexPair {
 
 // The IndexPair of slots x and y (in either order) as one 64-bit key, lower
 // slot in the high half, so keys sort as the pairs do: the form a sweep
-// collects pairs in (gpu/pair_set.h).
+// collects pairs in (gpu/pairs/pair_set.h).
 constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
   const std::uint32_t a = x < y ? x : y;
   const std::uint32_t b = x < y ? y : x;
@@ -208,4 +208,4 @@ std::unique_ptr<PairFinder> makePairFinder(
 std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,
                                std::size_t objects);
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

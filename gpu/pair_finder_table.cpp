@@ -3,11 +3,11 @@
 // makes one) plus its row here; nothing else names it.
 #include <memory>
 
-#include "gpu/cpu_pair_finder.h"
-#include "gpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_sap_pair_finder.h"
 #include "gpu/pair_finder.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 #if OVERLAP_HAVE_CUDA
 // Defined in the GPU finders' own .cu files.
@@ -48,4 +48,4 @@ std::span<const PairFinderRow> pairFinderTable() {
   return kTable;
 }
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

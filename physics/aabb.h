@@ -19,10 +19,10 @@ struct Aabb {
 };
 
 // Object-index pairs (a < b), sorted: the world's cached pairs, a replay's.
-using PairList = std::vector<gpu::IndexPair>;
+using PairList = std::vector<finders::IndexPair>;
 
 // The pair of two object indices (>= 0) given in either order.
-inline gpu::IndexPair orderedPair(int x, int y) {
+inline finders::IndexPair orderedPair(int x, int y) {
   return {static_cast<std::uint32_t>(x < y ? x : y), static_cast<std::uint32_t>(x < y ? y : x)};
 }
 

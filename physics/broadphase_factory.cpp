@@ -102,11 +102,11 @@ void checkBulletAllocations() {
 
 }  // namespace
 
-BroadphaseCatalogue::BroadphaseCatalogue(std::span<const gpu::PairFinderRow> finders)
+BroadphaseCatalogue::BroadphaseCatalogue(std::span<const finders::PairFinderRow> finders)
     : finders_(finders.begin(), finders.end()) {
   for (const BulletRow& row : kBulletRows) entries_.push_back(row.info);
   // Every pair finder is exact (gpu/pair_finder.h).
-  for (const gpu::PairFinderRow& row : finders_) {
+  for (const finders::PairFinderRow& row : finders_) {
     entries_.push_back({row.name, true, row.needs_device, row.description});
   }
   for (const BroadphaseInfo& info : entries_) names_.push_back(info.name);
@@ -142,14 +142,14 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
     }
   }
   std::string why;
-  if (info.needs_device && !gpu::cudaDeviceAvailable(&why)) {
+  if (info.needs_device && !finders::cudaDeviceAvailable(&why)) {
     choice = make(kDeviceFallback, world_min, world_max, max_objects);
     choice.notice =
         "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
     return choice;
   }
   choice.broadphase =
-      std::make_unique<PairFinderBroadphase>(gpu::makePairFinder(name, 0, finders_));
+      std::make_unique<PairFinderBroadphase>(finders::makePairFinder(name, 0, finders_));
   return choice;
 }
 

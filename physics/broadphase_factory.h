@@ -1,7 +1,7 @@
 // Broadphases by the names the paper and the CLI use, and their catalogue:
 // every name, whether it is exact, whether it needs a CUDA device, and what
 // it is.  Bullet's four are listed here; ours are the rows of the table of
-// pair finders (gpu/pair_finder.h, gpu::pairFinderTable()), each exact.  The
+// pair finders (gpu/pair_finder.h, finders::pairFinderTable()), each exact.  The
 // CLI's --algo check and help, `overlap --list-algos`, the benchmark and the
 // tests read the catalogue; README's table is checked against it
 // (tests/physics/broadphase_catalogue_test.cpp).  The catalogue is a value:
@@ -61,7 +61,7 @@ struct BroadphaseChoice {
 class BroadphaseCatalogue {
  public:
   explicit BroadphaseCatalogue(
-      std::span<const gpu::PairFinderRow> finders = gpu::pairFinderTable());
+      std::span<const finders::PairFinderRow> finders = finders::pairFinderTable());
 
   // Every entry; the first exact one (bf) is the reference the others are
   // checked against.
@@ -89,12 +89,12 @@ class BroadphaseCatalogue {
                              const btVector3& world_max, int max_objects) const;
 
  private:
-  std::vector<gpu::PairFinderRow> finders_;
+  std::vector<finders::PairFinderRow> finders_;
   std::vector<BroadphaseInfo> entries_;
   std::vector<std::string_view> names_;
 };
 
-// The product's catalogue: Bullet's broadphases and gpu::pairFinderTable().
+// The product's catalogue: Bullet's broadphases and finders::pairFinderTable().
 const BroadphaseCatalogue& productCatalogue();
 
 // The product catalogue's entries(), names() and info().

@@ -41,8 +41,8 @@ inline std::size_t countMissing(const PairList& wanted, const PairList& held) {
 
 // Where one findPairs() of one of our broadphases (physics/pair_finder_broadphase.h) went.
 struct ReplayPhases {
-  gpu::SearchStats search;     // the finder's record of its search
-  double cache_update_ms = 0;  // applying the changes to Bullet's pair cache
+  finders::SearchStats search;  // the finder's record of its search
+  double cache_update_ms = 0;   // applying the changes to Bullet's pair cache
 };
 
 class BroadphaseReplay {

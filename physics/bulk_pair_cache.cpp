@@ -23,7 +23,7 @@ std::uint64_t orderedKey(int low, int high) {
   return (std::uint64_t{static_cast<std::uint32_t>(low)} << 32) | static_cast<std::uint32_t>(high);
 }
 
-std::uint64_t keyOf(const gpu::IndexPair& pair) {
+std::uint64_t keyOf(const finders::IndexPair& pair) {
   return (std::uint64_t{pair.a} << 32) | pair.b;
 }
 
@@ -207,8 +207,8 @@ void* BulkPairCache::removeKey(std::uint64_t key, btBroadphaseProxy* low, btBroa
   return user_data;
 }
 
-void BulkPairCache::applyChanges(std::span<const gpu::IndexPair> removed,
-                                 std::span<const gpu::IndexPair> added,
+void BulkPairCache::applyChanges(std::span<const finders::IndexPair> removed,
+                                 std::span<const finders::IndexPair> added,
                                  std::span<btBroadphaseProxy* const> proxies,
                                  btDispatcher* dispatcher) {
   // Removals: a slot is fetched kAhead pairs ahead; halfway there its pair

@@ -88,7 +88,8 @@ class BulkPairCache final : public btOverlappingPairCache {
   // called one by one.  `proxies[i]` is the proxy whose m_uniqueId is i, or
   // null where slot i's pairs are to be skipped (its proxy is gone); every
   // pair's slots index `proxies`.
-  void applyChanges(std::span<const gpu::IndexPair> removed, std::span<const gpu::IndexPair> added,
+  void applyChanges(std::span<const finders::IndexPair> removed,
+                    std::span<const finders::IndexPair> added,
                     std::span<btBroadphaseProxy* const> proxies, btDispatcher* dispatcher);
 
   // The most bytes the cache may hold, 0 for no limit; `elsewhere_per_pair`

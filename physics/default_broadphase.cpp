@@ -30,7 +30,7 @@ DefaultBroadphase defaultBroadphase(std::size_t objects, bool cuda_device,
 
 DefaultBroadphase defaultBroadphaseHere(std::size_t objects) {
   std::string why;
-  const bool device = gpu::cudaDeviceAvailable(&why);
+  const bool device = finders::cudaDeviceAvailable(&why);
   return defaultBroadphase(objects, device, why);
 }
 

@@ -9,10 +9,10 @@
 #include <string>
 
 #include "gpu/base/stopwatch.h"
-#include "gpu/pair_logic.h"
+#include "gpu/pairs/pair_logic.h"
 
 namespace overlap::physics {
-PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder)
+PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder)
     : finder_(std::move(finder)), pair_cache_(std::make_unique<BulkPairCache>()) {
   if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
 }
@@ -68,7 +68,7 @@ void PairFinderBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* 
   pair_cache_->removeOverlappingPairsContainingProxy(proxy, dispatcher);
   states_[slot] = SlotState::kDestroyed;
   live_proxies_[slot] = nullptr;
-  setSearchEntry(slot, gpu::ObjectBounds{});
+  setSearchEntry(slot, finders::ObjectBounds{});
   destroyed_.push_back(slot);
   --live_count_;
 }
@@ -89,14 +89,14 @@ void PairFinderBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
 
 void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
   const btBroadphaseProxy& proxy = *proxies_[slot];
-  gpu::ObjectBounds entry;
+  finders::ObjectBounds entry;
   for (int axis = 0; axis < 3; ++axis) {
     entry.min[axis] = static_cast<float>(proxy.m_aabbMin[axis]);
     entry.max[axis] = static_cast<float>(proxy.m_aabbMax[axis]);
   }
   entry.group = proxy.m_collisionFilterGroup;
   entry.mask = proxy.m_collisionFilterMask;
-  if (!gpu::pair_logic::boundsOrdered(entry)) {
+  if (!finders::pair_logic::boundsOrdered(entry)) {
     if (aabb_valid_[slot]) {
       const btVector3& lo = proxy.m_aabbMin;
       const btVector3& hi = proxy.m_aabbMax;
@@ -108,15 +108,15 @@ void PairFinderBroadphase::updateSearchEntry(std::uint32_t slot) {
                    double{lo.z()}, double{hi.x()}, double{hi.y()}, double{hi.z()});
     }
     aabb_valid_[slot] = false;
-    setSearchEntry(slot, gpu::ObjectBounds{});  // group = mask = 0: the search drops its pairs
+    setSearchEntry(slot, finders::ObjectBounds{});  // group = mask = 0: the search drops its pairs
     return;
   }
   aabb_valid_[slot] = true;
   setSearchEntry(slot, entry);
 }
 
-void PairFinderBroadphase::setSearchEntry(std::uint32_t slot, const gpu::ObjectBounds& entry) {
-  gpu::ObjectBounds& held = search_entries_[slot];
+void PairFinderBroadphase::setSearchEntry(std::uint32_t slot, const finders::ObjectBounds& entry) {
+  finders::ObjectBounds& held = search_entries_[slot];
   if (std::memcmp(&held, &entry, sizeof entry) == 0) return;
   held = entry;
   // Between searches the staging is ours to write (PairFinder::stagingFor).
@@ -163,7 +163,7 @@ void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   launchFromStaging();
   for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
   changed_slots_.clear();
-  const gpu::PairDelta delta = finder_->finish();
+  const finders::PairDelta delta = finder_->finish();
   const HostStopwatch cache_watch;
   // A pair with a destroyed proxy already left the cache with it: only pairs
   // of two live proxies apply.
@@ -182,7 +182,7 @@ void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
 // the slots added since the last search are copied there, the rest were
 // written as they changed.
 void PairFinderBroadphase::launchFromStaging() {
-  const std::span<gpu::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
+  const std::span<finders::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
   if (staging.empty()) {
     staging_ = {};
     finder_->launchWithChanges(search_entries_, changed_slots_);

@@ -1,4 +1,4 @@
-// PairFinderBroadphase: a Bullet broadphase backed by a gpu::PairFinder
+// PairFinderBroadphase: a Bullet broadphase backed by a finders::PairFinder
 // (cpubf, cpusap, gpubf or gpubf-paper), usable unchanged by any
 // btCollisionWorld / btDiscreteDynamicsWorld.
 //
@@ -27,7 +27,7 @@
 // - A destroyed proxy's pairs leave the cache at once; its slot is searched as
 //   unused (group = mask = 0) by the next search and reused only after it, so
 //   the finder never carries a destroyed proxy's pairs over to a new one.
-// - A proxy whose AABB is not ordered (gpu::pair_logic::boundsOrdered: a NaN,
+// - A proxy whose AABB is not ordered (finders::pair_logic::boundsOrdered: a NaN,
 //   or min > max on some axis) is out of the search (its pairs are removed,
 //   one message on stderr) until it gets an ordered AABB.
 // Like the rest of Bullet, it is not thread-safe: call it from one thread.
@@ -48,7 +48,7 @@ namespace overlap::physics {
 
 class PairFinderBroadphase final : public btBroadphaseInterface {
  public:
-  explicit PairFinderBroadphase(std::unique_ptr<gpu::PairFinder> finder);
+  explicit PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder);
   ~PairFinderBroadphase() override;
   PairFinderBroadphase(const PairFinderBroadphase&) = delete;
   PairFinderBroadphase& operator=(const PairFinderBroadphase&) = delete;
@@ -78,8 +78,8 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   void resetPool(btDispatcher* dispatcher) override;
   void printStats() override;
 
-  // The finder's record of its last search (gpu::PairFinder::lastStats).
-  gpu::SearchStats lastSearchStats() const { return finder_->lastStats(); }
+  // The finder's record of its last search (finders::PairFinder::lastStats).
+  finders::SearchStats lastSearchStats() const { return finder_->lastStats(); }
   // The last search's time applying the finder's changes to the pair cache.
   double lastCacheUpdateMs() const { return last_cache_update_ms_; }
 
@@ -98,11 +98,11 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // Writes the slot's search entry from its proxy, taking it out of the search
   // (with one message) when the AABB is unusable.
   void updateSearchEntry(std::uint32_t slot);
-  void setSearchEntry(std::uint32_t slot, const gpu::ObjectBounds& entry);
+  void setSearchEntry(std::uint32_t slot, const finders::ObjectBounds& entry);
   // Live proxies with a usable AABB, the ones queries may report.
   void forEachSearchableProxy(const std::function<void(btBroadphaseProxy&)>& visit);
 
-  std::unique_ptr<gpu::PairFinder> finder_;
+  std::unique_ptr<finders::PairFinder> finder_;
   std::unique_ptr<BulkPairCache> pair_cache_;
   // Indexed by slot.  A destroyed proxy stays allocated until its slot is
   // reused, so a stale result never names freed memory.
@@ -112,9 +112,9 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // the cache skips in a search's changes).
   std::vector<btBroadphaseProxy*> live_proxies_;
   std::vector<bool> aabb_valid_;
-  std::vector<gpu::ObjectBounds> search_entries_;  // what the finder sees
+  std::vector<finders::ObjectBounds> search_entries_;  // what the finder sees
   // The finder's staging as the last search passed it; empty if it has none.
-  std::span<gpu::ObjectBounds> staging_;
+  std::span<finders::ObjectBounds> staging_;
   // The slots whose search entry changed since the last search, each once
   // (changed_flags_ marks them): the finder's move buffer.
   std::vector<std::uint32_t> changed_slots_;

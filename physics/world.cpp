@@ -517,7 +517,7 @@ void PhysicsWorld::noteContactsStarted() {
   b.touching = std::move(touching);
 
   const auto n = static_cast<int>(layout_.boxes.size());
-  for (const gpu::IndexPair& pair : began) {
+  for (const finders::IndexPair& pair : began) {
     const auto index0 = static_cast<int>(pair.a);
     const auto index1 = static_cast<int>(pair.b);
     const btRigidBody& body0 = *b.bodies[pair.a];

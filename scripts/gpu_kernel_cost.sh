@@ -3,8 +3,8 @@
 # CUDA emulation; no GPU is needed and no time is measured.
 #   scripts/gpu_kernel_cost.sh [--rev REV] [EMULATION_BUILD_DIR]
 #
-# 1. Compiles gpu/gpu_pair_finder.cu, gpu/gpu_pair_finder_paper.cu and
-#    gpu/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
+# 1. Compiles gpu/cuda/gpu_pair_finder.cu, gpu/cuda/gpu_pair_finder_paper.cu and
+#    gpu/cuda/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
 #    revision without gpusap skips it) for sm_90 with this machine's nvcc at
 #    -O3, and disassembles them (cuobjdump -sass).  CUB's own kernels (gpusap's
 #    sorts, scan and selections) are listed by name only: they are the
@@ -78,12 +78,15 @@ if [[ -n "$rev" ]]; then
 fi
 
 echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "$rev" && -n "$(git status --porcelain gpu)" ]] && echo ' + uncommitted gpu/ changes'), nvcc $("$nvcc" --version | sed -n 's/.*release \([0-9.]*\), V\([0-9.]*\).*/\2/p'), sm_90, -O3"
+# The CUDA finders' folder: gpu/cuda/, or gpu/ in revisions before it.
+cuda_dir=gpu/cuda
+[[ -d "$source_root/$cuda_dir" ]] || cuda_dir=gpu
 sources=(gpu_pair_finder gpu_pair_finder_paper)
-[[ -f "$source_root/gpu/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
+[[ -f "$source_root/$cuda_dir/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
 for source in "${sources[@]}"; do
   "$nvcc" -std=c++20 -O3 -arch=sm_90 -cubin -I"$source_root" \
-    "$source_root/gpu/$source.cu" -o "$work/$source.cubin" ||
-    fail "nvcc could not compile gpu/$source.cu"
+    "$source_root/$cuda_dir/$source.cu" -o "$work/$source.cubin" ||
+    fail "nvcc could not compile $cuda_dir/$source.cu"
   "$cuobjdump" -sass "$work/$source.cubin" >"$work/$source.sass"
 done
 

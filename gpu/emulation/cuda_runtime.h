@@ -1,5 +1,5 @@
 // The CUDA emulation's <cuda_runtime.h>: the slice of the CUDA runtime API
-// and of the device language that gpu/*.cu use, for the host compiler.  In
+// and of the device language that gpu/cuda/*.cu use, for the host compiler.  In
 // the emulation build (OVERLAP_CUDA_EMULATION) this directory is on the
 // include path ahead of the toolkit, so the .cu files compile unchanged; the
 // build rewrites `kernel<<<grid, block, shared, stream>>>(args)` into a call

@@ -280,7 +280,7 @@ TEST_F(CliTest, RecordWritesBoxesThatLeftTheSimulationSoPairsReadsThem) {
 // fall back to a CPU finder, and their pairs must be cpubf's.
 TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
   std::string why;
-  if (!overlap::gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  if (!overlap::finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   std::filesystem::create_directories(out_);
   const std::filesystem::path stream = out_ / "scene4.aabbs";
   ASSERT_EQ(
@@ -304,7 +304,7 @@ TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
 // Where this process sees a CUDA device, so does `overlap`: it runs gpubf there.
 TEST_F(CliTest, RunWithGpubfNamesTheDeviceItRanOn) {
   std::string why;
-  if (!overlap::gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  if (!overlap::finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   const Result result =
       runOverlap("run --scene 4 --objects 150 --frames 6 --algo gpubf --out " + out_.string());
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;

@@ -1,6 +1,6 @@
 // The job graph on its own: dependencies kept in both orders, the refused
 // graphs, and errors that leave nothing in flight.
-#include "engine/job_graph.h"
+#include "engine/runtime/job_graph.h"
 
 #include <gtest/gtest.h>
 

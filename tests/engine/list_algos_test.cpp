@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/algorithm_list.h"
+#include "engine/cli/algorithm_list.h"
 #include "physics/broadphase_factory.h"
 
 namespace overlap::engine {

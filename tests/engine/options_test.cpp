@@ -6,8 +6,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "engine/app.h"
-#include "engine/scene_options.h"
+#include "engine/cli/app.h"
+#include "engine/cli/scene_options.h"
 
 namespace overlap::engine {
 namespace {

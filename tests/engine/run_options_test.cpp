@@ -43,7 +43,7 @@ std::size_t threadsTheCudaDriverStarts() {
   static const std::size_t driver_threads = [] {
     const std::size_t before = threadsIn("/proc/self/task");
     std::string why;
-    if (overlap::gpu::cudaDeviceAvailable(&why)) (void)overlap::gpu::cudaDeviceName();
+    if (overlap::finders::cudaDeviceAvailable(&why)) (void)overlap::finders::cudaDeviceName();
     const std::size_t after = threadsIn("/proc/self/task");
     return after > before ? after - before : 0;
   }();

@@ -262,7 +262,7 @@ TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
 
 TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
   std::string why;
-  if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  if (!finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   const Outcome reference = runFrames("cpubf", true, 30);
   for (const char* algorithm : {"gpubf", "gpubf-paper", "gpusap"}) {
     const Outcome async_run = runFrames(algorithm, false, 30);

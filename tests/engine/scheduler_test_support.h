@@ -3,9 +3,9 @@
 // physics does.
 #pragma once
 
-#include "engine/frame_scheduler.h"
-#include "engine/sound_and_ai.h"
-#include "engine/timeline.h"
+#include "engine/runtime/frame_scheduler.h"
+#include "engine/runtime/sound_and_ai.h"
+#include "engine/runtime/timeline.h"
 
 namespace overlap::engine::testing {
 

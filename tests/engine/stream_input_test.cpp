@@ -68,7 +68,7 @@ TEST_F(StreamInputTest, AStreamFromAPipeIsTimedAsTheSameStreamFromAFile) {
 
 TEST_F(StreamInputTest, TheGpuColumnsHoldWhatTheGpuFindersDidAndNothingForTheOthers) {
   std::string why;
-  if (!gpu::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  if (!finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   const std::filesystem::path a = out_ / "a.aabbs";
   ASSERT_EQ(runOverlap("generate --scene 4 --objects 300 --frames 3 --out " + a.string()).exit_code,
             0);

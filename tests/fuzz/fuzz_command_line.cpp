@@ -1,6 +1,6 @@
 // libFuzzer target: the `overlap` command line.  The input is split into
 // arguments at NULs and whitespace and parsed by the app main() runs
-// (engine/app.h), every check and validator included, but no subcommand
+// (engine/cli/app.h), every check and validator included, but no subcommand
 // runs and nothing is written; then the checks each subcommand makes before
 // it starts run on what was parsed.
 // Rejections are CLI::ParseError (help included), engine::UsageError or
@@ -15,9 +15,9 @@
 
 #include "audio_ai_stubs/ai.h"
 #include "audio_ai_stubs/sound.h"
-#include "engine/app.h"
-#include "engine/cli_errors.h"
-#include "engine/scene_options.h"
+#include "engine/cli/app.h"
+#include "engine/cli/cli_errors.h"
+#include "engine/cli/scene_options.h"
 #include "render/capture_options.h"
 
 namespace {

@@ -4,7 +4,7 @@
 // boxes that cannot be swept (NaN, inverted, infinite) are handled as cpubf
 // handles them; slots leave and return mid-run; and it agrees with cpubf on
 // a long run of moving boxes.
-#include "gpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sap_pair_finder.h"
 
 #include <gtest/gtest.h>
 
@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu_pair_finder.h"
-#include "gpu/pair_set.h"
+#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/pairs/pair_set.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using sap::SweepKernel;
@@ -383,4 +383,4 @@ TEST(PairSetTest, RowsComeOutSortedWhetherBuiltSeriallyOrInParallel) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -1,7 +1,7 @@
 // The CUDA emulation's own tests (gpu/emulation/): one small kernel per rule
 // the emulation holds to, and per violation it must catch, each caught with
 // a message naming what went wrong and where.  Built only in the emulation
-// build (OVERLAP_CUDA_EMULATION), through the same launch rewrite as gpu/*.cu.
+// build (OVERLAP_CUDA_EMULATION), through the same launch rewrite as gpu/cuda/*.cu.
 #include <cuda_runtime.h>
 #include <gtest/gtest.h>
 
@@ -52,9 +52,9 @@ TEST(CudaEmulation, OneDeviceNamedForWhatItIs) {
   ASSERT_EQ(cudaGetDeviceCount(&count), cudaSuccess);
   EXPECT_EQ(count, 1);
   std::string why;
-  EXPECT_TRUE(overlap::gpu::cudaDeviceAvailable(&why)) << why;
-  EXPECT_TRUE(overlap::gpu::cudaDeviceName().starts_with("CUDA emulation on the CPU, "))
-      << overlap::gpu::cudaDeviceName();
+  EXPECT_TRUE(overlap::finders::cudaDeviceAvailable(&why)) << why;
+  EXPECT_TRUE(overlap::finders::cudaDeviceName().starts_with("CUDA emulation on the CPU, "))
+      << overlap::finders::cudaDeviceName();
 }
 
 __global__ void writeCoordinates(unsigned* out) {

@@ -13,7 +13,7 @@
 #include "tests/gpu/frame_cost.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using testing::box;
@@ -163,4 +163,4 @@ TEST(GpubfDeviceSortTest, ChangesComeBackSortedWithNoHostSortUnlessAListOutgrows
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -12,7 +12,7 @@
 #include "gpu/emulation/api_counters.h"
 #include "gpu/pair_finder.h"
 
-namespace overlap::gpu::testing {
+namespace overlap::finders::testing {
 
 // n boxes on a line, 0.9 apart and 1 wide, every other one shifted by 0.2:
 // each overlaps one neighbour, and the neighbour changes with the frame's
@@ -45,4 +45,4 @@ inline cuda_emulation::ApiCounters steadyFrameCost(PairFinder& finder, std::uint
   return cuda_emulation::apiCounters() - before;
 }
 
-}  // namespace overlap::gpu::testing
+}  // namespace overlap::finders::testing

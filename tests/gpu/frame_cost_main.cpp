@@ -13,7 +13,7 @@
 #include "tests/gpu/frame_cost.h"
 
 int main(int argc, char** argv) {
-  using namespace overlap::gpu;
+  using namespace overlap::finders;
   std::vector<std::uint32_t> sizes;
   for (int i = 1; i < argc; ++i) {
     char* end = nullptr;

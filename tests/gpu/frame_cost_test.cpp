@@ -10,7 +10,7 @@
 
 #include "gpu/pair_finder.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 // Both lean finders' steady frame: one upload, one copy back, one host wait,
@@ -66,4 +66,4 @@ TEST(GpubfPaperFrameCostTest, CopiesEveryPairsByteBack) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -14,7 +14,7 @@
 #include "gpu/pair_finder.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 TEST(GpuSapMemoryTest, ThirtyTwoBytesPerBoxThirtyTwoPerEntryAndTwentyFourPerPairOfCapacity) {
@@ -39,4 +39,4 @@ TEST(GpuSapMemoryTest, ThirtyTwoBytesPerBoxThirtyTwoPerEntryAndTwentyFourPerPair
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

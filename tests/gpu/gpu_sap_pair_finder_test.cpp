@@ -12,12 +12,12 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu_pair_finder.h"
-#include "gpu/grid_pair_checker.h"
+#include "gpu/cpu/cpu_pair_finder.h"
 #include "gpu/pair_finder.h"
+#include "gpu/pairs/grid_pair_checker.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using testing::BoxSet;
@@ -201,4 +201,4 @@ TEST_F(GpuSapTest, OnlyBoxesGoUpAndOnlyTheResultBlockComesBackWithNoHostSort) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

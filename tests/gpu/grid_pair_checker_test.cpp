@@ -1,7 +1,7 @@
 // The grid checker, the exact answer at 10^5-10^6 boxes: it agrees with the
 // brute-force oracle on every box set and size of the finder tests (touching,
 // one ulp apart, degenerate, NaN, inverted, infinite) and with cpusap at 100000.
-#include "gpu/grid_pair_checker.h"
+#include "gpu/pairs/grid_pair_checker.h"
 
 #include <gtest/gtest.h>
 
@@ -9,11 +9,11 @@
 #include <random>
 #include <vector>
 
-#include "gpu/cpu_sap_pair_finder.h"
-#include "gpu/pair_set.h"
+#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/pairs/pair_set.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 std::vector<std::uint64_t> oracleKeys(std::span<const ObjectBounds> boxes) {
@@ -74,4 +74,4 @@ TEST(GridPairCheckerTest, AgreesWithCpusapAtAHundredThousandBoxes) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

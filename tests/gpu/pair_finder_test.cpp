@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_pair_finder.h"
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using testing::box;
@@ -260,4 +260,4 @@ TEST(MakePairFinderTest, MakesEachRowsFinderByNameAndDeviceOnesOnlyWithADevice) 
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

@@ -1,6 +1,6 @@
 // The shared per-pair logic: exact pair numbering, the inclusive overlap test,
 // the filter test and the bit algebra of added and removed pairs.
-#include "gpu/pair_logic.h"
+#include "gpu/pairs/pair_logic.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 
 #include "tests/gpu/pair_test_support.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using pair_logic::addedBits;
@@ -175,4 +175,4 @@ TEST(PairLogicTest, ObjectsPairAgreesWithTheOracle) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

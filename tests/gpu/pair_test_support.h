@@ -1,5 +1,5 @@
 // Test support for the pair finders: an exact brute-force oracle, written
-// independently of gpu/pair_logic.h, and box sets that probe the edges of the
+// independently of gpu/pairs/pair_logic.h, and box sets that probe the edges of the
 // overlap test (touching faces/edges/corners, one ulp apart, identical,
 // degenerate, far from the origin) and move from frame to frame.
 #pragma once
@@ -20,15 +20,15 @@
 
 #include "gpu/pair_finder.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 
 inline void PrintTo(const IndexPair& pair, std::ostream* out) {
   *out << "(" << pair.a << ", " << pair.b << ")";
 }
 
-}  // namespace overlap::gpu
+}  // namespace overlap::finders
 
-namespace overlap::gpu::testing {
+namespace overlap::finders::testing {
 
 inline bool oracleOverlap(const ObjectBounds& x, const ObjectBounds& y) {
   for (int axis = 0; axis < 3; ++axis) {
@@ -194,7 +194,7 @@ inline bool isGpuFinder(std::string_view name) {
   return pairFinderRow(name).needs_device;
 }
 
-// The names of the finders of the product's table (gpu::pairFinderTable()),
+// The names of the finders of the product's table (finders::pairFinderTable()),
 // for tests parameterized over them; `device` picks the CPU or GPU ones.
 inline std::vector<std::string_view> finderNames() {
   std::vector<std::string_view> names;
@@ -269,4 +269,4 @@ inline void expectFrameMatchesOracle(PairFinder& finder, std::span<const ObjectB
   pairs = std::move(now);
 }
 
-}  // namespace overlap::gpu::testing
+}  // namespace overlap::finders::testing

@@ -1,7 +1,7 @@
-// gpubf's row-word layout and run walk (gpu/row_words.h), on the host: every
+// gpubf's row-word layout and run walk (gpu/pairs/row_words.h), on the host: every
 // pair has one bit, every run's rows are its column's, and the 64-bit index
 // arithmetic stays exact past 2^32 pairs (n = 100000) and up to 2^32 slots.
-#include "gpu/row_words.h"
+#include "gpu/pairs/row_words.h"
 
 #include <gtest/gtest.h>
 
@@ -9,9 +9,9 @@
 #include <random>
 #include <vector>
 
-#include "gpu/pair_logic.h"
+#include "gpu/pairs/pair_logic.h"
 
-namespace overlap::gpu {
+namespace overlap::finders {
 namespace {
 
 using row_words::columnCount;
@@ -116,4 +116,4 @@ TEST(RowWordsTest, TheLastRunsOfTheLargestSlotCountStayInRange) {
 }
 
 }  // namespace
-}  // namespace overlap::gpu
+}  // namespace overlap::finders

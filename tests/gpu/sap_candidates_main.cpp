@@ -1,5 +1,5 @@
 // What gpusap's sweep tests per box on a .aabbs stream's frame, counted on
-// the CPU with gpusap's own rules (gpu/gpu_sap_kernels.cuh, gpu/sap_sweep.h):
+// the CPU with gpusap's own rules (gpu/cuda/gpu_sap_kernels.cuh, gpu/pairs/sap_sweep.h):
 // its candidates along one axis (the sweep before slabs) and within the
 // slabs of a second axis, the entries per box the slabs cost, and the pairs
 // per box (found within the slabs, each once).
@@ -13,14 +13,14 @@
 #include <string>
 #include <vector>
 
-#include "gpu/pair_logic.h"
-#include "gpu/sap_sweep.h"
+#include "gpu/pairs/pair_logic.h"
+#include "gpu/pairs/sap_sweep.h"
 #include "physics/aabb_stream.h"
 
 namespace {
 
-using overlap::gpu::ObjectBounds;
-namespace sap = overlap::gpu::sap;
+using overlap::finders::ObjectBounds;
+namespace sap = overlap::finders::sap;
 
 // sap::orderedBits with -0 read as +0, as gpusap's keys are.
 std::uint64_t keyOf(float value) {
@@ -78,7 +78,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
       const ObjectBounds& other = boxes[slots[order[j - sorted.begin()]]];
       const bool first_shared = axes.grid.slabOf(box.min[axes.slab]) == slab ||
                                 axes.grid.slabOf(other.min[axes.slab]) == slab;
-      count.pairs += overlap::gpu::pair_logic::objectsPair(box, other) && first_shared;
+      count.pairs += overlap::finders::pair_logic::objectsPair(box, other) && first_shared;
     }
   }
   return count;

@@ -88,7 +88,7 @@ TEST_P(BadValuesMidRun, TheBoxLeavesWithAMessageAndNothingElseBreaks) {
       } else {
         ASSERT_TRUE(missesNoPair(cached, exact)) << "frame " << later.frame;
       }
-      for (const gpu::IndexPair& pair : cached) {
+      for (const finders::IndexPair& pair : cached) {
         for (int i = 0; i <= static_cast<int>(v); ++i) {
           const auto gone = static_cast<std::uint32_t>(victims[static_cast<std::size_t>(i)]);
           ASSERT_TRUE(pair.a != gone && pair.b != gone) << "a removed box is still paired";

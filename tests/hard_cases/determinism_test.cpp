@@ -128,7 +128,7 @@ ScheduledRun scheduledRun(bool sync) {
   for (int frame = 0; frame < kFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
     const physics::PairList pairs = world.cachedPairs();
-    run.pairs_digest = fnv1a(std::span<const gpu::IndexPair>(pairs), run.pairs_digest);
+    run.pairs_digest = fnv1a(std::span<const finders::IndexPair>(pairs), run.pairs_digest);
     const std::array<int, 1> frame_separator{-1};
     run.pairs_digest = fnv1a(std::span<const int>(frame_separator), run.pairs_digest);
   }
@@ -172,7 +172,7 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
                                         std::string_view finder) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);
-  physics::PairFinderBroadphase broadphase(gpu::makePairFinder(finder, threads));
+  physics::PairFinderBroadphase broadphase(finders::makePairFinder(finder, threads));
   auto corner = [](const float(&xyz)[3]) { return btVector3(xyz[0], xyz[1], xyz[2]); };
   std::vector<btBroadphaseProxy*> proxies;
   for (const physics::Aabb& b : frames.front()) {
@@ -221,8 +221,8 @@ TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
 }
 
 INSTANTIATE_TEST_SUITE_P(CpuFinders, FinderThreads,
-                         ::testing::ValuesIn(gpu::testing::finderNames(false)),
-                         gpu::testing::finderTestName);
+                         ::testing::ValuesIn(finders::testing::finderNames(false)),
+                         finders::testing::finderTestName);
 
 }  // namespace
 }  // namespace overlap::hard_cases

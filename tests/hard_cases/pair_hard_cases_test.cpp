@@ -271,7 +271,7 @@ class PairHardCases : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {
     std::string why;
-    if (physics::broadphaseInfo(GetParam()).needs_device && !gpu::cudaDeviceAvailable(&why)) {
+    if (physics::broadphaseInfo(GetParam()).needs_device && !finders::cudaDeviceAvailable(&why)) {
       GTEST_SKIP() << "no CUDA device: " << why;
     }
   }

@@ -5,14 +5,13 @@
 // boxes, finds; a ray cast down the middle must hit.  Prints one line and
 // exits 0, or names the first step that differs and exits 1.
 #include <btBulletDynamicsCommon.h>
+#include <overlap/physics/broadphase_factory.h>
 
 #include <cstdio>
 #include <memory>
 #include <set>
 #include <utility>
 #include <vector>
-
-#include "physics/broadphase_factory.h"
 
 namespace {
 

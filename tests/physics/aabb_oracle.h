@@ -17,9 +17,9 @@ namespace overlap::physics::testing {
 
 // Every overlapping pair (a, b), a < b, sorted; touching counts.
 inline PairList oraclePairs(std::span<const Aabb> boxes, int first_static) {
-  std::vector<gpu::ObjectBounds> bounds(boxes.size());
+  std::vector<finders::ObjectBounds> bounds(boxes.size());
   for (std::size_t i = 0; i < boxes.size(); ++i) {
-    gpu::ObjectBounds& b = bounds[i];
+    finders::ObjectBounds& b = bounds[i];
     for (int axis = 0; axis < 3; ++axis) {
       b.min[axis] = boxes[i].min[axis];
       b.max[axis] = boxes[i].max[axis];
@@ -29,7 +29,7 @@ inline PairList oraclePairs(std::span<const Aabb> boxes, int first_static) {
     b.mask = is_static ? btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter
                        : btBroadphaseProxy::AllFilter;
   }
-  return gpu::testing::oraclePairs(bounds);
+  return finders::testing::oraclePairs(bounds);
 }
 
 // Every box dynamic.

@@ -131,7 +131,7 @@ TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
     replay.update(stream.frame(1));
     replay.findPairs();
     const auto pairs = replay.pairs();
-    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), gpu::IndexPair{1, 2}) != pairs.end())
+    EXPECT_TRUE(std::find(pairs.begin(), pairs.end(), finders::IndexPair{1, 2}) != pairs.end())
         << algorithm;
   }
 }

@@ -76,7 +76,7 @@ TEST(BroadphaseCatalogue, TheReadmeTableReaderRefusesWhatItCannotRead) {
 TEST(BroadphaseCatalogue, EveryNameMakesItsBroadphaseOrSaysWhyNot) {
   std::set<std::string_view> names;
   std::string why;
-  const bool have_device = gpu::cudaDeviceAvailable(&why);
+  const bool have_device = finders::cudaDeviceAvailable(&why);
   for (const BroadphaseInfo& info : broadphaseCatalogue()) {
     EXPECT_TRUE(names.insert(info.name).second) << info.name << " listed twice";
     EXPECT_FALSE(info.description.empty()) << info.name;

@@ -25,8 +25,8 @@
 namespace overlap::physics {
 namespace {
 
-using gpu::IndexPair;
-using gpu::ObjectBounds;
+using finders::IndexPair;
+using finders::ObjectBounds;
 
 // Every add and removal the ghost callback hears, in order, as (id0, id1).
 class CallLog : public btOverlappingPairCallback {
@@ -146,7 +146,7 @@ class Scene {
 };
 
 // What the adapter did before the bulk cache: each change, one call at a time.
-void applyOneByOne(btOverlappingPairCache& cache, const gpu::PairDelta& delta,
+void applyOneByOne(btOverlappingPairCache& cache, const finders::PairDelta& delta,
                    std::span<btBroadphaseProxy* const> live, btDispatcher* dispatcher) {
   for (const IndexPair& pair : delta.removed) {
     if (live[pair.a] != nullptr && live[pair.b] != nullptr) {
@@ -164,16 +164,16 @@ class BulkPairCacheFinders : public ::testing::TestWithParam<std::string_view> {
 
 TEST_P(BulkPairCacheFinders, HoldsTheSamePairsInTheSameOrderAsBulletsCacheCallByCall) {
   std::string why;
-  if (gpu::testing::isGpuFinder(GetParam()) && !gpu::cudaDeviceAvailable(&why)) {
+  if (finders::testing::isGpuFinder(GetParam()) && !finders::cudaDeviceAvailable(&why)) {
     GTEST_SKIP() << "no CUDA device: " << why;
   }
-  const std::unique_ptr<gpu::PairFinder> finder = gpu::makePairFinder(GetParam());
+  const std::unique_ptr<finders::PairFinder> finder = finders::makePairFinder(GetParam());
   TwoCaches caches;
   Scene scene(600);
   std::size_t changes = 0, most_pairs = 0;
   for (int frame = 0; frame < 40; ++frame) {
     finder->launch(scene.nextFrame());
-    const gpu::PairDelta delta = finder->finish();
+    const finders::PairDelta delta = finder->finish();
     changes += delta.added.size() + delta.removed.size();
     applyOneByOne(caches.bullet, delta, scene.live(), nullptr);
     caches.bulk.applyChanges(delta.removed, delta.added, scene.live(), nullptr);
@@ -189,8 +189,8 @@ TEST_P(BulkPairCacheFinders, HoldsTheSamePairsInTheSameOrderAsBulletsCacheCallBy
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, BulkPairCacheFinders,
-                         ::testing::ValuesIn(gpu::testing::finderNames()),
-                         gpu::testing::finderTestName);
+                         ::testing::ValuesIn(finders::testing::finderNames()),
+                         finders::testing::finderTestName);
 
 // Records the visits; where `remove`, removes every pair whose ids sum to a
 // multiple of 3.  (Bullet's deterministic visit cannot remove: after a

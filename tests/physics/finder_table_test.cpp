@@ -22,15 +22,15 @@ namespace overlap::physics {
 namespace {
 
 // Every pair tested, this frame's set compared with last frame's.
-class NaiveFinder final : public gpu::PairFinder {
+class NaiveFinder final : public finders::PairFinder {
  public:
   std::string_view name() const override { return "naive"; }
 
  private:
-  void startSearch(std::span<const gpu::ObjectBounds> objects,
+  void startSearch(std::span<const finders::ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    slot_count_ = gpu::checkedSlotCount(name(), slot_count_, objects.size());
-    std::vector<gpu::IndexPair> now = gpu::testing::oraclePairs(objects);
+    slot_count_ = finders::checkedSlotCount(name(), slot_count_, objects.size());
+    std::vector<finders::IndexPair> now = finders::testing::oraclePairs(objects);
     added_.clear();
     removed_.clear();
     std::set_difference(now.begin(), now.end(), last_.begin(), last_.end(),
@@ -39,20 +39,21 @@ class NaiveFinder final : public gpu::PairFinder {
                         std::back_inserter(removed_));
     last_ = std::move(now);
   }
-  gpu::PairDelta finishSearch() override { return {added_, removed_}; }
-  gpu::SearchStats searchStats() const override { return {}; }
+  finders::PairDelta finishSearch() override { return {added_, removed_}; }
+  finders::SearchStats searchStats() const override { return {}; }
 
   std::uint32_t slot_count_ = 0;
-  std::vector<gpu::IndexPair> last_, added_, removed_;
+  std::vector<finders::IndexPair> last_, added_, removed_;
 };
 
 // The product's table and one row more: all it takes to add a finder.
-std::vector<gpu::PairFinderRow> tableWithNaive() {
-  std::vector<gpu::PairFinderRow> table(gpu::pairFinderTable().begin(),
-                                        gpu::pairFinderTable().end());
-  table.push_back(
-      {"naive", false, "every pair tested, one by one",
-       [](int) -> std::unique_ptr<gpu::PairFinder> { return std::make_unique<NaiveFinder>(); }});
+std::vector<finders::PairFinderRow> tableWithNaive() {
+  std::vector<finders::PairFinderRow> table(finders::pairFinderTable().begin(),
+                                            finders::pairFinderTable().end());
+  table.push_back({"naive", false, "every pair tested, one by one",
+                   [](int) -> std::unique_ptr<finders::PairFinder> {
+                     return std::make_unique<NaiveFinder>();
+                   }});
   return table;
 }
 
@@ -102,7 +103,7 @@ std::vector<PairList> pairsOfAPile(const BroadphaseCatalogue& catalogue, std::st
 }
 
 TEST(FinderTable, ARowAddedToACopyOfTheTableIsListedAndMadeByName) {
-  const std::vector<gpu::PairFinderRow> table = tableWithNaive();
+  const std::vector<finders::PairFinderRow> table = tableWithNaive();
   const BroadphaseCatalogue catalogue(table);
   const BroadphaseInfo& naive = catalogue.info("naive");
   EXPECT_TRUE(naive.exact);
@@ -112,11 +113,11 @@ TEST(FinderTable, ARowAddedToACopyOfTheTableIsListedAndMadeByName) {
   EXPECT_EQ(catalogue.names().back(), "naive");
   // The product's catalogue is untouched.
   EXPECT_THROW(broadphaseInfo("naive"), std::invalid_argument);
-  EXPECT_EQ(gpu::makePairFinder("naive", 0, table)->name(), "naive");
+  EXPECT_EQ(finders::makePairFinder("naive", 0, table)->name(), "naive");
 }
 
 TEST(FinderTable, BulletRunsTheAddedFinderWithCpubfsPairs) {
-  const std::vector<gpu::PairFinderRow> table = tableWithNaive();
+  const std::vector<finders::PairFinderRow> table = tableWithNaive();
   const BroadphaseCatalogue catalogue(table);
   const std::vector<PairList> naive = pairsOfAPile(catalogue, "naive");
   const std::vector<PairList> cpubf = pairsOfAPile(catalogue, "cpubf");

@@ -22,8 +22,8 @@
 namespace overlap::physics {
 namespace {
 
-using gpu::IndexPair;
-using gpu::ObjectBounds;
+using finders::IndexPair;
+using finders::ObjectBounds;
 
 constexpr int kDefault = btBroadphaseProxy::DefaultFilter;
 constexpr int kAll = btBroadphaseProxy::AllFilter;
@@ -57,10 +57,10 @@ class PairFinderBroadphaseTest : public ::testing::TestWithParam<std::string_vie
  protected:
   void SetUp() override {
     std::string why;
-    if (gpu::testing::isGpuFinder(GetParam()) && !gpu::cudaDeviceAvailable(&why)) {
+    if (finders::testing::isGpuFinder(GetParam()) && !finders::cudaDeviceAvailable(&why)) {
       GTEST_SKIP() << "no CUDA device: " << why;
     }
-    broadphase_ = std::make_unique<PairFinderBroadphase>(gpu::makePairFinder(GetParam()));
+    broadphase_ = std::make_unique<PairFinderBroadphase>(finders::makePairFinder(GetParam()));
     broadphase_->getOverlappingPairCache()->setInternalGhostPairCallback(&ledger_);
   }
 
@@ -100,7 +100,7 @@ class PairFinderBroadphaseTest : public ::testing::TestWithParam<std::string_vie
       entry.group = proxy->m_collisionFilterGroup;
       entry.mask = proxy->m_collisionFilterMask;
     }
-    return gpu::testing::oraclePairs(bounds);
+    return finders::testing::oraclePairs(bounds);
   }
 
   btDefaultCollisionConfiguration configuration_;
@@ -111,16 +111,18 @@ class PairFinderBroadphaseTest : public ::testing::TestWithParam<std::string_vie
 
 TEST_P(PairFinderBroadphaseTest, CacheMatchesOracleWhileObjectsMove) {
   std::vector<btBroadphaseProxy*> live;
-  for (const ObjectBounds& b : gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 400, 0)) {
+  for (const ObjectBounds& b :
+       finders::testing::makeBoxes(finders::testing::BoxSet::kRandom, 400, 0)) {
     live.push_back(create(b, b.group, b.mask));
   }
   for (int frame = 1; frame < 6; ++frame) {
-    const auto moved = gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 400, frame);
+    const auto moved = finders::testing::makeBoxes(finders::testing::BoxSet::kRandom, 400, frame);
     for (std::size_t i = 0; i < live.size(); ++i) {
       broadphase_->setAabb(live[i], minOf(moved[i]), maxOf(moved[i]), &dispatcher_);
     }
     broadphase_->calculateOverlappingPairs(&dispatcher_);
-    EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
+    EXPECT_TRUE(finders::testing::samePairs(cachedPairs(), expectedPairs(live)))
+        << "frame " << frame;
   }
 }
 
@@ -129,7 +131,7 @@ TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoBetweenSearches) {
   std::uniform_real_distribution<float> position(0.0f, 12.0f);
   const auto randomBox = [&] {
     const float x = position(random), y = position(random), z = position(random);
-    return gpu::testing::box(x, y, z, x + 1.5f, y + 1.5f, z + 1.5f);
+    return finders::testing::box(x, y, z, x + 1.5f, y + 1.5f, z + 1.5f);
   };
   std::vector<btBroadphaseProxy*> live;
   const auto churn = [&] {
@@ -157,12 +159,13 @@ TEST_P(PairFinderBroadphaseTest, ProxiesComeAndGoBetweenSearches) {
           << "a cached pair names a destroyed proxy";
     }
     broadphase_->calculateOverlappingPairs(&dispatcher_);
-    EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
+    EXPECT_TRUE(finders::testing::samePairs(cachedPairs(), expectedPairs(live)))
+        << "frame " << frame;
   }
 }
 
 TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextSearch) {
-  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  const ObjectBounds unit = finders::testing::box(0, 0, 0, 1, 1, 1);
   btBroadphaseProxy* keep = create(unit);
   btBroadphaseProxy* gone = create(unit);
   broadphase_->calculateOverlappingPairs(&dispatcher_);
@@ -180,8 +183,8 @@ TEST_P(PairFinderBroadphaseTest, DestroyedSlotIsReusedOnlyAfterTheNextSearch) {
 }
 
 TEST_P(PairFinderBroadphaseTest, StayingPairKeepsItsCacheEntry) {
-  btBroadphaseProxy* a = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
-  btBroadphaseProxy* b = create(gpu::testing::box(0.5f, 0, 0, 1.5f, 1, 1));
+  btBroadphaseProxy* a = create(finders::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* b = create(finders::testing::box(0.5f, 0, 0, 1.5f, 1, 1));
   broadphase_->calculateOverlappingPairs(&dispatcher_);
   btBroadphasePair* pair = broadphase_->getOverlappingPairCache()->findPair(a, b);
   ASSERT_NE(pair, nullptr);
@@ -231,7 +234,7 @@ TEST_P(PairFinderBroadphaseTest, CollisionWorldKeepsNarrowphaseStateOfStayingPai
 }
 
 TEST_P(PairFinderBroadphaseTest, StaticObjectsPairOnlyWithDynamicOnes) {
-  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  const ObjectBounds unit = finders::testing::box(0, 0, 0, 1, 1, 1);
   btBroadphaseProxy* floor = create(unit, kStatic, kAll ^ kStatic);
   btBroadphaseProxy* wall = create(unit, kStatic, kAll ^ kStatic);
   btBroadphaseProxy* body = create(unit);
@@ -244,8 +247,8 @@ TEST_P(PairFinderBroadphaseTest, StaticObjectsPairOnlyWithDynamicOnes) {
 
 TEST_P(PairFinderBroadphaseTest, UnusableAabbLeavesTheSearchWithOneMessage) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  btBroadphaseProxy* a = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
-  btBroadphaseProxy* b = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* a = create(finders::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* b = create(finders::testing::box(0, 0, 0, 1, 1, 1));
   broadphase_->calculateOverlappingPairs(&dispatcher_);
   ASSERT_EQ(cachedPairs().size(), 1u);
 
@@ -266,7 +269,7 @@ TEST_P(PairFinderBroadphaseTest, UnusableAabbLeavesTheSearchWithOneMessage) {
 
   ::testing::internal::CaptureStderr();
   broadphase_->setAabb(a, btVector3(1, 0, 0), btVector3(0, 1, 1), &dispatcher_);  // inverted
-  create(gpu::testing::box(0, 0, 0, 1, 1, -std::numeric_limits<float>::infinity()));
+  create(finders::testing::box(0, 0, 0, 1, 1, -std::numeric_limits<float>::infinity()));
   broadphase_->calculateOverlappingPairs(&dispatcher_);
   const std::string more = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(std::count(more.begin(), more.end(), '\n'), 2) << more;
@@ -283,9 +286,9 @@ struct Collector : btBroadphaseRayCallback {
 };
 
 TEST_P(PairFinderBroadphaseTest, RayTestVisitsTheBoxesOnTheRay) {
-  const int on_ray = create(gpu::testing::box(2, -0.5f, -0.5f, 3, 0.5f, 0.5f))->m_uniqueId;
-  const int far_on_ray = create(gpu::testing::box(8, -0.5f, -0.5f, 9, 0.5f, 0.5f))->m_uniqueId;
-  create(gpu::testing::box(2, 3, 3, 3, 4, 4));  // beside the ray
+  const int on_ray = create(finders::testing::box(2, -0.5f, -0.5f, 3, 0.5f, 0.5f))->m_uniqueId;
+  const int far_on_ray = create(finders::testing::box(8, -0.5f, -0.5f, 9, 0.5f, 0.5f))->m_uniqueId;
+  create(finders::testing::box(2, 3, 3, 3, 4, 4));  // beside the ray
   const btVector3 from(0, 0, 0);
   const btVector3 to(10, 0, 0);
   Collector collector;
@@ -313,8 +316,8 @@ TEST_P(PairFinderBroadphaseTest, AabbTestAndBroadphaseAabb) {
   broadphase_->getBroadphaseAabb(lo, hi);
   EXPECT_EQ(lo, btVector3(0, 0, 0));
   EXPECT_EQ(hi, btVector3(0, 0, 0));
-  const int touching = create(gpu::testing::box(1, 1, 1, 2, 2, 2))->m_uniqueId;
-  create(gpu::testing::box(-5, -5, -5, -4, -4, -4));
+  const int touching = create(finders::testing::box(1, 1, 1, 2, 2, 2))->m_uniqueId;
+  create(finders::testing::box(-5, -5, -5, -4, -4, -4));
   Collector collector;
   broadphase_->aabbTest(btVector3(0, 0, 0), btVector3(1, 1, 1), collector);
   EXPECT_EQ(collector.ids, (std::set<int>{touching}));
@@ -324,7 +327,7 @@ TEST_P(PairFinderBroadphaseTest, AabbTestAndBroadphaseAabb) {
 }
 
 TEST_P(PairFinderBroadphaseTest, ResetPoolNumbersFromZeroAgain) {
-  const ObjectBounds unit = gpu::testing::box(0, 0, 0, 1, 1, 1);
+  const ObjectBounds unit = finders::testing::box(0, 0, 0, 1, 1, 1);
   std::vector<btBroadphaseProxy*> proxies = {create(unit), create(unit), create(unit)};
   for (btBroadphaseProxy* proxy : proxies) broadphase_->destroyProxy(proxy, &dispatcher_);
   broadphase_->calculateOverlappingPairs(&dispatcher_);
@@ -334,13 +337,13 @@ TEST_P(PairFinderBroadphaseTest, ResetPoolNumbersFromZeroAgain) {
 }
 
 TEST_P(PairFinderBroadphaseTest, RejectsMisuse) {
-  btBroadphaseProxy* proxy = create(gpu::testing::box(0, 0, 0, 1, 1, 1));
+  btBroadphaseProxy* proxy = create(finders::testing::box(0, 0, 0, 1, 1, 1));
   broadphase_->destroyProxy(proxy, &dispatcher_);
   EXPECT_THROW(broadphase_->destroyProxy(proxy, &dispatcher_), std::runtime_error);
 }
 
 // A finder that keeps what launchWithChanges() was told and finds nothing.
-class ChangeRecorder final : public gpu::PairFinder {
+class ChangeRecorder final : public finders::PairFinder {
  public:
   explicit ChangeRecorder(std::vector<std::vector<std::uint32_t>>* heard) : heard_(heard) {}
   std::string_view name() const override { return "recorder"; }
@@ -355,8 +358,8 @@ class ChangeRecorder final : public gpu::PairFinder {
     heard_->emplace_back(changed->begin(), changed->end());
     std::sort(heard_->back().begin(), heard_->back().end());
   }
-  gpu::PairDelta finishSearch() override { return {}; }
-  gpu::SearchStats searchStats() const override { return {}; }
+  finders::PairDelta finishSearch() override { return {}; }
+  finders::SearchStats searchStats() const override { return {}; }
 
  private:
   std::vector<std::vector<std::uint32_t>>* heard_;
@@ -391,18 +394,20 @@ TEST(PairFinderBroadphaseChangesTest, TheFinderHearsOnlyTheSlotsWhoseEntryChange
 
 TEST_P(PairFinderBroadphaseTest, FillsTheFindersStagingSoItCopiesNoBoxes) {
   std::vector<btBroadphaseProxy*> live;
-  for (const ObjectBounds& b : gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom, 300, 0)) {
+  for (const ObjectBounds& b :
+       finders::testing::makeBoxes(finders::testing::BoxSet::kRandom, 300, 0)) {
     live.push_back(create(b, b.group, b.mask));
   }
   for (int frame = 1; frame < 5; ++frame) {
-    const auto moved = gpu::testing::makeBoxes(gpu::testing::BoxSet::kRandom,
-                                               static_cast<std::uint32_t>(live.size()), frame);
+    const auto moved = finders::testing::makeBoxes(finders::testing::BoxSet::kRandom,
+                                                   static_cast<std::uint32_t>(live.size()), frame);
     for (std::size_t i = 0; i < live.size(); ++i) {
       broadphase_->setAabb(live[i], minOf(moved[i]), maxOf(moved[i]), &dispatcher_);
     }
     if (frame == 3) live.push_back(create(moved[0]));  // a new slot
     broadphase_->calculateOverlappingPairs(&dispatcher_);
-    EXPECT_TRUE(gpu::testing::samePairs(cachedPairs(), expectedPairs(live))) << "frame " << frame;
+    EXPECT_TRUE(finders::testing::samePairs(cachedPairs(), expectedPairs(live)))
+        << "frame " << frame;
     // gpubf has a staging, filled by the broadphase; the others copy as before.
     if (GetParam() == "gpubf") {
       EXPECT_EQ(broadphase_->lastSearchStats().device.host_bytes_copied, 0u) << "frame " << frame;
@@ -412,7 +417,7 @@ TEST_P(PairFinderBroadphaseTest, FillsTheFindersStagingSoItCopiesNoBoxes) {
 
 // A finder with a staging area that checks, at each launch, that it was
 // handed the staging; the staging drops its contents whenever it grows.
-class StagingChecker final : public gpu::PairFinder {
+class StagingChecker final : public finders::PairFinder {
  public:
   explicit StagingChecker(std::vector<std::vector<ObjectBounds>>* seen) : seen_(seen) {}
   std::string_view name() const override { return "staging checker"; }
@@ -430,8 +435,8 @@ class StagingChecker final : public gpu::PairFinder {
     EXPECT_EQ(objects.data(), staging_.data()) << "launched without the staging";
     seen_->emplace_back(objects.begin(), objects.end());
   }
-  gpu::PairDelta finishSearch() override { return {}; }
-  gpu::SearchStats searchStats() const override { return {}; }
+  finders::PairDelta finishSearch() override { return {}; }
+  finders::SearchStats searchStats() const override { return {}; }
 
   std::vector<ObjectBounds> staging_;
   std::vector<std::vector<ObjectBounds>>* seen_;
@@ -479,7 +484,7 @@ TEST(PairFinderBroadphaseStagingTest, TheStagingHoldsEveryEntryAtEachLaunch) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderBroadphaseTest,
-                         ::testing::ValuesIn(gpu::testing::finderNames()),
-                         gpu::testing::finderTestName);
+                         ::testing::ValuesIn(finders::testing::finderNames()),
+                         finders::testing::finderTestName);
 }  // namespace
 }  // namespace overlap::physics

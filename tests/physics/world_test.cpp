@@ -98,23 +98,23 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
   // marker left on the entry survives; a removed and re-added pair would come
   // back without it).  One substep per frame, so a frame is one search.
   std::string why;
-  if (!std::string(GetParam()).starts_with("cpu") && !gpu::cudaDeviceAvailable(&why)) {
+  if (!std::string(GetParam()).starts_with("cpu") && !finders::cudaDeviceAvailable(&why)) {
     GTEST_SKIP() << "no CUDA device: " << why;
   }
   PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
   static int marker;
-  std::set<gpu::IndexPair> previous;
+  std::set<finders::IndexPair> previous;
   std::size_t kept = 0;
   for (int frame = 0; frame < 80; ++frame) {
     world.stepFrame();
     ASSERT_EQ(world.cachedPairs(), oraclePairs(world.aabbs(), 250)) << "frame " << frame;
-    std::set<gpu::IndexPair> current;
+    std::set<finders::IndexPair> current;
     btBroadphasePairArray& array =
         world.broadphase().getOverlappingPairCache()->getOverlappingPairArray();
     for (int i = 0; i < array.size(); ++i) {
       const auto* a = static_cast<const btCollisionObject*>(array[i].m_pProxy0->m_clientObject);
       const auto* b = static_cast<const btCollisionObject*>(array[i].m_pProxy1->m_clientObject);
-      const gpu::IndexPair key = orderedPair(a->getUserIndex(), b->getUserIndex());
+      const finders::IndexPair key = orderedPair(a->getUserIndex(), b->getUserIndex());
       ASSERT_TRUE(current.insert(key).second) << "duplicate pair in frame " << frame;
       if (previous.count(key) != 0) {
         EXPECT_EQ(array[i].m_internalInfo1, &marker) << "pair lost its entry in frame " << frame;

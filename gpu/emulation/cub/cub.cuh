@@ -1,5 +1,5 @@
 // The CUDA emulation's <cub/cub.cuh>: CPU stand-ins for the few CUB
-// device-wide algorithms gpu/*.cu use, with CUB's signatures and contracts,
+// device-wide algorithms gpu/cuda/*.cu use, with CUB's signatures and contracts,
 // so that the .cu files compile unchanged against them (this directory is on
 // the emulation build's include path ahead of the toolkit).  The one
 // block-wide collective used, cub/block/block_radix_sort.cuh, states its own.

@@ -1,0 +1,103 @@
+// `overlap capture`: keyframe pictures of a scene, like the paper's Figure 1.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "engine/cli/cli_errors.h"
+#include "engine/cli/commands.h"
+#include "engine/cli/frame_capture.h"
+#include "engine/cli/list_options.h"
+#include "engine/cli/number_options.h"
+#include "engine/cli/physics_options.h"
+#include "engine/cli/progress.h"
+#include "engine/cli/scene_options.h"
+#include "engine/cli/wording.h"
+#include "engine/cli/world_setup.h"
+#include "gpu/base/interrupt.h"
+
+namespace overlap::engine {
+namespace {
+
+struct CaptureOptions {
+  SceneOptions scene;
+  std::string algorithm;
+  std::vector<int> keyframes = {0, 512, 1024, 2047};
+  std::string size = "800x600";
+  std::string colour = "size";
+  PhysicsOptions physics;
+  std::filesystem::path out = "out/capture";
+  CLI::Option* size_option = nullptr;
+  CLI::Option* old_size_option = nullptr;
+};
+
+render::ColourMode parseColourMode(const std::string& text) {
+  return text == "contact" ? render::ColourMode::kContact : render::ColourMode::kSizeClass;
+}
+
+void capture(const CaptureOptions& options) {
+  const physics::SceneConfig config = options.scene.resolve();
+  std::vector<int> keyframes = options.keyframes;
+  std::sort(keyframes.begin(), keyframes.end());
+  prepareOutputDirectory(options.out, "--out");
+  OutputFolder outputs(options.out);
+  for (const int frame : keyframes) {
+    declareOutput(outputs, options.out / pngName(config.scene, frame), "--out");
+  }
+  const std::unique_ptr<FrameCapture> camera =
+      openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
+  const std::unique_ptr<physics::PhysicsWorld> world =
+      makeWorld(config, options.physics.resolve(options.algorithm, config));
+  const int last = keyframes.back();
+  Progress progress("overlap capture", last + 1);
+  auto next = keyframes.begin();
+  for (int frame = 0; frame <= last; ++frame) {
+    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(last + 1));
+    world->stepFrame();
+    if (frame == *next) {
+      camera->capture(*world, frame);
+      ++next;
+    }
+    progress.update(frame + 1);
+  }
+  progress.finish();
+  const std::vector<std::string> removed = outputs.commit();
+  std::fprintf(stderr, "overlap capture: wrote %s in %s%s\n",
+               counted(static_cast<long long>(camera->written().size()), "PNG").c_str(),
+               options.out.string().c_str(), removedText(removed).c_str());
+}
+
+}  // namespace
+
+void addCaptureCommand(CLI::App& app) {
+  auto options = std::make_shared<CaptureOptions>();
+  CLI::App* command = app.add_subcommand(
+      "capture",
+      "render keyframes of a scene to PNG (scene<S>_frame<F>.png), after each frame's physics");
+  options->scene.addTo(*command);
+  addListOption(*command, "--keyframes", options->keyframes, wholeNumberIn(0, kMostFrames),
+                "frames to render, comma-separated");
+  options->size_option =
+      command->add_option("--capture-size", options->size, "PNG size WIDTHxHEIGHT")
+          ->capture_default_str();
+  // The name this option had before run and capture agreed on one; hidden.
+  options->old_size_option = command->add_option("--size", options->size)->group("");
+  command->add_option("--colour", options->colour, "colour boxes by size class or by contact")
+      ->check(CLI::IsMember({"size", "contact"}))
+      ->capture_default_str();
+  addAlgorithmOption(*command, options->algorithm);
+  options->physics.addTo(*command);
+  command->add_option("--out", options->out, "output folder")->capture_default_str();
+  command->footer(
+      "Example:\n"
+      "  overlap capture --scene 3 --objects 1250 --keyframes 0,100,200 --capture-size 400x300 "
+      "--out shots\n"
+      "A run replaces the PNGs the last capture wrote in --out, and only those.");
+  command->parse_complete_callback([options] {
+    refuseTogether(options->old_size_option, options->size_option,
+                   "--size is --capture-size's old name; give one");
+  });
+  command->callback([options] { capture(*options); });
+}
+
+}  // namespace overlap::engine

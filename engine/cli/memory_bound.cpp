@@ -1,0 +1,121 @@
+#include "engine/cli/memory_bound.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include "engine/cli/cli_errors.h"
+#include "engine/cli/number_options.h"
+
+namespace overlap::engine {
+namespace {
+
+constexpr std::uint64_t kMegabyte = 1000 * 1000;
+constexpr std::uint64_t kBoxBytes = 32;  // a stored AABB
+// cpubf keeps a bit for every pair of slots: n (n - 1) / 2 bits.
+constexpr std::uint64_t kPairsPerByte = 8;
+// The largest --max-memory: a petabyte, far beyond any machine's memory.
+constexpr std::int64_t kMostMegabytes = 1'000'000'000;
+
+}  // namespace
+
+namespace {
+
+std::uint64_t physicalMemory() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES);
+  const long page_bytes = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page_bytes > 0
+             ? static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page_bytes)
+             : UINT64_MAX;
+}
+
+}  // namespace
+
+std::uint64_t defaultMemoryLimit() {
+  std::uint64_t limit = physicalMemory();
+  rlimit address_space{};
+  if (::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY) {
+    limit = std::min<std::uint64_t>(limit, address_space.rlim_cur);
+  }
+  return limit;
+}
+
+void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb) {
+  command
+      .add_option("--max-memory", limit_mb,
+                  "MB the run may allocate for its boxes, cpubf's pair bits and the pairs found, "
+                  "checked before it does (default: the machine's memory, or ulimit -v if lower)")
+      ->check(wholeNumberIn(1, kMostMegabytes))
+      ->default_str(std::to_string(defaultMemoryLimit() / kMegabyte));
+}
+
+std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects) {
+  std::uint64_t bytes = objects * kBoxBytes;
+  // gpubf's bits live on the device, or in cpubf where there is none.
+  if (algorithm == "cpubf" || algorithm.starts_with("gpubf")) {
+    bytes += objects * (objects - 1) / 2 / kPairsPerByte;
+  }
+  return bytes;
+}
+
+namespace {
+
+std::uint64_t limitBytes(std::uint64_t limit_mb) {
+  return limit_mb > 0 ? limit_mb * kMegabyte : defaultMemoryLimit();
+}
+
+bool addressSpaceLimited() {
+  rlimit address_space{};
+  return ::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY;
+}
+
+std::string aboveTheLimit(std::uint64_t limit_mb) {
+  const char* source = limit_mb > 0 ? " (--max-memory)"
+                       : addressSpaceLimited() && defaultMemoryLimit() < physicalMemory()
+                           ? " (ulimit -v)"
+                           : " (the machine's; raise it with --max-memory)";
+  return ", above the memory limit " + readableBytes(limitBytes(limit_mb)) + source;
+}
+
+}  // namespace
+
+void requireMemory(std::uint64_t bytes, std::uint64_t limit_mb, const std::string& what) {
+  if (bytes <= limitBytes(limit_mb)) return;
+  throw UsageError(what + " needs " + readableBytes(bytes) + aboveTheLimit(limit_mb));
+}
+
+namespace {
+
+// The process's address space now (what ulimit -v bounds), 0 if unknown.
+std::uint64_t addressSpaceInUse() {
+  std::FILE* statm = std::fopen("/proc/self/statm", "r");
+  if (statm == nullptr) return 0;
+  unsigned long long pages = 0;
+  const bool read = std::fscanf(statm, "%llu", &pages) == 1;
+  std::fclose(statm);
+  const long page_bytes = ::sysconf(_SC_PAGE_SIZE);
+  return read && page_bytes > 0 ? pages * static_cast<std::uint64_t>(page_bytes) : 0;
+}
+
+}  // namespace
+
+std::uint64_t pairMemoryLimit(std::uint64_t counted, std::uint64_t limit_mb) {
+  const std::uint64_t limit = limitBytes(limit_mb);
+  // Under ulimit -v, what the process already maps counts too (its
+  // threads' stacks and heaps), so a refusal comes before a failed mapping.
+  if (addressSpaceLimited()) counted = std::max(counted, addressSpaceInUse());
+  return limit > counted ? limit - counted : 1;
+}
+
+UsageError pairMemoryRefusal(const physics::PairMemoryError& error, std::uint64_t limit_mb,
+                             const std::string& what) {
+  const std::uint64_t limit = limitBytes(limit_mb);
+  const std::uint64_t besides = limit > error.limit ? limit - error.limit : 0;
+  return UsageError(what + ": " + std::to_string(error.pairs) + " pairs need " +
+                    readableBytes(error.bytes) + ", with the " + readableBytes(besides) +
+                    " the run holds besides" + aboveTheLimit(limit_mb));
+}
+
+}  // namespace overlap::engine

@@ -1,0 +1,163 @@
+// `overlap record` and `overlap pairs`: recorded AABB streams in and out.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/cli/cli_errors.h"
+#include "engine/cli/commands.h"
+#include "engine/cli/memory_bound.h"
+#include "engine/cli/number_options.h"
+#include "engine/cli/physics_options.h"
+#include "engine/cli/progress.h"
+#include "engine/cli/scene_options.h"
+#include "engine/cli/wording.h"
+#include "engine/tools/recorded_streams.h"
+#include "gpu/base/interrupt.h"
+#include "gpu/base/output_file.h"
+#include "physics/aabb_stream.h"
+#include "physics/broadphase_replay.h"
+
+namespace overlap::engine {
+namespace {
+
+struct RecordOptions {
+  SceneOptions scene;
+  int frames = 2048;
+  PhysicsOptions physics;
+  std::filesystem::path out;
+};
+
+void record(const RecordOptions& options) {
+  const physics::SceneConfig config = options.scene.resolve();
+  prepareStreamOutput(options.out, config.objects, options.frames);
+  physics::AabbStream stream;
+  try {
+    stream = recordStream(config, options.frames, "overlap record",
+                          options.physics.resolve("bvh", config));
+  } catch (const std::invalid_argument& error) {  // a scene the options cannot build
+    throw UsageError(std::string("--") + error.what());
+  }
+  Progress writing("overlap record: writing " + options.out.string(), 0);
+  physics::writeAabbStream(options.out, stream);
+  writing.finish();
+  std::fprintf(stderr, "overlap record: wrote %s (%s, the start and %s)\n",
+               options.out.string().c_str(), counted(stream.objects, "object").c_str(),
+               counted(stream.stored_frames - 1, "frame").c_str());
+}
+
+struct PairsOptions {
+  std::string algorithm;
+  std::filesystem::path input;
+  std::uint64_t max_memory_mb = 0;
+};
+
+// Frame by frame, so a stream without a size (a pipe) needs memory for one
+// frame only.  A file with a size is checked whole first: a bad box in it
+// leaves stdout empty.  From a pipe, the rows of the frames before a bad one
+// are printed before the error; the exit status says the stream was bad.
+void printPairs(const PairsOptions& options) {
+  std::string csv = "frame,a,b\n";
+  int frame = 0;
+  int frames_sent = 0;  // frames whose rows went to stdout
+  try {
+    physics::AabbStreamReader reader(options.input);
+    if (reader.sized()) reader.checkAll();
+    const physics::AabbStreamHeader& header = reader.header();
+    requireMemory(replayBytes(options.algorithm, static_cast<std::uint64_t>(header.objects)),
+                  options.max_memory_mb,
+                  "--input " + options.input.string() + ": a frame of " +
+                      std::to_string(header.objects) + " boxes with --algo " + options.algorithm);
+    checkBroadphaseCapacity("--algo", options.algorithm, header.objects);
+    // The broadphase is sized once a whole frame has arrived: a header's
+    // count alone never allocates.
+    std::vector<physics::Aabb> boxes;
+    reader.next(boxes);
+    physics::BroadphaseReplay replay(options.algorithm, header.world, header.objects);
+    if (!replay.notice().empty()) std::fprintf(stderr, "overlap: %s\n", replay.notice().c_str());
+    // The pairs get what the boxes leave of the limit.
+    const std::uint64_t box_bytes =
+        replayBytes(options.algorithm, static_cast<std::uint64_t>(header.objects));
+    replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, options.max_memory_mb));
+
+    Progress progress("overlap pairs", header.stored_frames);
+    do {
+      stopIfInterrupted("frame " + std::to_string(frame) + " of " +
+                        std::to_string(header.stored_frames));
+      try {  // Bullet's own broadphases find pairs as the boxes are written
+        replay.update(boxes);
+        replay.findPairs();
+      } catch (const physics::PairMemoryError& error) {
+        throw pairMemoryRefusal(error, options.max_memory_mb,
+                                "--input " + options.input.string() + ", frame " +
+                                    std::to_string(frame) + " with --algo " + options.algorithm);
+      }
+      // A signal cuts cpubf's search short: its pairs are not whole.
+      if (pendingInterrupt() != 0) {
+        stopIfInterrupted("frame " + std::to_string(frame) + " of " +
+                          std::to_string(header.stored_frames) + ", its pair search");
+      }
+      for (const auto& [a, b] : replay.pairs()) {
+        csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
+      }
+      if (csv.size() > (1 << 20)) {
+        writeStandardOutput(csv);
+        csv.clear();
+        frames_sent = frame + 1;
+      }
+      progress.update(++frame);
+    } while (reader.next(boxes));
+    progress.finish();
+    writeStandardOutput(csv);
+  } catch (Interrupted& stop) {
+    // The rows already on stdout stay there: the stop line says which.
+    if (frames_sent > 0) {
+      stop.already_sent = "standard output's rows of " +
+                          (frames_sent == 1 ? std::string("frame 0")
+                                            : "frames 0 to " + std::to_string(frames_sent - 1));
+    }
+    throw;
+  } catch (const physics::AabbStreamError& error) {
+    // From a pipe, the frames before the bad one (a file was checked first).
+    if (frame > 0) writeStandardOutput(csv);
+    throw UsageError(error.what());
+  }
+}
+
+}  // namespace
+
+void addRecordCommand(CLI::App& app) {
+  auto options = std::make_shared<RecordOptions>();
+  CLI::App* command =
+      app.add_subcommand("record", "run a scene and write its AABBs as a Broadmark .aabbs file");
+  options->scene.addTo(*command);
+  command
+      ->add_option("--frames", options->frames,
+                   "frames to record, each --frame-time long (F; F + 1 are stored)")
+      ->check(wholeNumberIn(1, kMostFrames))
+      ->capture_default_str();
+  options->physics.addTo(*command);
+  command->add_option("--out", options->out, "the .aabbs file to write")->required();
+  command->footer(
+      "Example:\n"
+      "  overlap record --scene 4 --objects 1000 --frames 120 --out scene4.aabbs");
+  command->callback([options] { record(*options); });
+}
+
+void addPairsCommand(CLI::App& app) {
+  auto options = std::make_shared<PairsOptions>();
+  CLI::App* command = app.add_subcommand(
+      "pairs", "print each frame's pairs of a .aabbs file as CSV (frame,a,b) on stdout");
+  addAlgorithmOption(*command, options->algorithm);
+  command
+      ->add_option("--input", options->input,
+                   "a Broadmark .aabbs file, or a pipe or device streaming one")
+      ->required();
+  addMaxMemoryOption(*command, options->max_memory_mb);
+  command->footer(
+      "Example:\n"
+      "  overlap pairs --algo cpubf --input scene4.aabbs > pairs.csv");
+  command->callback([options] { printPairs(*options); });
+}
+
+}  // namespace overlap::engine

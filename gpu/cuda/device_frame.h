@@ -1,0 +1,242 @@
+// The device side of a GPU finder's frame, one helper for gpubf, gpubf-paper
+// and gpusap (nvcc and the emulation only): the stream, the stage events, the
+// pinned staging of the boxes, the counted and checked CUDA call, and the
+// CUDA graph that replays a frame's fixed chain.
+//
+// Rules, each with its reason:
+// - Every runtime call a frame makes goes through check() (or a helper here
+//   that calls it), so DeviceWork::api_calls counts them all, and an error
+//   names the caller's file and line (std::source_location), not this file.
+// - Stage events: two sets serve frames in turn, so the last finished
+//   frame's stay readable (lastWorkTimed(), lastMs(): read only when asked,
+//   not by finish()) while the next frame records into the other set.  Times
+//   are read only from a frame end() closed; before one every time is 0.
+// - Staging: pinned, so the upload is asynchronous; room() lends it to the
+//   caller between frames only (a search in flight may still read it), and
+//   stage() copies the caller's pageable boxes into it otherwise.  It grows
+//   geometrically and never shrinks.
+// - Graphs: enqueueChain() runs a frame's fixed chain (no host wait inside)
+//   as a CUDA graph.  The key names every value the chain bakes in (sizes,
+//   pointers, parities); a chain whose key matches one of the last two
+//   captured is one cudaGraphLaunch, else it is captured anew (allocations
+//   must come before: a capture refuses them).  Two, as a steady frame's
+//   buffers and events alternate between two roles.  A replay counts the
+//   bytes its copies move, as the capture did, and one call.
+// - The destructor waits for the stream before anything it owns goes.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <source_location>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "gpu/cuda/cuda_buffers.h"
+#include "gpu/cuda/cuda_check.h"
+#include "gpu/pair_finder.h"
+
+namespace overlap::finders {
+
+class DeviceFrame {
+ public:
+  using Where = std::source_location;
+  // kTailsDone: after a second copy back, where a finder makes one.
+  enum Stage { kStarted, kUploaded, kSearched, kDone, kTailsDone, kStageCount };
+  // kLegacyDefault: the default stream, as gpubf-paper's paper has it.
+  enum class StreamKind { kOwn, kLegacyDefault };
+
+  explicit DeviceFrame(StreamKind kind = StreamKind::kOwn) {
+    if (kind == StreamKind::kOwn)
+      CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    for (auto& set : events_) {
+      for (cudaEvent_t& event : set) CUDA_CHECK(cudaEventCreate(&event));
+    }
+  }
+  // Errors cannot be thrown here; a failure means the context is lost.
+  ~DeviceFrame() {
+    if (stream_ != nullptr) {
+      cudaStreamSynchronize(stream_);
+    } else {
+      cudaDeviceSynchronize();
+    }
+    for (Chain& chain : chains_) {
+      if (chain.exec != nullptr) cudaGraphExecDestroy(chain.exec);
+    }
+    for (auto& set : events_) {
+      for (cudaEvent_t event : set) cudaEventDestroy(event);
+    }
+    if (stream_ != nullptr) cudaStreamDestroy(stream_);
+  }
+  DeviceFrame(const DeviceFrame&) = delete;
+  DeviceFrame& operator=(const DeviceFrame&) = delete;
+
+  cudaStream_t stream() const { return stream_; }
+
+  // --- the frame's counts and events ---------------------------------------
+  // A new frame: its counts start at zero and its events go to the set the
+  // last finished frame does not use.
+  void begin() {
+    work_ = DeviceWork{};
+    recording_ = finished_ < 0 ? 0 : 1 - finished_;
+  }
+  DeviceWork& work() { return work_; }
+  // The frame is finished: its counts and times become the last finished frame's.
+  void end() {
+    last_work_ = work_;
+    finished_ = recording_;
+  }
+  const DeviceWork& lastWork() const { return last_work_; }
+  // ... with the stage times read from its events: upload kStarted to
+  // kUploaded, kernels to kSearched, copy back to kDone.
+  DeviceWork lastWorkTimed() const {
+    DeviceWork work = last_work_;
+    work.upload_ms = lastMs(kStarted, kUploaded);
+    work.kernels_ms = lastMs(kUploaded, kSearched);
+    work.download_ms = lastMs(kSearched, kDone);
+    return work;
+  }
+  // Milliseconds between two stages of the last finished frame (0 before one).
+  double lastMs(Stage from, Stage to) const {
+    if (finished_ < 0) return 0;
+    float elapsed = 0;
+    CUDA_CHECK(cudaEventElapsedTime(&elapsed, events_[finished_][from], events_[finished_][to]));
+    return elapsed;
+  }
+
+  // --- counted, checked calls ----------------------------------------------
+  void check(cudaError_t status, const char* what, Where where = Where::current()) {
+    ++work_.api_calls;
+    checkCuda(status, what, where);
+  }
+  // After a kernel launch: the launch counted, its errors checked.
+  void launched(Where where = Where::current()) {
+    ++work_.api_calls;
+    check(cudaGetLastError(), "a kernel launch", where);
+  }
+  // Records `stage` of this frame on the stream (into the graph, when capturing).
+  void record(Stage stage, Where where = Where::current()) {
+    cudaEvent_t event = events_[recording_][stage];
+    if (capturing_) {
+      check(cudaEventRecordWithFlags(event, stream_, cudaEventRecordExternal),
+            "cudaEventRecordWithFlags", where);
+    } else {
+      check(cudaEventRecord(event, stream_), "cudaEventRecord", where);
+    }
+  }
+  void wait(Stage stage, Where where = Where::current()) {
+    check(cudaEventSynchronize(events_[recording_][stage]), "cudaEventSynchronize", where);
+  }
+  // Milliseconds between two stages of this frame, which the caller waited for.
+  float elapsed(Stage from, Stage to, Where where = Where::current()) {
+    float ms = 0;
+    check(cudaEventElapsedTime(&ms, events_[recording_][from], events_[recording_][to]),
+          "cudaEventElapsedTime", where);
+    return ms;
+  }
+  // The staged boxes to `to` on the device, asynchronously; none: no call.
+  void upload(ObjectBounds* to, std::size_t count, Where where = Where::current()) {
+    if (count == 0) return;
+    check(cudaMemcpyAsync(to, staging_.data(), count * sizeof(ObjectBounds), cudaMemcpyHostToDevice,
+                          stream_),
+          "cudaMemcpyAsync", where);
+    work_.bytes_to_device += count * sizeof(ObjectBounds);
+  }
+  // `bytes` from the device to pinned `to`, asynchronously; none: no call.
+  void download(void* to, const void* from, std::size_t bytes, Where where = Where::current()) {
+    if (bytes == 0) return;
+    check(cudaMemcpyAsync(to, from, bytes, cudaMemcpyDeviceToHost, stream_), "cudaMemcpyAsync",
+          where);
+    work_.bytes_from_device += bytes;
+  }
+
+  // --- pinned staging --------------------------------------------------------
+  // PairFinder::stagingFor(): room for `count` boxes, lent only between
+  // frames (the base class checks).
+  std::span<ObjectBounds> stagingRoom(std::size_t count) {
+    reserveDiscarding(staging_, count);
+    return {staging_.data(), count};
+  }
+  // Makes `objects` this frame's staged boxes: nothing to do when the caller
+  // filled stagingRoom(), else a host copy (counted in host_bytes_copied),
+  // as the caller's memory may change once launch() returns.
+  void stage(std::span<const ObjectBounds> objects) {
+    if (objects.empty() || objects.data() == staging_.data()) return;
+    reserveDiscarding(staging_, objects.size());
+    std::memcpy(staging_.data(), objects.data(), objects.size_bytes());
+    work_.host_bytes_copied += objects.size_bytes();
+  }
+  const ObjectBounds* staged() const { return staging_.data(); }
+
+  // --- graphs ----------------------------------------------------------------
+  // Runs enqueue() (calls on stream() and this helper only, no wait, no
+  // allocation) as a graph: replayed when `key` and the event set match a
+  // captured one, else captured anew.  The staging's address is part of the key.
+  template <class Enqueue>
+  void enqueueChain(std::vector<std::uintptr_t> key, Enqueue enqueue,
+                    Where where = Where::current()) {
+    key.push_back(static_cast<std::uintptr_t>(recording_));
+    key.push_back(reinterpret_cast<std::uintptr_t>(staging_.data()));
+    for (const Chain& chain : chains_) {
+      if (chain.exec != nullptr && chain.key == key) {
+        check(cudaGraphLaunch(chain.exec, stream_), "cudaGraphLaunch", where);
+        work_.bytes_to_device += chain.bytes_to_device;
+        work_.bytes_from_device += chain.bytes_from_device;
+        return;
+      }
+    }
+    Chain& slot = chains_[next_chain_];
+    next_chain_ = 1 - next_chain_;
+    if (slot.exec != nullptr) {
+      check(cudaGraphExecDestroy(slot.exec), "cudaGraphExecDestroy", where);
+      slot = Chain{};
+    }
+    check(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal),
+          "cudaStreamBeginCapture", where);
+    capturing_ = true;
+    const DeviceWork before = work_;
+    cudaGraph_t graph = nullptr;
+    try {
+      enqueue();
+    } catch (...) {
+      capturing_ = false;
+      if (cudaStreamEndCapture(stream_, &graph) == cudaSuccess) cudaGraphDestroy(graph);
+      throw;
+    }
+    capturing_ = false;
+    check(cudaStreamEndCapture(stream_, &graph), "cudaStreamEndCapture", where);
+    cudaGraphExec_t exec = nullptr;
+    const cudaError_t instantiated = cudaGraphInstantiate(&exec, graph, 0);
+    check(cudaGraphDestroy(graph), "cudaGraphDestroy", where);
+    check(instantiated, "cudaGraphInstantiate", where);
+    slot = Chain{std::move(key), exec, work_.bytes_to_device - before.bytes_to_device,
+                 work_.bytes_from_device - before.bytes_from_device};
+    check(cudaGraphLaunch(exec, stream_), "cudaGraphLaunch", where);
+  }
+
+ private:
+  struct Chain {
+    std::vector<std::uintptr_t> key;
+    cudaGraphExec_t exec = nullptr;
+    std::uint64_t bytes_to_device = 0;  // what its copies move
+    std::uint64_t bytes_from_device = 0;
+  };
+
+  cudaStream_t stream_ = nullptr;
+  cudaEvent_t events_[2][kStageCount] = {};
+  int recording_ = 0;
+  int finished_ = -1;  // the set of the last finished frame; -1: none yet
+  DeviceWork work_;    // the frame in flight's counts
+  DeviceWork last_work_;
+  PinnedBuffer<ObjectBounds> staging_;
+  Chain chains_[2];
+  int next_chain_ = 0;  // the slot the next capture replaces
+  bool capturing_ = false;
+};
+
+}  // namespace overlap::finders
