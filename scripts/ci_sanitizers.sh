@@ -26,6 +26,10 @@ readonly JOBS="$(nproc)"
 # -O1 with line tables halves the compile time of -O2 -g (docs/results/ci_stages.md) and
 # keeps the sanitizers' stack traces.
 readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
+# Unity builds, 16 sources a compile: the engine's sources each include
+# CLI11 whole (header-only), which one file at a time cost most of the
+# build (docs/results/ci_stages.md).
+readonly UNITY=(-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16)
 # The test executables labelled threads (tests/*/CMakeLists.txt).
 readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests)
 launcher=()
@@ -38,7 +42,7 @@ readonly SANITIZERS="${SANITIZERS:-asan tsan}"
 if [[ " $SANITIZERS " == *" asan "* ]]; then
 section "ASan + UBSan: configure and build ($ASAN_DIR)"
 cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
-  "${launcher[@]}" >/dev/null
+  "${UNITY[@]}" "${launcher[@]}" >/dev/null
 cmake --build "$ASAN_DIR" -j "$JOBS"
 section "ASan + UBSan: the suite but the long whole runs, the GPU tests on the CUDA emulation"
 ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1" \
@@ -55,7 +59,7 @@ if [[ " $SANITIZERS " == *" tsan "* ]]; then
 
 section "TSan: configure and build ($TSAN_DIR)"
 cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
-  "${launcher[@]}" >/dev/null
+  "${UNITY[@]}" "${launcher[@]}" >/dev/null
 cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
 section "TSan: the tests labelled threads"
 # oneTBB is not built with TSan: the hand-overs inside it are invisible, and
