@@ -4,7 +4,8 @@
 # project with CMake in Release, through ccache (a rebuild, or a build in
 # another clone with the same CCACHE_BASEDIR, compiles only what changed).
 # The CUDA architectures: CMakeLists.txt's five, or CMake's CUDAARCHS.
-# Usage: scripts/setup.sh [BUILD_DIR]
+# Usage: scripts/setup.sh [BUILD_DIR [CMAKE_ARGS...]] (the arguments go to
+# the configure step: .ci/run asks for a unity build)
 set -euo pipefail
 
 readonly PACKAGES=(
@@ -13,7 +14,7 @@ readonly PACKAGES=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   nlohmann-json3-dev libpng-dev python3-matplotlib
   libboost-context-dev  # fibers for the CUDA emulation build (gpu/emulation/)
-  ccache
+  ccache ninja-build  # .ci/run builds with Ninja
 )
 
 missing=()
@@ -34,5 +35,5 @@ fi
 cd "$(dirname "$0")/.."
 build_dir="${1:-build}"
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache
+  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache "${@:2}"
 cmake --build "$build_dir" -j "$(nproc)"

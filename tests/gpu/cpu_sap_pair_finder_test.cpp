@@ -27,8 +27,8 @@ using sap::SweepKernel;
 using testing::box;
 using testing::BoxSet;
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+constexpr float kQuietNaN = std::numeric_limits<float>::quiet_NaN();
 
 // A pile like scene 4's: boxes of three size classes (0.1-0.4, 0.8-1.2,
 // 1.6-4) in a layer `depth` thick on `flat_axis`, spread over a square of
@@ -101,7 +101,8 @@ TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxThey
   for (int frame = 0; frame < 2; ++frame) {
     testing::expectFrameMatchesOracle(finder, boxes, pairs);
     EXPECT_GT(finder.slabs().count, 4u);
-    for (ObjectBounds& b : boxes) b.min[1] = std::nextafter(b.min[1], kInf);  // some pairs leave
+    for (ObjectBounds& b : boxes)
+      b.min[1] = std::nextafter(b.min[1], kInfinity);  // some pairs leave
   }
 }
 
@@ -188,13 +189,13 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   // cpubf's rule, read literally: NaN never pairs; an inverted interval
   // [2, 1] still meets [0, 3]; infinite coordinates compare as numbers.
   std::vector<ObjectBounds> boxes = pile(600, 0);
-  boxes[3] = box(kNaN, 0, 0, 1, 1, 1);
-  boxes[4] = box(5, 5, 5, 4, 6, 6);         // inverted on x
-  boxes[5] = box(10, 2, 10, 11, 1, 11);     // inverted on y
-  boxes[6] = box(-kInf, 2, 2, kInf, 3, 3);  // a slab through everything on x
-  boxes[7] = box(-kInf, -kInf, -kInf, kInf, kInf, kInf);
-  boxes[8] = box(kInf, kInf, kInf, kInf, kInf, kInf);
-  boxes[9] = box(3, 3, 3, kNaN, 4, 4);
+  boxes[3] = box(kQuietNaN, 0, 0, 1, 1, 1);
+  boxes[4] = box(5, 5, 5, 4, 6, 6);                   // inverted on x
+  boxes[5] = box(10, 2, 10, 11, 1, 11);               // inverted on y
+  boxes[6] = box(-kInfinity, 2, 2, kInfinity, 3, 3);  // a slab through everything on x
+  boxes[7] = box(-kInfinity, -kInfinity, -kInfinity, kInfinity, kInfinity, kInfinity);
+  boxes[8] = box(kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity);
+  boxes[9] = box(3, 3, 3, kQuietNaN, 4, 4);
   boxes[10] = box(5, 5, 5, 4, 6, 6);  // the inverted box again: they pair
   CpuSapPairFinder sap, checked;
   CpuPairFinder brute_force;
@@ -204,7 +205,9 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
     EXPECT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
     testing::expectFrameMatchesOracle(checked, boxes, pairs);
     // The box that pairs with everything leaves, then comes back.
-    boxes[7] = frame == 0 ? ObjectBounds{} : box(-kInf, -kInf, -kInf, kInf, kInf, kInf);
+    boxes[7] = frame == 0
+                   ? ObjectBounds{}
+                   : box(-kInfinity, -kInfinity, -kInfinity, kInfinity, kInfinity, kInfinity);
   }
 }
 
@@ -238,10 +241,10 @@ TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
           boxes[i] = ObjectBounds{};
           break;
         case 1:
-          boxes[i].min[0] = kNaN;
+          boxes[i].min[0] = kQuietNaN;
           break;
         case 2:
-          boxes[i].max[1] = std::nextafter(boxes[i].max[1], kInf);
+          boxes[i].max[1] = std::nextafter(boxes[i].max[1], kInfinity);
           break;
         default:
           boxes[i] = elsewhere[random() % elsewhere.size()];
@@ -318,18 +321,18 @@ TEST(CpuSapPairFinderTest, RejectsANegativeThreadCountAndMisuse) {
 
 TEST(SlabGridTest, SlabOfIsMonotoneAndClamped) {
   const sap::SlabGrid grid{-10.0f, 0.25f, 8};  // slabs of 4 m from -10 m
-  EXPECT_EQ(grid.slabOf(-kInf), 0u);
+  EXPECT_EQ(grid.slabOf(-kInfinity), 0u);
   EXPECT_EQ(grid.slabOf(-10.0f), 0u);
-  EXPECT_EQ(grid.slabOf(std::nextafter(-6.0f, -kInf)), 0u);
+  EXPECT_EQ(grid.slabOf(std::nextafter(-6.0f, -kInfinity)), 0u);
   EXPECT_EQ(grid.slabOf(-6.0f), 1u);
   EXPECT_EQ(grid.slabOf(21.9f), 7u);
-  EXPECT_EQ(grid.slabOf(kInf), 7u);
+  EXPECT_EQ(grid.slabOf(kInfinity), 7u);
   std::uint32_t last = 0;
-  for (float v = -12.0f; v < 25.0f; v = std::nextafter(v + 0.01f, kInf)) {
+  for (float v = -12.0f; v < 25.0f; v = std::nextafter(v + 0.01f, kInfinity)) {
     ASSERT_GE(grid.slabOf(v), last) << v;
     last = grid.slabOf(v);
   }
-  EXPECT_EQ(sap::SlabGrid{}.slabOf(kInf), 0u);
+  EXPECT_EQ(sap::SlabGrid{}.slabOf(kInfinity), 0u);
 }
 
 TEST(PairSetTest, DeltaOfTwoSetsIsSortedAndExact) {

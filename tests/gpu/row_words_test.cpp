@@ -20,7 +20,6 @@ using row_words::rowStart;
 using row_words::rowWords;
 using row_words::runAt;
 using row_words::runCount;
-using row_words::wordCount;
 
 constexpr std::uint64_t kLargestSlotCount = 0xFFFFFFFFull;
 
@@ -46,7 +45,8 @@ TEST(RowWordsTest, RowStartStaysExactUpToTheLargestSlotCount) {
   // The largest slot count, 32 q + 31: q groups of 32 rows, then 31 rows of
   // q + 1 words but the first (q words).  About 2^58 words, far from wrapping.
   const std::uint64_t q = kLargestSlotCount / 32;
-  EXPECT_EQ(wordCount(kLargestSlotCount), (32 * q * (q - 1) / 2 + 31 * q) + (31 * (q + 1) - 1));
+  EXPECT_EQ(row_words::wordCount(kLargestSlotCount),
+            (32 * q * (q - 1) / 2 + 31 * q) + (31 * (q + 1) - 1));
 }
 
 // Every pair (a, b) of n slots has one bit: the columns' valid lanes add up
@@ -81,13 +81,13 @@ void expectRunsCoverTheTriangle(std::uint64_t n) {
     next_row[run.column] = run.end_row;
     words += run.end_row - run.first_row;
     const std::uint64_t last_word = rowStart(run.end_row - 1) + run.column;
-    ASSERT_LT(last_word, wordCount(n));
+    ASSERT_LT(last_word, row_words::wordCount(n));
     ASSERT_LT(run.column, rowWords(static_cast<std::uint32_t>(run.end_row - 1)));
   }
   for (std::uint64_t column = 0; column < columns; ++column) {
     ASSERT_EQ(next_row[column], n) << "column " << column;
   }
-  EXPECT_EQ(words, wordCount(n));
+  EXPECT_EQ(words, row_words::wordCount(n));
 }
 
 TEST(RowWordsTest, RunsCoverEveryWordOnceAtTheTestedSizes) {
@@ -110,7 +110,7 @@ TEST(RowWordsTest, TheLastRunsOfTheLargestSlotCountStayInRange) {
     ASSERT_LE(run.end_row, n);
     if (run.first_row >= run.end_row) continue;
     ASSERT_GT(run.first_row, 32 * run.column);
-    EXPECT_LT(rowStart(run.end_row - 1) + run.column, wordCount(n));
+    EXPECT_LT(rowStart(run.end_row - 1) + run.column, row_words::wordCount(n));
   }
   EXPECT_EQ(runAt(runCount(n) - 1, columns, n).end_row, n);
 }

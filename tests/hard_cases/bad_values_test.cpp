@@ -37,10 +37,6 @@ const BadValue kBadValues[] = {
     {"1e30", Eigen::Vector3d::Constant(1e30), "(1e+30, 1e+30, 1e+30)"},
 };
 
-bool isExact(const std::string& algorithm) {
-  return physics::broadphaseInfo(algorithm).exact;
-}
-
 class BadValuesMidRun : public ::testing::TestWithParam<std::tuple<int, const char*>> {};
 
 TEST_P(BadValuesMidRun, TheBoxLeavesWithAMessageAndNothingElseBreaks) {

@@ -32,8 +32,8 @@
 namespace overlap::hard_cases {
 namespace {
 
-constexpr int kBoxes = 60;
-constexpr int kFrames = 2048;
+constexpr int kRunBoxes = 60;
+constexpr int kRunFrames = 2048;
 
 physics::SceneConfig scene4(int objects) {
   physics::SceneConfig config = physics::SceneConfig::forScene(4);
@@ -50,9 +50,9 @@ void noteChoices(Choices* choices, const physics::FrameReport& report) {
 
 std::uint64_t hashAfterRun(const std::string& algorithm, Choices* choices = nullptr,
                            physics::CcdMode ccd = physics::CcdMode::kAuto) {
-  physics::PhysicsWorld world(scene4(kBoxes),
+  physics::PhysicsWorld world(scene4(kRunBoxes),
                               physics::WorldOptions{algorithm, physics::kAutoSubsteps, ccd});
-  for (int frame = 0; frame < kFrames; ++frame) noteChoices(choices, world.stepFrame());
+  for (int frame = 0; frame < kRunFrames; ++frame) noteChoices(choices, world.stepFrame());
   return world.stateHash();
 }
 
@@ -121,11 +121,11 @@ struct ScheduledRun {
 };
 
 ScheduledRun scheduledRun(bool sync) {
-  physics::PhysicsWorld world(scene4(kBoxes), physics::WorldOptions{"cpubf"});
+  physics::PhysicsWorld world(scene4(kRunBoxes), physics::WorldOptions{"cpubf"});
   engine::testing::DemoFrame demo(world, sync);
   engine::FrameScheduler& scheduler = demo.scheduler;
   ScheduledRun run;
-  for (int frame = 0; frame < kFrames; ++frame) {
+  for (int frame = 0; frame < kRunFrames; ++frame) {
     noteChoices(&run.choices, scheduler.runFrame().physics);
     const physics::PairList pairs = world.cachedPairs();
     run.pairs_digest = fnv1a(std::span<const finders::IndexPair>(pairs), run.pairs_digest);

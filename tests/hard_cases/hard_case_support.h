@@ -1,7 +1,7 @@
 // Test support for the hard cases: the exact pair oracle over physics::Aabb
 // (tests/physics/aabb_oracle.h); set comparisons that say what
 // differs without printing thousands of pairs; a check that a world's state
-// is finite.
+// is finite; whether a broadphase of the catalogue is exact.
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "physics/broadphase_factory.h"
 #include "physics/world.h"
 #include "tests/physics/aabb_oracle.h"
 
@@ -23,6 +24,11 @@ namespace overlap::hard_cases {
 
 using physics::PairList;
 using physics::testing::oraclePairs;
+
+// Whether the catalogue's `algorithm` reports exactly the overlapping pairs.
+inline bool isExact(const std::string& algorithm) {
+  return physics::broadphaseInfo(algorithm).exact;
+}
 
 // The pairs of `set` that are not in `minus`; both sorted.
 inline PairList pairsMissingFrom(const PairList& set, const PairList& minus) {

@@ -263,10 +263,6 @@ HardCase longThinCase() {
   return {{{crossing, 3 * kRow * kRow}, {lifted, kRow * kRow}, {crossing, 3 * kRow * kRow}}};
 }
 
-bool isExact(const std::string& algorithm) {
-  return physics::broadphaseInfo(algorithm).exact;
-}
-
 class PairHardCases : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {

@@ -36,11 +36,6 @@ AabbStream smallStream() {
   return stream;
 }
 
-std::vector<char> fileBytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
 void writeBytes(const std::filesystem::path& path, const std::vector<char>& bytes) {
   std::ofstream(path, std::ios::binary)
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -73,7 +68,7 @@ TEST(AabbStream, RoundTripKeepsEveryField) {
 TEST(AabbStream, MalformedFilesNameTheFileAndTheFirstBadBox) {
   const auto good = tempFile("good");
   writeAabbStream(good, smallStream());
-  const std::vector<char> bytes = fileBytes(good);
+  const std::vector<char> bytes = overlap::testing::fileBytes(good);
   const auto bad = tempFile("bad");
 
   writeBytes(bad, std::vector<char>(bytes.begin(), bytes.begin() + 100));

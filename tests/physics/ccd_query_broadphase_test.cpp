@@ -14,7 +14,7 @@
 namespace overlap::physics {
 namespace {
 
-struct Collector final : btBroadphaseRayCallback {
+struct RayCollector final : btBroadphaseRayCallback {
   bool process(const btBroadphaseProxy* proxy) override {
     seen.insert(proxy);
     return true;
@@ -72,7 +72,7 @@ TEST_F(CcdQueryBroadphaseTest, RayTestAnswersWithTheWrappedProxiesOnTheRay) {
   btBroadphaseProxy* near = add({2, -0.5f, -0.5f}, {3, 0.5f, 0.5f});
   btBroadphaseProxy* far = add({8, -0.5f, -0.5f}, {9, 0.5f, 0.5f});
   add({2, 3, 3}, {3, 4, 4});  // beside the ray
-  Collector ray;
+  RayCollector ray;
   aimAlongX(ray, 10);
   queries_.rayTest({0, 0, 0}, {10, 0, 0}, ray, {0, 0, 0}, {0, 0, 0});
   EXPECT_EQ(ray.seen, (std::set<const btBroadphaseProxy*>{near, far}));
@@ -80,7 +80,7 @@ TEST_F(CcdQueryBroadphaseTest, RayTestAnswersWithTheWrappedProxiesOnTheRay) {
 
 TEST_F(CcdQueryBroadphaseTest, AQueryAfterAMoveSeesTheNewBoxes) {
   btBroadphaseProxy* box = add({2, 3, 3}, {3, 4, 4});
-  Collector ray;
+  RayCollector ray;
   aimAlongX(ray, 10);
   queries_.rayTest({0, 0, 0}, {10, 0, 0}, ray, {0, 0, 0}, {0, 0, 0});
   EXPECT_TRUE(ray.seen.empty());

@@ -53,11 +53,6 @@ std::vector<char> exampleBytes(const std::filesystem::path& document) {
   return bytes;
 }
 
-std::vector<char> fileBytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
 void expectBox(const Aabb& box, const Aabb& expected, const std::string& what) {
   for (int axis = 0; axis < 3; ++axis) {
     EXPECT_EQ(box.min[axis], expected.min[axis]) << what << " min, axis " << axis;
@@ -69,7 +64,7 @@ TEST(ScenesDocExample, TheReaderAcceptsTheDocumentedFileAndGetsTheDocumentedValu
   const std::vector<char> bytes =
       exampleBytes(std::filesystem::path(OVERLAP_SOURCE_DIR) / "docs" / "SCENES.md");
   ASSERT_EQ(bytes.size(), 432u) << "304 header bytes + 32 x 2 boxes x 2 stored frames";
-  const std::filesystem::path file = testing::scratchPath("scenes_doc_example.aabbs");
+  const std::filesystem::path file = overlap::testing::scratchPath("scenes_doc_example.aabbs");
   {
     std::ofstream out(file, std::ios::binary);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
@@ -97,7 +92,7 @@ TEST(ScenesDocExample, TheReaderAcceptsTheDocumentedFileAndGetsTheDocumentedValu
 
   // The writer gives back the documented bytes: the padding and zeros are the layout's.
   writeAabbStream(file, stream);
-  EXPECT_EQ(fileBytes(file), bytes);
+  EXPECT_EQ(overlap::testing::fileBytes(file), bytes);
   std::filesystem::remove(file);
 }
 

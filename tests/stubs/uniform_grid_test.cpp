@@ -11,17 +11,18 @@ namespace overlap::stubs {
 namespace {
 
 TEST(UniformGrid, VisitsEveryPointWithinReachOnce) {
-  constexpr float kHalfExtent = 10.0f;
+  constexpr float kGridHalfExtent = 10.0f;
   SeededRandom random(3);
   std::vector<Eigen::Vector3f> points(500);
   for (Eigen::Vector3f& point : points) {
     // Some points lie outside the cube, as boxes sunk into a wall do.
     for (int axis = 0; axis < 3; ++axis) {
-      point[axis] = static_cast<float>(random.uniform(-1.2 * kHalfExtent, 1.2 * kHalfExtent));
+      point[axis] =
+          static_cast<float>(random.uniform(-1.2 * kGridHalfExtent, 1.2 * kGridHalfExtent));
     }
   }
   UniformGrid grid;
-  grid.rebuild(points, kHalfExtent, 1.5f);
+  grid.rebuild(points, kGridHalfExtent, 1.5f);
   for (int query = 0; query < 50; ++query) {
     const Eigen::Vector3f centre = points[static_cast<std::size_t>(query * 7)];
     const float reach = static_cast<float>(random.uniform(0.5, 6.0));
