@@ -155,6 +155,19 @@ class DeviceFrame {
     work_.bytes_from_device += bytes;
   }
 
+  // A list of `count` entries whose first `in_head` came back at `head` (in
+  // a result block already copied back) and whose rest is on the device at
+  // `rest`: `host` filled with both, the rest's copy queued (the caller waits).
+  IndexPair* joinHeadAndRest(const IndexPair* head, std::size_t in_head, const IndexPair* rest,
+                             PinnedBuffer<IndexPair>& host, std::size_t count,
+                             Where where = Where::current()) {
+    reserveDiscarding(host, count);
+    std::memcpy(host.data(), head, in_head * sizeof(IndexPair));
+    work_.host_bytes_copied += in_head * sizeof(IndexPair);
+    download(host.data() + in_head, rest, (count - in_head) * sizeof(IndexPair), where);
+    return host.data();
+  }
+
   // --- pinned staging --------------------------------------------------------
   // PairFinder::stagingFor(): room for `count` boxes, lent only between
   // frames (the base class checks).

@@ -39,7 +39,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <cstring>
 #include <cub/block/block_radix_sort.cuh>
 #include <stdexcept>
 #include <string>
@@ -389,12 +388,7 @@ class GpuPairFinder final : public PairFinder {
   IndexPair* joinHeadAndTail(IndexPair* head, const DeviceBuffer<IndexPair>& tail,
                              PinnedBuffer<IndexPair>& host, std::size_t count) {
     if (count <= kHeadEntries) return head;
-    reserveDiscarding(host, count);
-    std::memcpy(host.data(), head, kHeadEntries * sizeof(IndexPair));
-    frame_.work().host_bytes_copied += kHeadEntries * sizeof(IndexPair);
-    frame_.download(host.data() + kHeadEntries, tail.data(),
-                    (count - kHeadEntries) * sizeof(IndexPair));
-    return host.data();
+    return frame_.joinHeadAndRest(head, kHeadEntries, tail.data(), host, count);
   }
 
   ChangeLists changeLists() const {

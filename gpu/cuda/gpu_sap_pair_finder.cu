@@ -72,7 +72,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <cstring>
 #include <cub/cub.cuh>
 #include <source_location>
 #include <stdexcept>
@@ -334,12 +333,7 @@ class GpuSapPairFinder final : public PairFinder {
                                    PinnedBuffer<IndexPair>& host, std::size_t count) {
     const std::size_t in_head = std::min(count, kHeadEntries - from);
     if (count == in_head) return head + from;
-    reserveDiscarding(host, count);
-    std::memcpy(host.data(), head + from, in_head * sizeof(IndexPair));
-    frame_.work().host_bytes_copied += in_head * sizeof(IndexPair);
-    frame_.download(host.data() + in_head, list.data() + in_head,
-                    (count - in_head) * sizeof(IndexPair));
-    return host.data();
+    return frame_.joinHeadAndRest(head + from, in_head, list.data() + in_head, host, count);
   }
 
   // The search just waited for: its kernels and its copy back.  A frame run

@@ -191,13 +191,17 @@ class Runtime {
     }
   }
 
-  void checkKernelArgument(const void* pointer, std::size_t position, const KernelLaunch& launch) {
-    if (pointer == nullptr) return;
-    const auto [base, allocation] = containing(pointer);
-    if (allocation == nullptr || address(pointer) - base > allocation->bytes) {
-      fail("kernel " + std::string(launch.kernel_name) + " launched at " + where(launch.site) +
-           ": pointer argument " + std::to_string(position + 1) + " (" + describe(pointer) +
-           ") is not in a live device or pinned allocation");
+  // Every pointer argument of `launch` is null or in a live allocation.
+  void checkKernelArguments(const KernelLaunch& launch) {
+    for (std::size_t position = 0; position < launch.pointer_arguments.size(); ++position) {
+      const void* pointer = launch.pointer_arguments[position];
+      if (pointer == nullptr) continue;
+      const auto [base, allocation] = containing(pointer);
+      if (allocation == nullptr || address(pointer) - base > allocation->bytes) {
+        fail("kernel " + std::string(launch.kernel_name) + " launched at " + where(launch.site) +
+             ": pointer argument " + std::to_string(position + 1) + " (" + describe(pointer) +
+             ") is not in a live device or pinned allocation");
+      }
     }
   }
 
@@ -444,15 +448,11 @@ void enqueueLaunch(KernelLaunch launch) {
   }
   const auto launchOn = [&rt](CudaEmulationStream& on, const KernelLaunch& checked) {
     count(&ApiCounters::kernel_launches);
-    for (std::size_t i = 0; i < checked.pointer_arguments.size(); ++i) {
-      rt.checkKernelArgument(checked.pointer_arguments[i], i, checked);
-    }
+    rt.checkKernelArguments(checked);
     rt.enqueue(on, [checked] { runGrid(checked); });
   };
   if (target->capture != nullptr) {
-    for (std::size_t i = 0; i < launch.pointer_arguments.size(); ++i) {
-      rt.checkKernelArgument(launch.pointer_arguments[i], i, launch);
-    }
+    rt.checkKernelArguments(launch);
     target->capture->nodes.push_back(
         [launchOn, launch](CudaEmulationStream& on) { launchOn(on, launch); });
     return;
