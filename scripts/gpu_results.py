@@ -5,8 +5,8 @@ Each machine has a folder of raw files as it wrote them: the H200's in
 docs/results/gpu/raw/ (commit d1690ab), the H100's in docs/results/gpu/h100/raw/
 (commit d5e40a4).  The tables of each folder's README.md are this script's
 output (run it and paste; every figure comes from a raw file, none is typed),
-and the study's claims table cites the same figures, machine by machine,
-through claim_figures() while the study's own runs have no GPU.  The files:
+and the study's findings table cites the same figures, machine by machine,
+through machine_findings() while the study's own runs have no GPU.  The files:
 
   bench_*.csv, bench-*.csv     overlap_bench_broadphase: update + findPairs with
                                Bullet's pair cache; from d5e40a4 on, also each
@@ -19,12 +19,14 @@ through claim_figures() while the study's own runs have no GPU.  The files:
   scripts/gpu_results.py [--raw FOLDER]     (default: every machine's)
 """
 import argparse
-import csv
 import gzip
 import json
 import pathlib
 import re
 import statistics
+
+from results_files import read_csv
+from study_targets import Target
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 RESULTS = REPO / "docs" / "results" / "gpu"
@@ -36,12 +38,6 @@ GPU_FINDERS = ("gpubf", "gpubf-paper", "gpusap")
 FRAME_RUNS = (("demo", "demo (`overlap run`, 1000 boxes)"),
               ("async_gpubf", "3500 boxes, task load 1, `--compare-sync`"),
               ("async_cpusap", "3500 boxes, task load 1, `--compare-sync`"))
-
-
-def commented_csv(path: pathlib.Path) -> list:
-    """A CSV whose first lines may be '#' comments, as rows of strings."""
-    lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
-    return list(csv.DictReader(lines))
 
 
 def bench_files(raw: pathlib.Path, suffix: str) -> list:
@@ -57,11 +53,11 @@ def machine(raw: pathlib.Path = RAW) -> dict:
 
 
 def finder_rows(raw: pathlib.Path = RAW) -> list:
-    return [row for path in sorted(raw.glob("probe_*.log")) for row in commented_csv(path)]
+    return [row for path in sorted(raw.glob("probe_*.log")) for row in read_csv(path)]
 
 
 def bench_rows(raw: pathlib.Path = RAW) -> list:
-    return [row for path in bench_files(raw, "csv") for row in commented_csv(path)]
+    return [row for path in bench_files(raw, "csv") for row in read_csv(path)]
 
 
 def bench_median_us(raw: pathlib.Path = RAW) -> dict:
@@ -254,39 +250,63 @@ def ratio_range(median: dict, algo: str, other: str, sizes: list) -> tuple:
     return (min(ratios), max(ratios)) if ratios else None
 
 
-def claim_figures(near: float, raw: pathlib.Path = RAW) -> dict:
-    """One GPU machine's figures for the paper's claims, as the claims table cites them:
-    {claim number: (figure, verdict)}; empty when the raw files are absent.  Only its
-    benchmark's sizes of the paper (500-3500 boxes, generated scene-4 streams) count."""
+def near_target(median: dict, algo: str, near: float) -> "Target":
+    """Paper 2 on the benchmark: the finder's update + pairs at most `near` x sap's and
+    bvh's at every size of the paper."""
+    sizes = sorted({n for n, _ in median})
+    ranges = {o: ratio_range(median, algo, o, sizes) for o in ("sap", "bvh")}
+    name = f"{algo} near sap and bvh, broadphase alone"
+    if not all(ranges.values()):
+        return Target(name, "not run", None)
+    return Target(name, "; ".join(f"x{lo:.2f}-x{hi:.2f} of {o}'s" for o, (lo, hi) in
+                                  ranges.items()) + f" ({sizes[0]}-{sizes[-1]} boxes)",
+                  all(hi <= near for lo, hi in ranges.values()))
+
+
+def fastest_frame_target(raw: pathlib.Path) -> "Target":
+    """Paper 3 on the frame runs: a GPU finder has scene 4's fastest whole frame."""
+    frames = scene4_frames_ms(raw)
+    name = "a GPU finder has the fastest whole frame in scene 4, 3500 boxes"
+    if not frames:
+        return Target(name, "not run", None)
+    return Target(name, "median frame: " + ", ".join(f"{a} {ms:.0f} ms" for a, ms in frames),
+                  frames[0][0] in GPU_FINDERS)
+
+
+def share_target(raw: pathlib.Path, share: float) -> "Target":
+    """The premise on the frame runs: update + broadphase as a share of the median frame."""
+    name = f"update + broadphase at least {share:g}% of the frame, scene 4, 3500 boxes"
+    if not (raw / FRAME_RUNS[1][0] / "summary.json").exists():
+        return Target(name, "not run", None)
+    shares = []
+    for run, _ in FRAME_RUNS[1:]:
+        timings = frame_summary(run, raw)["timings_ms"]
+        part = timings["update_ms"]["median"] + timings["broadphase_ms"]["median"]
+        shares.append((frame_summary(run, raw)["parameters"]["algorithm"],
+                       100 * part / timings["total_ms"]["median"]))
+    return Target(name, ", ".join(f"{a} {pct:.1f}%" for a, pct in shares),
+                  all(pct >= share for _, pct in shares))
+
+
+def machine_findings(near: float, share: float, raw: pathlib.Path = RAW) -> dict:
+    """One GPU machine's figures for the findings table, each a Target of the claim it
+    bears on; empty when the raw files are absent.  Only its benchmark's sizes of the
+    paper (500-3500 boxes, generated scene-4 streams) count; bf is not in its benchmark,
+    so the paper's first claim did not run there."""
     if not measured(raw):
         return {}
-    gpu = machine_name(raw)
-    where = (f"The {gpu} machine's figures (commit {machine(raw)['git_commit'][:7]}, "
-             f"{folder(raw)}; not this report's runs)")
+    m = machine(raw)
     median = {k: v for k, v in bench_median_us(raw).items() if k[0] <= 3500}
-    sizes = sorted({n for n, _ in median})
-    span = f"{sizes[0]}-{sizes[-1]} boxes"
-    figures = {1: (f"{where}: bf is not in its benchmark", f"{gpu} machine: not measured")}
-    near_text, verdicts = [], []
-    for algo in ("gpubf-paper", "gpubf"):
-        ranges = [(o, ratio_range(median, algo, o, sizes)) for o in ("sap", "bvh")]
-        near_text.append(f"{algo} " + ", ".join(f"x{lo:.2f}-x{hi:.2f} of {o}'s"
-                                                 for o, (lo, hi) in ranges))
-        verdicts.append(f"{algo} " + ("holds" if all(hi <= near for _, (_, hi) in ranges)
-                                      else "does not hold"))
-    figures[2] = (f"{where}, broadphase alone (update + pairs with Bullet's pair cache, not the "
-                  f"whole frame) at {span}: " + "; ".join(near_text),
-                  f"{gpu} machine, broadphase alone: " + ", ".join(verdicts))
-    largest = [(a, median[(sizes[-1], a)]) for a in BENCH_ALGOS if (sizes[-1], a) in median]
-    largest.sort(key=lambda pair: pair[1])
-    frames = scene4_frames_ms(raw)
-    figures[3] = (f"{where}: at {sizes[-1]} boxes the fastest broadphase is {largest[0][0]} "
-                  f"({largest[0][1]:.0f} µs; next {largest[1][0]} {largest[1][1]:.0f}); whole "
-                  f"frame (median; only these {len(frames)} run there): "
-                  + ", ".join(f"{a} {ms:.0f} ms" for a, ms in frames),
-                  f"{gpu} machine: fastest broadphase {largest[0][0]}, fastest whole frame "
-                  f"{frames[0][0]}")
-    return figures
+    rows = [("Premise: the broadphase is a large part of the frame", share_target(raw, share))]
+    rows += [(f"Paper 2: GPU-BF is near SAP and BVH ({algo}, broadphase alone)",
+              near_target(median, algo, near)) for algo in ("gpubf-paper", "gpubf")]
+    rows.append(("Paper 3: GPU-BF does best in scene 4 (whole frame)", fastest_frame_target(raw)))
+    return {"label": f"{machine_name(raw)} host", "where": folder(raw),
+            "description": f"{m['gpu']}, {m['cpu']} with {m['hardware_threads']} hardware "
+                           f"threads, commit {m['git_commit'][:7]}; measured outside the "
+                           f"study (benchmark and frame runs, {folder(raw)}; bf not in its "
+                           "benchmark)",
+            "rows": [(claim, target) for claim, target in rows if target.met is not None]}
 
 
 def print_machine(raw: pathlib.Path) -> None:

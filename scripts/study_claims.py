@@ -1,154 +1,223 @@
-"""The report's first screen: the paper's three claims and ours, each with its figure,
-the verdict the figures give and the section that holds them.
+"""The findings: one line per claim (the claim, its verdict, the figure, the machine,
+the section), the report's first table.
 
-Every verdict is computed from the same rows the sections print; where the
-runs a claim needs are missing (the GPU's, on a machine without one) the
-verdict says so and the row gives what was measured instead, labelled: the
-CPU twin's figure from this report's runs, then each GPU machine's from its
-raw files in docs/results/gpu/ (scripts/gpu_results.py), named as that
-machine's and not this report's, until the study itself runs on a GPU.
+Rules, each with its reason:
+  * A claim's verdict is study_targets.verdict() of its section's own targets, the
+    list the section prints: a verdict cannot contradict its section, and a claim none
+    of whose targets ran has no verdict.
+  * The machine and commit are named once, above the table; a row names its machine by
+    a short label, so no row mixes machines.  Without a GPU in this study's runs, the
+    GPU machines' figures (docs/results/gpu/, scripts/gpu_results.py) are rows of their
+    own, labelled as those machines'.
+  * No cell is over CELL_LIMIT characters: the table is read at a glance.
 """
 import broadphases
 import gpu_results
+import study_overlap
 import study_physics
 from study_results import update_and_broadphase_ms
+import study_targets
+from study_targets import Target, not_run
 
 PUBLISHED_CPU = ("bf", "sap", "bvh")  # Bullet's broadphases, the paper's BF, SAP and BVH
 NEAR = 1.25  # "near": at most this factor slower
+SHARE = 10.0  # %: a broadphase worth moving off the CPU takes at least this much of a frame
+PAPER_GPU = ("gpubf-paper", "gpubf")  # the paper's GPU-BF and ours
+CELL_LIMIT = 160
 
 
-def ratio_range(cells: list, algo: str, other: str, value) -> tuple:
-    """(cells compared, cells where algo is faster, min ratio, max ratio) over (scene, n)."""
-    by_key = {(c["scene"], c["objects"], c["algo"]): c for c in cells if not c["fallback"]}
-    ratios = [value(by_key[(s, n, a)]) / value(by_key[(s, n, other)])
-              for (s, n, a) in by_key if a == algo and (s, n, other) in by_key]
-    if not ratios:
-        return 0, 0, float("nan"), float("nan")
-    return len(ratios), sum(r < 1 for r in ratios), min(ratios), max(ratios)
+def honest(cells: list) -> list:
+    return [c for c in cells if not c["fallback"]]
 
 
-def gpu_measured(cells: list) -> list:
-    return [a for a in broadphases.needs_device() if any(c["algo"] == a and not c["fallback"] for c in cells)]
+def ratios(cells: list, algo: str, other: str, value) -> list:
+    """algo's value over other's, in every (scene, n) where both ran."""
+    by_key = {(c["scene"], c["objects"], c["algo"]): c for c in honest(cells)}
+    return [value(by_key[(s, n, a)]) / value(by_key[(s, n, other)])
+            for (s, n, a) in by_key if a == algo and (s, n, other) in by_key]
 
 
-def cite_gpu_machines(rows: list, gpu: list) -> list:
-    """Without a GPU in this report's runs, each paper claim's row also gives each GPU
-    machine's figure and verdict (docs/results/gpu/), newest first, each marked as that
-    machine's."""
-    for raw in () if gpu else gpu_results.MACHINES:
-        cited = gpu_results.claim_figures(NEAR, raw)
-        for number, row in enumerate(rows, start=1):
-            if number in cited:
-                row[1] += ". " + cited[number][0]
-                row[2] += "; " + cited[number][1]
-    return rows
+def span(values: list) -> str:
+    return f"x{min(values):.2f}-x{max(values):.2f}"
 
 
-def paper_rows(cells: list) -> list:
-    rows = []
-    gpu = gpu_measured(cells)
-    stand_in = gpu[0] if gpu else "cpubf"
-    who = stand_in if gpu else "no GPU lent: its CPU twin cpubf"
+def beats_bf(cells: list, algo: str) -> Target:
+    name = f"{algo}'s update + broadphase below bf's in every (scene, n)"
+    found = ratios(cells, algo, "bf", update_and_broadphase_ms)
+    if not found:
+        return not_run(name, "not run" + ("" if algo == "cpubf" else ": needs a GPU"))
+    below = sum(r < 1 for r in found)
+    return Target(name, f"{span(found)} of bf's; below in {below} of {len(found)} cells",
+                  below == len(found))
+
+
+def near_sap_and_bvh(cells: list, algo: str) -> Target:
+    name = f"{algo}'s whole frame at most x{NEAR} of sap's and of bvh's in every (scene, n)"
     total = lambda c: c["total_mean"]  # noqa: E731
-    compared, faster, low, high = ratio_range(cells, stand_in, "bf", update_and_broadphase_ms)
-    rows.append(["Paper 1: GPU-BF beats BF everywhere",
-                 f"{who}: update + broadphase x{low:.2f}-x{high:.2f} of bf's, faster in "
-                 f"{faster} of {compared} cells" if compared else "not run",
-                 ("holds" if compared and faster == compared else "does not hold")
-                 + ("" if gpu else " for the CPU twin; untested on a GPU in this study"), "§1"])
-    near = []
-    for other in ("sap", "bvh"):
-        compared, _, low, high = ratio_range(cells, stand_in, other, total)
-        if compared:
-            near.append((other, low, high))
-    verdict = "holds" if near and all(hi <= NEAR for _, _, hi in near) else "does not hold"
-    rows.append([f"Paper 2: GPU-BF is near SAP and BVH (whole frame, at most x{NEAR} of theirs)",
-                 f"{who}: " + "; ".join(f"x{lo:.2f}-x{hi:.2f} of {o}'s" for o, lo, hi in near)
-                 if near else "not run",
-                 verdict
-                 + ("" if gpu else "; untested on a GPU in this study"), "§1"])
-    scene4 = [c for c in cells if c["scene"] == 4 and not c["fallback"]]
-    if scene4:
-        n = max(c["objects"] for c in scene4)
-        at_n = sorted((c for c in scene4 if c["objects"] == n), key=total)
-        best = at_n[0]
-        rows.append(["Paper 3: GPU-BF does best in scene 4 (mixed sizes)",
-                     f"fastest whole frame at {n} boxes: {best['algo']} "
-                     f"({best['total_mean']:.0f} ms; next {at_n[1]['algo']} "
-                     f"{at_n[1]['total_mean']:.0f})" if len(at_n) > 1 else best["algo"],
-                     ("holds" if best["algo"] in broadphases.needs_device() else "does not hold")
-                     + ("" if gpu else " among the algorithms run; untested on a GPU in this study"), "§1"])
-    return cite_gpu_machines(rows, gpu)
+    found = {other: ratios(cells, algo, other, total) for other in ("sap", "bvh")}
+    if not all(found.values()):
+        return not_run(name, "not run" + ("" if algo == "cpubf" else ": needs a GPU"))
+    return Target(name, "; ".join(f"{span(v)} of {o}'s" for o, v in found.items()),
+                  all(max(v) <= NEAR for v in found.values()))
 
 
-def async_row(overlap: list) -> list:
-    at_one = [r for r in overlap if r["scene"] == 4 and r["load"] == 1]
-    at_zero = [r for r in overlap if r["load"] == 0]
-    if not at_one:
-        return ["Ours: the asynchronous frame pays", "not run", "—", "§4"]
-    low = min(r["speedup"] for r in at_one)
-    high = max(r["speedup"] for r in at_one)
-    ideal = min(r["async_over_ideal"] for r in at_one), max(r["async_over_ideal"] for r in at_one)
-    slower = [r for r in at_zero if r["speedup_max"] < 1.0]
-    return ["Ours: the asynchronous frame pays (tasks beside the physics step)",
-            f"scene 4, task load 1: speed-up (sync / async) x{low:.2f}-x{high:.2f}; async "
-            f"takes x{ideal[0]:.2f}-x{ideal[1]:.2f} of this machine's ideal frame",
-            ("holds" if low > 1.0 else "does not hold")
-            + ("; slower at task load 0 somewhere" if slower else "; no slower at task load 0"),
-            "§4"]
+def largest(cells: list, scene: int) -> list:
+    """The honest cells of the scene's largest n."""
+    mine = [c for c in honest(cells) if c["scene"] == scene]
+    n = max((c["objects"] for c in mine), default=None)
+    return [c for c in mine if c["objects"] == n]
 
 
-def exactness_row(pairs: list) -> list:
-    exact = [r for r in pairs if r["algo"].split(" ")[0] in broadphases.exact() and
-             r["algo"].split(" ")[0] != "bf"]
-    if not exact:
-        return ["Ours: the exact broadphases are exact", "not run", "—", "§3.1"]
-    wrong = [r for r in exact if r["missed"] or r["extra_mean"]]
-    frames = exact[0]["frames"]
-    return ["Ours: the exact broadphases are exact",
-            f"{', '.join(r['algo'] for r in exact)}: "
-            f"{sum(r['missed'] for r in exact)} missed, "
-            f"{sum(r['extra_max'] for r in exact)} extra against bf over {frames} frames",
-            "holds" if not wrong else "does not hold: " + ", ".join(r["algo"] for r in wrong),
-            "§3.1"]
+def best_in_scene4(cells: list) -> Target:
+    name = "a GPU finder has the fastest whole frame in scene 4 at the largest n"
+    ranked = sorted(largest(cells, 4), key=lambda c: c["total_mean"])
+    if not any(c["algo"] in broadphases.needs_device() for c in ranked):
+        return not_run(name, "not run: needs a GPU")
+    text = ", ".join(f"{c['algo']} {c['total_mean']:.0f} ms" for c in ranked[:3])
+    return Target(name, f"{ranked[0]['objects']} boxes: {text}",
+                  ranked[0]["algo"] in broadphases.needs_device())
 
 
-def physics_row(physics: list) -> list:
-    cells = study_physics.default_against_old(physics)
-    if not cells:
-        return ["Ours: speed against error", "not run", "—", "§3.2"]
-    met = [c for c in cells if not study_physics.compare(c[3], c[4])[2]]
-    times = [study_physics.compare(c[3], c[4])[0] for c in cells]
-    return ["Ours: the automatic substeps and CCD cost less than the old fixed K, "
-            "with no more error",
-            f"time x{min(times):.2f}-x{max(times):.2f} of the old default; "
-            f"{len(met)} of {len(cells)} (scene, boxes, seed) cells meet the target",
-            "holds" if len(met) == len(cells) else
-            f"holds in {len(met)} of {len(cells)} cells", "§3.2"]
-
-
-def cpu_row(cells: list) -> list:
-    honest = [c for c in cells if not c["fallback"]]
-    lines, wins, scenes = [], 0, sorted({c["scene"] for c in honest})
-    for scene in scenes:
-        n = max(c["objects"] for c in honest if c["scene"] == scene)
-        at_n = {c["algo"]: c for c in honest if c["scene"] == scene and c["objects"] == n}
+def cpusap_against_bullet(cells: list) -> Target:
+    name = "cpusap's update + broadphase below the best of bf, sap and bvh, every scene, largest n"
+    found = []
+    for scene in sorted({c["scene"] for c in honest(cells)}):
+        at_n = {c["algo"]: c for c in largest(cells, scene)}
         peers = [at_n[a] for a in PUBLISHED_CPU if a in at_n]
-        if "cpusap" not in at_n or not peers:
+        if "cpusap" in at_n and peers:
+            best = min(peers, key=update_and_broadphase_ms)
+            found.append(update_and_broadphase_ms(at_n["cpusap"]) / update_and_broadphase_ms(best))
+    if not found:
+        return not_run(name)
+    return Target(name, f"{span(found)} of the best of them in {len(found)} scenes",
+                  max(found) < 1)
+
+
+def broadphase_share(stages: list) -> Target:
+    """The premise: what a faster broadphase, GPU or not, can save is at most its share."""
+    name = (f"update + broadphase at least {SHARE:g}% of the frame (each scene's fastest "
+            "whole frame, largest n)")
+    shares = []
+    for scene in sorted({r["scene"] for r in stages}):
+        n = max(r["objects"] for r in stages if r["scene"] == scene)
+        best = min((r for r in stages if r["scene"] == scene and r["objects"] == n),
+                   key=lambda r: r["total"])
+        shares.append((best["update_broadphase_pct"], best["algo"]))
+    if not shares:
+        return not_run(name)
+    values = [s for s, _ in shares]
+    who = sorted({a for _, a in shares})
+    return Target(name, f"{min(values):.1f}-{max(values):.1f}% ({', '.join(who)})",
+                  min(values) >= SHARE)
+
+
+def sweep_targets(cells: list, stages: list) -> dict:
+    """The sweep's targets, by claim: the sweep section prints them, the findings judge by
+    them."""
+    return {"premise": [broadphase_share(stages)],
+            "paper1": [beats_bf(cells, a) for a in PAPER_GPU],
+            "twin1": [beats_bf(cells, "cpubf")],
+            "paper2": [near_sap_and_bvh(cells, a) for a in PAPER_GPU],
+            "twin2": [near_sap_and_bvh(cells, "cpubf")],
+            "paper3": [best_in_scene4(cells)],
+            "cpusap": [cpusap_against_bullet(cells)]}
+
+
+def exactness_targets(pairs: list) -> list:
+    name = "the exact finders report bf's pairs: 0 missed, 0 extra"
+    exact = [r for r in pairs if r["algo"].split(" ")[0] in broadphases.exact()
+             and r["algo"].split(" ")[0] != "bf"]
+    every = Target("no finder misses a pair", f"{sum(r['missed'] for r in pairs)} missed "
+                   f"over {pairs[0]['frames']} frames", not any(r["missed"] for r in pairs)
+                   ) if pairs else not_run("no finder misses a pair")
+    if not exact:
+        return [not_run(name), every]
+    wrong = [r["algo"] for r in exact if r["missed"] or r["extra_mean"]]
+    return [Target(name, f"{len(exact)} finders, {sum(r['missed'] for r in exact)} missed, "
+                   f"{sum(r['extra_max'] for r in exact)} extra" +
+                   (f"; wrong: {', '.join(wrong)}" if wrong else ""), not wrong), every]
+
+
+def summary_figure(targets: list) -> str:
+    """A claim's figure: its one target's, or how many of its targets were met."""
+    ran = [t for t in targets if t.met is not None]
+    if len(targets) == 1 or not ran:
+        return targets[0].figure if len(targets) == 1 else "not run"
+    return f"{sum(t.met for t in ran)} of {len(ran)} targets met" + (
+        f" ({len(targets) - len(ran)} not run)" if len(ran) < len(targets) else "")
+
+
+def row(claim: str, targets: list, machine: str, section: str, figure: str = None) -> list:
+    return [claim, study_targets.verdict(targets) or "—",
+            figure or summary_figure(targets), machine, section]
+
+
+def per_finder_rows(claim: str, targets: list, machine: str) -> list:
+    """A paper claim for each GPU finder: one row per finder that ran, one row (with no
+    verdict) when none did."""
+    ran = [(algo, t) for algo, t in zip(PAPER_GPU, targets) if t.met is not None]
+    if not ran:
+        return [row(claim, targets[:1], machine, "§1")]
+    return [row(f"{claim} ({algo})", [t], machine, "§1") for algo, t in ran]
+
+
+def this_machine_rows(s: dict, machine: str) -> list:
+    return (
+        [row("Premise: the broadphase is a large part of the frame", s["premise"], machine,
+             "§1.2")]
+        + per_finder_rows("Paper 1: GPU-BF beats BF everywhere", s["paper1"], machine)
+        + [row("Paper 1 for GPU-BF's CPU twin (cpubf)", s["twin1"], machine, "§1")]
+        + per_finder_rows("Paper 2: GPU-BF is near SAP and BVH", s["paper2"], machine)
+        + [row("Paper 2 for GPU-BF's CPU twin (cpubf)", s["twin2"], machine, "§1"),
+           row("Paper 3: GPU-BF does best in scene 4 (mixed sizes)", s["paper3"], machine, "§1"),
+           row("Ours: cpusap beats Bullet's CPU broadphases", s["cpusap"], machine, "§1"),
+           row("Ours: the asynchronous frame pays", s["overlap"], machine, "§4"),
+           row("Ours: the exact finders are exact", s["pairs"], machine, "§3.1"),
+           row("Ours: the default substeps and CCD cost less than the old fixed K, "
+               "no more error", s["physics"], machine, "§3.2")])
+
+
+def gpu_machine_rows() -> tuple:
+    """(legend lines, rows) of the GPU machines' figures measured outside the study."""
+    legend, rows = [], []
+    for raw in gpu_results.MACHINES:
+        found = gpu_results.machine_findings(NEAR, SHARE, raw)
+        if not found:
             continue
-        best = min(peers, key=update_and_broadphase_ms)
-        ratio = update_and_broadphase_ms(at_n["cpusap"]) / update_and_broadphase_ms(best)
-        wins += ratio < 1
-        lines.append(f"s{scene}: x{ratio:.2f} of {best['algo']}")
-    if not lines:
-        return ["Ours: cpusap against the published CPU broadphases", "not run", "—", "§1"]
-    n = max(c["objects"] for c in honest)
-    return ["Ours: cpusap against the published CPU broadphases (Bullet's bf, sap, bvh)",
-            f"update + broadphase at {n} boxes against the best of them: " + ", ".join(lines),
-            f"faster in {wins} of {len(lines)} scenes", "§1"]
+        label, description = found["label"], found["description"]
+        legend.append(f"**{label}**: {description}.")
+        rows += [row(claim, [target], label, found["where"]) for claim, target in found["rows"]]
+    return legend, rows
 
 
-def claims_lines(cells: list, pairs: list, physics: list, overlap: list, table) -> list:
-    rows = paper_rows(cells) + [async_row(overlap), exactness_row(pairs), physics_row(physics),
-                                cpu_row(cells)]
-    return table(["claim", "figure", "verdict", "section"], rows)
+def machine_label(machine: dict) -> str:
+    if machine is None:
+        return "this study"
+    if machine["gpu"].startswith("none"):
+        return f"{machine['hardware_threads']}-thread CPU, no GPU"
+    return machine["gpu"].split(" (")[0].removeprefix("NVIDIA ") + " host"
+
+
+def findings_lines(sections: dict, machine: dict, commit_line: str, table) -> list:
+    """The machines, once, then the findings table.  `sections`: each claim's targets."""
+    label = machine_label(machine)
+    legend = [f"**{label}**: this study's runs; {commit_line}"]
+    rows = this_machine_rows(sections, label)
+    if not any(t.met is not None for key in ("paper1", "paper2", "paper3")
+               for t in sections[key]):
+        more, gpu_rows = gpu_machine_rows()
+        legend += more
+        rows += gpu_rows
+    lines = ["Machines:", ""] + [f"- {entry}" for entry in legend] + [""]
+    return lines + table(["claim", "verdict", "figure", "machine", "section"], rows)
+
+
+def sections_targets(cells: list, stages: list, pairs: list, physics: list, overlap: list,
+                     fmt) -> dict:
+    """Every claim's targets, each from its own section's module."""
+    found = sweep_targets(cells, stages)
+    found.update(overlap=study_overlap.targets(overlap), pairs=exactness_targets(pairs),
+                 physics=study_physics.targets(physics, fmt))
+    if not found["physics"]:
+        found["physics"] = [not_run("the default costs less than the old fixed K")]
+    return found

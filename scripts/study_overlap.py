@@ -23,6 +23,8 @@ import statistics
 
 import study_plots
 import study_results
+from study_targets import Target, not_run
+import study_targets
 
 
 def process_row(s: dict) -> dict:
@@ -68,53 +70,51 @@ def overlap_rows(jobs: list) -> list:
     return rows
 
 
-def target_lines(rows: list) -> list:
-    """The issue's targets, checked point by point on what was measured."""
-    lines = []
-    scene4_at_1 = [r for r in rows if r["scene"] == 4 and r["load"] == 1]
-    if scene4_at_1:
-        missed = [r for r in scene4_at_1 if r["speedup"] < 1.6]
-        lines.append("- Target, load 1 in scene 4: async at least 1.6x sync at every n: " + (
-            "met" if not missed else "missed at n = " + ", ".join(
-                f"{r['objects']} ({r['speedup']:.2f}x)" for r in missed)) + ".")
-    far = [r for r in rows if r["async_over_ideal"] > 1.1]
-    lines.append("- Target, async within 10% of the ideal at every point: " + (
-        "met" if not far else "missed at " + ", ".join(
-            f"scene {r['scene']} n {r['objects']} load {r['load']:g} "
-            f"({r['async_over_ideal']:.2f}x the ideal)" for r in far)) + ".")
-    at_zero = [r for r in rows if r["load"] == 0]
-    if at_zero:
-        # As in the sweep, a difference inside the spread between repetitions is none.
-        slower = [r for r in at_zero if r["speedup_max"] < 1.0]
-        ties = [r for r in at_zero if r["speedup"] < 1.0 <= r["speedup_max"]]
-        lines.append("- Target, load 0: async no slower than sync: " + (
-            "met" if not slower else "async slower at " + ", ".join(
-                f"scene {r['scene']} n {r['objects']} ({r['speedup']:.3f}x, every process "
-                "below 1)" for r in slower)) + (
-            "" if not ties else "; a median below 1 inside the processes' range (no "
-            "difference) at " + ", ".join(
-                f"scene {r['scene']} n {r['objects']} ({r['speedup']:.3f}x, range "
-                f"{r['speedup_min']:.3f}-{r['speedup_max']:.3f})" for r in ties)) + ".")
-    if not all(r["identical"] for r in rows):
-        lines.append("- **Sync and async runs did not end identical at some points** "
-                     "(state or task checksums): see overlap.csv's `identical`.")
-    return lines
+def at_load_one(rows: list) -> Target:
+    name = "async at least x1.6 of sync at task load 1 in scene 4, every n"
+    mine = [r for r in rows if r["scene"] == 4 and r["load"] == 1]
+    if not mine:
+        return not_run(name)
+    missed = [r for r in mine if r["speedup"] < 1.6]
+    return Target(name, ", ".join(f"n {r['objects']}: x{r['speedup']:.2f}" for r in mine),
+                  not missed)
+
+
+def near_ideal(rows: list) -> Target:
+    name = "async within 10% of this machine's ideal frame at every point"
+    if not rows:
+        return not_run(name)
+    ratios = [r["async_over_ideal"] for r in rows]
+    return Target(name, f"async / ideal x{min(ratios):.2f}-x{max(ratios):.2f}",
+                  max(ratios) <= 1.1)
+
+
+def no_slower_at_zero(rows: list) -> Target:
+    """As in the sweep, a median below 1 inside the processes' range is no difference."""
+    name = "at task load 0, async no slower than sync (every process below x1: slower)"
+    mine = [r for r in rows if r["load"] == 0]
+    if not mine:
+        return not_run(name)
+    slower = [r for r in mine if r["speedup_max"] < 1.0]
+    low, high = min(r["speedup"] for r in mine), max(r["speedup"] for r in mine)
+    return Target(name, f"speed-up x{low:.2f}-x{high:.2f}"
+                  + (f"; slower at {len(slower)} of {len(mine)} points" if slower else ""),
+                  not slower)
+
+
+def targets(rows: list) -> list:
+    """The section's targets (the findings' verdict for the asynchronous frame)."""
+    return [at_load_one(rows), near_ideal(rows), no_slower_at_zero(rows)]
 
 
 def overlap_section(rows: list, figures: dict, fmt, table) -> list:
     if not rows:
         return ["No overlap runs yet.", ""]
     algorithms = sorted({r["algorithm"] for r in rows})
-    lines = [f"Scenes {', '.join(str(s) for s in sorted({r['scene'] for r in rows}))}; "
-             f"{rows[0]['frames']} frames per run; broadphase {', '.join(algorithms)}"
-             + ("" if "gpubf" in algorithms else " (no GPU here: the CPU search shares the "
-                "cores with the physics and the tasks)")
-             + f"; {rows[0]['threads']} threads (the main thread for physics, the rest oneTBB "
-             "workers for the tasks and the search). Each point is one `overlap run --task-load "
-             "X --compare-sync` process, its sync and async runs stepped in turn, frame by frame "
-             "(medians over its frames; the speed-up is measured in one process), and each row "
-             "is the median over the point's processes, with the speed-up's range. The ideal is max(P, T) when physics and tasks each have a core, "
-             "P + T with one thread.", ""]
+    lines = [f"Broadphase {', '.join(algorithms)}; {rows[0]['frames']} frames per run; "
+             f"threads {rows[0]['threads']}. A row: the median over its point's "
+             "`overlap run --task-load X --compare-sync` processes; range: the speed-up's "
+             "between them. Ideal: max(P, T) with a core each, P + T with one thread.", ""]
     headers = ["scene", "n", "load X", "T/P measured", "sync ms", "async ms", "speed-up", "range",
                "hidden", "ideal ms", "async / ideal", "identical"]
     body = [[r["scene"], r["objects"], f"{r['load']:g}", fmt(r["measured_load"]),
@@ -124,16 +124,9 @@ def overlap_section(rows: list, figures: dict, fmt, table) -> list:
              "yes" if r["identical"] else "**no**"] for r in rows]
     lines += table(headers, body)
     name = study_plots.overlap(rows, figures["folder"])
-    lines += ["Figure: frame time (sync, async, the ideal) and speed-up against the task load, "
-              "one line per n:", "", f"![overlap](report/{name})", ""]
-    lines += target_lines(rows)
-    lines += ["", "Where it pays and where it cannot: the async frame hides the tasks behind "
-              "the physics step as long as a second core is free for them, so its best case "
-              "is load 1 (T = P: two equal halves, 2x). Below that the tasks are too small to "
-              "matter; above it the tasks are the longer half and the frame waits for them. "
-              "On this CPU-only machine the broadphase search runs on the same two cores "
-              "(on the main thread when the worker is busy with the tasks); with a GPU the "
-              "search leaves the CPU entirely, so the physics half shrinks by the search time "
-              "and the core it used is free for the tasks. That is a prediction from the "
-              "split, not a measurement: no GPU ran these points.", ""]
+    lines += [f"![overlap: frame time and speed-up against the task load](report/{name})", ""]
+    lines += study_targets.lines(targets(rows), table)
+    if not all(r["identical"] for r in rows):
+        lines += ["**Sync and async runs did not end identical at some points** (state or "
+                  "task checksums): see overlap.csv's `identical`.", ""]
     return lines

@@ -9,6 +9,8 @@ more seeds and sizes, so that a target met on one seed is not taken for a rule.
 import statistics
 
 import study_plots
+import study_targets
+from study_targets import Target
 
 
 def old_default_k(scene: int) -> int:
@@ -49,28 +51,41 @@ def find(rows: list, substeps, ccd: str, solver: str):
     return None
 
 
-def target_lines(scene: int, rows: list, fmt) -> list:
-    """The automatic setting against the old K with the same solver (pile) and with
-    Bullet's (the project's old default), each with the same CCD and without CCD."""
-    k = old_default_k(scene)
-    lines = []
+def comparisons(scene: int, rows: list) -> list:
+    """(auto, base) pairs: the automatic setting against the old K with the same solver
+    (pile) and with Bullet's (the project's old default), each with the same CCD and
+    without CCD."""
+    k, found = old_default_k(scene), []
     for ccd in ("off", "auto"):
         auto = find(rows, "auto", ccd, "pile")
         for solver in ("pile", "bullet"):
             for against in dict.fromkeys((ccd, "off")):
                 base = find(rows, k, against, solver)
-                if auto is None or base is None:
-                    continue
-                time, cost, misses = compare(auto, base)
-                lines.append(
-                    f"  - auto, ccd {ccd} against K={k}, ccd {against}, solver {solver}: time "
-                    f"x{time:.2f}, mean K x boxes x{cost:.2f}; escaped {auto['escaped_max']} vs "
-                    f"{base['escaped_max']}, sunk {auto['sunk_max']} vs {base['sunk_max']}, "
-                    f"penetration {fmt(auto['penetration_max'])} vs "
-                    f"{fmt(base['penetration_max'])}: "
-                    + ("**meets the target**." if not misses
-                       else "misses on " + ", ".join(misses) + "."))
-    return lines
+                if auto is not None and base is not None:
+                    found.append((auto, base))
+    return found
+
+
+def comparison_row(auto: dict, base: dict, fmt) -> list:
+    time, cost, misses = compare(auto, base)
+    return [auto["scene"], setting(auto), setting(base), f"x{time:.2f}", f"x{cost:.2f}",
+            f"{auto['escaped_max']} / {base['escaped_max']}",
+            f"{auto['sunk_max']} / {base['sunk_max']}",
+            f"{fmt(auto['penetration_max'])} / {fmt(base['penetration_max'])}",
+            "met" if not misses else "missed: " + ", ".join(misses)]
+
+
+def comparison_lines(main: list, fmt, table) -> list:
+    body = [comparison_row(auto, base, fmt)
+            for scene in sorted({r["scene"] for r in main})
+            for auto, base in comparisons(scene, [r for r in main if r["scene"] == scene])]
+    if not body:
+        return []
+    return (["The automatic setting against the old fixed K (time and mean K x boxes: auto / "
+             "old; each error: auto / old; target: no more error, and time at most x0.6 of "
+             "the old at 50 g, x1.0 at 1 g):", ""]
+            + table(["scene", "auto", "against", "time", "K x boxes", "escaped max",
+                     "sunk max", "deepest pen. / edge", "target"], body))
 
 
 def default_against_old(rows: list) -> list:
@@ -87,46 +102,56 @@ def default_against_old(rows: list) -> list:
     return cells
 
 
+def cell_target(cell: tuple, fmt) -> Target:
+    scene, n, seed, auto, base = cell
+    time, _, misses = compare(auto, base)
+    return Target(f"scene {scene}, {n} boxes, seed {seed}: the default costs less than the "
+                  "old fixed K, with no more error",
+                  f"time x{time:.2f}; escaped {auto['escaped_max']} / {base['escaped_max']}, "
+                  f"sunk {auto['sunk_max']} / {base['sunk_max']}, deepest pen. "
+                  f"{fmt(auto['penetration_max'])} / {fmt(base['penetration_max'])}"
+                  + ("" if not misses else "; missed on " + ", ".join(misses)), not misses)
+
+
+def targets(rows: list, fmt) -> list:
+    """The section's targets, one per (scene, boxes, seed) the comparison ran: the default
+    (--substeps auto --ccd auto, solver pile) against the old default (K fixed, no CCD,
+    Bullet's solver).  The findings' verdict for the physics claim."""
+    return [cell_target(cell, fmt) for cell in default_against_old(rows)]
+
+
 def robustness_lines(rows: list, fmt, table) -> list:
-    """--substeps auto --ccd auto (the default) against the old default (K fixed, no CCD,
-    Bullet's solver) at every seed and size the comparison cells ran."""
+    """The targets at every seed and size the comparison cells ran, then summed by size."""
     cells = default_against_old(rows)
-    body = []
-    for scene, n, seed, auto, base in cells:
-        time, _, misses = compare(auto, base)
-        body.append([scene, n, seed, auto["frames"], f"x{time:.2f}", fmt(auto["mean_k"]),
-                     f"{auto['escaped_max']} / {base['escaped_max']}",
-                     f"{auto['sunk_max']} / {base['sunk_max']}",
-                     f"{fmt(auto['penetration_max'])} / {fmt(base['penetration_max'])}",
-                     "meets" if not misses else "misses on " + ", ".join(misses)])
-    if not body:
+    if not cells:
         return []
     return (["The default (`--substeps auto --ccd auto`, solver pile) against the old default "
-             "(K=8 at 50 g, K=2 at 1 g, no CCD, Bullet's solver) at every seed and size the "
-             "comparison ran; each error is auto / old:", ""]
-            + table(["scene", "boxes", "seed", "frames", "time", "mean K", "escaped max",
-                     "sunk max", "deepest pen. / edge", "target"], body)
+             "(K=8 at 50 g, K=2 at 1 g, no CCD, Bullet's solver), at every seed and size the "
+             "comparison ran; each error auto / old:", ""]
+            + study_targets.lines(targets(rows, fmt), table)
             + seed_summary_lines(cells, fmt, table))
+
+
+def seed_summary_row(scene: int, n: int, pairs: list, fmt) -> list:
+    times = sorted(compare(auto, base)[0] for auto, base in pairs)
+    median = lambda key, side: fmt(statistics.median(p[side][key] for p in pairs))  # noqa: E731
+    return [scene, n, len(pairs), sum(not compare(a, b)[2] for a, b in pairs),
+            f"x{statistics.median(times):.2f} (x{times[0]:.2f}-x{times[-1]:.2f})",
+            f"{median('penetration_max', 0)} / {median('penetration_max', 1)}",
+            sum(a["penetration_max"] > b["penetration_max"] for a, b in pairs),
+            sum(a["sunk_max"] > b["sunk_max"] for a, b in pairs),
+            sum(a["escaped_max"] > 0 for a, _ in pairs)]
 
 
 def seed_summary_lines(cells: list, fmt, table) -> list:
     """default_against_old's cells summed over the seeds of each (scene, size) that ran at
     more than one: a chaotic pile's deepest overlap over a run is one draw, so a cell met or
     missed at one seed says little; how often and by how much it is met says more."""
-    body = []
-    for scene, n in sorted({(scene, n) for scene, n, _, _, _ in cells}):
-        pairs = [(auto, base, compare(auto, base))
-                 for s, m, _, auto, base in cells if (s, m) == (scene, n)]
-        if len(pairs) < 2:
-            continue
-        times = sorted(time for _, _, (time, _, _) in pairs)
-        body.append([scene, n, len(pairs), sum(not misses for _, _, (_, _, misses) in pairs),
-                     f"x{statistics.median(times):.2f} (x{times[0]:.2f}-x{times[-1]:.2f})",
-                     f"{fmt(statistics.median(a['penetration_max'] for a, _, _ in pairs))} / "
-                     f"{fmt(statistics.median(b['penetration_max'] for _, b, _ in pairs))}",
-                     sum(a["penetration_max"] > b["penetration_max"] for a, b, _ in pairs),
-                     sum(a["sunk_max"] > b["sunk_max"] for a, b, _ in pairs),
-                     sum(a["escaped_max"] > 0 for a, _, _ in pairs)])
+    by_size = {}
+    for scene, n, _, auto, base in cells:
+        by_size.setdefault((scene, n), []).append((auto, base))
+    body = [seed_summary_row(scene, n, pairs, fmt)
+            for (scene, n), pairs in sorted(by_size.items()) if len(pairs) >= 2]
     if not body:
         return []
     return (["Summed over the seeds of each size (the same runs):", ""]
@@ -135,45 +160,47 @@ def seed_summary_lines(cells: list, fmt, table) -> list:
                      "seeds auto more sunk", "seeds auto escaped"], body))
 
 
+HEADERS = ["K", "ccd", "sleep", "solver", "ms median", "ms max", "mean K", "K x boxes",
+           "escaped max", "escaped end", "sunk max", "sunk end", "deepest pen. / edge",
+           "energy drift", "asleep max", "sleep error max (m)"]
+
+
+def run_row(r: dict, fmt) -> list:
+    return [r["substeps"], r["ccd"], r["sleep"], r["solver"], fmt(r["total_median"]),
+            fmt(r["total_max"]), fmt(r["mean_k"]), fmt(r["k_x_boxes"]), r["escaped_max"],
+            r["escaped_final"], r["sunk_max"], r["sunk_final"], fmt(r["penetration_max"]),
+            fmt(r.get("energy_drift", float("nan"))), r["asleep_max"],
+            fmt(r["sleep_error_max_m"])]
+
+
+def cheapest_safe_row(scene: int, mine: list, fmt) -> list:
+    """The cheapest run with no box escaping and none left inside a wall at the end."""
+    safe = [r for r in mine if r["escaped_max"] == 0 and r["sunk_final"] == 0]
+    if not safe:
+        return [scene, "none", "—", "—", "—"]
+    best = min(safe, key=lambda r: (r["total_median"], r["penetration_max"]))
+    return [scene, setting(best), fmt(best["total_median"]), best["sunk_max"],
+            fmt(best["penetration_max"])]
+
+
 def physics_section(rows: list, figures: dict, fmt, table, objects: int, seed: int) -> list:
     main = [r for r in rows if r["objects"] == objects and r["seed"] == seed]
     if not main:
         return ["No physics runs yet.", ""]
-    headers = ["K", "ccd", "sleep", "solver", "ms median", "ms max", "mean K", "K x boxes",
-               "escaped max", "escaped end", "sunk max", "sunk end", "deepest pen. / edge",
-               "energy drift", "asleep max", "sleep error max (m)"]
     lines = [f"{objects} boxes, {main[0]['frames']} frames, seed {seed}, broadphase "
              f"{main[0]['algorithm']}, `--no-tasks`. K: fixed substeps or `--substeps auto` "
-             "(its mean over the frames); ccd: `--ccd off|auto|all`; sleep: Bullet's "
-             "deactivation (scenes 1 and 2 by default); solver: `--solver pile` (the default: "
-             "full warm start, overlaps pushed out in the velocity solve, 8 iterations) or "
-             "`bullet` (Bullet 3.24's own settings, which the project ran before). Mean K x "
-             "boxes is the cost without the machine's load; the sleep error is the largest "
-             "distance, over every frame and box, between a box with sleep and the same box "
-             "in the run without it.", ""]
-    for scene in sorted({r["scene"] for r in main}):
-        mine = [r for r in main if r["scene"] == scene]
-        body = [[r["substeps"], r["ccd"], r["sleep"], r["solver"], fmt(r["total_median"]),
-                 fmt(r["total_max"]), fmt(r["mean_k"]), fmt(r["k_x_boxes"]), r["escaped_max"],
-                 r["escaped_final"], r["sunk_max"], r["sunk_final"], fmt(r["penetration_max"]),
-                 fmt(r.get("energy_drift", float("nan"))), r["asleep_max"],
-                 fmt(r["sleep_error_max_m"])]
-                for r in mine]
-        lines += [f"Scene {scene}:", ""] + table(headers, body)
-        safe = [r for r in mine if r["escaped_max"] == 0 and r["sunk_final"] == 0]
-        if safe:
-            best = min(safe, key=lambda r: (r["total_median"], r["penetration_max"]))
-            lines.append(f"- Cheapest run with no box escaping and none left inside a wall at the "
-                         f"end: **{setting(best)}** ({fmt(best['total_median'])} ms/frame, "
-                         f"sunk at most {best['sunk_max']}, deepest penetration "
-                         f"{fmt(best['penetration_max'])} edges).")
-        slept = [r for r in mine if r["sleep"] == "on"]
-        if slept and max(r["asleep_max"] for r in slept) == 0:
-            lines.append(f"- No box fell asleep in these {main[0]['frames']} frames (asleep max "
-                         "0: every box kept moving faster than Bullet's sleeping thresholds for "
-                         "its deactivation time), so sleep cost nothing and changed nothing here; "
-                         "its error is only measured where boxes sleep.")
-        lines += target_lines(scene, mine, fmt) + [""]
+             "(its mean); solver `pile` (the default) or `bullet` (Bullet 3.24's own); "
+             "K x boxes: the cost without the machine's load; sleep error: the largest "
+             "distance between a box with sleep and the same box without.", ""]
+    scenes = sorted({r["scene"] for r in main})
+    for scene in scenes:
+        lines += [f"Scene {scene}:", ""] + table(
+            HEADERS, [run_row(r, fmt) for r in main if r["scene"] == scene])
+    lines += ["The cheapest run with no box escaping and none inside a wall at the end:", ""]
+    lines += table(["scene", "setting", "ms median", "sunk max", "deepest pen. / edge"],
+                   [cheapest_safe_row(s, [r for r in main if r["scene"] == s], fmt)
+                    for s in scenes])
+    lines += comparison_lines(main, fmt, table)
     study_plots.physics(main, figures["folder"])
-    lines += ["![physics speed against error](report/fig_physics.png)", ""]
+    lines += ["![physics: each error against the cost per frame](report/fig_physics.png)", ""]
     return lines + robustness_lines(rows, fmt, table)

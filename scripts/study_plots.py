@@ -8,6 +8,7 @@ library (a GPU machine's python3 may have nothing else), the report's
 figures need Debian's python3-matplotlib, which scripts/setup.sh installs.
 """
 import importlib
+import math
 import pathlib
 import sys
 
@@ -71,20 +72,94 @@ def keyframes(images: list, frames: list, folder: pathlib.Path) -> str:
     return save(figure, folder, "fig1_keyframes")
 
 
+LINESTYLES = ("-", "--", "-.", ":")
+MARKERS = "osD^v<>pX"
+
+
+def style(algo: str) -> dict:
+    """One algorithm's colour, dash and marker, the same in every figure: lines of two
+    algorithms differ in more than a shade."""
+    known = list(COLOURS)
+    index = known.index(algo.split(" ")[0]) if algo.split(" ")[0] in known else len(known)
+    return {"color": colour(algo), "linestyle": LINESTYLES[index % len(LINESTYLES)],
+            "marker": MARKERS[index % len(MARKERS)]}
+
+
+def plain_log_axis(axis, which: str = "y") -> None:
+    """A log axis labelled with plain numbers at 1, 2 and 5 times a power of ten when it
+    spans at most two decades, at the powers of ten alone when it spans more: every
+    minor tick labelled (2x10^3, 3x10^3, ...) collides on a narrow panel, and none
+    labelled leaves an axis within one decade without a number."""
+    ticker = importlib.import_module("matplotlib.ticker")
+    target = axis.yaxis if which == "y" else axis.xaxis
+
+    def label(value: float, _) -> str:
+        low, high = sorted(target.get_view_interval())
+        if value <= 0 or low <= 0:
+            return ""
+        mantissa = round(value / 10 ** math.floor(math.log10(value) + 1e-9), 6)
+        wanted = (1,) if math.log10(high / low) > 2 else (1, 2, 5)
+        return f"{value:g}" if mantissa in wanted else ""
+
+    target.set_major_formatter(ticker.FuncFormatter(label))
+    target.set_minor_formatter(ticker.FuncFormatter(label))
+
+
 def per_frame(scene: int, n: int, series: dict, folder: pathlib.Path) -> str:
-    """Figures 2-5: update, broadphase and total time per frame, one line per algorithm."""
-    figure, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    titles = {"update_ms": "update", "broadphase_ms": "broadphase", "total_ms": "total"}
+    """Figures 2-5: update, broadphase, update + broadphase and total time per frame, one
+    line per algorithm.  Bullet's sap and bvh do most of their work in the update and ours
+    in the broadphase, so only the third panel compares broadphases like with like."""
+    figure, axes = plt.subplots(1, 4, figsize=(16, 3.8))
+    titles = {"update_ms": "update", "broadphase_ms": "broadphase",
+              "update_broadphase_ms": "update + broadphase (compare these)",
+              "total_ms": "whole frame"}
     for axis, (column, title) in zip(axes, titles.items()):
         for algo, columns in sorted(series.items()):
-            axis.plot(columns[column], label=algo, color=colour(algo), linewidth=0.8)
-        axis.set_title(f"scene {scene}, {n} boxes: {title}")
+            frames = len(columns[column])
+            axis.plot(columns[column], label=algo, linewidth=0.9, markersize=3,
+                      markevery=max(1, frames // 8), **style(algo))
+        axis.set_title(title, fontsize=10)
         axis.set_xlabel("frame")
-        axis.set_ylabel("ms")
         axis.set_yscale("log")
+        plain_log_axis(axis)
         axis.grid(alpha=0.3)
+    axes[0].set_ylabel("ms per frame")
     axes[0].legend(fontsize=8)
+    figure.suptitle(f"scene {scene}, {n} boxes", fontsize=11)
     return save(figure, folder, f"fig{scene + 1}_scene{scene}_per_frame")
+
+
+def stages(rows: list, folder: pathlib.Path) -> str:
+    """The frame by stage at each scene's largest n, one stacked bar per algorithm, so the
+    share a broadphase can change (update + broadphase, hatched) is seen at once."""
+    scenes = sorted({r["scene"] for r in rows})
+    parts = [("update", "#d62728", "//"), ("broadphase", "#ff9896", "//"),
+             ("narrowphase", "#9467bd", ""), ("solver", "#1f77b4", ""),
+             ("integrate", "#2ca02c", ""), ("ccd_query", "#8c564b", ""),
+             ("other", "#c7c7c7", "")]
+    figure, axes = plt.subplots(1, len(scenes), figsize=(3.6 * len(scenes), 4), squeeze=False)
+    for axis, scene in zip(axes[0], scenes):
+        n = max(r["objects"] for r in rows if r["scene"] == scene)
+        mine = [r for r in rows if r["scene"] == scene and r["objects"] == n]
+        positions = range(len(mine))
+        bottom = [0.0] * len(mine)
+        for stage, tint, hatch in parts:
+            values = [r[stage] if r[stage] == r[stage] else 0.0 for r in mine]
+            axis.bar(positions, values, bottom=bottom, color=tint, hatch=hatch,
+                     edgecolor="white", linewidth=0.5, label=stage.replace("_", " "))
+            bottom = [b + v for b, v in zip(bottom, values)]
+        for x, r in zip(positions, mine):
+            axis.annotate(f"{r['update_broadphase_pct']:.0f}%", (x, r["total"]),
+                          ha="center", va="bottom", fontsize=7)
+        axis.set_xticks(list(positions))
+        axis.set_xticklabels([r["algo"] for r in mine], rotation=45, ha="right", fontsize=8)
+        axis.set_title(f"scene {scene}, {n} boxes", fontsize=10)
+        axis.grid(axis="y", alpha=0.3)
+    axes[0][0].set_ylabel("ms per frame (mean)")
+    figure.suptitle("the frame by stage; on each bar, the share of update + broadphase",
+                    fontsize=10)
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    return save(figure, folder, "fig_stages")
 
 
 def total_against_n(cells: list, folder: pathlib.Path) -> str:
@@ -99,11 +174,12 @@ def total_against_n(cells: list, folder: pathlib.Path) -> str:
             n, mean, low, high = zip(*points)
             axis.errorbar(n, mean, yerr=[[m - lo for m, lo in zip(mean, low)],
                                          [hi - m for m, hi in zip(mean, high)]],
-                          label=algo, color=colour(algo), marker="o", capsize=3)
+                          label=algo, capsize=3, **style(algo))
         axis.set_title(f"scene {scene}")
         axis.set_xlabel("boxes")
         axis.set_ylabel("total ms / frame")
         axis.set_yscale("log")
+        plain_log_axis(axis)
         axis.grid(alpha=0.3)
     axes[0][0].legend(fontsize=8)
     return save(figure, folder, "fig6_total_against_n")
@@ -156,9 +232,40 @@ def broadphase_error(rows: list, folder: pathlib.Path) -> str:
     axis.set_xlabel("extra pairs, % of the exact pairs")
     axis.set_ylabel("update + broadphase ms / frame")
     axis.set_yscale("log")
+    plain_log_axis(axis)
     axis.set_title("broadphase speed against error, scene 4")
     axis.grid(alpha=0.3)
     return save(figure, folder, "fig_broadphase_error")
+
+
+CCD_STYLES = {"off": ("#1f77b4", "o-"), "auto": ("#2ca02c", "s-"), "all": ("#d62728", "^-")}
+
+
+def physics_fixed_k(axis, rows: list, key: str, ccd: str) -> None:
+    """The fixed-K runs with the default solver as numbers joined by a line."""
+    tint, line = CCD_STYLES[ccd]
+    fixed = sorted((r["k_x_boxes"], r[key], r["substeps"]) for r in rows
+                   if r["ccd"] == ccd and r["substeps"] != "auto" and r["solver"] == "pile")
+    if not fixed:
+        return
+    axis.plot([f[0] for f in fixed], [f[1] for f in fixed], line, color=tint,
+              label=f"fixed K, ccd {ccd}", markersize=4)
+    for x, y, k in fixed:
+        axis.annotate(str(k), (x, y), fontsize=7, xytext=(2, 2), textcoords="offset points")
+
+
+def physics_marked(axis, rows: list, key: str, ccd: str) -> None:
+    """The old fixed K with Bullet's solver as a cross, the automatic setting as a star."""
+    tint, _ = CCD_STYLES[ccd]
+    for r in rows:
+        if r["ccd"] != ccd or (r["substeps"] != "auto" and r["solver"] != "bullet"):
+            continue
+        auto = r["substeps"] == "auto"
+        name = (f"auto, ccd {ccd}" + (", no sleep" if r["sleep"] == "off" and r["scene"] <= 2
+                                       else "")
+                if auto else f"K={r['substeps']}, ccd {ccd}, Bullet's solver")
+        axis.plot(r["k_x_boxes"], r[key], "*" if auto else "X", color=tint,
+                  markersize=13 if auto else 9, markeredgecolor="black", label=name)
 
 
 def physics(rows: list, folder: pathlib.Path) -> str:
@@ -171,80 +278,70 @@ def physics(rows: list, folder: pathlib.Path) -> str:
                 ("sunk_max", "sunk (max over frames)"), ("escaped_max", "escaped (max)")]
     figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False,
                                 figsize=(4.5 * len(scenes), 2.8 * len(measures)))
-    styles = {"off": ("#1f77b4", "o-"), "auto": ("#2ca02c", "s-"), "all": ("#d62728", "^-")}
     for column, scene in enumerate(scenes):
+        mine = [r for r in rows if r["scene"] == scene]
         for row, (key, title) in enumerate(measures):
             axis = axes[row][column]
-            for ccd, (tint, style) in styles.items():
-                fixed = sorted((r["k_x_boxes"], r[key], r["substeps"]) for r in rows
-                               if r["scene"] == scene and r["ccd"] == ccd
-                               and r["substeps"] != "auto" and r["solver"] == "pile")
-                if fixed:
-                    axis.plot([f[0] for f in fixed], [f[1] for f in fixed], style, color=tint,
-                              label=f"fixed K, ccd {ccd}", markersize=4)
-                    for x, y, k in fixed:
-                        axis.annotate(str(k), (x, y), fontsize=7, xytext=(2, 2),
-                                      textcoords="offset points")
-                for r in rows:
-                    if (r["scene"] == scene and r["ccd"] == ccd and r["substeps"] != "auto"
-                            and r["solver"] == "bullet"):
-                        axis.plot(r["k_x_boxes"], r[key], "X", color=tint, markersize=9,
-                                  markeredgecolor="black",
-                                  label=f"K={r['substeps']}, ccd {ccd}, Bullet's solver")
-                    if r["scene"] == scene and r["ccd"] == ccd and r["substeps"] == "auto":
-                        axis.plot(r["k_x_boxes"], r[key], "*", color=tint, markersize=13,
-                                  markeredgecolor="black",
-                                  label=f"auto, ccd {ccd}" + (", no sleep"
-                                                              if r["sleep"] == "off" and scene <= 2
-                                                              else ""))
+            for ccd in CCD_STYLES:
+                physics_fixed_k(axis, mine, key, ccd)
+                physics_marked(axis, mine, key, ccd)
             axis.set_xscale("log")
+            plain_log_axis(axis, "x")
             if column == 0:
                 axis.set_ylabel(title)
             axis.grid(alpha=0.3)
         axes[0][column].set_title(f"scene {scene}")
         axes[-1][column].set_xlabel("cost: mean K x boxes")
-    axes[0][-1].legend(fontsize=7)
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return save(figure, folder, "fig_physics")
 
 
 def latency(rows: list, folder: pathlib.Path) -> str:
-    """Late broadphase against growth: missed and extra pairs per frame, and the search time.
-
-    Colour: the algorithm; marker: the scene.  An exact algorithm's misses are
-    the latency's alone; a conservative one's are fewer, paid for in extras.
-    """
+    """Late broadphase against growth, one column per scene, one row per measure (missed
+    and extra pairs per frame, late / on-time search time), one line per algorithm in its
+    own colour, dash and marker.  An exact algorithm's misses are the latency's alone; a
+    conservative one's are fewer, paid for in extras."""
     scenes = sorted({r["scene"] for r in rows})
-    markers = "osD^v<>"
-    figure, axes = plt.subplots(1, 3, figsize=(14, 3.8))
-    for algo in sorted({r["algo"] for r in rows}):
-        labelled = False
-        for index, scene in enumerate(scenes):
-            mine = sorted((r for r in rows if r["algo"] == algo and r["scene"] == scene),
-                          key=lambda r: r["growth"])
-            if not mine:
-                continue
-            style = {"marker": markers[index % len(markers)], "color": colour(algo),
-                     "label": None if labelled else algo}
-            labelled = True
-            growth = [r["growth"] for r in mine]
-            axes[0].plot(growth, [r["missed_total"] / r["frames"] for r in mine], **style)
-            axes[1].plot(growth, [r["extra_mean"] for r in mine], **style)
-            timed = [(r["growth"], r["late_ms"] / r["on_time_ms"]) for r in mine
-                     if r["on_time_ms"] > 0]
-            if timed:
-                axes[2].plot(*zip(*timed), **style)
-    key = ", ".join(f"{s} {markers[i % len(markers)]}" for i, s in enumerate(scenes))
-    for axis, title in zip(axes, ("missed pairs per frame", "extra pairs per frame",
-                                  "late / on-time search ms (medians)")):
-        axis.set_title(f"{title}\nmarkers: scenes {key}", fontsize=10)
-        axis.set_xlabel("growth (x |v| dt)")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize=8)
-    axes[0].set_yscale("symlog")
-    axes[1].set_yscale("log")
-    axes[2].set_yscale("log")
-    axes[2].axhline(1.0, color="black", linewidth=0.6)
+    measures = (("missed pairs per frame", lambda r: r["missed_total"] / r["frames"], "symlog"),
+                ("extra pairs per frame", lambda r: r["extra_mean"], "symlog"),
+                ("late / on-time search (medians)",
+                 lambda r: r["late_ms"] / r["on_time_ms"] if r["on_time_ms"] > 0
+                 else float("nan"), "log"))
+    figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False, sharex=True,
+                                figsize=(3.6 * len(scenes), 2.6 * len(measures)))
+    for column, scene in enumerate(scenes):
+        for row, (title, value, scale) in enumerate(measures):
+            axis = axes[row][column]
+            for algo in sorted({r["algo"] for r in rows if r["scene"] == scene}):
+                mine = sorted((r for r in rows if r["algo"] == algo and r["scene"] == scene),
+                              key=lambda r: r["growth"])
+                axis.plot([r["growth"] for r in mine], [value(r) for r in mine], label=algo,
+                          **style(algo))
+            axis.set_yscale(scale)
+            if scale == "log":
+                plain_log_axis(axis)
+            axis.grid(alpha=0.3)
+            if column == 0:
+                axis.set_ylabel(title, fontsize=9)
+        axes[0][column].set_title(f"scene {scene}", fontsize=10)
+        axes[-1][column].set_xlabel("growth (x |v| dt)")
+        axes[-1][column].axhline(1.0, color="black", linewidth=0.6)
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return save(figure, folder, "fig_latency")
+
+
+def overlap_lines(axes: tuple, mine: list, n: int, tint) -> None:
+    """One n's lines in one scene's three panels."""
+    times, speedups, hidden = axes
+    loads = [r["load"] for r in mine]
+    for axis, key, line, name in ((times, "sync_ms", "-o", "sync"),
+                                  (times, "async_ms", "--s", "async"),
+                                  (times, "ideal_ms", ":", "ideal"),
+                                  (speedups, "speedup", "-o", "measured"),
+                                  (speedups, "ideal_speedup", ":", "ideal"),
+                                  (hidden, "hidden", "-o", "")):
+        axis.plot(loads, [r[key] for r in mine], line, color=tint,
+                  label=f"n {n} {name}".rstrip())
 
 
 def overlap(rows: list, folder: pathlib.Path) -> str:
@@ -258,38 +355,23 @@ def overlap(rows: list, folder: pathlib.Path) -> str:
     sizes = sorted({r["objects"] for r in rows})
     palette = plt.get_cmap("viridis")
     figure, axes = plt.subplots(3, len(scenes), figsize=(5.5 * len(scenes), 10), squeeze=False)
+    titles = ("frame time (median)", "speed-up, sync / async", "share of the tasks' time hidden")
+    labels = ("ms per frame", "speed-up", "(sync - async) / tasks")
     for column, scene in enumerate(scenes):
-        times, speedups, hidden = axes[0][column], axes[1][column], axes[2][column]
+        panels = tuple(axes[row][column] for row in range(3))
         for index, n in enumerate(sizes):
             mine = sorted((r for r in rows if r["scene"] == scene and r["objects"] == n),
                           key=lambda r: r["load"])
-            if not mine:
-                continue
-            colour_n = palette(index / max(1, len(sizes) - 1) * 0.85)
-            loads = [r["load"] for r in mine]
-            times.plot(loads, [r["sync_ms"] for r in mine], "-o", color=colour_n,
-                       label=f"n {n} sync")
-            times.plot(loads, [r["async_ms"] for r in mine], "--s", color=colour_n,
-                       label=f"n {n} async")
-            times.plot(loads, [r["ideal_ms"] for r in mine], ":", color=colour_n,
-                       label=f"n {n} ideal")
-            speedups.plot(loads, [r["speedup"] for r in mine], "-o", color=colour_n,
-                          label=f"n {n}")
-            speedups.plot(loads, [r["ideal_speedup"] for r in mine], ":", color=colour_n,
-                          label=f"n {n} ideal")
-            hidden.plot(loads, [r["hidden"] for r in mine], "-o", color=colour_n, label=f"n {n}")
-        times.set_yscale("log")
-        times.set_title(f"scene {scene}: frame time (median)", fontsize=10)
-        times.set_ylabel("ms per frame")
-        speedups.axhline(1.0, color="black", linewidth=0.6)
-        speedups.set_title(f"scene {scene}: speed-up, sync / async", fontsize=10)
-        speedups.set_ylabel("speed-up")
-        hidden.set_title(f"scene {scene}: share of the tasks' time hidden", fontsize=10)
-        hidden.set_ylabel("(sync - async) / tasks")
-        hidden.set_ylim(-0.05, 1.05)
-        for axis in (times, speedups, hidden):
+            if mine:
+                overlap_lines(panels, mine, n, palette(index / max(1, len(sizes) - 1) * 0.85))
+        panels[0].set_yscale("log")
+        plain_log_axis(panels[0])
+        panels[1].axhline(1.0, color="black", linewidth=0.6)
+        panels[2].set_ylim(-0.05, 1.05)
+        for axis, title, label in zip(panels, titles, labels):
+            axis.set_title(f"scene {scene}: {title}", fontsize=10)
+            axis.set_ylabel(label)
             axis.set_xlabel("task load X (tasks' cost / physics step)")
             axis.grid(alpha=0.3)
             axis.legend(fontsize=7, ncol=2)
-    figure.tight_layout()
     return save(figure, folder, "fig_overlap")

@@ -21,11 +21,19 @@ TIMES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate
 ENERGY = ("kinetic_energy", "potential_energy")
 
 
+def number(text: str) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 def read_frames(folder: pathlib.Path) -> dict:
-    """frames.csv as {column: [float per frame]}."""
+    """frames.csv as {column: [float per frame]}; a column the engine adds is read too, and
+    a cell that is not a number reads as NaN (the tables use only the columns they name)."""
     with open(folder / "frames.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    return {column: [float(row[column]) for row in rows] for column in rows[0]} if rows else {}
+    return {column: [number(row[column]) for row in rows] for column in rows[0]} if rows else {}
 
 
 def write_csv(path: pathlib.Path, rows: list) -> None:
@@ -59,26 +67,32 @@ def csv_results(jobs: list, experiment: str) -> list:
     return found
 
 
+def timing(timings: dict, column: str, statistic: str) -> float:
+    """One statistic of one timing column; NaN where the run did not record it."""
+    return timings.get(column, {}).get(statistic, float("nan"))
+
+
+def sweep_row(job, s: dict) -> dict:
+    p, t, c = s["parameters"], s["timings_ms"], s["counts"]
+    row = {"scene": p["scene"], "objects": p["objects"], "algo_requested":
+           p["algorithm_requested"], "algorithm": p["algorithm"], "rep": job.labels["rep"],
+           "frames": p["frames"], "seed": p["seed"],
+           # the mean K the run used (--substeps auto), or its fixed K
+           "substeps": c["substeps"]["mean"] if "substeps" in c else p["substeps"]}
+    for column in TIMES:
+        row[column.replace("_ms", "_mean")] = timing(t, column, "mean")
+        row[column.replace("_ms", "_median")] = timing(t, column, "median")
+    row.update({"pairs_median": c["pairs"]["median"], "escaped_max": int(c["escaped"]["max"]),
+                "sunk_max": int(c["sunk"]["max"]),
+                "penetration_max": c["max_penetration"]["max"],
+                "state_hash": s["state_hash"], "wall_seconds": s["wall_seconds"],
+                "gpu": s["machine"]["gpu"], "folder": str(job.folder)})
+    return row
+
+
 def sweep_runs(jobs: list) -> list:
     """One row per sweep run."""
-    rows = []
-    for job, s in summaries(jobs, "sweep"):
-        p, t, c = s["parameters"], s["timings_ms"], s["counts"]
-        row = {"scene": p["scene"], "objects": p["objects"], "algo_requested":
-               p["algorithm_requested"], "algorithm": p["algorithm"], "rep": job.labels["rep"],
-               "frames": p["frames"], "seed": p["seed"],
-               # the mean K the run used (--substeps auto), or its fixed K
-               "substeps": c["substeps"]["mean"] if "substeps" in c else p["substeps"]}
-        for column in TIMES:
-            row[column.replace("_ms", "_mean")] = t[column]["mean"]
-            row[column.replace("_ms", "_median")] = t[column]["median"]
-        row.update({"pairs_median": c["pairs"]["median"], "escaped_max": int(c["escaped"]["max"]),
-                    "sunk_max": int(c["sunk"]["max"]),
-                    "penetration_max": c["max_penetration"]["max"],
-                    "state_hash": s["state_hash"], "wall_seconds": s["wall_seconds"],
-                    "gpu": s["machine"]["gpu"], "folder": str(job.folder)})
-        rows.append(row)
-    return rows
+    return [sweep_row(job, s) for job, s in summaries(jobs, "sweep")]
 
 
 def label(row: dict) -> str:
@@ -91,6 +105,28 @@ def label(row: dict) -> str:
     return row["algorithm"]
 
 
+STAGES = ("update", "broadphase", "narrowphase", "solver", "integrate", "ccd_query")
+
+
+def sweep_cell(scene: int, n: int, algo: str, group: list) -> dict:
+    """The repetitions of one (scene, n, algorithm) averaged as the paper does."""
+    cell = {"scene": scene, "objects": n, "algo": algo,
+            "fallback": algo != group[0]["algo_requested"],  # not what was asked: no claim
+            "repetitions": len(group), "frames": group[0]["frames"],
+            "substeps": group[0]["substeps"]}
+    for column in STAGES + ("total",):
+        cell[f"{column}_mean"] = statistics.fmean(r[f"{column}_mean"] for r in group)
+        cell[f"{column}_median"] = statistics.median(r[f"{column}_median"] for r in group)
+    cell["total_min"] = min(r["total_mean"] for r in group)
+    cell["total_max"] = max(r["total_mean"] for r in group)
+    cell.update({"pairs_median": group[0]["pairs_median"],
+                 "escaped_max": max(r["escaped_max"] for r in group),
+                 "sunk_max": max(r["sunk_max"] for r in group),
+                 "penetration_max": max(r["penetration_max"] for r in group),
+                 "same_state_every_rep": len({r["state_hash"] for r in group}) == 1})
+    return cell
+
+
 def aggregate_sweep(runs: list) -> list:
     """One row per (scene, n, algorithm as it ran): repetitions averaged as the paper does.
 
@@ -101,25 +137,27 @@ def aggregate_sweep(runs: list) -> list:
     groups = {}
     for run in runs:
         groups.setdefault((run["scene"], run["objects"], label(run)), []).append(run)
-    cells = []
-    for (scene, n, algo), group in sorted(groups.items()):
-        cell = {"scene": scene, "objects": n, "algo": algo,
-                "fallback": algo != group[0]["algo_requested"],  # not what was asked: no claim
-                "repetitions": len(group), "frames": group[0]["frames"],
-                "substeps": group[0]["substeps"]}
-        for column in ("update", "broadphase", "narrowphase", "solver", "integrate", "ccd_query",
-                       "total"):
-            cell[f"{column}_mean"] = statistics.fmean(r[f"{column}_mean"] for r in group)
-            cell[f"{column}_median"] = statistics.median(r[f"{column}_median"] for r in group)
-        cell["total_min"] = min(r["total_mean"] for r in group)
-        cell["total_max"] = max(r["total_mean"] for r in group)
-        cell.update({"pairs_median": group[0]["pairs_median"],
-                     "escaped_max": max(r["escaped_max"] for r in group),
-                     "sunk_max": max(r["sunk_max"] for r in group),
-                     "penetration_max": max(r["penetration_max"] for r in group),
-                     "same_state_every_rep": len({r["state_hash"] for r in group}) == 1})
-        cells.append(cell)
-    return cells
+    return [sweep_cell(scene, n, algo, group)
+            for (scene, n, algo), group in sorted(groups.items())]
+
+
+def stage_rows(cells: list) -> list:
+    """Each honest sweep cell's frame by stage (ms, means over repetitions), what the named
+    stages leave of the total ("other": what a stage the tables do not name takes), and the
+    share of the frame a broadphase can change: update + broadphase, in %."""
+    rows = []
+    for c in cells:
+        if c["fallback"]:
+            continue
+        row = {"scene": c["scene"], "objects": c["objects"], "algo": c["algo"]}
+        row.update({stage: c[f"{stage}_mean"] for stage in STAGES})
+        named = sum(v for stage, v in row.items() if stage in STAGES and v == v)
+        row["other"] = max(0.0, c["total_mean"] - named)
+        row["total"] = c["total_mean"]
+        row["broadphase_pct"] = 100 * c["broadphase_mean"] / c["total_mean"]
+        row["update_broadphase_pct"] = 100 * update_and_broadphase_ms(c) / c["total_mean"]
+        rows.append(row)
+    return rows
 
 
 def update_and_broadphase_ms(cell: dict) -> float:
@@ -129,7 +167,8 @@ def update_and_broadphase_ms(cell: dict) -> float:
 
 
 def per_frame(runs: list, scene: int, n: int) -> dict:
-    """{algo: {column: [per-frame mean over repetitions]}} for update, broadphase and total."""
+    """{algo: {column: [per-frame mean over repetitions]}} for update, broadphase, their sum
+    and the total."""
     series = {}
     for run in runs:
         if (run["scene"], run["objects"]) != (scene, n) or label(run) != run["algorithm"]:
@@ -141,7 +180,15 @@ def per_frame(runs: list, scene: int, n: int) -> dict:
         length = min(len(r["frame"]) for r in reps)
         averaged[algo] = {c: [statistics.fmean(r[c][i] for r in reps) for i in range(length)]
                           for c in ("update_ms", "broadphase_ms", "total_ms")}
+        averaged[algo]["update_broadphase_ms"] = [
+            u + b for u, b in zip(averaged[algo]["update_ms"], averaged[algo]["broadphase_ms"])]
     return averaged
+
+
+def per_frame_rows(series: dict) -> list:
+    """per_frame()'s series as CSV rows: one per algorithm and frame."""
+    return [{"algo": algo, "frame": frame, **{c: values[c][frame] for c in values}}
+            for algo, values in sorted(series.items()) for frame in range(len(values["total_ms"]))]
 
 
 def pair_errors(jobs: list) -> list:
@@ -189,48 +236,72 @@ def position_error(on: list, off: list) -> dict:
             "first_frame_apart": apart - 1}
 
 
+def ccd_mode(parameters: dict) -> str:
+    """--ccd as text; runs from before --ccd auto recorded a bool."""
+    ccd = parameters["ccd"]
+    return ccd if isinstance(ccd, str) else ("all" if ccd else "off")
+
+
+def physics_row(s: dict) -> dict:
+    """A physics run's cost (ms, mean K) and its errors, from its summary.json."""
+    p, t, c = s["parameters"], s["timings_ms"], s["counts"]
+    mean_k = c["substeps"]["mean"] if "substeps" in c else float(p["substeps"])
+    return {"scene": p["scene"], "objects": p["objects"], "algorithm": p["algorithm"],
+            "substeps": p["substeps"], "ccd": ccd_mode(p),
+            "sleep": "off" if p.get("sleep", "off") == "off" or p["scene"] >= 3 else "on",
+            # runs from before --solver ran Bullet's own settings
+            "solver": p.get("solver", "bullet"), "seed": p["seed"], "frames": p["frames"],
+            "total_mean": t["total_ms"]["mean"], "total_median": t["total_ms"]["median"],
+            "total_max": t["total_ms"]["max"], "mean_k": mean_k,
+            "k_x_boxes": mean_k * p["objects"],
+            "ccd_bodies_mean": c["ccd_bodies"]["mean"] if "ccd_bodies" in c else float("nan"),
+            "escaped_max": int(c["escaped"]["max"]), "escaped_final": c["escaped_final"],
+            "sunk_max": int(c["sunk"]["max"]), "sunk_final": c["sunk_final"],
+            "penetration_max": c["max_penetration"]["max"],
+            "penetration_median": c["max_penetration"]["median"],
+            "removed_max": int(c["removed"]["max"]),
+            "asleep_max": int(c["sleeping"]["max"]) if "sleeping" in c else 0}
+
+
+def energy_drift(frames: dict) -> dict:
+    """The drift of kinetic + potential energy over the run, where frames.csv has both."""
+    if not all(column in frames for column in ENERGY):
+        return {}
+    energy = [k + u for k, u in zip(*(frames[column] for column in ENERGY))]
+    scale = abs(energy[0]) or 1.0
+    return {"energy_drift": (energy[-1] - energy[0]) / scale,
+            "energy_max_deviation": max(abs(e - energy[0]) for e in energy) / scale}
+
+
+def sleep_error(row: dict, job, errors: dict) -> dict:
+    """The position error sleep caused, on the run it was measured for (the main cell with
+    the default substeps and CCD, where the scene sleeps); NaN elsewhere."""
+    error = errors.get(row["scene"])
+    measured = (error and row["sleep"] == "on" and row["substeps"] == "auto"
+                and row["ccd"] == "auto" and job.labels.get("sleep_error_cell", False))
+    nan = float("nan")
+    return {"sleep_error_max_m": error["max_m"] if measured else nan,
+            "sleep_error_end_median_m": error["end_median_m"] if measured else nan}
+
+
+def physics_order(r: dict) -> tuple:
+    return (r["scene"], r["objects"], r["seed"], r["substeps"] == "auto",
+            str(r["substeps"]).zfill(3), r["solver"] == "bullet",
+            ("off", "auto", "all").index(r["ccd"]), r["sleep"])
+
+
 def physics_runs(jobs: list) -> list:
     """One row per physics run: cost (ms, mean K) against escapes, sinking, penetration,
     energy drift, and where a run slept, the position error sleep caused."""
-    rows = []
     errors = {job.labels["scene"]: json.loads(job.path.read_text()) for job in jobs
               if job.experiment == "physics_sleep" and job.done()}
+    rows = []
     for job, s in summaries(jobs, "physics"):
-        p, t, c = s["parameters"], s["timings_ms"], s["counts"]
-        ccd = p["ccd"] if isinstance(p["ccd"], str) else ("all" if p["ccd"] else "off")
-        sleep = "off" if p.get("sleep", "off") == "off" or p["scene"] >= 3 else "on"
-        mean_k = c["substeps"]["mean"] if "substeps" in c else float(p["substeps"])
-        row = {"scene": p["scene"], "objects": p["objects"], "algorithm": p["algorithm"],
-               "substeps": p["substeps"], "ccd": ccd, "sleep": sleep,
-               # runs from before --solver ran Bullet's own settings
-               "solver": p.get("solver", "bullet"), "seed": p["seed"], "frames": p["frames"],
-               "total_mean": t["total_ms"]["mean"], "total_median": t["total_ms"]["median"],
-               "total_max": t["total_ms"]["max"], "mean_k": mean_k,
-               "k_x_boxes": mean_k * p["objects"],
-               "ccd_bodies_mean": c["ccd_bodies"]["mean"] if "ccd_bodies" in c else float("nan"),
-               "escaped_max": int(c["escaped"]["max"]), "escaped_final": c["escaped_final"],
-               "sunk_max": int(c["sunk"]["max"]), "sunk_final": c["sunk_final"],
-               "penetration_max": c["max_penetration"]["max"],
-               "penetration_median": c["max_penetration"]["median"],
-               "removed_max": int(c["removed"]["max"]),
-               "asleep_max": int(c["sleeping"]["max"]) if "sleeping" in c else 0}
-        frames = read_frames(job.folder)
-        if all(column in frames for column in ENERGY):
-            energy = [k + u for k, u in zip(*(frames[column] for column in ENERGY))]
-            scale = abs(energy[0]) or 1.0
-            row["energy_drift"] = (energy[-1] - energy[0]) / scale
-            row["energy_max_deviation"] = max(abs(e - energy[0]) for e in energy) / scale
-        error = errors.get(p["scene"])
-        sleeping_default = (sleep == "on" and p["substeps"] == "auto" and ccd == "auto"
-                            and job.labels.get("sleep_error_cell", False))
-        row["sleep_error_max_m"] = error["max_m"] if error and sleeping_default else float("nan")
-        row["sleep_error_end_median_m"] = (error["end_median_m"] if error and sleeping_default
-                                           else float("nan"))
+        row = physics_row(s)
+        row.update(energy_drift(read_frames(job.folder)))
+        row.update(sleep_error(row, job, errors))
         rows.append(row)
-    rows.sort(key=lambda r: (r["scene"], r["objects"], r["seed"], r["substeps"] == "auto",
-                             str(r["substeps"]).zfill(3), r["solver"] == "bullet",
-                             ("off", "auto", "all").index(r["ccd"]), r["sleep"]))
-    return rows
+    return sorted(rows, key=physics_order)
 
 
 def latency_rows(jobs: list) -> list:
@@ -260,22 +331,26 @@ def latency_rows(jobs: list) -> list:
     return rows
 
 
-def timeline_frame(folder: pathlib.Path) -> tuple:
-    """(frame number, algorithm, [(lane, name, start ms, duration ms)]) of one typical frame.
-
-    The frame is the one whose length is the median of the run's frames after
-    the first (which pays for warming up); times are relative to its start.
-    """
-    trace = json.loads((folder / "timeline.json").read_text())["traceEvents"]
-    summary = json.loads((folder / "summary.json").read_text())
-    lanes = {e["tid"]: e["args"]["name"] for e in trace if e["ph"] == "M"}
-    spans = [e for e in trace if e["ph"] == "X"]
+def typical_frame(spans: list) -> int:
+    """The frame whose length is the median of the run's frames after the first (which
+    pays for warming up)."""
     frames = sorted((e["dur"], e["args"]["frame"]) for e in spans
                     if e["name"] == "frame" and e["args"]["frame"] > 0)
     if not frames:
         frames = [(e["dur"], e["args"]["frame"]) for e in spans if e["name"] == "frame"]
-    chosen = frames[len(frames) // 2][1]
-    mine = [e for e in spans if e["args"]["frame"] == chosen]
+    return frames[len(frames) // 2][1]
+
+
+def timeline_frame(folder: pathlib.Path) -> tuple:
+    """(frame number, algorithm, [(lane, name, start ms, duration ms)]) of one typical
+    frame; times are relative to its start."""
+    trace = json.loads((folder / "timeline.json").read_text())["traceEvents"]
+    summary = json.loads((folder / "summary.json").read_text())
+    lanes = {e["tid"]: e["args"]["name"] for e in trace if e["ph"] == "M"}
+    spans = [e for e in trace if e["ph"] == "X"]
+    chosen = typical_frame(spans)
+    mine = [e for e in spans if e["args"].get("frame") == chosen]
     start = min(e["ts"] for e in mine)
     return chosen, summary["parameters"]["algorithm"], [
-        (lanes[e["tid"]], e["name"], (e["ts"] - start) / 1e3, e["dur"] / 1e3) for e in mine]
+        (lanes.get(e["tid"], str(e["tid"])), e["name"], (e["ts"] - start) / 1e3, e["dur"] / 1e3)
+        for e in mine]

@@ -46,8 +46,6 @@ def main() -> int:
     elsewhere = args.out / "gpu-machine" / "checkout-there"
     hidden = args.out / "hidden"
     hide(hidden, "matplotlib", "numpy")
-    notes = args.out / "notes"  # none: the report's own text only
-    notes.mkdir(parents=True)
     runs_out = elsewhere / "out" / "study"
     command = [sys.executable, str(STUDY), "--overlap", args.overlap, "--emulation",
                str(args.out / "no-emulation"), "--out", str(runs_out), "--runs-only", *SMALL]
@@ -72,7 +70,7 @@ def main() -> int:
 
     here = args.out / "here" / "study"
     made = subprocess.run([sys.executable, str(STUDY), "--from-archive", str(archive),
-                           "--overlap", args.overlap, "--out", str(here), "--notes", str(notes)],
+                           "--overlap", args.overlap, "--out", str(here)],
                           capture_output=True, text=True)
     check(made.returncode == 0, f"--from-archive exited {made.returncode}:\n{made.stderr}")
     report = (here / "REPORT.md").read_text()
@@ -85,8 +83,8 @@ def main() -> int:
         check((here / "report" / image).exists(), f"the report shows {image}, which is missing")
     check("What ran beside what:" in report, "the report does not say what ran beside what")
     check("never ran at once" in report, "runs compared with each other ran at once")
-    check(len(rows(here / "sweep_runs.csv")) == 6, "sweep_runs.csv lacks the archive's runs")
-    check(any(r["sleep_error_max_m"] not in ("", "nan") for r in rows(here / "physics.csv")),
+    check(len(rows(here / "report" / "sweep_runs.csv")) == 6, "sweep_runs.csv lacks the archive's runs")
+    check(any(r["sleep_error_max_m"] not in ("", "nan") for r in rows(here / "report" / "physics.csv")),
           "the sleep error, computed without numpy, is missing")
 
     bad = subprocess.run([sys.executable, str(STUDY), "--from-archive", str(args.out / "none"),

@@ -3,10 +3,12 @@
 Checks what the study promises rather than what it measured: every planned
 run has its result, the algorithm recorded is the one that ran (a GPU run on
 a machine without a GPU is left for a GPU machine, never a relabelled CPU
-fallback, and an emulated one is never a GPU figure), no algorithm
-missed an exact pair, every figure the report shows exists, a second
-invocation redoes nothing, and a shard runs only its share, in whole groups.  Exit 77 (ctest's
-skip) when this interpreter has no matplotlib.
+fallback, and an emulated one is never a GPU figure), no algorithm missed an
+exact pair, every figure the report shows exists with its CSV beside it where
+it has one, the findings' cells are short, a second invocation redoes nothing
+and regenerates the report byte for byte, --report fills a hand-written
+report's blocks and keeps its prose, and a shard runs only its share, in whole
+groups.  Exit 77 (ctest's skip) when this interpreter has no matplotlib.
 """
 import argparse
 import csv
@@ -64,16 +66,50 @@ def arguments_or_skip():
     return args
 
 
-def main() -> int:
-    args = arguments_or_skip()
-    if args is None:
-        return 77
+HAND_WRITTEN = """# A report kept by hand
 
-    notes = args.out / "notes"
-    notes.mkdir(parents=True)
-    (notes / "sweep.md").write_text("A hand-written finding about the sweep.\n")
-    study(args.overlap, args.out, "--notes", str(notes))
-    runs = rows(args.out / "sweep_runs.csv")
+Prose before the findings.
+
+<!-- generated:findings -->
+stale text the study replaces
+<!-- /generated:findings -->
+
+A hand-written finding about the sweep, which the study never rewrites.
+
+<!-- generated:stages -->
+<!-- /generated:stages -->
+"""
+
+
+def check_hand_written(args) -> None:
+    """--report fills the blocks of a hand-written report and keeps its prose; a marker
+    naming no block is refused, naming the marker, and the report is left as it was."""
+    doc = args.out / "hand" / "REPORT.md"
+    doc.parent.mkdir()
+    doc.write_text(HAND_WRITTEN)
+    study(args.overlap, args.out, "--no-runs", "--report", "--report-doc", str(doc))
+    filled = doc.read_text()
+    check("stale text" not in filled and "| claim | verdict | figure | machine | section |"
+          in filled, "--report did not fill the findings block")
+    check("A hand-written finding about the sweep, which the study never rewrites." in filled
+          and filled.index("generated:findings") < filled.index("A hand-written finding"),
+          "--report moved or lost the hand-written prose")
+    check((doc.parent / "report" / "fig_stages.png").exists(),
+          "--report did not copy the figures beside the report")
+    doc.write_text(filled + "\n<!-- generated:section_that_went -->\n"
+                   "<!-- /generated:section_that_went -->\n")
+    command = [sys.executable, str(STUDY), "--overlap", args.overlap, "--out", str(args.out),
+               *TINY, "--no-runs", "--report", "--report-doc", str(doc)]
+    stale = subprocess.run(command, capture_output=True, text=True)
+    check(stale.returncode == 1 and "section_that_went" in stale.stderr
+          and doc.read_text().endswith("<!-- /generated:section_that_went -->\n"),
+          f"a marker naming no block was not refused (exit {stale.returncode}):\n{stale.stderr}")
+
+
+def check_sweep(args, tables: pathlib.Path) -> bool:
+    """The sweep's runs are the ones planned, each recorded as the algorithm that ran;
+    returns whether this machine has a GPU."""
+    runs = rows(tables / "sweep_runs.csv")
     gpu = json.loads(next((args.out / "sweep").glob("*/summary.json")).read_text())
     has_gpu = not gpu["machine"]["gpu"].startswith("none")
     expected = len(SCENES) * len(OBJECTS) * (len(ALGOS) - (0 if has_gpu else 1))
@@ -83,31 +119,45 @@ def main() -> int:
               f"a {run['algo_requested']} run is recorded as {run['algorithm']}")
     report = (args.out / "REPORT.md").read_text()
     if not has_gpu:
-        check("### What needs a real GPU" in report, "no GPU here, yet the report does not say "
-              "what it leaves for a GPU machine")
+        check("Needs a real GPU, so not in this report" in report, "no GPU here, yet the "
+              "report does not say what it leaves for a GPU machine")
     # No GPU, or the CUDA emulation (its times are the CPU's): no GPU figure either way.
     if not has_gpu or "emulation" in gpu["machine"]["gpu"]:
-        check("GPU: needs a real GPU" in report, "the paper's claims quote a GPU figure")
-    for image in re.findall(r"\]\(report/([^)]+)\)", report):
-        for suffix in (".png", ".svg"):
-            path = args.out / "report" / pathlib.Path(image).with_suffix(suffix)
-            check(path.exists(), f"the report shows {image} but {path} is missing")
+        check("not run: needs a GPU" in report, "the paper's claims quote a GPU figure")
     # Committed reports name no path of the machine they were made on.
     for local in (str(args.out.resolve()), str(STUDY.parents[1])):
         check(local not in report, f"the report names the local path {local}")
         check(all(local not in run["folder"] for run in runs),
               f"sweep_runs.csv names the local path {local}")
-    # Broadphases are ranked on update + broadphase (SAP's work is in the update).
-    check("; broadphase:" not in report and "update + broadphase, fastest first" in report,
-          "the report ranks broadphases on the broadphase column alone")
-    for figure in ("fig1_keyframes", "fig6_total_against_n", "fig_timeline", "fig_physics",
-                   "fig_latency", "fig_broadphase_error", "fig_overlap"):
+    return has_gpu
+
+
+def check_figures(args, tables: pathlib.Path, report: str) -> None:
+    findings = report.split("## Findings")[1].split("\n## ")[0]
+    cells = [c.strip() for line in findings.splitlines() if line.startswith("| ")
+             for c in line.strip("|").split("|")]
+    check(max(map(len, cells)) <= 160, f"a findings cell of {max(map(len, cells))} characters")
+    for image in re.findall(r"\]\(report/([^)]+)\)", report):
+        for suffix in (".png", ".svg"):
+            path = tables / pathlib.Path(image).with_suffix(suffix)
+            check(path.exists(), f"the report shows {image} but {path} is missing")
+    # Broadphases are compared on update + broadphase (SAP's work is in the update).
+    check("update + broadphase (compare these)" in (tables / "fig5_scene4_per_frame.svg")
+          .read_text(), "Figures 2-5 lack the update + broadphase panel")
+    for figure in ("fig1_keyframes", "fig6_total_against_n", "fig_stages", "fig_timeline",
+                   "fig_physics", "fig_latency", "fig_broadphase_error", "fig_overlap"):
         check(f"report/{figure}.png" in report, f"the report lacks {figure}")
-    pairs = rows(args.out / "pairs.csv")
-    check({p["algo"] for p in pairs} == {"bf", "sap", "sap32", "bvh", "cpubf"},
+    for data in ("fig5_scene4_per_frame.csv", "fig_timeline.csv", "stages.csv"):
+        check((tables / data).exists(), f"the figures' data {data} is missing")
+
+
+def check_errors(tables: pathlib.Path, report: str) -> None:
+    """Pairs, physics and latency: every cell planned is in its CSV."""
+    pairs = rows(tables / "pairs.csv")
+    check({p["algo"] for p in pairs} == {"bf", "sap", "sap32", "bvh", "cpubf", "cpusap"},
           f"pairs.csv holds {sorted(p['algo'] for p in pairs)}")
     check(all(p["missed"] == "0" for p in pairs), "an algorithm missed exact pairs")
-    physics = rows(args.out / "physics.csv")
+    physics = rows(tables / "physics.csv")
     # Per scene 3 fixed-K runs and 2 automatic ones, scene 1 (it sleeps) once more without
     # sleep; the old fixed K (2 and 8) x ccd off|auto x solver pile|bullet; at seed 7 those
     # 4 and the 2 automatic ones again.
@@ -116,18 +166,19 @@ def main() -> int:
     check({(r["scene"], r["substeps"], r["solver"]) for r in physics if r["solver"] == "bullet"}
           == {("1", "2", "bullet"), ("4", "8", "bullet")}, "physics.csv lacks the old default")
     check(sum(r["seed"] == "7" for r in physics) == 12, "physics.csv lacks seed 7's runs")
-    check("at every seed and size the comparison ran" in report,
+    check("at every seed and size the comparison ran" in report
+          and "Summed over the seeds of each size" in report,
           "the report lacks the comparison across seeds")
-    check("Summed over the seeds of each size" in report,
-          "the report lacks the comparison summed over seeds")
     check(any(r["scene"] == "1" and r["sleep_error_max_m"] not in ("", "nan") for r in physics),
           "physics.csv lacks scene 1's sleep error")
-    latency = rows(args.out / "latency.csv")
+    latency = rows(tables / "latency.csv")
     check({(r["scene"], r["algo"], r["growth"]) for r in latency} ==
           {(s, a, g) for s in ("1", "4") for a in ("bvh", "cpubf") for g in ("0", "1", "2")},
           "latency.csv lacks a (scene, algo, growth)")
 
-    overlap = rows(args.out / "overlap.csv")
+
+def check_overlap(tables: pathlib.Path, report: str) -> None:
+    overlap = rows(tables / "overlap.csv")
     check({(r["scene"], r["load"]) for r in overlap} == {("1", "0"), ("1", "1"), ("4", "0"),
                                                          ("4", "1")},
           f"overlap.csv holds {sorted((r['scene'], r['load']) for r in overlap)}")
@@ -135,27 +186,12 @@ def main() -> int:
           "a sync and an async run of the overlap study ended differently")
     check("## 4. The asynchronous frame" in report, "the report lacks the overlap section")
 
-    again = study(args.overlap, args.out, "--notes", str(notes))
-    check(" 0 to run" in again.stderr, "a second invocation ran jobs again:\n" + again.stderr)
-    # The report is a function of the results and the notes: regenerated, byte for byte the
-    # same, the note still in place after its section's tables.
-    regenerated = (args.out / "REPORT.md").read_text()
-    check(regenerated == report, "regenerating the report changed it")
-    sweep_at = report.index("## 1. The sweep")
-    check(sweep_at < report.index("A hand-written finding about the sweep.") <
-          report.index("## 2. The async loop"), "the sweep's note is not in the sweep's section")
-    # A note for a section the report no longer has stops the study, naming the note.
-    (notes / "section_that_went.md").write_text("Words about a section that is gone.\n")
-    command = [sys.executable, str(STUDY), "--overlap", args.overlap, "--out", str(args.out),
-               *TINY, "--notes", str(notes), "--no-runs"]
-    stale = subprocess.run(command, capture_output=True, text=True)
-    check(stale.returncode == 1 and "section_that_went.md" in stale.stderr,
-          f"a stale note was not refused (exit {stale.returncode}):\n{stale.stderr}")
 
+def check_shard(args, has_gpu: bool) -> None:
+    """A shard runs whole groups of the runs compared with each other: every (scene, n) it
+    ran with all of its algorithms (gpubf only with a GPU), and some of the groups, not all."""
     shard_out = args.out / "shard"
     sharded = study(args.overlap, shard_out, "--experiments", "sweep", "--shard", "2/3")
-    # A shard runs whole groups of the runs compared with each other: every (scene, n) it ran
-    # with all of its algorithms (gpubf only with a GPU), and some of the four groups, not all.
     ran = {path.parent.name for path in (shard_out / "sweep").glob("*/summary.json")}
     groups = {tuple(name.split("_")[:2]) for name in ran}
     runnable = [a for a in ALGOS if has_gpu or a != "gpubf"]
@@ -163,6 +199,28 @@ def main() -> int:
           f"shard 2/3 ran part of a group: {sorted(ran)}:\n{sharded.stderr}")
     check(0 < len(groups) < len(SCENES) * len(OBJECTS),
           f"shard 2/3 ran {len(groups)} of {len(SCENES) * len(OBJECTS)} groups:\n{sharded.stderr}")
+
+
+def main() -> int:
+    args = arguments_or_skip()
+    if args is None:
+        return 77
+    done = study(args.overlap, args.out)
+    last = done.stderr.rstrip().splitlines()[-1]
+    check(last.startswith(f"study: report: {args.out}/REPORT.md"),
+          "the study does not end naming its report:\n" + done.stderr[-400:])
+    tables = args.out / "report"
+    has_gpu = check_sweep(args, tables)
+    report = (args.out / "REPORT.md").read_text()
+    check_figures(args, tables, report)
+    check_errors(tables, report)
+    check_overlap(tables, report)
+    again = study(args.overlap, args.out)
+    check(" 0 to run" in again.stderr, "a second invocation ran jobs again:\n" + again.stderr)
+    # The report is a function of the results: regenerated, byte for byte the same.
+    check((args.out / "REPORT.md").read_text() == report, "regenerating the report changed it")
+    check_hand_written(args)
+    check_shard(args, has_gpu)
     print("study.quick: all checks passed")
     return 0
 

@@ -1,0 +1,163 @@
+#!/usr/bin/python3
+"""The hand-written report's contract with the generated tables: blocks and citations.
+
+A report kept by people (docs/REPORT.md) holds generated blocks and prose around them:
+
+  <!-- generated:findings -->
+  ...written by scripts/study.py --report, never by hand...
+  <!-- /generated:findings -->
+
+and a number in the prose names the generated table it comes from, in a comment
+right after it, which a reader of the rendered page does not see:
+
+  cpusap's frame is 152 ms<!-- cite report/sweep.csv total_mean scene=4 objects=3500 algo=cpusap -->
+  the broadphase takes 2-5%<!-- cite report/stages.csv update_broadphase_pct max --> of it
+  204 ms<!-- cite results/gpu/raw/async_cpusap/summary.json timings_ms.total_ms.median -->
+
+A CSV citation names a column, then key=value filters that pick one row (or
+min|max over the rows they pick); a JSON citation names a dotted key.  Paths are
+relative to the document.  The cited number is the last number before the
+comment; it matches when it is the table's value rounded to the decimals typed.
+
+Rules, each with its reason:
+  * fill() replaces only what lies between a block's markers: the prose is the
+    people's and is never rewritten; a marker naming no block the study writes is
+    an error (the block it held has gone, and its prose must be moved or removed).
+  * check() lists every citation whose number no longer matches its table, and every
+    citation that names a file, column or row that is not there: regenerating the
+    tables cannot leave a stale number in the prose unnoticed (ctest study.citations).
+
+  scripts/study_document.py check docs/REPORT.md README.md     # exit 1 on a mismatch
+  scripts/study_document.py words docs/REPORT.md              # prose and total words
+"""
+import json
+import pathlib
+import re
+import sys
+
+from results_files import read_csv
+
+BLOCK = re.compile(r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", re.S)
+OPENING = re.compile(r"<!-- generated:([\w-]+) -->")
+CITE = re.compile(r"<!-- cite (.*?) -->")
+NUMBER = re.compile(r"(?<![\d.])\d+(?:\.\d+)?")
+
+
+def fill(text: str, blocks: dict) -> tuple:
+    """(the text with each block's content replaced by blocks[name], problems)."""
+    problems = [f"marker generated:{name} names no block the study writes (its blocks: "
+                f"{', '.join(blocks)})" for name in OPENING.findall(text) if name not in blocks]
+    closed = {m.group(1) for m in BLOCK.finditer(text)}
+    problems += [f"marker generated:{name} is never closed (<!-- /generated:{name} -->)"
+                 for name in OPENING.findall(text) if name not in closed]
+    if problems:
+        return text, problems
+    filled = BLOCK.sub(lambda m: f"<!-- generated:{m.group(1)} -->\n"
+                       + "\n".join(blocks[m.group(1)]).strip("\n") + "\n"
+                       + f"<!-- /generated:{m.group(1)} -->", text)
+    return filled, []
+
+
+def prose(text: str) -> str:
+    """The document without its generated blocks and its comments."""
+    return re.sub(r"<!--.*?-->", " ", BLOCK.sub(" ", text), flags=re.S)
+
+
+def json_value(data, key: str) -> float:
+    for part in key.split("."):
+        data = data[int(part)] if isinstance(data, list) else data[part]
+    return float(data)
+
+
+def matches(text: str, wanted: str) -> bool:
+    try:
+        return float(text) == float(wanted)
+    except ValueError:
+        return text == wanted
+
+
+def csv_value(path: pathlib.Path, words: list) -> float:
+    column, rest = words[0], words[1:]
+    aggregate = rest.pop() if rest and rest[-1] in ("min", "max") else None
+    filters = [w.split("=", 1) for w in rest]
+    rows = [r for r in read_csv(path) if all(matches(r.get(k, ""), v) for k, v in filters)]
+    if not rows or column not in rows[0]:
+        raise LookupError(f"no row {' '.join(rest) or '(any)'} with a column {column}")
+    values = [float(r[column]) for r in rows]
+    if aggregate:
+        return min(values) if aggregate == "min" else max(values)
+    if len(values) > 1:
+        raise LookupError(f"{len(values)} rows match {' '.join(rest)}: add a filter or min|max")
+    return values[0]
+
+
+def cited_value(folder: pathlib.Path, citation: str) -> float:
+    words = citation.split()
+    path = folder / words[0]
+    if not path.is_file():
+        raise LookupError(f"no file {words[0]}")
+    if path.suffix == ".json":
+        return json_value(json.loads(path.read_text()), words[1])
+    return csv_value(path, words[1:])
+
+
+def typed_number(before: str) -> str:
+    found = NUMBER.findall(before)
+    return found[-1] if found else None
+
+
+def agrees(typed: str, value: float) -> bool:
+    decimals = len(typed.split(".")[1]) if "." in typed else 0
+    return abs(value - float(typed)) <= 0.5 * 10 ** -decimals + 1e-9 * max(1.0, abs(value))
+
+
+def check_line(folder: pathlib.Path, line: str) -> list:
+    """The problems of one line's citations, each with what was typed and what is there."""
+    problems, start = [], 0
+    for m in CITE.finditer(line):
+        typed = typed_number(line[start:m.start()])
+        start = m.end()
+        try:
+            value = cited_value(folder, m.group(1))
+        except (LookupError, KeyError, IndexError, ValueError) as error:
+            problems.append(f"cite {m.group(1)}: {error}")
+            continue
+        if typed is None:
+            problems.append(f"cite {m.group(1)}: no number before it")
+        elif not agrees(typed, value):
+            problems.append(f"{typed} typed, the table has {value:g} (cite {m.group(1)})")
+    return problems
+
+
+def check(path: pathlib.Path) -> list:
+    """Every citation of the document that does not match, as 'file:line: problem'."""
+    path = pathlib.Path(path)
+    return [f"{path}:{number}: {problem}"
+            for number, line in enumerate(path.read_text().splitlines(), start=1)
+            for problem in check_line(path.parent, line)]
+
+
+def main(argv: list) -> int:
+    if len(argv) < 2 or argv[0] not in ("check", "words"):
+        print(__doc__.split("\n\n")[-1], file=sys.stderr)
+        return 2
+    missing = [name for name in argv[1:] if not pathlib.Path(name).is_file()]
+    if missing:
+        print(f"study_document: no such file: {', '.join(missing)}", file=sys.stderr)
+        return 2
+    if argv[0] == "words":
+        for name in argv[1:]:
+            text = pathlib.Path(name).read_text()
+            print(f"{name}: {len(prose(text).split())} words of prose, "
+                  f"{len(text.split())} in all (wc -w)")
+        return 0
+    problems = [p for name in argv[1:] for p in check(pathlib.Path(name))]
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    cited = sum(len(CITE.findall(pathlib.Path(n).read_text())) for n in argv[1:])
+    print(f"study_document: {cited} citations, {len(problems)} not matching their tables")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
