@@ -17,7 +17,7 @@ download event of gpubf and gpusap holds more than the copy: list overflows, wai
             gpubf-paper: k0 + pairs * per_pair, pairs = n(n-1)/2
             gpusap:      k0 + n * per_box + candidates * per_candidate, or with no box
                          term; candidates as counted on these streams along one axis
-                         (docs/results/gpusap_candidates.md, log-log between its sizes)
+                         (docs/results/gpusap_candidates.csv, log-log between its sizes)
   host      gpubf, gpusap: h0 + api_calls * per_call + host_entries_sorted * per_entry
             (changes sorted on the host after a list overflow); gpubf-paper: h0 +
             bytes_from_device * per_byte (its host XOR over what it copied back)
@@ -36,23 +36,16 @@ import re
 import statistics
 
 import gpu_results
+from results_files import read_csv
 
-CANDIDATES = pathlib.Path(__file__).resolve().parent.parent / "docs/results/gpusap_candidates.md"
+CANDIDATES = pathlib.Path(__file__).resolve().parent.parent / "docs/results/gpusap_candidates.csv"
 
 
 def candidate_table() -> dict:
     """{n: (entries, candidates on one axis, candidates in slabs), each a box}, read from
-    docs/results/gpusap_candidates.md's table (counted on the scene-4 streams)."""
-    table = {}
-    for line in CANDIDATES.read_text().splitlines():
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        if len(cells) == 7 and re.fullmatch(r"[0-9·^]+", cells[0]):
-            n = 1
-            for factor in cells[0].split("·"):  # "3·10^4" -> 30000
-                base, _, power = factor.partition("^")
-                n *= int(base) ** int(power or 1)
-            table[n] = tuple(float(c) for c in (cells[2], cells[3], cells[4]))
-    return table
+    docs/results/gpusap_candidates.csv (counted on the scene-4 streams)."""
+    return {int(r["n"]): (float(r["entries_per_box"]), float(r["candidates_one_axis"]),
+                          float(r["candidates_slabs"])) for r in read_csv(CANDIDATES)}
 
 
 def per_box(n: float, which: int) -> float:
@@ -282,35 +275,35 @@ def predictions(fitted: dict, rows: list) -> list:
     return lines
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--raw", type=pathlib.Path, default=gpu_results.MACHINES[0])
-    raw = parser.parse_args().raw
-    rows = stage_rows(raw)
-    fitted = fit(rows)
-    m = gpu_results.machine(raw)
-    print(f"Fitted to {gpu_results.folder(raw.resolve())} ({m['gpu']}, commit "
-          f"{m['git_commit'][:7]}): {len(rows)} rows of GPU finders.\n")
+UNITS = {"upload": ["µs", "µs a byte"], "download": ["µs", "µs a byte"],
+         "kernels gpubf": ["µs", "µs a word"], "kernels gpubf-paper": ["µs", "µs a pair"],
+         "kernels gpusap": ["µs", "µs a box", "µs a candidate"],
+         "kernels gpusap, no box term": ["µs", "µs a candidate"],
+         "host gpubf, gpusap": ["µs", "µs a call", "µs a sorted entry"],
+         "host gpubf-paper": ["µs", "µs a byte copied back"]}
+
+
+def print_constants(fitted: dict) -> None:
     print("| stage | constants shared by | fitted |\n|---|---|---|")
-    names = {"upload": ["µs", "µs a byte"], "download": ["µs", "µs a byte"],
-             "kernels gpubf": ["µs", "µs a word"], "kernels gpubf-paper": ["µs", "µs a pair"], "kernels gpubf-paper": ["µs", "µs a pair"],
-             "kernels gpusap": ["µs", "µs a box", "µs a candidate"],
-             "kernels gpusap, no box term": ["µs", "µs a candidate"],
-             "host gpubf, gpusap": ["µs", "µs a call", "µs a sorted entry"],
-             "host gpubf-paper": ["µs", "µs a byte copied back"]}
     for (stage, who), coef in fitted.items():
-        units = names.get(f"{stage} {who}", names.get(stage))
+        units = UNITS.get(f"{stage} {who}", UNITS.get(stage))
         print(f"| {stage} | {who} | " + " + ".join(f"{c:.4g} {u}" for c, u in zip(coef, units))
               + (f" ({1e-3 / coef[1]:.1f} GB/s)" if stage in ("upload", "download") else "")
               + " |")
+
+
+def print_errors(fitted: dict, rows: list) -> None:
     lines, errors = error_table(fitted, rows)
     print("\nThe model against every measured stage:\n\n" + "\n".join(lines) + "\n")
     print("Error, |model / measured - 1| over the rows: " + "; ".join(
         f"{stage} median {statistics.median(e for e, _, _ in errs):.0%}, largest "
         f"{max(errs)[0]:.0%} ({max(errs)[1]} at {max(errs)[2]})"
         for stage, errs in errors.items()) + ".\n")
-    resweep = [r for r in rows if resweep_row(r)]
-    for r in resweep:
+
+
+def print_resweep(fitted: dict, rows: list) -> None:
+    """The frames that overflowed and swept again, and the fits with and without them."""
+    for r in [r for r in rows if resweep_row(r)]:
         second = fitted[("kernels", "gpusap")][2] * candidates(r["n"])
         print(f"The resweep at {r['n']}, modelled as a second one-axis sweep in the download: "
               f"{model(fitted, r)['download'] + second:.0f} µs against {r['download_us']:.0f} "
@@ -325,6 +318,20 @@ def main() -> None:
               KERNEL_TERMS["gpusap"])
     print("gpusap's kernels fitted without the 10^6 row: " + " + ".join(
         f"{c:.4g} {u}" for c, u in zip(k, ["µs", "µs a box", "µs a candidate"])) + ".\n")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--raw", type=pathlib.Path, default=gpu_results.MACHINES[0])
+    raw = parser.parse_args().raw
+    rows = stage_rows(raw)
+    fitted = fit(rows)
+    m = gpu_results.machine(raw)
+    print(f"Fitted to {gpu_results.folder(raw.resolve())} ({m['gpu']}, commit "
+          f"{m['git_commit'][:7]}): {len(rows)} rows of GPU finders.\n")
+    print_constants(fitted)
+    print_errors(fitted, rows)
+    print_resweep(fitted, rows)
     print("PREDICTIONS (not measurements), µs:\n\n" + "\n".join(predictions(fitted, rows)))
 
 

@@ -3,9 +3,9 @@
 
 Each machine has a folder of raw files as it wrote them: the H200's in
 docs/results/gpu/raw/ (commit d1690ab), the H100's in docs/results/gpu/h100/raw/
-(commit d5e40a4).  The tables of each folder's README.md are this script's
-output (run it and paste; every figure comes from a raw file, none is typed),
-and the study's findings table cites the same figures, machine by machine,
+(commit d5e40a4).  This script prints each machine's tables from those files
+(every figure comes from a raw file, none is typed; each folder's README.md
+says how to read them), and the study's findings table cites the same figures, machine by machine,
 through machine_findings() while the study's own runs have no GPU.  The files:
 
   bench_*.csv, bench-*.csv     overlap_bench_broadphase: update + findPairs with
@@ -133,6 +133,23 @@ def number(row: dict, column: str):
     return float(value) if value not in (None, "") else None
 
 
+def launch_cells(row: dict, algo: str) -> list:
+    """One finder's cells of a launch_table row: launch to finish, and for a GPU finder its
+    CUDA events (upload / kernels / download) and calls."""
+    cells = [cell(number(row, "launch_to_finish_us"))]
+    if algo in GPU_FINDERS:
+        cells.append(" / ".join(cell(number(row, c)) for c in (
+            "upload_us", "kernels_us", "download_us")) if row else "-")
+        cells.append(cell(number(row, "api_calls")))
+    return cells
+
+
+def launch_headers(algo: str) -> list:
+    if algo in GPU_FINDERS:
+        return [f"{algo} l2f", f"{algo} up / kern / down", f"{algo} calls"]
+    return [f"{algo} l2f"]
+
+
 def launch_table(raw: pathlib.Path = RAW) -> list:
     """The benchmark's own split of our finders (from d5e40a4): launch() to finish() on the
     host, and for the GPU finders their CUDA events (upload, kernels, download) and CUDA
@@ -142,20 +159,9 @@ def launch_table(raw: pathlib.Path = RAW) -> list:
         return []
     by = {(int(r["n"]), r["algorithm"]): r for r in rows}
     algos = [a for a in BENCH_ALGOS if any(a == algo for _, algo in by)]
-    headers, lines = ["n"], []
-    for algo in algos:
-        headers += ([f"{algo} l2f", f"{algo} up / kern / down", f"{algo} calls"]
-                    if algo in GPU_FINDERS else [f"{algo} l2f"])
-    for n in sorted({n for n, _ in by}):
-        line = [n]
-        for algo in algos:
-            row = by.get((n, algo))
-            line.append(cell(number(row, "launch_to_finish_us")))
-            if algo in GPU_FINDERS:
-                line.append(" / ".join(cell(number(row, c)) for c in (
-                    "upload_us", "kernels_us", "download_us")) if row else "-")
-                line.append(cell(number(row, "api_calls")))
-        lines.append(line)
+    headers = ["n"] + [h for algo in algos for h in launch_headers(algo)]
+    lines = [[n] + [c for algo in algos for c in launch_cells(by.get((n, algo)), algo)]
+             for n in sorted({n for n, _ in by})]
     return table(headers, lines)
 
 

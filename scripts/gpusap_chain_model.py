@@ -123,7 +123,7 @@ def frame(fitted: dict, coef: dict, design: str, n: int, pairs: float, changes) 
 
 
 # Pairs a box on the H100's streams (its benchmark's pairs_mean; 1.3·10^4 between its
-# neighbours, 10^5 from docs/results/gpusap_candidates.md), and gpubf's launch to finish there.
+# neighbours, 10^5 from docs/results/gpusap_candidates.csv), and gpubf's launch to finish there.
 PAIRS_PER_BOX = {3500: 4.19, 10**4: 4.15, 13000: 4.2, 3 * 10**4: 4.34, 10**5: 4.01,
                  10**6: 3.57}
 GPUBF_US = {3500: 70, 10**4: 215, 3 * 10**4: 2550}

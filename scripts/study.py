@@ -377,12 +377,11 @@ def main(argv: list) -> int:
         args = parse_args(argv)
     broadphases.load(args.overlap)
     args.argv = argv
-    args.out.mkdir(parents=True, exist_ok=True)
     jobs = study_plan.plan(args)
+    if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing
+        run_and_log(jobs, args, argv)
     write_atomically(args.out / "commands.txt",
                      "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
-    if not args.no_runs:
-        run_and_log(jobs, args, argv)
     if args.runs_only:
         print(f"study: runs in {args.out}; the report from them: scripts/study.py --profile "
               f"{args.profile} --out {args.out} --no-runs", file=sys.stderr)

@@ -15,8 +15,9 @@ right after it, which a reader of the rendered page does not see:
   204 ms<!-- cite results/gpu/raw/async_cpusap/summary.json timings_ms.total_ms.median -->
 
 A CSV citation names a column, then key=value filters that pick one row (or
-min|max over the rows they pick); a JSON citation names a dotted key.  Paths are
-relative to the document.  The cited number is the last number before the
+min|max over the rows they pick; a value with spaces in quotes, key="a b"); a JSON citation names a dotted key; either may
+end in /N or *N (a table in µs cited in ms: /1000).  Paths are relative to the
+document.  The cited number is the last number before the
 comment; it matches when it is the table's value rounded to the decimals typed.
 
 Rules, each with its reason:
@@ -33,13 +34,14 @@ Rules, each with its reason:
 import json
 import pathlib
 import re
+import shlex
 import sys
 
 from results_files import read_csv
 
 BLOCK = re.compile(r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", re.S)
 OPENING = re.compile(r"<!-- generated:([\w-]+) -->")
-CITE = re.compile(r"<!-- cite (.*?) -->")
+CITE = re.compile(r"<!-- cite (.*?) -->", re.S)
 NUMBER = re.compile(r"(?<![\d.])\d+(?:\.\d+)?")
 
 
@@ -76,29 +78,41 @@ def matches(text: str, wanted: str) -> bool:
         return text == wanted
 
 
+def aggregate(values: list, how: str, filters: list) -> float:
+    if how:
+        return min(values) if how == "min" else max(values)
+    if len(values) > 1:
+        raise LookupError(f"{len(values)} rows match {' '.join(filters)}: add a filter or "
+                          "min|max")
+    return values[0]
+
+
 def csv_value(path: pathlib.Path, words: list) -> float:
     column, rest = words[0], words[1:]
-    aggregate = rest.pop() if rest and rest[-1] in ("min", "max") else None
+    how = rest.pop() if rest and rest[-1] in ("min", "max") else None
     filters = [w.split("=", 1) for w in rest]
     rows = [r for r in read_csv(path) if all(matches(r.get(k, ""), v) for k, v in filters)]
     if not rows or column not in rows[0]:
         raise LookupError(f"no row {' '.join(rest) or '(any)'} with a column {column}")
-    values = [float(r[column]) for r in rows]
-    if aggregate:
-        return min(values) if aggregate == "min" else max(values)
-    if len(values) > 1:
-        raise LookupError(f"{len(values)} rows match {' '.join(rest)}: add a filter or min|max")
-    return values[0]
+    return aggregate([float(r[column]) for r in rows], how, rest)
+
+
+def scale(words: list) -> tuple:
+    """(the words less a last '/N' or '*N', the factor it names): a table in µs cited in ms."""
+    if words and words[-1][:1] in "/*" and len(words[-1]) > 1:
+        factor = float(words[-1][1:])
+        return words[:-1], 1 / factor if words[-1][0] == "/" else factor
+    return words, 1.0
 
 
 def cited_value(folder: pathlib.Path, citation: str) -> float:
-    words = citation.split()
+    words, factor = scale(shlex.split(citation))
     path = folder / words[0]
     if not path.is_file():
         raise LookupError(f"no file {words[0]}")
     if path.suffix == ".json":
-        return json_value(json.loads(path.read_text()), words[1])
-    return csv_value(path, words[1:])
+        return factor * json_value(json.loads(path.read_text()), words[1])
+    return factor * csv_value(path, words[1:])
 
 
 def typed_number(before: str) -> str:
@@ -111,30 +125,49 @@ def agrees(typed: str, value: float) -> bool:
     return abs(value - float(typed)) <= 0.5 * 10 ** -decimals + 1e-9 * max(1.0, abs(value))
 
 
-def check_line(folder: pathlib.Path, line: str) -> list:
-    """The problems of one line's citations, each with what was typed and what is there."""
+def check_text(folder: pathlib.Path, text: str) -> list:
+    """(line, problem) of each citation of the text (a comment may wrap over lines) that
+    does not match, with what was typed and what is there."""
     problems, start = [], 0
-    for m in CITE.finditer(line):
-        typed = typed_number(line[start:m.start()])
+    for m in CITE.finditer(text):
+        line = text.count("\n", 0, m.start()) + 1
+        typed = typed_number(text[start:m.start()])
         start = m.end()
+        citation = " ".join(m.group(1).split())
         try:
-            value = cited_value(folder, m.group(1))
+            value = cited_value(folder, citation)
         except (LookupError, KeyError, IndexError, ValueError) as error:
-            problems.append(f"cite {m.group(1)}: {error}")
+            problems.append((line, f"cite {citation}: {error}"))
             continue
         if typed is None:
-            problems.append(f"cite {m.group(1)}: no number before it")
+            problems.append((line, f"cite {citation}: no number before it"))
         elif not agrees(typed, value):
-            problems.append(f"{typed} typed, the table has {value:g} (cite {m.group(1)})")
+            problems.append((line, f"{typed} typed, the table has {value:g} (cite {citation})"))
     return problems
 
 
 def check(path: pathlib.Path) -> list:
     """Every citation of the document that does not match, as 'file:line: problem'."""
     path = pathlib.Path(path)
-    return [f"{path}:{number}: {problem}"
-            for number, line in enumerate(path.read_text().splitlines(), start=1)
-            for problem in check_line(path.parent, line)]
+    return [f"{path}:{line}: {problem}"
+            for line, problem in check_text(path.parent, path.read_text())]
+
+
+def words(names: list) -> int:
+    for name in names:
+        text = pathlib.Path(name).read_text()
+        print(f"{name}: {len(prose(text).split())} words of prose, "
+              f"{len(text.split())} in all (wc -w)")
+    return 0
+
+
+def check_all(names: list) -> int:
+    problems = [p for name in names for p in check(pathlib.Path(name))]
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    cited = sum(len(CITE.findall(pathlib.Path(n).read_text())) for n in names)
+    print(f"study_document: {cited} citations, {len(problems)} not matching their tables")
+    return 1 if problems else 0
 
 
 def main(argv: list) -> int:
@@ -145,18 +178,7 @@ def main(argv: list) -> int:
     if missing:
         print(f"study_document: no such file: {', '.join(missing)}", file=sys.stderr)
         return 2
-    if argv[0] == "words":
-        for name in argv[1:]:
-            text = pathlib.Path(name).read_text()
-            print(f"{name}: {len(prose(text).split())} words of prose, "
-                  f"{len(text.split())} in all (wc -w)")
-        return 0
-    problems = [p for name in argv[1:] for p in check(pathlib.Path(name))]
-    for problem in problems:
-        print(problem, file=sys.stderr)
-    cited = sum(len(CITE.findall(pathlib.Path(n).read_text())) for n in argv[1:])
-    print(f"study_document: {cited} citations, {len(problems)} not matching their tables")
-    return 1 if problems else 0
+    return (words if argv[0] == "words" else check_all)(argv[1:])
 
 
 if __name__ == "__main__":

@@ -125,6 +125,7 @@ class PairsJob(Job):
         self.overlap, self.folder, self.stream, self.frames = overlap, folder, stream, frames
         self.record_options, self.algo = record_options, algo
         self.finder = overlap  # the binary that runs `pairs --algo algo`: see use_emulation()
+        self.device = None  # the CUDA emulation's device line, when it runs them
         self.path = folder / f"{algo}.csv"
         self.exact_path = folder / "bf_pairs.csv"
 
@@ -139,14 +140,14 @@ class PairsJob(Job):
     def use_emulation(self, emulation: str, device: str) -> None:
         """Runs this GPU algorithm's pairs through the CUDA emulation build: the kernels'
         pairs are checked; the emulation's time is never a result."""
-        self.finder = emulation
-        self.device_path().parent.mkdir(parents=True, exist_ok=True)
-        write_atomically(self.device_path(), json.dumps({"device": device}) + "\n")
+        self.finder, self.device = emulation, device
 
     def device_path(self) -> pathlib.Path:
         return self.folder / f"{self.algo}.device.json"
 
     def run(self):
+        if self.device:  # what ran these pairs, written when they run
+            write_atomically(self.device_path(), json.dumps({"device": self.device}) + "\n")
         record, exact, mine = self.commands()
         if not self.stream.exists():
             self.stream.parent.mkdir(parents=True, exist_ok=True)

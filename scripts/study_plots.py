@@ -129,30 +129,36 @@ def per_frame(scene: int, n: int, series: dict, folder: pathlib.Path) -> str:
     return save(figure, folder, f"fig{scene + 1}_scene{scene}_per_frame")
 
 
+STAGE_PARTS = [("update", "#d62728", "//"), ("broadphase", "#ff9896", "//"),
+               ("narrowphase", "#9467bd", ""), ("solver", "#1f77b4", ""),
+               ("integrate", "#2ca02c", ""), ("ccd_query", "#8c564b", ""),
+               ("other", "#c7c7c7", "")]
+
+
+def stacked_bars(axis, mine: list) -> None:
+    """One bar per algorithm, its stages stacked, the update + broadphase share on top."""
+    positions = range(len(mine))
+    bottom = [0.0] * len(mine)
+    for stage, tint, hatch in STAGE_PARTS:
+        values = [r[stage] if r[stage] == r[stage] else 0.0 for r in mine]
+        axis.bar(positions, values, bottom=bottom, color=tint, hatch=hatch,
+                 edgecolor="white", linewidth=0.5, label=stage.replace("_", " "))
+        bottom = [b + v for b, v in zip(bottom, values)]
+    for x, r in zip(positions, mine):
+        axis.annotate(f"{r['update_broadphase_pct']:.0f}%", (x, r["total"]),
+                      ha="center", va="bottom", fontsize=7)
+    axis.set_xticks(list(positions))
+    axis.set_xticklabels([r["algo"] for r in mine], rotation=45, ha="right", fontsize=8)
+
+
 def stages(rows: list, folder: pathlib.Path) -> str:
     """The frame by stage at each scene's largest n, one stacked bar per algorithm, so the
     share a broadphase can change (update + broadphase, hatched) is seen at once."""
     scenes = sorted({r["scene"] for r in rows})
-    parts = [("update", "#d62728", "//"), ("broadphase", "#ff9896", "//"),
-             ("narrowphase", "#9467bd", ""), ("solver", "#1f77b4", ""),
-             ("integrate", "#2ca02c", ""), ("ccd_query", "#8c564b", ""),
-             ("other", "#c7c7c7", "")]
     figure, axes = plt.subplots(1, len(scenes), figsize=(3.6 * len(scenes), 4), squeeze=False)
     for axis, scene in zip(axes[0], scenes):
         n = max(r["objects"] for r in rows if r["scene"] == scene)
-        mine = [r for r in rows if r["scene"] == scene and r["objects"] == n]
-        positions = range(len(mine))
-        bottom = [0.0] * len(mine)
-        for stage, tint, hatch in parts:
-            values = [r[stage] if r[stage] == r[stage] else 0.0 for r in mine]
-            axis.bar(positions, values, bottom=bottom, color=tint, hatch=hatch,
-                     edgecolor="white", linewidth=0.5, label=stage.replace("_", " "))
-            bottom = [b + v for b, v in zip(bottom, values)]
-        for x, r in zip(positions, mine):
-            axis.annotate(f"{r['update_broadphase_pct']:.0f}%", (x, r["total"]),
-                          ha="center", va="bottom", fontsize=7)
-        axis.set_xticks(list(positions))
-        axis.set_xticklabels([r["algo"] for r in mine], rotation=45, ha="right", fontsize=8)
+        stacked_bars(axis, [r for r in rows if r["scene"] == scene and r["objects"] == n])
         axis.set_title(f"scene {scene}, {n} boxes", fontsize=10)
         axis.grid(axis="y", alpha=0.3)
     axes[0][0].set_ylabel("ms per frame (mean)")
@@ -162,6 +168,16 @@ def stages(rows: list, folder: pathlib.Path) -> str:
     return save(figure, folder, "fig_stages")
 
 
+def errorbar_line(axis, cells: list, algo: str) -> None:
+    """One algorithm's mean total against n, its bar the repetitions' run means."""
+    points = sorted((c["objects"], c["total_mean"], c["total_min"], c["total_max"])
+                    for c in cells if c["algo"] == algo)
+    n, mean, low, high = zip(*points)
+    axis.errorbar(n, mean, yerr=[[m - lo for m, lo in zip(mean, low)],
+                                 [hi - m for m, hi in zip(mean, high)]],
+                  label=algo, capsize=3, **style(algo))
+
+
 def total_against_n(cells: list, folder: pathlib.Path) -> str:
     """Figure 6: mean total frame time against n; bars span the repetitions' run means."""
     scenes = sorted({c["scene"] for c in cells})
@@ -169,12 +185,7 @@ def total_against_n(cells: list, folder: pathlib.Path) -> str:
     for axis, scene in zip(axes[0], scenes):
         mine = [c for c in cells if c["scene"] == scene and not c["fallback"]]
         for algo in sorted({c["algo"] for c in mine}):
-            points = sorted((c["objects"], c["total_mean"], c["total_min"], c["total_max"])
-                            for c in mine if c["algo"] == algo)
-            n, mean, low, high = zip(*points)
-            axis.errorbar(n, mean, yerr=[[m - lo for m, lo in zip(mean, low)],
-                                         [hi - m for m, hi in zip(mean, high)]],
-                          label=algo, capsize=3, **style(algo))
+            errorbar_line(axis, mine, algo)
         axis.set_title(f"scene {scene}")
         axis.set_xlabel("boxes")
         axis.set_ylabel("total ms / frame")
@@ -296,33 +307,42 @@ def physics(rows: list, folder: pathlib.Path) -> str:
     return save(figure, folder, "fig_physics")
 
 
+def late_over_on_time(r: dict) -> float:
+    return r["late_ms"] / r["on_time_ms"] if r["on_time_ms"] > 0 else float("nan")
+
+
+LATENCY_MEASURES = (
+    ("missed pairs per frame", lambda r: r["missed_total"] / r["frames"], "symlog"),
+    ("extra pairs per frame", lambda r: r["extra_mean"], "symlog"),
+    ("late / on-time search (medians)", late_over_on_time, "log"))
+
+
+def latency_panel(axis, mine: list, value, scale: str) -> None:
+    """One scene's one measure against growth, one line per algorithm."""
+    for algo in sorted({r["algo"] for r in mine}):
+        line = sorted((r for r in mine if r["algo"] == algo), key=lambda r: r["growth"])
+        axis.plot([r["growth"] for r in line], [value(r) for r in line], label=algo,
+                  **style(algo))
+    axis.set_yscale(scale)
+    if scale == "log":
+        plain_log_axis(axis)
+    axis.grid(alpha=0.3)
+
+
 def latency(rows: list, folder: pathlib.Path) -> str:
     """Late broadphase against growth, one column per scene, one row per measure (missed
     and extra pairs per frame, late / on-time search time), one line per algorithm in its
     own colour, dash and marker.  An exact algorithm's misses are the latency's alone; a
     conservative one's are fewer, paid for in extras."""
     scenes = sorted({r["scene"] for r in rows})
-    measures = (("missed pairs per frame", lambda r: r["missed_total"] / r["frames"], "symlog"),
-                ("extra pairs per frame", lambda r: r["extra_mean"], "symlog"),
-                ("late / on-time search (medians)",
-                 lambda r: r["late_ms"] / r["on_time_ms"] if r["on_time_ms"] > 0
-                 else float("nan"), "log"))
-    figure, axes = plt.subplots(len(measures), len(scenes), squeeze=False, sharex=True,
-                                figsize=(3.6 * len(scenes), 2.6 * len(measures)))
+    figure, axes = plt.subplots(len(LATENCY_MEASURES), len(scenes), squeeze=False, sharex=True,
+                                figsize=(3.6 * len(scenes), 2.6 * len(LATENCY_MEASURES)))
     for column, scene in enumerate(scenes):
-        for row, (title, value, scale) in enumerate(measures):
-            axis = axes[row][column]
-            for algo in sorted({r["algo"] for r in rows if r["scene"] == scene}):
-                mine = sorted((r for r in rows if r["algo"] == algo and r["scene"] == scene),
-                              key=lambda r: r["growth"])
-                axis.plot([r["growth"] for r in mine], [value(r) for r in mine], label=algo,
-                          **style(algo))
-            axis.set_yscale(scale)
-            if scale == "log":
-                plain_log_axis(axis)
-            axis.grid(alpha=0.3)
+        mine = [r for r in rows if r["scene"] == scene]
+        for row, (title, value, scale) in enumerate(LATENCY_MEASURES):
+            latency_panel(axes[row][column], mine, value, scale)
             if column == 0:
-                axis.set_ylabel(title, fontsize=9)
+                axes[row][column].set_ylabel(title, fontsize=9)
         axes[0][column].set_title(f"scene {scene}", fontsize=10)
         axes[-1][column].set_xlabel("growth (x |v| dt)")
         axes[-1][column].axhline(1.0, color="black", linewidth=0.6)

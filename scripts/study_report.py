@@ -45,7 +45,7 @@ TITLES = {
     "physics": "3.2 Physics: substeps, CCD, sleep and the solver",
     "latency": "3.3 A broadphase one frame late",
     "overlap": "4. The asynchronous frame: where overlap pays",
-    "runs": "Machine, runs and commands"}
+    "runs": "Machine and runs"}
 CSV_TABLES = ("pairs", "physics", "latency", "overlap")
 
 
@@ -64,6 +64,12 @@ def machines_of(jobs: list) -> list:
 def machine_text(m: dict) -> str:
     return (f"{m['cpu']}, {m['hardware_threads']} hardware threads; GPU: {m['gpu']}; "
             f"{m['compiler']}, {m['build_type']} build; commit {m['git_commit']}")
+
+
+def short_machine_text(m: dict) -> str:
+    gpu = "no GPU" if m["gpu"].startswith("none") else m["gpu"]
+    return (f"{m['cpu']}, {m['hardware_threads']} hardware threads, {gpu}; {m['compiler']}, "
+            f"{m['build_type']}; commit {m['git_commit']}")
 
 
 def commits_since(commit: str) -> int:
@@ -91,23 +97,21 @@ def staleness_lines(machine: dict) -> list:
 
 
 def profile_lines(args, cells: list) -> list:
-    """Where this run differs from the full study, with what the full sweep would cost at
-    the per-frame times measured here."""
-    reduced = [f"{key.replace('_', '-')} {getattr(args, key)}"
-               for key, value in args.full_profile.items() if getattr(args, key) != value]
+    """Which profile the runs are, how many options it changes from the full study, and
+    what the full sweep would cost at the per-frame times measured here."""
+    reduced = [key for key, value in args.full_profile.items() if getattr(args, key) != value]
     if not reduced:
         return [f"Profile {args.profile}: the full study.", ""]
     full = args.full_profile
     hours = sum(c["total_mean"] for c in cells) * full["frames"] * full["repetitions"] / 3.6e6
-    return [f"Profile {args.profile} (scripts/study_profiles.json), smaller than the full "
-            "study in: " + "; ".join(reduced) + "." +
+    return [f"Profile {args.profile}: smaller than the full study in {len(reduced)} options "
+            "(scripts/study_profiles.json; every option is in the command below)." +
             (f" The full sweep of these {len(cells)} cells alone would run {hours:.0f} hours "
              "here." if cells else ""), ""]
 
 
 def header_block(args, machine: dict, cells: list, seconds: float) -> list:
-    took = [f"The runs took {seconds / 60:.1f} min in all (see *Machine, runs and "
-            "commands*).", ""] if seconds else []
+    took = [f"The runs took {seconds / 60:.1f} min in all (see *Machine and runs*).", ""] if seconds else []
     return profile_lines(args, cells) + took + staleness_lines(machine)
 
 
@@ -156,12 +160,8 @@ def overlapping(spans: list, index: int, job: dict) -> list:
             and o["start"] < job["end"] and job["start"] < o["end"]]
 
 
-def beside_lines(log: list) -> list:
-    """What ran beside what: for each experiment, the other shards' runs that ran while its
-    runs did, and whether any two runs compared with each other (one group) ran at once."""
-    spans = [(index, job) for index, run in enumerate(log) for job in run.get("jobs", [])]
-    if not spans:
-        return []
+def beside_counts(spans: list) -> tuple:
+    """({experiment: {other experiment: runs met}}, the groups whose runs met each other)."""
     beside, clashes = {}, set()
     for index, job in spans:
         for _, other in overlapping(spans, index, job):
@@ -169,6 +169,16 @@ def beside_lines(log: list) -> list:
             counts[other["experiment"]] = counts.get(other["experiment"], 0) + 1
             if other["group"] == job["group"]:
                 clashes.add(job["group"])
+    return beside, clashes
+
+
+def beside_lines(log: list) -> list:
+    """What ran beside what: for each experiment, the other shards' runs that ran while its
+    runs did, and whether any two runs compared with each other (one group) ran at once."""
+    spans = [(index, job) for index, run in enumerate(log) for job in run.get("jobs", [])]
+    if not spans:
+        return []
+    beside, clashes = beside_counts(spans)
     shards = len({index for index, _ in spans})
     lines = [f"What ran beside what: {len(spans)} runs in {shards} invocation(s) (shards)."
              + ("" if beside else " Every run ran alone."), ""]
@@ -241,7 +251,7 @@ def blocks_of(args, jobs: list, data: dict, machine: dict, figures: dict) -> tup
     d = data
     targets = study_claims.sections_targets(d["cells"], d["stages"], d["pairs"], d["physics"],
                                             d["overlap"], fmt)
-    commit = machine_text(machine) if machine else "no run yet"
+    commit = short_machine_text(machine) if machine else "no run yet"
     pairs, failures = study_errors.pairs_block(d["pairs"], d["cells"], args.pairs_objects,
                                                figures)
     blocks = {
@@ -280,6 +290,10 @@ def publish(args, blocks: dict, figures: dict) -> list:
         return [f"{doc}: {p}; {doc} left as it was" for p in problems]
     beside = doc.parent / "report"
     beside.mkdir(parents=True, exist_ok=True)
+    made = {path.name for path in figures["folder"].iterdir()}
+    for stale in beside.iterdir():  # a figure or table this study no longer makes
+        if stale.name not in made and stale.suffix in (".png", ".svg", ".csv"):
+            stale.unlink()
     for path in sorted(figures["folder"].iterdir()):
         shutil.copy(path, beside / path.name)
     doc.write_text(text)

@@ -140,6 +140,16 @@ def stage_row(row: dict, cell: dict) -> list:
                fmt(cell["substeps"])])
 
 
+def scene_stage_lines(stages: list, by_key: dict, scene: int) -> list:
+    n = max(r["objects"] for r in stages if r["scene"] == scene)
+    mine = [r for r in stages if r["scene"] == scene and r["objects"] == n]
+    order = algo_order(r["algo"] for r in mine)
+    mine.sort(key=lambda r: order.index(r["algo"]))
+    return ([f"Scene {scene}, {n} boxes, ms per frame (mean over repetitions):", ""]
+            + table(STAGE_HEADERS, [stage_row(r, by_key[(scene, n, r["algo"])])
+                                    for r in mine]))
+
+
 def stages_block(stages: list, cells: list, targets: dict, figures: dict) -> list:
     """The frame by stage at each scene's largest n: one stacked figure, one table a scene."""
     if not stages:
@@ -149,13 +159,7 @@ def stages_block(stages: list, cells: list, targets: dict, figures: dict) -> lis
     lines = [f"![the frame by stage](report/{name})", ""]
     by_key = {(c["scene"], c["objects"], c["algo"]): c for c in cells}
     for scene in sorted({r["scene"] for r in stages}):
-        n = max(r["objects"] for r in stages if r["scene"] == scene)
-        mine = [r for r in stages if r["scene"] == scene and r["objects"] == n]
-        order = algo_order(r["algo"] for r in mine)
-        mine.sort(key=lambda r: order.index(r["algo"]))
-        lines += [f"Scene {scene}, {n} boxes, ms per frame (mean over repetitions):", ""]
-        lines += table(STAGE_HEADERS, [stage_row(r, by_key[(scene, n, r["algo"])])
-                                       for r in mine])
+        lines += scene_stage_lines(stages, by_key, scene)
     return lines + study_targets.lines(targets["premise"], table)
 
 

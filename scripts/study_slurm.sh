@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# The study on a Slurm cluster (docs/STUDY.md): one array job, one shard a task
+# (scripts/study.py --runs-only --shard i/K), every task into one --out on storage
+# all nodes share; then one job, started when every shard has ended well
+# (--dependency=afterok), that collects the runs and writes the report there.
+#
+#   scripts/study_slurm.sh --out /shared/study --shards 64 [--profile full]
+#                          [--sbatch "--partition=cpu --time=12:00:00"] [--wait]
+#                          [-- more scripts/study.py options]
+#
+# The checkout (with its build/overlap) must be at the same path on every node,
+# and the nodes' python3 needs only its standard library for the shards;
+# the report job needs matplotlib (PYTHON, default /usr/bin/python3).  --wait
+# returns when the report job has ended, with its exit status.  A shard that
+# stopped (a node lost, a time limit) is rerun by submitting the same command
+# again: finished runs are kept, only the missing ones run.
+set -euo pipefail
+repo="$(cd "$(dirname "$0")/.." && pwd)"
+python="${PYTHON:-/usr/bin/python3}"
+usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+die() { echo "study_slurm: $*" >&2; exit 2; }
+
+out="" shards="" profile="full" extra_sbatch="" wait=()
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --out) out="${2:?--out needs a folder}"; shift 2 ;;
+    --shards) shards="${2:?--shards needs a count}"; shift 2 ;;
+    --profile) profile="${2:?--profile needs a name}"; shift 2 ;;
+    --sbatch) extra_sbatch="${2?--sbatch needs options}"; shift 2 ;;
+    --wait) wait=(--wait); shift ;;
+    --) shift; break ;;
+    -h|--help) usage ;;
+    *) die "unknown option $1 (see --help)" ;;
+  esac
+done
+[[ -n "$out" && -n "$shards" ]] || usage
+[[ "$shards" =~ ^[1-9][0-9]*$ ]] || die "--shards $shards: expected a count, 1 or more"
+command -v sbatch > /dev/null || die "sbatch is not on PATH (no Slurm client here)"
+mkdir -p "$out/slurm"
+out="$(cd "$out" && pwd)"
+# The full profile runs only when confirmed: a batch job cannot answer, so it says --full.
+confirm=()
+[[ "$profile" == full ]] && confirm=(--full)
+study=("$python" "$repo/scripts/study.py" --profile "$profile" --out "$out" "$@")
+quoted() { printf '%q ' "$@"; }
+# shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
+array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
+  --output="$out/slurm/shard-%a.log" --chdir="$repo" \
+  --wrap="$(quoted "${study[@]}" "${confirm[@]}" --runs-only) --shard \$SLURM_ARRAY_TASK_ID/$shards")"
+array="${array%%;*}"
+echo "study_slurm: shards: job $array, $shards tasks, logs in $out/slurm/shard-N.log"
+# shellcheck disable=SC2086
+report="$(sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
+  --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
+  --chdir="$repo" --wrap="$(quoted "${study[@]}" --no-runs)")" || {
+  echo "study_slurm: the report job failed: $out/slurm/report.log" >&2; exit 1; }
+echo "study_slurm: report: job ${report%%;*}, when every shard has ended well: $out/REPORT.md"
