@@ -64,6 +64,10 @@ for folder in "${path_folders[@]}"; do
   fi
   hidden_path="${hidden_path:+$hidden_path:}$folder"
 done
+# find_program also looks in the system prefixes' bin/, on PATH or not.
+for folder in /usr/local/bin /usr/bin /bin; do
+  if [[ -x "$folder/nvcc" ]]; then ignored+=("$folder"); fi
+done
 for root in /usr/local/cuda /usr/local/cuda-* /opt/cuda /usr/lib/cuda; do
   if [[ -e "$root" ]]; then
     ignored+=("$root" "$root/bin" "$(readlink -f "$root")" "$(readlink -f "$root")/bin")
