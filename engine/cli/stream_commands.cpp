@@ -138,8 +138,9 @@ void printPairs(const PairsOptions& options) {
         stopIfInterrupted("frame " + std::to_string(frame) + " of " +
                           std::to_string(header.stored_frames) + ", its pair search");
       }
-      pair_counts.push_back(static_cast<double>(replay.pairs().size()));
-      for (const auto& [a, b] : replay.pairs()) {
+      const physics::PairList pairs = replay.pairs();  // read back from the cache once
+      pair_counts.push_back(static_cast<double>(pairs.size()));
+      for (const auto& [a, b] : pairs) {
         csv += std::to_string(frame) + ',' + std::to_string(a) + ',' + std::to_string(b) + '\n';
       }
       if (csv.size() > (1 << 20)) {

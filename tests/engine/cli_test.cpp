@@ -469,7 +469,7 @@ std::vector<std::string> linesBesideProgress(const std::string& text) {
   std::istringstream in(text);
   for (std::string line; std::getline(in, line);) {
     if (line.find(" elapsed") != std::string::npos || line.find(" pace ") != std::string::npos ||
-        line.find(": done, ") != std::string::npos) {
+        line.find(": done") != std::string::npos) {
       continue;
     }
     lines.push_back(line);
