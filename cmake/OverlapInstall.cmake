@@ -2,19 +2,27 @@
 # can link (docs/PACKAGE.md).  It installs
 #   P/include/overlap/{physics,gpu}/*.h   the public headers, included under the
 #                                         project's name: <overlap/physics/...>
-#   P/lib/liboverlap_{broadphase,gpu}.a   the libraries
+#   P/lib/liboverlap_{broadphase,gpu}.a   the libraries (and liboverlap_gpu_cpu.a)
 #   P/lib/cmake/Overlap/                  find_package(Overlap): Overlap::broadphase
 #                                         (catalogue, factory, Bullet adapter) and
 #                                         Overlap::pair_finders (the Bullet-free finders)
 # The GPU finders (gpubf, gpubf-paper, gpusap; CUB is header-only, in the
-# toolkit) are in liboverlap_gpu.a with CUDA's static runtime.
+# toolkit) are in liboverlap_gpu.a with CUDA's static runtime, which a
+# program links from its own CUDA toolkit; a CUDA build also installs the
+# same finders without CUDA (liboverlap_gpu_cpu.a), and the config gives a
+# program without the toolkit those (Overlap::pair_finders_cuda or _cpu
+# behind Overlap::pair_finders: cmake/OverlapConfig.cmake.in).
 # A build without nvcc installs the CPU finders only (Overlap_WITH_CUDA OFF);
 # the emulation, sanitizer and fuzz builds install nothing (CMakeLists.txt).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 set(OVERLAP_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/Overlap)
-install(TARGETS overlap_gpu overlap_broadphase
+set(OVERLAP_INSTALLED_TARGETS overlap_gpu overlap_broadphase)
+if(TARGET overlap_gpu_cpu)
+  list(APPEND OVERLAP_INSTALLED_TARGETS overlap_gpu_cpu)
+endif()
+install(TARGETS ${OVERLAP_INSTALLED_TARGETS}
   EXPORT OverlapTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "engine/cli/cli_errors.h"
@@ -12,8 +13,10 @@
 #include "engine/cli/physics_options.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
 #include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/runtime/run_summary.h"
 #include "gpu/base/interrupt.h"
 
 namespace overlap::engine {
@@ -21,7 +24,7 @@ namespace {
 
 struct CaptureOptions {
   SceneOptions scene;
-  std::string algorithm;
+  std::optional<std::string> algorithm;  // unset: the box-count rule
   std::vector<int> keyframes = {0, 512, 1024, 2047};
   std::string size = "800x600";
   std::string colour = "size";
@@ -29,6 +32,7 @@ struct CaptureOptions {
   std::filesystem::path out = "out/capture";
   CLI::Option* size_option = nullptr;
   CLI::Option* old_size_option = nullptr;
+  bool quiet = false;
 };
 
 render::ColourMode parseColourMode(const std::string& text) {
@@ -46,14 +50,20 @@ void capture(const CaptureOptions& options) {
   }
   const std::unique_ptr<FrameCapture> camera =
       openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
+  const ChosenAlgorithm algorithm = chooseAlgorithm(options.algorithm, config.objects);
   const std::unique_ptr<physics::PhysicsWorld> world =
-      makeWorld(config, options.physics.resolve(options.algorithm, config));
+      makeWorld(config, options.physics.resolve(algorithm.name, config));
+  if (!algorithm.default_reason.empty()) {
+    std::fprintf(stderr, "overlap: %s\n", algorithm.default_reason.c_str());
+  }
+  FrameSummary frames(config.frame_time);
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
   for (int frame = 0; frame <= last; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(last + 1));
-    world->stepFrame();
+    const physics::FrameReport report = world->stepFrame();
+    frames.add(report.timings.total_ms, report.timings);
     if (frame == *next) {
       camera->capture(*world, frame);
       ++next;
@@ -65,6 +75,11 @@ void capture(const CaptureOptions& options) {
   std::fprintf(stderr, "overlap capture: wrote %s in %s%s\n",
                counted(static_cast<long long>(camera->written().size()), "PNG").c_str(),
                options.out.string().c_str(), removedText(removed).c_str());
+  printSummary(options.quiet,
+               "overlap capture: " + counted(frames.frames(), "frame") + " of scene " +
+                   std::to_string(config.scene) + ", " + std::to_string(config.objects) +
+                   " boxes, " + world->algorithm() + " (a frame: its physics step)",
+               frames.lines());
 }
 
 }  // namespace
@@ -88,6 +103,7 @@ void addCaptureCommand(CLI::App& app) {
   addAlgorithmOption(*command, options->algorithm);
   options->physics.addTo(*command);
   command->add_option("--out", options->out, "output folder")->capture_default_str();
+  addQuietFlag(*command, options->quiet);
   command->footer(
       "Example:\n"
       "  overlap capture --scene 3 --objects 1250 --keyframes 0,100,200 --capture-size 400x300 "

@@ -13,10 +13,13 @@
 #include "engine/cli/number_options.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
 #include "engine/cli/wording.h"
+#include "engine/runtime/run_summary.h"
 #include "engine/tools/recorded_streams.h"
 #include "engine/tools/stream_generator.h"
 #include "gpu/base/interrupt.h"
+#include "gpu/base/stopwatch.h"
 #include "physics/aabb_stream.h"
 
 namespace overlap::engine {
@@ -28,6 +31,7 @@ struct GenerateOptions {
   int skip = 0;
   double moving = 1.0;
   std::filesystem::path out;
+  bool quiet = false;
 };
 
 // Frame by frame into the output: memory for the model and one frame, a
@@ -48,11 +52,14 @@ void generate(const GenerateOptions& options) {
   const int steps = options.skip + options.frames;
   Progress progress("overlap generate", steps);
   std::vector<physics::Aabb> boxes;
+  std::vector<double> step_ms;  // the model's step, frame by frame
   for (int step = 0; step <= steps; ++step) {
     if (step > 0) {
       // Counted as the progress counts them: the frames stepped, 1 to `steps`.
       stopIfInterrupted("frame " + std::to_string(step) + " of " + std::to_string(steps));
+      const HostStopwatch watch;
       generator->step();
+      step_ms.push_back(watch.ms());
       progress.update(step);
     }
     if (step < options.skip) continue;
@@ -66,6 +73,14 @@ void generate(const GenerateOptions& options) {
   std::fprintf(stderr, "overlap generate: wrote %s (%s, the start and %s) in %.1f s\n",
                options.out.string().c_str(), counted(header.objects, "object").c_str(),
                counted(header.stored_frames - 1, "frame").c_str(), seconds);
+  const FrameSpread spread = spreadOf(step_ms);
+  printSummary(options.quiet,
+               "overlap generate: " + counted(steps, "frame") + " of scene " +
+                   std::to_string(config.scene) + ", " + std::to_string(config.objects) +
+                   " boxes, the model without Bullet",
+               {"frame       median " + threeDigits(spread.median) + " ms, p95 " +
+                threeDigits(spread.p95) + ", max " + threeDigits(spread.max) +
+                " (the model's step; " + threeDigits(seconds) + " s in all, writing included)"});
 }
 
 }  // namespace
@@ -92,6 +107,7 @@ void addGenerateCommand(CLI::App& app) {
       ->check(realNumberIn(0.0, 1.0))
       ->capture_default_str();
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
+  addQuietFlag(*command, options->quiet);
   command->footer(
       "The model (engine/tools/stream_generator.h) moves the scene's boxes like the simulation, "
       "without collisions between them.\nExample:\n"

@@ -43,7 +43,11 @@
 #include "engine/cli/physics_options.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
+#include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/runtime/run_summary.h"
+#include "engine/runtime/statistics.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
@@ -61,12 +65,55 @@ constexpr double kMostGrowth = 1000.0;
 
 struct LatencyOptions {
   SceneOptions scene;
-  std::vector<std::string> algorithms = {kDefaultAlgorithm};
+  std::vector<std::string> algorithms;  // empty: the box-count rule's pick
   std::vector<double> growths = {1.0};
   int frames = 2048;
   PhysicsOptions physics;
   int threads = 0;  // 0: every hardware thread
+  bool quiet = false;
 };
+
+// One late search's frames added up: what the summary's table shows.
+struct LateTotals {
+  long long exact = 0;
+  long long missed = 0;
+  long long extra = 0;
+  std::vector<double> on_time_ms;
+  std::vector<double> late_ms;
+
+  void add(std::size_t exact_pairs, std::size_t missed_pairs, std::size_t extra_pairs,
+           double on_time, double late) {
+    exact += static_cast<long long>(exact_pairs);
+    missed += static_cast<long long>(missed_pairs);
+    extra += static_cast<long long>(extra_pairs);
+    on_time_ms.push_back(on_time);
+    late_ms.push_back(late);
+  }
+};
+
+// The summary: the step's frames, then a row per broadphase and growth.
+void printLatencySummary(const LatencyOptions& options, const physics::SceneConfig& config,
+                         const FrameSummary& frames, const std::vector<std::string>& names,
+                         const std::vector<LateTotals>& totals) {
+  std::vector<std::vector<std::string>> table = {
+      {"algo", "growth", "exact", "missed", "extra", "on-time ms", "late ms"}};
+  for (std::size_t s = 0; s < names.size(); ++s) {
+    for (std::size_t g = 0; g < options.growths.size(); ++g) {
+      const LateTotals& late = totals[s * options.growths.size() + g];
+      table.push_back({names[s], exactNumber(options.growths[g]), std::to_string(late.exact),
+                       std::to_string(late.missed), std::to_string(late.extra),
+                       threeDigits(median(late.on_time_ms)), threeDigits(median(late.late_ms))});
+    }
+  }
+  std::vector<std::string> lines = frames.lines();
+  lines.push_back("pairs over all frames, and a frame's search (median):");
+  for (const std::string& row : alignedTable(table)) lines.push_back("  " + row);
+  printSummary(options.quiet,
+               "overlap latency: " + counted(frames.frames(), "frame") + " of scene " +
+                   std::to_string(config.scene) + ", " + std::to_string(config.objects) +
+                   " boxes, stepped with bvh (a frame: its physics step)",
+               lines);
+}
 
 // One studied broadphase: its on-time search and one late search per growth.
 struct Studied {
@@ -141,7 +188,13 @@ std::vector<physics::Aabb> grown(std::vector<physics::Aabb> boxes, const std::ve
 
 void measureLatency(const LatencyOptions& options) {
   const physics::SceneConfig config = options.scene.resolve();
-  for (const std::string& requested : options.algorithms) {
+  std::vector<std::string> algorithms = options.algorithms;
+  if (algorithms.empty()) {
+    const ChosenAlgorithm chosen = chooseAlgorithm(std::nullopt, config.objects);
+    std::fprintf(stderr, "overlap: %s\n", chosen.default_reason.c_str());
+    algorithms.push_back(chosen.name);
+  }
+  for (const std::string& requested : algorithms) {
     checkBroadphaseCapacity("--algo", requested, config.objects);
   }
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
@@ -154,7 +207,7 @@ void measureLatency(const LatencyOptions& options) {
   physics::BroadphaseReplay oracle("bf", bounds, config.objects);
   std::vector<Studied> studied;
   std::vector<std::string> names;
-  for (const std::string& requested : options.algorithms) {
+  for (const std::string& requested : algorithms) {
     Studied entry;
     entry.on_time = std::make_unique<physics::BroadphaseReplay>(requested, bounds, config.objects);
     const std::string& name = entry.on_time->algorithm();
@@ -180,10 +233,13 @@ void measureLatency(const LatencyOptions& options) {
   const auto frame_time = static_cast<float>(config.frame_time);
   std::vector<physics::Aabb> last = boxAabbs(world, bounds);
   std::vector<float> last_speeds = world.boxSpeeds();
+  FrameSummary frames(config.frame_time);
+  std::vector<LateTotals> totals(studied.size() * options.growths.size());
   Progress progress("overlap latency", options.frames);
   for (int frame = 0; frame < options.frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
-    world.stepFrame();
+    const physics::FrameReport report = world.stepFrame();
+    frames.add(report.timings.total_ms, report.timings);
     const std::vector<physics::Aabb> now = boxAabbs(world, bounds);
     const Pairs exact = search(oracle, now).pairs;
     std::vector<std::vector<physics::Aabb>> late_boxes;  // one per growth
@@ -199,11 +255,14 @@ void measureLatency(const LatencyOptions& options) {
       }
       for (std::size_t g = 0; g < options.growths.size(); ++g) {
         const SearchResult& late = searches.late[g];
+        const std::size_t missed = physics::countMissing(exact, late.pairs);
+        const std::size_t extra = physics::countMissing(late.pairs, exact);
+        totals[s * options.growths.size() + g].add(exact.size(), missed, extra, searches.on_time.ms,
+                                                   late.ms);
         csv << frame << ',' << csvField(names[s]) << ',' << exactNumber(options.growths[g]) << ','
             << exact.size() << ',' << searches.on_time.pairs.size() << ',' << late.pairs.size()
-            << ',' << physics::countMissing(exact, late.pairs) << ','
-            << physics::countMissing(late.pairs, exact) << ',' << searches.on_time.ms << ','
-            << late.ms << '\n';
+            << ',' << missed << ',' << extra << ',' << searches.on_time.ms << ',' << late.ms
+            << '\n';
       }
     }
     last = now;
@@ -212,6 +271,7 @@ void measureLatency(const LatencyOptions& options) {
   }
   progress.finish();
   writeStandardOutput(csv.str());
+  printLatencySummary(options, config, frames, names, totals);
 }
 
 }  // namespace
@@ -224,7 +284,8 @@ void addLatencyCommand(CLI::App& app) {
       "misses and adds, and its time against the on-time search");
   options->scene.addTo(*command);
   addListOption(*command, "--algo", options->algorithms, broadphaseNameCheck(),
-                "broadphases studied, comma-separated: " + broadphaseNameList());
+                "broadphases studied, comma-separated: " + broadphaseNameList())
+      ->default_str(defaultAlgorithmRule());
   addListOption(*command, "--growth", options->growths, realNumberIn(0, kMostGrowth),
                 "late AABBs grow by GROWTH * |v| * frame time on every side; comma-separated");
   command->add_option("--frames", options->frames, "frames to run, each --frame-time long")
@@ -232,6 +293,7 @@ void addLatencyCommand(CLI::App& app) {
       ->capture_default_str();
   options->physics.addTo(*command);
   addThreadsOption(*command, options->threads);
+  addQuietFlag(*command, options->quiet);
   command->footer(
       "Example:\n"
       "  overlap latency --scene 4 --objects 1000 --frames 60 --algo bvh,cpubf --growth 0,1,2 "

@@ -1,5 +1,6 @@
 #include "engine/cli/machine_info.h"
 
+#include <cstdlib>
 #include <fstream>
 #include <thread>
 
@@ -41,6 +42,11 @@ nlohmann::json machineInfo() {
 std::string machineSummary() {
   return cpuModel() + ", " + std::to_string(std::thread::hardware_concurrency()) +
          " threads, GPU: " + gpuDescription();
+}
+
+double loadAverage() {
+  double load = 0;
+  return getloadavg(&load, 1) == 1 ? load : -1.0;
 }
 
 }  // namespace overlap::engine

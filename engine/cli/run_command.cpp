@@ -1,5 +1,5 @@
-// `overlap run`: steps a scene through the frame scheduler and writes
-// frames.csv, summary.json and timeline.json.
+// `overlap run`: steps a scene through the frame scheduler, writes
+// frames.csv, summary.json and timeline.json, and ends with its summary.
 //
 // Three stages, each reading only what the one before produced:
 //   resolve  the parsed arguments become a RunPlan: every default filled in,
@@ -7,7 +7,7 @@
 //            choice fails before any output;
 //   step     the plan's world(s) stepped frame by frame into RunResults;
 //   write    the results and the plan into the output folder, published
-//            together.
+//            together; then the summary on stderr (engine/runtime/run_summary.h).
 #include <oneapi/tbb/global_control.h>
 
 #include <cstdio>
@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "engine/cli/cli_errors.h"
@@ -29,9 +30,11 @@
 #include "engine/cli/physics_options.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
 #include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
 #include "engine/runtime/frame_scheduler.h"
+#include "engine/runtime/run_summary.h"
 #include "engine/runtime/sound_and_ai.h"
 #include "engine/runtime/statistics.h"
 #include "engine/runtime/task_load.h"
@@ -39,7 +42,6 @@
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
-#include "physics/default_broadphase.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -64,7 +66,7 @@ constexpr int kMostAgents = 100'000;
 // The command line's values as parsed: nothing filled in or checked between options.
 struct RunArguments {
   SceneOptions scene;
-  std::string algorithm;
+  std::optional<std::string> algorithm;  // unset: the box-count rule
   int frames = kDemoFrames;
   bool paper = false;
   PhysicsOptions physics;
@@ -80,11 +82,11 @@ struct RunArguments {
   std::optional<std::filesystem::path> wav;  // unset: OUT/sound.wav
   bool no_wav = false;
   bool no_tasks = false;
+  bool quiet = false;
 };
 
 // The options as CLI11 made them, for the checks between options.
 struct RunOptionHandles {
-  CLI::Option* algo = nullptr;
   CLI::Option* frames = nullptr;
   CLI::Option* sync = nullptr;
   CLI::Option* compare_sync = nullptr;
@@ -102,8 +104,8 @@ struct RunOptionHandles {
 // resolvePlan() read only this.
 struct RunPlan {
   physics::SceneConfig config;
-  std::string algorithm_requested;
-  std::string default_algorithm_reason;  // why, when --algo was not given
+  std::optional<std::string> algorithm_requested;  // unset: --algo not given
+  std::string default_algorithm_reason;            // why, when --algo was not given
   physics::WorldOptions world;
   int frames = 0;
   bool sync = false;
@@ -120,6 +122,7 @@ struct RunPlan {
   std::string capture_size;
   std::optional<std::filesystem::path> wav_file;  // the WAV the run writes, if any
   const char* wav_option = "--out";               // the option that named it
+  bool quiet = false;                             // no summary at the end
 };
 
 struct FrameRow {
@@ -131,7 +134,7 @@ struct FrameRow {
 struct Column {
   const char* name;
   std::function<double(const FrameRow&)> value;
-  bool timing;  // summarised with mean and median in summary.json
+  bool timing;  // summarised with mean, median, p95, p99 and max in summary.json
 };
 
 const std::vector<Column>& columns() {
@@ -184,9 +187,13 @@ nlohmann::json columnStatistics(const std::vector<FrameRow>& rows, bool timing) 
     if (column.timing != timing) continue;
     std::vector<double> values;
     for (const FrameRow& row : rows) values.push_back(column.value(row));
-    statistics[column.name] = {{"mean", mean(values)},
-                               {"median", median(values)},
-                               {"max", *std::max_element(values.begin(), values.end())}};
+    const FrameSpread spread = spreadOf(values);
+    statistics[column.name] = {
+        {"mean", mean(values)}, {"median", spread.median}, {"max", spread.max}};
+    if (timing) {
+      statistics[column.name]["p95"] = spread.p95;
+      statistics[column.name]["p99"] = spread.p99;
+    }
   }
   return statistics;
 }
@@ -238,24 +245,31 @@ RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given
     if (given.frames->count() == 0) plan.frames = kPaperFrames;
   }
   plan.algorithm_requested = arguments.algorithm;
-  if (given.algo->count() == 0) {
-    physics::DefaultBroadphase pick =
-        physics::defaultBroadphaseHere(static_cast<std::size_t>(plan.config.objects));
-    plan.algorithm_requested = std::string(pick.name);
-    plan.default_algorithm_reason = std::move(pick.reason);
-  }
-  plan.world = arguments.physics.resolve(plan.algorithm_requested, plan.config);
+  ChosenAlgorithm algorithm = chooseAlgorithm(arguments.algorithm, plan.config.objects);
+  plan.default_algorithm_reason = std::move(algorithm.default_reason);
+  plan.world = arguments.physics.resolve(algorithm.name, plan.config);
   plan.sync = arguments.sync;
   plan.compare_sync = arguments.compare_sync;
   plan.threads = arguments.threads;
   plan.tasks = !arguments.no_tasks;
   plan.sound = arguments.sound;
   plan.ai = arguments.ai;
-  try {
-    plan.sound.validate();
-    plan.ai.validate();
-  } catch (const std::invalid_argument& error) {
-    throw UsageError(std::string("task options: ") + error.what());
+  // The tasks' frame is the scene's: checked here, not when the first frame runs.
+  plan.sound.frame_seconds = plan.ai.frame_seconds = plan.config.frame_time;
+  if (plan.tasks && plan.sound.samplesPerFrame() < 1) {
+    std::ostringstream frame_time;
+    frame_time << plan.config.frame_time;
+    throw UsageError("--frame-time " + frame_time.str() + " is shorter than one sample of the " +
+                     "sound task (1/" + std::to_string(plan.sound.sample_rate) +
+                     " s); lengthen it or give --no-tasks");
+  }
+  if (plan.tasks) {
+    try {
+      plan.sound.validate();
+      plan.ai.validate();
+    } catch (const std::invalid_argument& error) {
+      throw UsageError(std::string("task options: ") + error.what());
+    }
   }
   plan.task_load = arguments.task_load;
   plan.out = arguments.out;
@@ -267,6 +281,7 @@ RunPlan resolvePlan(const RunArguments& arguments, const RunOptionHandles& given
     plan.wav_file = arguments.wav.value_or(plan.out / "sound.wav");
     plan.wav_option = arguments.wav ? "--wav" : "--out";
   }
+  plan.quiet = arguments.quiet;
   return plan;
 }
 
@@ -380,6 +395,7 @@ std::unique_ptr<FrameCapture> openCamera(const RunPlan& plan, OutputFolder& outp
 struct SteppedRuns {
   RunResult async_run;                // or the --sync run, with --sync
   std::optional<RunResult> sync_run;  // --compare-sync's
+  double load_at_start = 0;           // the load average before the first frame
 };
 
 SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
@@ -393,6 +409,7 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   if (!plan.default_algorithm_reason.empty()) {
     std::fprintf(stderr, "overlap: %s\n", plan.default_algorithm_reason.c_str());
   }
+  const double load_at_start = loadAverage();
   Progress progress(plan.compare_sync ? "overlap run (sync and async)" : "overlap run",
                     plan.frames);
   for (int frame = 0; frame < plan.frames; ++frame) {
@@ -407,7 +424,7 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   progress.finish();
   std::optional<RunResult> sync_run;
   if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
-  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run)};
+  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run), load_at_start};
   // Millions of boxes take seconds to release: said past a second, and a
   // signal meanwhile still stops the run before anything is published.
   Progress releasing("overlap: releasing " + std::to_string(plan.config.objects) + " boxes", 0);
@@ -422,12 +439,13 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
 
 nlohmann::json parametersJson(const RunPlan& plan, const RunResult& run) {
   nlohmann::json parameters = toJson(plan.config);
-  parameters["algorithm_requested"] = plan.algorithm_requested;
+  parameters["algorithm_requested"] =
+      plan.algorithm_requested ? nlohmann::json(*plan.algorithm_requested) : nlohmann::json();
   parameters["algorithm"] = run.algorithm;
   parameters["frames"] = plan.frames;
   parameters.update(toJson(plan.world));
   parameters["sync"] = plan.sync;
-  parameters["threads"] = plan.threads;
+  parameters["threads"] = threadsInUse();
   parameters["tasks"] = plan.tasks;
   parameters["voices"] = plan.sound.voices;
   parameters["background_voices"] = plan.sound.background_voices;
@@ -436,6 +454,15 @@ nlohmann::json parametersJson(const RunPlan& plan, const RunResult& run) {
   if (plan.calibration) parameters["task_load_calibration"] = toJson(*plan.calibration);
   parameters["capture_every"] = plan.capture_every;
   return parameters;
+}
+
+// The run's frames as its summary reads them: the whole frame and its step.
+FrameSummary frameSummary(const RunPlan& plan, const RunResult& run) {
+  FrameSummary frames(plan.config.frame_time);
+  for (const FrameRow& row : run.rows) {
+    frames.add(toMilliseconds(row.frame.whole.length()), row.frame.physics.timings);
+  }
+  return frames;
 }
 
 nlohmann::json summarize(const RunPlan& plan, const RunResult& run) {
@@ -450,6 +477,7 @@ nlohmann::json summarize(const RunPlan& plan, const RunResult& run) {
            {{"interior_half_extent", run.layout.half_extent},
             {"wall_thickness", run.layout.wall_thickness}}},
           {"timings_ms", columnStatistics(run.rows, true)},
+          {"frames_over_frame_time", frameSummary(plan, run).framesOverFrameTime()},
           {"counts", errors},
           {"state_hash", hex(run.state_hash)},
           {"sound_checksum", hex(run.sound_checksum)},
@@ -458,36 +486,46 @@ nlohmann::json summarize(const RunPlan& plan, const RunResult& run) {
           {"machine", machineInfo()}};
 }
 
+// The whole frames' milliseconds, in order.
+std::vector<double> frameMs(const RunResult& run) {
+  std::vector<double> values;
+  for (const FrameRow& row : run.rows) values.push_back(toMilliseconds(row.frame.whole.length()));
+  return values;
+}
+
 // --compare-sync's figures: the sync run against the async one.
-nlohmann::json compareSyncJson(const RunResult& sync_run, const RunResult& async_run) {
+nlohmann::json compareSyncJson(const RunResult& sync_run, const RunResult& async_run,
+                               double load_at_start) {
   const auto medianOf = [](const std::vector<FrameRow>& rows, auto value) {
     std::vector<double> values;
     for (const FrameRow& row : rows) values.push_back(value(row.frame));
     return median(values);
   };
-  const auto frameMs = [](const ScheduledFrame& f) { return toMilliseconds(f.whole.length()); };
   const auto physicsMs = [](const ScheduledFrame& f) { return f.physics.timings.total_ms; };
   const auto tasksMs = [](const ScheduledFrame& f) {
     return toMilliseconds(f.taskTime(kSoundTask) + f.taskTime(kAiTask));
   };
-  const double sync_ms = medianOf(sync_run.rows, frameMs);
-  const double async_ms = medianOf(async_run.rows, frameMs);
-  return {{"sync_total_ms_median", sync_ms},
-          {"async_total_ms_median", async_ms},
-          {"speedup", sync_ms / async_ms},
-          // The sync run's parts: what the async frame overlaps.
-          {"sync_physics_ms_median", medianOf(sync_run.rows, physicsMs)},
-          {"sync_tasks_ms_median", medianOf(sync_run.rows, tasksMs)},
-          {"async_physics_ms_median", medianOf(async_run.rows, physicsMs)},
-          {"async_tasks_ms_median", medianOf(async_run.rows, tasksMs)},
-          {"sync_state_hash", hex(sync_run.state_hash)},
-          {"identical_state", sync_run.state_hash == async_run.state_hash},
-          {"identical_tasks", sync_run.sound_checksum == async_run.sound_checksum &&
-                                  sync_run.ai_checksum == async_run.ai_checksum}};
+  const Speedup speedup = speedupOf(frameMs(sync_run), frameMs(async_run));
+  return {
+      {"sync_total_ms_median", median(frameMs(sync_run))},
+      {"async_total_ms_median", median(frameMs(async_run))},
+      {"speedup", speedup.speedup},
+      // Its spread over the frames, each stepped sync and async on the same state.
+      {"speedup_frame_quartiles", {speedup.frames_q1, speedup.frames_median, speedup.frames_q3}},
+      {"load_at_start", load_at_start},
+      // The sync run's parts: what the async frame overlaps.
+      {"sync_physics_ms_median", medianOf(sync_run.rows, physicsMs)},
+      {"sync_tasks_ms_median", medianOf(sync_run.rows, tasksMs)},
+      {"async_physics_ms_median", medianOf(async_run.rows, physicsMs)},
+      {"async_tasks_ms_median", medianOf(async_run.rows, tasksMs)},
+      {"sync_state_hash", hex(sync_run.state_hash)},
+      {"identical_state", sync_run.state_hash == async_run.state_hash},
+      {"identical_tasks", sync_run.sound_checksum == async_run.sound_checksum &&
+                              sync_run.ai_checksum == async_run.ai_checksum}};
 }
 
-// The closing line: every file the run wrote, where, and the last run's
-// files it removed.
+// The line before the summary: every file the run wrote, where, and the
+// last run's files it removed.
 std::string writtenLine(const std::filesystem::path& out,
                         const std::optional<std::filesystem::path>& wav, const FrameCapture* camera,
                         const std::vector<std::string>& removed) {
@@ -508,11 +546,37 @@ std::string writtenLine(const std::filesystem::path& out,
 std::vector<std::string> writeOutputs(const RunPlan& plan, const SteppedRuns& runs,
                                       const Timeline& timeline, OutputFolder& outputs) {
   nlohmann::json summary = summarize(plan, runs.async_run);
-  if (runs.sync_run) summary["compare_sync"] = compareSyncJson(*runs.sync_run, runs.async_run);
+  if (runs.sync_run) {
+    summary["compare_sync"] = compareSyncJson(*runs.sync_run, runs.async_run, runs.load_at_start);
+  }
   outputs.open(plan.out / "frames.csv").write(framesCsv(runs.async_run.rows));
   outputs.open(plan.out / "timeline.json").write(timeline.json());
   outputs.open(plan.out / "summary.json").write(summary.dump(2) + "\n");
   return outputs.commit();
+}
+
+// The summary the run ends with (engine/runtime/run_summary.h): its frames,
+// and with --compare-sync the speed-up, its spread and the load.
+void printRunSummary(const RunPlan& plan, const SteppedRuns& runs) {
+  const RunResult& run = runs.async_run;
+  std::vector<std::string> lines = frameSummary(plan, run).lines();
+  if (runs.sync_run) {
+    const Speedup speedup = speedupOf(frameMs(*runs.sync_run), frameMs(run));
+    lines.push_back("speed-up    " + fixedText(speedup.speedup, 2) +
+                    ", the median sync frame over "
+                    "the median async one; frame by frame " +
+                    fixedText(speedup.frames_q1, 2) + " to " + fixedText(speedup.frames_q3, 2) +
+                    " (quartiles of " + std::to_string(run.rows.size()) + "); load " +
+                    fixedText(runs.load_at_start, 2) + " at the start, on " +
+                    counted(std::thread::hardware_concurrency(), "hardware thread"));
+  }
+  const char* mode = plan.compare_sync ? "sync and async" : plan.sync ? "sync" : "async";
+  printSummary(plan.quiet,
+               "overlap run: " + counted(static_cast<long long>(run.rows.size()), "frame") +
+                   " of scene " + std::to_string(plan.config.scene) + ", " +
+                   std::to_string(plan.config.objects) + " boxes, " + run.algorithm + ", " + mode +
+                   ", " + counted(threadsInUse(), "thread") + (plan.tasks ? "" : ", no tasks"),
+               lines);
 }
 
 void run(const RunArguments& arguments, const RunOptionHandles& given) {
@@ -530,6 +594,7 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);
   const std::vector<std::string> removed = writeOutputs(plan, runs, timeline, outputs);
   std::fprintf(stderr, "%s\n", writtenLine(plan.out, plan.wav_file, camera.get(), removed).c_str());
+  printRunSummary(plan, runs);
 }
 
 // ---- the command line ----
@@ -622,7 +687,6 @@ void addRunCommand(CLI::App& app) {
           "full run");
   arguments->scene.addTo(*command, kDemoObjects);
   addAlgorithmOption(*command, arguments->algorithm);
-  given->algo = command->get_option("--algo");
   given->frames =
       command->add_option("--frames", arguments->frames, "frames to run, each --frame-time long")
           ->check(wholeNumberIn(1, kMostFrames))
@@ -635,6 +699,7 @@ void addRunCommand(CLI::App& app) {
   addFrameOptions(*command, *arguments, *given);
   addTaskOptions(*command, *arguments, *given);
   addOutputOptions(*command, *arguments, *given);
+  addQuietFlag(*command, arguments->quiet);
   command->footer(
       "Examples:\n"
       "  overlap run                                  # the demo, into ./out\n"

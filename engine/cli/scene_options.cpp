@@ -1,5 +1,8 @@
 #include "engine/cli/scene_options.h"
 
+#include <oneapi/tbb/info.h>
+
+#include <algorithm>
 #include <stdexcept>
 #include <string_view>
 #include <tuple>
@@ -7,6 +10,7 @@
 #include "engine/cli/cli_errors.h"
 #include "engine/cli/number_options.h"
 #include "physics/broadphase_factory.h"
+#include "physics/default_broadphase.h"
 
 namespace overlap::engine {
 namespace {
@@ -124,16 +128,29 @@ nlohmann::json toJson(const physics::SceneConfig& config) {
           {"large_sizes", range(config.large)}};
 }
 
-void addAlgorithmOption(CLI::App& command, std::string& algorithm) {
-  algorithm = kDefaultAlgorithm;
+std::string defaultAlgorithmRule() {
+  return "the box-count rule: with a CUDA device cpubf below " +
+         std::to_string(physics::kGpubfFrom) + " boxes, gpubf below " +
+         std::to_string(physics::kGpusapFrom) + ", gpusap from there; without one " +
+         std::string(physics::kDeviceFallback);
+}
+
+void addAlgorithmOption(CLI::App& command, std::optional<std::string>& algorithm) {
   command
       .add_option("--algo", algorithm,
                   "broadphase: " + broadphaseNameList() +
-                      " (`overlap --list-algos` says what each is; " + kDefaultAlgorithm +
-                      " without a CUDA device runs " + std::string(physics::kDeviceFallback) +
-                      " and says so)")
+                      " (`overlap --list-algos` says what each is; a device one without a "
+                      "CUDA device runs " +
+                      std::string(physics::kDeviceFallback) + " and says so)")
       ->check(broadphaseNameCheck())
-      ->capture_default_str();
+      ->default_str(defaultAlgorithmRule());
+}
+
+ChosenAlgorithm chooseAlgorithm(const std::optional<std::string>& algorithm, int objects) {
+  if (algorithm) return {*algorithm, {}};
+  physics::DefaultBroadphase pick =
+      physics::defaultBroadphaseHere(static_cast<std::size_t>(objects));
+  return {std::string(pick.name), std::move(pick.reason)};
 }
 
 void checkBroadphaseCapacity(std::string_view option, std::string_view algorithm, int objects) {
@@ -170,6 +187,12 @@ std::optional<tbb::global_control> capThreads(int threads) {
   return std::optional<tbb::global_control>(std::in_place,
                                             tbb::global_control::max_allowed_parallelism,
                                             static_cast<std::size_t>(threads));
+}
+
+int threadsInUse() {
+  const auto cap = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  return static_cast<int>(
+      std::min(cap, static_cast<std::size_t>(std::max(1, tbb::info::default_concurrency()))));
 }
 
 }  // namespace overlap::engine

@@ -19,10 +19,6 @@
 
 namespace overlap::engine {
 
-// Every subcommand's --algo default.  Without a CUDA device it runs the
-// fastest exact CPU finder instead and says so (physics/broadphase_factory.h).
-inline constexpr const char* kDefaultAlgorithm = "gpubf";
-
 // The documented upper bounds of the counts (docs/CLI.md, "Bounds").
 inline constexpr int kMostObjects = 10'000'000;
 inline constexpr int kMostFrames = 1'000'000;
@@ -54,9 +50,22 @@ class SceneOptions {
 
 nlohmann::json toJson(const physics::SceneConfig& config);
 
-// Registers --algo, defaulting to kDefaultAlgorithm, checked against the
-// broadphases' names.
-void addAlgorithmOption(CLI::App& command, std::string& algorithm);
+// Every subcommand's --algo default, as --help shows it: the box-count rule
+// of physics/default_broadphase.h ("the box-count rule: cpubf below 500
+// boxes, ...").
+std::string defaultAlgorithmRule();
+
+// Registers --algo, checked against the broadphases' names; left unset, the
+// box-count rule picks (chooseAlgorithm).
+void addAlgorithmOption(CLI::App& command, std::optional<std::string>& algorithm);
+
+// The broadphase a run of `objects` boxes uses: the one --algo named, or
+// the box-count rule's pick with its one-line reason (empty when named).
+struct ChosenAlgorithm {
+  std::string name;
+  std::string default_reason;
+};
+ChosenAlgorithm chooseAlgorithm(const std::optional<std::string>& algorithm, int objects);
 
 // Registers --threads: every thread the run uses, the main thread included
 // (0: one per hardware thread).  --substeps, --ccd and --sleep are
@@ -75,5 +84,12 @@ std::string broadphaseNameList();
 // Caps every oneTBB pool of the process (cpubf's search, the tasks) at
 // `threads` for as long as the result lives; 0 leaves oneTBB's default.
 std::optional<tbb::global_control> capThreads(int threads);
+
+// The threads a run uses under the cap in force, the main thread included:
+// the smaller of the cap and oneTBB's default concurrency (the hardware
+// threads this process may run on), so --threads 0 gives the machine's
+// count and --threads beyond it the count that can run.  The one source of
+// a summary's "threads".
+int threadsInUse();
 
 }  // namespace overlap::engine

@@ -13,8 +13,8 @@ inline std::string counted(long long count, std::string_view noun) {
   return std::to_string(count) + ' ' + std::string(noun) + (count == 1 ? "" : "s");
 }
 
-// "; removed the last run's a.png, b.png and 3 more": the end of a closing
-// line, naming the first few files a run folder's commit removed; empty
+// "; removed the last run's a.png, b.png and 3 more": the end of the line
+// naming what a run wrote, naming the first few files a run folder's commit removed; empty
 // when it removed none.
 inline std::string removedText(const std::vector<std::string>& removed) {
   constexpr std::size_t kNamed = 5;

@@ -55,7 +55,9 @@
 #include "engine/cli/memory_bound.h"
 #include "engine/cli/progress.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
 #include "engine/cli/wording.h"
+#include "engine/runtime/run_summary.h"
 #include "engine/runtime/statistics.h"
 #include "engine/tools/bench_options.h"
 #include "engine/tools/bench_replay.h"
@@ -481,6 +483,38 @@ void printStreamStatistics(const CachedStream& cached, int warmup) {
       statistics.moving_boxes, statistics.last_pairs_per_box, statistics.last_moving_boxes);
 }
 
+// The table the benchmark ends with: a row per stream, algorithm and churn.
+void printBenchSummary(const BenchOptions& options, const std::vector<Row>& rows) {
+  const bool churned = !options.churn.empty();
+  const bool inputs = !options.inputs.empty();
+  std::vector<std::string> header = {"n", "algorithm"};
+  if (inputs) header.push_back("stream");
+  if (churned) header.push_back("churn");
+  for (const char* column : {"median us", "fastest", "slowest", "vs bvh", "pairs", "missed"}) {
+    header.emplace_back(column);
+  }
+  std::vector<std::vector<std::string>> table = {header};
+  for (const Row& row : rows) {
+    const auto [fastest, slowest] =
+        std::minmax_element(row.repeat_medians_us.begin(), row.repeat_medians_us.end());
+    std::vector<std::string> cells = {std::to_string(row.objects), row.algorithm};
+    if (inputs) cells.push_back(std::filesystem::path(row.stream).filename().string());
+    if (churned) cells.push_back(exactNumber(row.churn));
+    for (const std::string& cell :
+         {fixed(row.medianUs(), 1), fixed(*fastest, 1), fixed(*slowest, 1),
+          row.ratio_vs_bvh ? fixed(*row.ratio_vs_bvh, 3) : std::string("-"),
+          fixed(row.pairsMean(), 1), row.checked() ? std::to_string(row.missed) : "-"}) {
+      cells.push_back(cell);
+    }
+    table.push_back(std::move(cells));
+  }
+  printSummary(options.quiet,
+               std::string(kProgram) + ": a frame's update + search + pair cache in us, the " +
+                   "median over " + counted(options.repeats, "repeat") +
+                   " of each one's median frame (fastest, slowest: of the repeats)",
+               alignedTable(table));
+}
+
 int run(const BenchOptions& options, const std::string& command) {
   std::string skipped;
   std::vector<Workload> workloads = planWorkloads(options, skipped);
@@ -535,6 +569,7 @@ int run(const BenchOptions& options, const std::string& command) {
   writeFileAtomically(csv_path, csvText(rows, command, notes));
   writeFileAtomically(json_path, json.dump(2) + '\n');
   std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
+  printBenchSummary(options, rows);
 
   const std::vector<std::string> failed = failures(rows);
   for (const std::string& failure : failed) {

@@ -12,6 +12,7 @@
 #include "engine/cli/memory_bound.h"
 #include "engine/cli/number_options.h"
 #include "engine/cli/scene_options.h"
+#include "engine/cli/summary_output.h"
 
 namespace overlap::engine {
 namespace {
@@ -96,6 +97,7 @@ void addBenchOptions(CLI::App& app, BenchOptions& options) {
   app.add_flag("--stream-stats", options.stream_stats,
                "print each --input's pairs per box, pairs changed and boxes moved per frame "
                "(after --warmup), and stop");
+  addQuietFlag(app, options.quiet);
 }
 
 void refuseIgnoredOptions(const CLI::App& app) {

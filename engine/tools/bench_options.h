@@ -31,6 +31,7 @@ struct BenchOptions {
   std::vector<double> churn;
   bool stream_stats = false;
   std::uint64_t max_memory_mb = 0;  // 0: engine/cli/memory_bound.h's default
+  bool quiet = false;               // no summary table at the end
 };
 
 void addBenchOptions(CLI::App& app, BenchOptions& options);

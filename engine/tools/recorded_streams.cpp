@@ -67,7 +67,8 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
 }
 
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
-                                 const std::string& label, const physics::WorldOptions& options) {
+                                 const std::string& label, const physics::WorldOptions& options,
+                                 FrameSummary* summary) {
   Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
   physics::PhysicsWorld world(config, options);
   placing.finish();
@@ -95,7 +96,8 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
   keepBoxes();
   for (int frame = 0; frame < frames; ++frame) {
     stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(frames));
-    world.stepFrame();
+    const physics::FrameReport report = world.stepFrame();
+    if (summary != nullptr) summary->add(report.timings.total_ms, report.timings);
     keepBoxes();
     progress.update(frame + 1);
   }

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <string>
 
+#include "engine/runtime/run_summary.h"
 #include "physics/aabb_stream.h"
 #include "physics/scene.h"
 #include "physics/world.h"
@@ -37,10 +38,12 @@ std::filesystem::path cachedStreamPath(const std::filesystem::path& folder,
 // the automatic substeps, CCD and sleep) and keeps the boxes' AABBs, a box
 // that has left the simulation as physics::parkedBox(), with progress on
 // stderr for long recordings under `label` (the program's, "overlap
-// record").  `overlap record` and the benchmark both record through it.
+// record").  `overlap record` and the benchmark both record through it;
+// `summary`, if given, gets every frame's step (`overlap record`'s summary).
 physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
                                  const std::string& label,
-                                 const physics::WorldOptions& options = {});
+                                 const physics::WorldOptions& options = {},
+                                 FrameSummary* summary = nullptr);
 
 // Checks, before any work, that `out` can take a stream of `objects` boxes
 // at the start and after each of `frames` frames: prepareOutputFile(), and

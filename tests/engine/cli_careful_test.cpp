@@ -198,6 +198,7 @@ TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
       {"record --seed 18446744073709551616" + out, "must be at most 18446744073709551615"},
       {"record --seed \"\"" + out, "--seed: an empty value is not a number"},
       {"run --voices 0" + out, "--background-voices 16 (its default) must be at most --voices 0"},
+      {"run --frame-time 0.00001" + out, "--frame-time 1e-05 is shorter than one sample"},
       {"run --no-tasks --voices 3" + out, "--voices and --no-tasks"},
       {"run --wav x.wav --no-wav" + out, "--wav and --no-wav"},
       {"run --sync --compare-sync" + out, "--sync and --compare-sync"},

@@ -370,7 +370,7 @@ TEST_F(CliTest, RunOfOneObjectCompletes) {
 }
 
 // What `overlap run` leaves without being asked: the tables, the timeline,
-// the sound, keyframes, and one closing line saying where.
+// the sound, keyframes, and one line saying where, before the summary.
 TEST_F(CliTest, RunWritesEveryOutputAndSaysWhere) {
   const Result result =
       runOverlap("run --objects 60 --frames 8 --capture-size 64x48 --out " + out_.string());
@@ -388,14 +388,19 @@ TEST_F(CliTest, RunWritesEveryOutputAndSaysWhere) {
     EXPECT_TRUE(std::filesystem::exists(path)) << path;
   }
   EXPECT_FALSE(std::filesystem::exists(frames / "scene4_frame0001.png"));
-  const std::string last_line =
-      result.stderr_text.substr(result.stderr_text.rfind('\n', result.stderr_text.size() - 2) + 1);
+  // The line before the summary (the summary is the end of the run's stderr).
+  const std::size_t wrote_at = result.stderr_text.find("overlap run: wrote ");
+  ASSERT_NE(wrote_at, std::string::npos) << result.stderr_text;
+  const std::string wrote_line =
+      result.stderr_text.substr(wrote_at, result.stderr_text.find('\n', wrote_at) - wrote_at);
   for (const std::filesystem::path& path :
        std::vector<std::filesystem::path>{out_ / "frames.csv", out_ / "summary.json",
                                           out_ / "timeline.json", out_ / "sound.wav", frames}) {
-    EXPECT_NE(last_line.find(path.string()), std::string::npos) << path << " in " << last_line;
+    EXPECT_NE(wrote_line.find(path.string()), std::string::npos) << path << " in " << wrote_line;
   }
-  EXPECT_NE(last_line.find("4 PNGs"), std::string::npos) << last_line;
+  EXPECT_NE(wrote_line.find("4 PNGs"), std::string::npos) << wrote_line;
+  EXPECT_NE(result.stderr_text.find("overlap run: 8 frames", wrote_at), std::string::npos)
+      << result.stderr_text;
 }
 
 TEST_F(CliTest, VersionPrintsTheVersionAndCommit) {
@@ -433,8 +438,180 @@ TEST_F(CliTest, WavAndTasksAreDeterministicAndCompareSyncMatches) {
   EXPECT_DOUBLE_EQ(compare["speedup"].get<double>(),
                    compare["sync_total_ms_median"].get<double>() /
                        compare["async_total_ms_median"].get<double>());
+  // Its spread over the frames, each stepped sync and async, and the load it ran under.
+  const std::vector<double> quartiles = compare["speedup_frame_quartiles"];
+  ASSERT_EQ(quartiles.size(), 3u);
+  EXPECT_LE(quartiles[0], quartiles[1]);
+  EXPECT_LE(quartiles[1], quartiles[2]);
+  EXPECT_TRUE(compare["load_at_start"].is_number());
   const nlohmann::json timeline = nlohmann::json::parse(fileText(out_ / "run" / "timeline.json"));
   EXPECT_GT(timeline["traceEvents"].size(), 10u * 4u);
+}
+
+// The summary a run ends with: its title line, then indented lines to the
+// end of stderr; empty when there is none.
+std::string summaryOf(const std::string& stderr_text, const std::string& title) {
+  const std::size_t at = stderr_text.rfind(title);
+  if (at == std::string::npos || (at > 0 && stderr_text[at - 1] != '\n')) return {};
+  std::istringstream rest(stderr_text.substr(at));
+  std::string line;
+  std::getline(rest, line);  // the title
+  while (std::getline(rest, line)) {
+    if (line.rfind("  ", 0) != 0) return {};  // a line after the summary: it was not the end
+  }
+  return stderr_text.substr(at);
+}
+
+// stderr's lines but the progress lines (the first second of a loaded
+// machine decides whether there are any).
+std::vector<std::string> linesBesideProgress(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(" elapsed") != std::string::npos || line.find(" pace ") != std::string::npos ||
+        line.find(": done") != std::string::npos) {
+      continue;
+    }
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+struct SummaryCase {
+  std::string command;  // the binary and its arguments
+  std::string title;
+  std::vector<std::string> figures;  // words the summary must hold
+};
+
+std::vector<SummaryCase> summaryCases(const std::filesystem::path& out) {
+  const std::string overlap = std::string(OVERLAP_BINARY) + " ";
+  const std::vector<std::string> frame = {"median",
+                                          "p95",
+                                          "max",
+                                          "over the frame time (33.3 ms)",
+                                          "a frame (means): update",
+                                          "broadphase",
+                                          "other",
+                                          "with the update"};
+  auto with = [](std::vector<std::string> words, const std::vector<std::string>& more) {
+    words.insert(words.end(), more.begin(), more.end());
+    return words;
+  };
+  return {
+      {overlap + "record --objects 60 --frames 3 --out " + (out / "s.aabbs").string(),
+       "overlap record: 3 frames of scene 4, 60 boxes, bvh", frame},
+      {overlap + "pairs --algo bf --input " + (out / "s.aabbs").string(),
+       "overlap pairs: 4 frames of 60 boxes, bf",
+       {"a frame (mean), at most", "in all", "search"}},
+      {overlap + "generate --objects 60 --frames 3 --out " + (out / "g.aabbs").string(),
+       "overlap generate: 3 frames of scene 4, 60 boxes",
+       {"median", "p95", "max"}},
+      {overlap + "capture --objects 40 --keyframes 1 --capture-size 32x24 --out " +
+           (out / "capture").string(),
+       "overlap capture: 2 frames of scene 4, 40 boxes", frame},
+      {overlap + "latency --objects 60 --frames 3 --algo bvh --growth 0,1",
+       "overlap latency: 3 frames of scene 4, 60 boxes",
+       with(frame, {"algo  growth  exact  missed  extra", "\n    bvh "})},
+      {overlap + "run --objects 60 --frames 4 --capture-every 0 --no-wav --out " +
+           (out / "run").string(),
+       "overlap run: 4 frames of scene 4, 60 boxes", frame},
+      {std::string(OVERLAP_BENCH_BINARY) +
+           " --objects 40 --big-objects 0 --algos bvh,cpusap --record-frames 3 --warmup 1 "
+           "--repeats 1 --streams " +
+           (out / "streams").string() + " --out " + (out / "bench").string(),
+       "overlap_bench_broadphase: a frame's update + search + pair cache",
+       {"median us", "vs bvh", "missed", "40  bvh", "40  cpusap"}},
+  };
+}
+
+TEST_F(CliTest, EverySubcommandAndTheBenchmarkEndWithTheirSummary) {
+  std::filesystem::create_directories(out_);
+  for (const SummaryCase& run : summaryCases(out_)) {
+    const Result result = runCommand(run.command);
+    ASSERT_EQ(result.exit_code, 0) << run.command << ": " << result.stderr_text;
+    const std::string summary = summaryOf(result.stderr_text, run.title);
+    ASSERT_FALSE(summary.empty()) << run.command << " does not end with '" << run.title << "...':\n"
+                                  << result.stderr_text;
+    for (const std::string& figure : run.figures) {
+      EXPECT_NE(summary.find(figure), std::string::npos) << run.command << ": " << figure << " in\n"
+                                                         << summary;
+    }
+  }
+}
+
+TEST_F(CliTest, QuietDropsTheSummaryAndNothingElse) {
+  std::filesystem::create_directories(out_);
+  // Once first, so that both runs below find what a first run makes (the
+  // benchmark's recorded stream) and say the same of it.
+  for (const SummaryCase& run : summaryCases(out_)) runCommand(run.command + " --quiet");
+  for (const SummaryCase& run : summaryCases(out_)) {
+    const Result loud = runCommand(run.command);
+    const Result quiet = runCommand(run.command + " --quiet");
+    ASSERT_EQ(quiet.exit_code, 0) << run.command << ": " << quiet.stderr_text;
+    const std::string summary = summaryOf(loud.stderr_text, run.title);
+    ASSERT_FALSE(summary.empty()) << run.command << ": " << loud.stderr_text;
+    EXPECT_EQ(quiet.stderr_text.find(run.title), std::string::npos) << quiet.stderr_text;
+    const std::string without_summary =
+        loud.stderr_text.substr(0, loud.stderr_text.size() - summary.size());
+    EXPECT_EQ(linesBesideProgress(quiet.stderr_text), linesBesideProgress(without_summary))
+        << run.command;
+  }
+}
+
+TEST_F(CliTest, SummaryJsonHoldsTheFrameSpreadTheFramesOverAndTheThreadsThatRan) {
+  const auto summaryOfRun = [&](const std::string& args) {
+    const Result result = runOverlap("run --objects 60 --frames 6 --capture-every 0 --no-wav " +
+                                     args + " --out " + out_.string());
+    EXPECT_EQ(result.exit_code, 0) << result.stderr_text;
+    return nlohmann::json::parse(fileText(out_ / "summary.json"));
+  };
+  // Nothing asked: the rule picked the broadphase, and every thread oneTBB may use ran.
+  const nlohmann::json defaulted = summaryOfRun("");
+  EXPECT_TRUE(defaulted["parameters"]["algorithm_requested"].is_null());
+  EXPECT_FALSE(defaulted["parameters"]["algorithm"].get<std::string>().empty());
+  const int threads = defaulted["parameters"]["threads"];
+  EXPECT_GE(threads, 1);
+  EXPECT_LE(threads, defaulted["machine"]["hardware_threads"].get<int>());
+  for (const auto& [column, figures] : defaulted["timings_ms"].items()) {
+    EXPECT_LE(figures["median"].get<double>(), figures["p95"].get<double>()) << column;
+    EXPECT_LE(figures["p95"].get<double>(), figures["p99"].get<double>()) << column;
+    EXPECT_LE(figures["p99"].get<double>(), figures["max"].get<double>()) << column;
+  }
+  // The frames over the frame time are frames.csv's rows whose total_ms is over it.
+  std::ifstream csv(out_ / "frames.csv");
+  std::string header;
+  std::getline(csv, header);
+  std::vector<std::string> names;
+  for (std::stringstream cells(header); std::getline(cells, names.emplace_back(), ',');) {
+  }
+  const auto total = std::find(names.begin(), names.end(), "total_ms") - names.begin();
+  int over = 0;
+  for (std::string row; std::getline(csv, row);) {
+    std::stringstream cells(row);
+    std::string cell;
+    for (long i = 0; i <= total; ++i) std::getline(cells, cell, ',');
+    if (std::stod(cell) > 1000.0 / 30) ++over;
+  }
+  EXPECT_EQ(defaulted["frames_over_frame_time"], over);
+
+  const nlohmann::json named =
+      summaryOfRun("--algo bf --threads 1 --frame-time 0.000001 --no-tasks");
+  EXPECT_EQ(named["parameters"]["algorithm_requested"], "bf");
+  EXPECT_EQ(named["parameters"]["threads"], 1);
+  EXPECT_EQ(named["frames_over_frame_time"], 6);  // no frame takes under a microsecond
+}
+
+TEST_F(CliTest, CompareSyncEndsWithItsSpeedupItsSpreadAndTheLoad) {
+  const Result result =
+      runOverlap("run --objects 40 --frames 4 --capture-every 0 --no-wav --compare-sync --out " +
+                 out_.string());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  const std::string summary = summaryOf(result.stderr_text, "overlap run: 4 frames");
+  ASSERT_FALSE(summary.empty()) << result.stderr_text;
+  for (const char* words : {"sync and async", "speed-up    ", "frame by frame", "(quartiles of 4)",
+                            "at the start, on "}) {
+    EXPECT_NE(summary.find(words), std::string::npos) << words << " in\n" << summary;
+  }
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // The `overlap` options as a user reads them in --help: one --algo default
-// everywhere, a default shown for every option, one name per meaning, and an
-// example in every subcommand's help.
+// everywhere (the rule that picks one), --quiet everywhere, a default shown for every option, one
+// name per meaning, and an example in every subcommand's help.
 #include <gtest/gtest.h>
 
 #include <CLI/CLI.hpp>
@@ -18,18 +18,29 @@ class OptionsTest : public ::testing::Test {
   CLI::App app_{"overlap", "overlap"};
 };
 
-TEST_F(OptionsTest, EverySubcommandDefaultsToTheSameAlgorithm) {
+// The default --help shows is the one that runs: the box-count rule
+// (physics/default_broadphase.h), in every subcommand that takes --algo.
+TEST_F(OptionsTest, EverySubcommandShowsTheBoxCountRuleAsItsAlgorithmDefault) {
   int with_algo = 0;
   for (const CLI::App* command : app_.get_subcommands({})) {
     const CLI::Option* algo = command->get_option_no_throw("--algo");
     if (algo == nullptr) continue;
     ++with_algo;
-    std::string shown = algo->get_default_str();
-    // A list option (latency's) shows its default as "[gpubf]".
-    if (shown.size() > 2 && shown.front() == '[') shown = shown.substr(1, shown.size() - 2);
-    EXPECT_EQ(shown, kDefaultAlgorithm) << command->get_name();
+    EXPECT_EQ(algo->get_default_str(), defaultAlgorithmRule()) << command->get_name();
+    EXPECT_NE(command->help().find("=" + defaultAlgorithmRule()), std::string::npos)
+        << command->get_name();
   }
   EXPECT_EQ(with_algo, 4);  // run, pairs, capture, latency
+  EXPECT_EQ(defaultAlgorithmRule(),
+            "the box-count rule: with a CUDA device cpubf below 500 boxes, gpubf below 13000, "
+            "gpusap from there; without one cpusap");
+}
+
+// --quiet drops a run's summary in every subcommand.
+TEST_F(OptionsTest, EverySubcommandTakesQuiet) {
+  for (const CLI::App* command : app_.get_subcommands({})) {
+    EXPECT_NE(command->get_option_no_throw("--quiet"), nullptr) << command->get_name();
+  }
 }
 
 TEST_F(OptionsTest, EveryOptionShowsItsDefault) {

@@ -2,8 +2,9 @@
 // Overlap: a btDiscreteDynamicsWorld whose broadphase is `cpusap`, with a
 // pile of 48 boxes dropped onto a ground, stepped 120 times.  After every
 // step its pair cache must hold exactly the pairs that `bf`, fed the same
-// boxes, finds; a ray cast down the middle must hit.  Prints one line and
-// exits 0, or names the first step that differs and exits 1.
+// boxes, finds; a ray cast down the middle must hit.  Prints two lines (what
+// `gpubf` runs here, then the check's result) and exits 0, or names the
+// first step that differs and exits 1.
 #include <btBulletDynamicsCommon.h>
 #include <overlap/physics/broadphase_factory.h>
 
@@ -49,6 +50,13 @@ int main() {
                  choice.notice.c_str());
     return 1;
   }
+
+  // A device name: where it cannot run, the notice says why (scripts/ci_package.sh
+  // reads it: without the CUDA toolkit the package gives the finders built without CUDA).
+  const overlap::physics::BroadphaseChoice gpubf =
+      overlap::physics::makeWorldBroadphase("gpubf", world_min, world_max, kBoxes + 1);
+  std::printf("package consumer: gpubf runs %s%s%s\n", gpubf.name.c_str(),
+              gpubf.notice.empty() ? "" : ": ", gpubf.notice.c_str());
 
   btBoxShape ground_shape(btVector3(20, 1, 20));
   btRigidBody ground(0, nullptr, &ground_shape);

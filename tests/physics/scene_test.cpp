@@ -108,6 +108,36 @@ TEST(Scene, AnImpossiblePackingIsStillRefused) {
   }
 }
 
+// docs/CLI.md's cases at the default fill that a seed does not change, and
+// seed 42's (the default): scenes 1-3 place 1 unit box and 4 or more, never
+// 2 or 3; scene 4 places 1, 2, 4, 5 and from 20 boxes, and its default seed
+// fails at 10.
+TEST(Scene, FewBoxesPlaceAtTheDefaultFillAsCliMdSays) {
+  const auto places = [](int scene, int objects, std::uint64_t seed) {
+    SceneConfig config = SceneConfig::forScene(scene);
+    config.objects = objects;
+    config.seed = seed;
+    try {
+      generateScene(config);
+      return true;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_NE(std::string(error.what()).find("found no place"), std::string::npos)
+          << error.what();
+      return false;
+    }
+  };
+  for (const int scene : {1, 2, 3}) {
+    EXPECT_TRUE(places(scene, 1, 42)) << "scene " << scene;
+    EXPECT_FALSE(places(scene, 2, 42)) << "scene " << scene;
+    EXPECT_FALSE(places(scene, 3, 42)) << "scene " << scene;
+    EXPECT_TRUE(places(scene, 4, 42)) << "scene " << scene;
+  }
+  for (const int objects : {1, 2, 4, 5, 20, 30}) {
+    EXPECT_TRUE(places(4, objects, 42)) << objects << " boxes";
+  }
+  EXPECT_FALSE(places(4, 10, 42));
+}
+
 TEST(Scene, SameSeedSameStartDifferentSeedDifferentStart) {
   SceneConfig config = SceneConfig::forScene(4);
   config.objects = 300;
