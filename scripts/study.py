@@ -188,6 +188,69 @@ def parse_shard(text: str) -> tuple:
     return shard, shards
 
 
+def listed(text: str, item, low: float, high: float = None, empty: bool = False,
+           also: tuple = ()) -> bool:
+    """Whether `text` is comma-separated `item`s (int or float) in [low, high], or words
+    of `also`; empty only when allowed."""
+    words = [w for w in text.split(",") if w]
+    if not words and not empty or len(words) != text.count(",") + 1 and words:
+        return False
+    for word in words:
+        if word in also:
+            continue
+        if not re.fullmatch(r"[0-9]{1,9}" if item is int else r"[0-9]{1,9}(\.[0-9]{1,9})?", word):
+            return False
+        if not low <= item(word) <= (high if high is not None else float("inf")):
+            return False
+    return True
+
+
+# What each run option must hold (the algorithms are checked against overlap's catalogue
+# once it is read): bad values are refused here, before anything runs or is written.
+SCENES = (lambda t: listed(t, int, 1, 4), "scene numbers 1-4, comma-separated")
+COUNTS = (lambda t: listed(t, int, 1), "whole numbers from 1, comma-separated")
+VALUE_CHECKS = {
+    "scenes": SCENES, "physics_scenes": SCENES, "latency_scenes": SCENES,
+    "overlap_scenes": SCENES, "objects": COUNTS, "overlap_objects": COUNTS,
+    "physics_compare_objects": (lambda t: listed(t, int, 1, empty=True),
+                                "whole numbers from 1, comma-separated, or nothing"),
+    "physics_seeds": (lambda t: listed(t, int, 0, empty=True),
+                      "whole numbers, comma-separated, or nothing"),
+    "physics_substeps": (lambda t: listed(t, int, 1, also=("auto",)),
+                         "substep counts from 1 and/or auto, comma-separated"),
+    "physics_ccd": (lambda t: all(w in ("off", "auto", "all") for w in t.split(",")),
+                    "off, auto and/or all, comma-separated"),
+    "latency_growths": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
+    "overlap_loads": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
+    "capture_keyframes": (lambda t: listed(t, int, 0), "frame numbers, comma-separated"),
+    "threads": (lambda n: 0 <= n <= 4096, "0 (every hardware thread) to 4096"),
+    "seed": (lambda n: n >= 0, "a whole number from 0"),
+}
+ALGO_LISTS = ("algos", "pairs_algos", "latency_algos", "physics_algo", "overlap_algo")
+
+
+def check_values(args, parser: argparse.ArgumentParser) -> None:
+    full = study_profiles.options(PROFILES, "full")
+    for key in [*VALUE_CHECKS, *(k for k, v in full.items() if type(v) is int)]:
+        holds, must = VALUE_CHECKS.get(key, (lambda n: n >= 1, "a whole number from 1"))
+        if not holds(getattr(args, key)):
+            parser.error(f"--{key.replace('_', '-')} {getattr(args, key)}: expected {must}")
+    if args.report and not args.report_doc.is_file():
+        parser.error(f"--report-doc {args.report_doc}: no such file (--report fills its "
+                     "generated blocks)")
+
+
+def check_algorithms(args) -> None:
+    """Every algorithm named is one of overlap's (after broadphases.load)."""
+    known = broadphases.names()
+    for key in ALGO_LISTS:
+        value = getattr(args, key)
+        unknown = [a for a in value.split(",") if a not in known] if value else [""]
+        if unknown:
+            raise BadInput(f"--{key.replace('_', '-')} {value}: {','.join(unknown) or 'none'} "
+                           f"is not a broadphase of {args.overlap} ({', '.join(known)})")
+
+
 def add_run_options(parser: argparse.ArgumentParser) -> None:
     """One option per profile key, its default the profile's (None here: filled after)."""
     full, quick = (study_profiles.options(PROFILES, name) for name in ("full", "quick"))
@@ -262,6 +325,7 @@ def parse_args(argv: list) -> argparse.Namespace:
     add_run_options(parser)
     args = parser.parse_args(argv)
     apply_profile(args, parser)
+    check_values(args, parser)
     args.experiments = study_plan.names(args.experiments)
     unknown = set(args.experiments) - set(study_plan.EXPERIMENTS)
     if unknown:
@@ -402,6 +466,7 @@ def main(argv: list) -> int:
         argv = options_from_archive(argv)
         args = parse_args(argv)
     broadphases.load(args.overlap)
+    check_algorithms(args)
     args.argv = argv
     jobs = study_plan.plan(args)
     if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing

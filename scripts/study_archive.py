@@ -32,6 +32,7 @@ import codecs
 import contextlib
 import copy
 import fcntl
+import glob
 import json
 import lzma
 import os
@@ -130,7 +131,7 @@ def replaceable(target: pathlib.Path, out: pathlib.Path) -> None:
 
 def clear_stale(parent: pathlib.Path, name: str) -> None:
     """Removes the scratch folders of unpacks into PARENT/NAME that were killed."""
-    for folder in parent.glob(f".{name}.unpack-*"):
+    for folder in parent.glob(f".{glob.escape(name)}.unpack-*"):
         if folder.is_symlink() or not folder.is_dir() or folder.stat().st_uid != os.getuid():
             continue
         if not ((folder / SCRATCH_MARKER).is_file() or not any(folder.iterdir())):
@@ -294,22 +295,24 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
     if archive.resolve().is_relative_to(target):
         raise BadOut(f"{out}: holds the archive, which replacing it would remove")
     target.parent.mkdir(parents=True, exist_ok=True)
-    with ends_cleanly_on_signals():
-        with folder_locked(target.parent):
+    with ends_cleanly_on_signals(), contextlib.ExitStack() as held:
+        # Made and locked at once, signals held: no other unpack takes it for a stale one,
+        # and no signal leaves it behind before the `finally` that removes it.
+        with signals_held(), folder_locked(target.parent):
             clear_stale(target.parent, target.name)
             scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{target.name}.unpack-",
                                                     dir=target.parent))
+            held.enter_context(folder_locked(scratch))
         try:
-            with folder_locked(scratch):
-                (scratch / SCRATCH_MARKER).touch()
-                study = extract(archive, scratch)
-                options = options_of(check_study(study))
-                (study / MARKER).write_text(
-                    f"An unpack of the study archive {archive.name} (scripts/study.py "
-                    "--from-archive): the next unpack into this folder replaces it.\n")
-                with folder_locked(target.parent):
-                    replaceable(target, out)
-                    swap(study, target, scratch / "old")
+            (scratch / SCRATCH_MARKER).touch()
+            study = extract(archive, scratch)
+            options = options_of(check_study(study))
+            (study / MARKER).write_text(
+                f"An unpack of the study archive {archive.name} (scripts/study.py "
+                "--from-archive): the next unpack into this folder replaces it.\n")
+            with folder_locked(target.parent):
+                replaceable(target, out)
+                swap(study, target, scratch / "old")
             return options
         finally:
             with signals_held():
