@@ -274,6 +274,9 @@ def check_study(study: pathlib.Path) -> list:
     if not log or not log[0]["argv"]:
         raise BadArchive("study/study_invocations.json: names no invocation")
     for index, run in enumerate(log):
+        if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
+            raise BadArchive(f"study/study_invocations.json[{index}]: finished, yet no "
+                             "seconds of its jobs")
         for word in run["argv"] + [run["started"]]:
             if "`" in word or not word.isprintable() or len(word) > 4096:
                 raise BadArchive(f"study/study_invocations.json[{index}]: the word "

@@ -225,6 +225,8 @@ def hostile_archives(work: pathlib.Path) -> list:
             ("log_not_list", {"argv": []}, {}, "not a list"),
             ("log_wrong_type", [dict(invocation(NO_RUNS), load_average_at_start="high")], {},
              "study_invocations.json"),
+            ("log_finished_no_seconds", [dict(invocation(NO_RUNS), seconds=None)], {},
+             "seconds"),
             ("log_newline", [invocation(NO_RUNS + ["--seed\n`rm -rf ~`"])], {}, "word"),
             ("non_utf8_log", b"[\xff\xfe]", {}, "not UTF-8"),
             ("non_utf8_csv", None, {"sweep/s1_n40_bf_r0/frames.csv": b"frame\n\xff\n"},
