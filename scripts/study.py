@@ -225,6 +225,7 @@ VALUE_CHECKS = {
     "capture_keyframes": (lambda t: listed(t, int, 0), "frame numbers, comma-separated"),
     "threads": (lambda n: 0 <= n <= 4096, "0 (every hardware thread) to 4096"),
     "seed": (lambda n: n >= 0, "a whole number from 0"),
+    "capture_objects": (lambda n: n >= 1, "a whole number from 1"),
 }
 ALGO_LISTS = ("algos", "pairs_algos", "latency_algos", "physics_algo", "overlap_algo")
 
@@ -304,8 +305,9 @@ def parse_args(argv: list) -> argparse.Namespace:
     parser.add_argument("--from-archive", type=pathlib.Path, metavar="TAR",
                         help="make the report from the runs in TAR (a .tar.xz holding a study "
                         "--out folder as ./study, as scripts/gpu_check.sh --study returns "
-                        "it): unpacked into --out, with the options those runs were made "
-                        "with; implies --no-runs")
+                        "it): unpacked as --out (which must be absent, empty or an earlier "
+                        "unpack: docs/STUDY.md), with the run options those runs were made "
+                        "with (never a path, a program or --report); implies --no-runs")
     parser.add_argument("--no-runs", action="store_true",
                         help="run nothing; tables, figures and report from existing results")
     parser.add_argument("--report", action="store_true",
