@@ -152,7 +152,7 @@ def run_argv(argv: list) -> list:
 
 def invocation_line(args, run: dict) -> str:
     load = run["load_average_at_start"]
-    return (f"- `{shown_command(args, run_argv(run['argv']))}`, started {run['started']}, " + (
+    return (f"- `{shown_command(args, run_argv(run['argv']))}`, started {plain(run['started'])}, " + (
         f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
         "stopped before its end (its finished runs are used)") +
         f"; load average at its start {load}" +

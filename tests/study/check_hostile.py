@@ -19,8 +19,9 @@ study.CASE, tests/study/CMakeLists.txt):
                                   SIGKILL: --out is the old unpack or the new one, whole,
                                   and no scratch folder is left behind (a killed run's is
                                   removed by the next unpack)
-  archive_machine_text_plain      an archive's machine fields (Markdown, HTML, newlines, a
-                                  long name) reach the report as plain text, on one line
+  archive_machine_text_plain      an archive's machine fields and start times (Markdown,
+                                  HTML, newlines, a long name) reach the report as plain
+                                  text, on one line
   shard_count_costs_nothing       --shard 1/1000000000 runs in a small address space; shards
                                   past the jobs get none
   no_abbreviated_options          every script of scripts/ and tests/ refuses a prefix of
@@ -393,6 +394,9 @@ def case_archive_machine_text_plain(args) -> None:
         data = json.loads(summary.read_text())
         data["machine"].update(hostile)
         summary.write_text(json.dumps(data))
+    log = json.loads((runs / "study_invocations.json").read_text())
+    log[0]["started"] = "<b>2026</b> *soon*"
+    (runs / "study_invocations.json").write_text(json.dumps(log))
     tar = work / "machine.tar.xz"
     with tarfile.open(tar, "w:xz") as t:
         t.add(runs, arcname="./study")
@@ -402,7 +406,7 @@ def case_archive_machine_text_plain(args) -> None:
     report = (out / "REPORT.md").read_text()
     unescaped = re.sub(r"\\.", "", report)  # what Markdown reads as markup
     for raw in ("<script>", "**bold**", "[link](", "<img", "`code`", "$math$", " & co",
-                "x" * 300):
+                "x" * 300, "<b>", "*soon*"):
         check(raw not in unescaped, f"the report holds {raw!r} raw")
     check("\n# A heading" not in report, "the machine's newline reached the report")
     check(any("\\<script\\>" in line and "A heading" in line for line in report.splitlines()),
