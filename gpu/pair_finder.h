@@ -15,7 +15,7 @@
 // what it needs, so the caller may change its boxes as soon as launch()
 // returns.  The split lets a caller put work between the two or time the
 // whole (the benchmark times launch to finish); the Bullet adapter,
-// physics/pair_finder_broadphase.h, calls them back to back.  The base class
+// physics/broadphase/pair_finder_broadphase.h, calls them back to back.  The base class
 // PairFinder enforces that order and keeps the launch-to-finish clock for
 // every finder; a finder implements its hooks and reports its search in one
 // record, SearchStats.  Every finder has a row in the table of finders

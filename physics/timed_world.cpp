@@ -6,7 +6,7 @@
 
 #include "gpu/base/interrupt.h"
 #include "gpu/base/stopwatch.h"
-#include "physics/ccd_query_broadphase.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
 
 namespace overlap::physics {
 namespace {

@@ -18,9 +18,9 @@
 #include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 #include "gpu/base/stopwatch.h"
-#include "physics/broadphase_factory.h"
-#include "physics/ccd_query_broadphase.h"
-#include "physics/growing_sweep_and_prune.h"
+#include "physics/broadphase/broadphase_factory.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -150,7 +150,8 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
   BroadphaseChoice choice =
       makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
   // Every broadphase answers CCD's sweeps through one shared tree: the same
-  // queries for all (physics/ccd_query_broadphase.h), as makeWorldBroadphase() builds it.
+  // queries for all (physics/broadphase/ccd_query_broadphase.h), as makeWorldBroadphase() builds
+  // it.
   b.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;

@@ -13,7 +13,7 @@
 //
 // Exact: the pair cache holds exactly the pairs whose AABBs overlap (touching
 // counts).  Not exact: it holds all of them and may hold more.
-// Every broadphase keeps its pairs in a BulkPairCache (physics/bulk_pair_cache.h:
+// Every broadphase keeps its pairs in a BulkPairCache (physics/broadphase/bulk_pair_cache.h:
 // the same pairs in the same order as Bullet's own cache), which checks its
 // allocations and can be bounded; and from the first broadphase made on,
 // Bullet's allocations throw std::bad_alloc when memory runs out instead of
@@ -73,7 +73,7 @@ class BroadphaseCatalogue {
 
   // The pair search alone (what the benchmark times).  `world_min`/`world_max`
   // are where objects are expected (SAP quantizes inside them first and grows
-  // them around any box outside: physics/growing_sweep_and_prune.h);
+  // them around any box outside: physics/broadphase/growing_sweep_and_prune.h);
   // `max_objects` is the most proxies the run will create.  Throws
   // std::invalid_argument for an unknown name or a count the algorithm can't
   // hold.
@@ -82,7 +82,7 @@ class BroadphaseCatalogue {
   // What a btCollisionWorld should get: make()'s pair search, with its ray
   // and sweep queries (raycasts, CCD) answered by one shared tree (the
   // broadphase returned is a CcdQueryBroadphase,
-  // physics/ccd_query_broadphase.h).  Our finders and bf answer a query by
+  // physics/broadphase/ccd_query_broadphase.h).  Our finders and bf answer a query by
   // visiting every proxy; through the tree it costs O(log n) under every
   // name, and a program that never queries never builds it.
   BroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,

@@ -1,4 +1,4 @@
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 #include <BulletCollision/BroadphaseCollision/btAxisSweep3.h>
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
@@ -9,10 +9,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "physics/bulk_pair_cache.h"
-#include "physics/ccd_query_broadphase.h"
-#include "physics/growing_sweep_and_prune.h"
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/bulk_pair_cache.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 namespace {
@@ -21,7 +21,7 @@ namespace {
 constexpr int kMaxSap16Objects = 32766;
 
 // Bullet's own broadphases with our pair cache, which holds the same pairs in
-// the same order as theirs (physics/bulk_pair_cache.h) but checks its
+// the same order as theirs (physics/broadphase/bulk_pair_cache.h) but checks its
 // allocations and can be bounded.  The cache is the first base, so it is
 // built before the broadphase that keeps a pointer to it and outlives it.
 struct PairCacheOwner {
