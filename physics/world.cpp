@@ -147,12 +147,12 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
       !problem.empty()) {
     throw std::invalid_argument("algo " + options.algorithm + ": " + problem);
   }
-  BroadphaseChoice choice =
-      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
-  // Every broadphase answers CCD's sweeps through one shared tree: the same
-  // queries for all (physics/broadphase/ccd_query_broadphase.h), as makeWorldBroadphase() builds
-  // it.
-  b.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
+  // The catalogue's world broadphase: the pair search asked for, whose CCD
+  // sweeps go through one tree shared by every broadphase, the same queries
+  // for all (physics/broadphase/ccd_query_broadphase.h).
+  WorldBroadphaseChoice choice =
+      makeWorldBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
+  b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 

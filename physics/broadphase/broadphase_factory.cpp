@@ -153,11 +153,13 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
   return choice;
 }
 
-BroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name, const btVector3& world_min,
-                                                const btVector3& world_max, int max_objects) const {
+WorldBroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name,
+                                                     const btVector3& world_min,
+                                                     const btVector3& world_max,
+                                                     int max_objects) const {
   BroadphaseChoice choice = make(name, world_min, world_max, max_objects);
-  choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
-  return choice;
+  return {std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase)),
+          std::move(choice.name), std::move(choice.notice)};
 }
 
 const BroadphaseCatalogue& productCatalogue() {
@@ -182,8 +184,8 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   return productCatalogue().make(name, world_min, world_max, max_objects);
 }
 
-BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects) {
+WorldBroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                          const btVector3& world_max, int max_objects) {
   return productCatalogue().makeWorld(name, world_min, world_max, max_objects);
 }
 

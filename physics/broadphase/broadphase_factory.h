@@ -25,13 +25,16 @@
 
 #include <btBulletCollisionCommon.h>
 
+#include <concepts>
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
 
 namespace overlap::physics {
 
@@ -51,11 +54,24 @@ std::string broadphaseCapacityProblem(std::string_view name, int objects, int re
 // What a device name runs where there is no CUDA device.
 inline constexpr std::string_view kDeviceFallback = "cpusap";
 
-struct BroadphaseChoice {
-  std::unique_ptr<btBroadphaseInterface> broadphase;
+// A broadphase by name, and what runs.  make() gives the pair search alone
+// (BroadphaseChoice); makeWorld() that search inside the shared query tree
+// (WorldBroadphaseChoice), whose query time its owner may read apart; it
+// converts to a BroadphaseChoice.
+template <typename Broadphase>
+struct BasicBroadphaseChoice {
+  std::unique_ptr<Broadphase> broadphase;
   std::string name;    // the algorithm that runs
   std::string notice;  // empty, or why it is not the one asked for
+
+  template <typename Base>
+  requires(std::derived_from<Broadphase, Base> && !std::same_as<Broadphase, Base>)
+  operator BasicBroadphaseChoice<Base>() && {
+    return {std::move(broadphase), std::move(name), std::move(notice)};
+  }
 };
+using BroadphaseChoice = BasicBroadphaseChoice<btBroadphaseInterface>;
+using WorldBroadphaseChoice = BasicBroadphaseChoice<CcdQueryBroadphase>;
 
 // Every broadphase, Bullet's first, then one per pair finder of a table.
 class BroadphaseCatalogue {
@@ -80,13 +96,13 @@ class BroadphaseCatalogue {
   BroadphaseChoice make(std::string_view name, const btVector3& world_min,
                         const btVector3& world_max, int max_objects) const;
   // What a btCollisionWorld should get: make()'s pair search, with its ray
-  // and sweep queries (raycasts, CCD) answered by one shared tree (the
-  // broadphase returned is a CcdQueryBroadphase,
-  // physics/broadphase/ccd_query_broadphase.h).  Our finders and bf answer a query by
-  // visiting every proxy; through the tree it costs O(log n) under every
-  // name, and a program that never queries never builds it.
-  BroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
-                             const btVector3& world_max, int max_objects) const;
+  // and sweep queries (raycasts, CCD) answered by one shared tree (a
+  // CcdQueryBroadphase, physics/broadphase/ccd_query_broadphase.h).  Our
+  // finders and bf answer a query by visiting every proxy; through the tree
+  // it costs O(log n) under every name, and a program that never queries
+  // never builds it.
+  WorldBroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
+                                  const btVector3& world_max, int max_objects) const;
 
  private:
   std::vector<finders::PairFinderRow> finders_;
@@ -105,7 +121,7 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name);
 // The product catalogue's make() and makeWorld().
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects);
-BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects);
+WorldBroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                          const btVector3& world_max, int max_objects);
 
 }  // namespace overlap::physics
