@@ -4,7 +4,9 @@
 #                                            checksums, random numbers, the stopwatch)
 #   gpu             all of gpu/             (the pair finders, free of Bullet: pair_finder.h
 #                                            their interface and factory)
-#   gpu/pairs       gpu/pairs, gpu, gpu/base (the pair logic CPU and CUDA finders share)
+#   gpu/pairs       gpu/pairs, gpu/base     (the pair logic CPU and CUDA finders share,
+#                                            and the pair value types: never the finder
+#                                            interface)
 #   gpu/cpu         gpu/cpu, gpu/pairs, gpu, gpu/base   (never a CUDA finder's header)
 #   gpu/cuda        gpu/cuda, gpu/pairs, gpu, gpu/base  (never a CPU finder's header)
 #   physics/broadphase  physics/broadphase, gpu, gpu/pairs, gpu/base
@@ -27,7 +29,7 @@
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in script mode
 set(allowed_gpu/base gpu/base)
 set(allowed_gpu gpu gpu/pairs gpu/cpu gpu/cuda gpu/base)
-set(allowed_gpu/pairs gpu/pairs gpu gpu/base)
+set(allowed_gpu/pairs gpu/pairs gpu/base)
 set(allowed_gpu/cpu gpu/cpu gpu/pairs gpu gpu/base)
 set(allowed_gpu/cuda gpu/cuda gpu/pairs gpu gpu/base)
 set(allowed_physics/broadphase physics/broadphase gpu gpu/pairs gpu/base)

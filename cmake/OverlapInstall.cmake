@@ -35,6 +35,7 @@ install(TARGETS ${OVERLAP_INSTALLED_TARGETS}
 # gpu.  The copies are written at configure time, again whenever a header changes.
 set(OVERLAP_PUBLIC_HEADERS
   gpu/pair_finder.h
+  gpu/pairs/pair_types.h
   physics/broadphase/broadphase_factory.h
   physics/broadphase/default_broadphase.h
   physics/broadphase/bulk_pair_cache.h

@@ -26,7 +26,7 @@
 
 #include <cstdint>
 
-#include "gpu/pair_finder.h"
+#include "gpu/pairs/pair_types.h"
 
 #if defined(__CUDACC__)
 #define OVERLAP_HD __host__ __device__
