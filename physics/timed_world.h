@@ -57,6 +57,7 @@
 #include <utility>
 #include <vector>
 
+#include "gpu/task_system.h"
 #include "physics/frame_report.h"
 #include "physics/step_policy.h"
 

@@ -137,6 +137,7 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
   buildWorld(options);
   addBoxes(sleepAllowed(config, options.sleep));
   addWalls();
+  recordFrame(nullptr);
 }
 
 // The broadphase asked for, Bullet's world around it, the solver's settings
@@ -264,6 +265,7 @@ void PhysicsWorld::applySceneForces() {
                                      b.kick_random.uniform(-v, v));
       b.bodies[i]->activate(true);
       b.bodies[i]->setLinearVelocity(toBullet(velocity));
+      if (!b.removed[i]) record_.speeds[i] = b.bodies[i]->getLinearVelocity().length();
     }
   }
   if (config_.rotatingGravity() && frame_ > 0) {
@@ -307,9 +309,7 @@ FrameReport PhysicsWorld::stepFrame() {
   report.substep_reports = b.world->takeSubsteps();
   report.timings.total_ms = frame_watch.ms();
   report.pairs = b.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
-  measureContainment(report);
-  measureEnergy(report);
-  report.max_penetration = deepestPenetration();
+  recordFrame(&report);
   return report;
 }
 
@@ -317,7 +317,7 @@ FrameReport PhysicsWorld::stepFrame() {
 // speeds after the scene's kicks and with this frame's gravity.
 void PhysicsWorld::planFrame(FrameReport& report) {
   Bullet& b = *bullet_;
-  const std::vector<float> speeds = boxSpeeds();
+  const std::vector<float>& speeds = record_.speeds;  // the kicks' included
   const double gravity = b.world->getGravity().length();
   TopSpeeds all;
   TopSpeeds typical;
@@ -351,53 +351,106 @@ void PhysicsWorld::planFrame(FrameReport& report) {
   }
 }
 
-// Boxes out of the simulation, asleep, beyond a wall's outer face, outside the interior.
-void PhysicsWorld::measureContainment(FrameReport& report) const {
-  const Bullet& b = *bullet_;
-  const double h = layout_.half_extent;
-  const double outer = layout_.outerHalfExtent();
-  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
-    if (b.removed[i]) {
-      ++report.removed_from_simulation;
-      continue;
-    }
-    const btRigidBody& body = *b.bodies[i];
-    if (body.getActivationState() == ISLAND_SLEEPING) ++report.sleeping;
-    const btVector3& c = body.getWorldTransform().getOrigin();
-    const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
-    if (reach > outer) ++report.escaped;
-    if (reach > h) ++report.sunk;
-  }
+namespace {
+
+// Boxes a piece of the record's pass: a box's pose and energy are tens of
+// nanoseconds.
+constexpr std::size_t kBoxesPerRecordPiece = 1024;
+
+// One piece's counts and sums, merged in piece order: the same totals on any
+// number of threads.
+struct RecordSums {
+  int removed = 0, sleeping = 0, escaped = 0, sunk = 0;
+  double kinetic = 0, potential = 0;
+};
+
+bool samePose(const BoxPose& a, const BoxPose& b) {
+  return std::memcmp(a.centre, b.centre, sizeof a.centre) == 0 &&
+         std::memcmp(a.orientation, b.orientation, sizeof a.orientation) == 0;
 }
 
-// The kinetic and potential energy of the boxes in the simulation.
-void PhysicsWorld::measureEnergy(FrameReport& report) const {
-  const Bullet& b = *bullet_;
-  for (std::size_t i = 0; i < layout_.boxes.size(); ++i) {
-    if (b.removed[i]) continue;
-    const btRigidBody& body = *b.bodies[i];
-    const btVector3& c = body.getWorldTransform().getOrigin();
-    const double mass = 1.0 / body.getInvMass();
-    const btVector3 spin = body.getAngularVelocity() * body.getWorldTransform().getBasis();
-    const btVector3 rotational = body.getLocalInertia() * spin * spin;  // I w^2 per local axis
-    report.kinetic_energy += 0.5 * (mass * body.getLinearVelocity().length2() + rotational.x() +
-                                    rotational.y() + rotational.z());
-    report.potential_energy -= mass * b.world->getGravity().dot(c);
-  }
-}
+}  // namespace
 
-// The deepest contact overlap over the smaller box's edge.
-double PhysicsWorld::deepestPenetration() const {
+void PhysicsWorld::recordFrame(FrameReport* report) {
   const Bullet& b = *bullet_;
+  const std::size_t n = layout_.boxes.size();
+  // The manifolds once: who touches, and the deepest overlap.
+  std::vector<char> touching(n, 0);
   double deepest = 0;
   b.forEachManifold([&](const btPersistentManifold& manifold) {
-    const double edge =
-        b.smallerEdge(manifold.getBody0()->getUserIndex(), manifold.getBody1()->getUserIndex());
+    const int index0 = manifold.getBody0()->getUserIndex();
+    const int index1 = manifold.getBody1()->getUserIndex();
+    const double edge = b.smallerEdge(index0, index1);
+    bool contact = false;
     for (int p = 0; p < manifold.getNumContacts(); ++p) {
-      deepest = std::max(deepest, -manifold.getContactPoint(p).getDistance() / edge);
+      const btScalar distance = manifold.getContactPoint(p).getDistance();
+      contact = contact || distance < kContactDistance;
+      deepest = std::max(deepest, -distance / edge);
+    }
+    if (!contact) return;
+    for (const int index : {index0, index1}) {
+      if (static_cast<std::size_t>(index) < n) touching[static_cast<std::size_t>(index)] = 1;
     }
   });
-  return deepest;
+  record_.deepest_penetration = deepest;
+  // The boxes once, on the task system: each writes its own slots.
+  const double h = layout_.half_extent;
+  const double outer = layout_.outerHalfExtent();
+  const btVector3 gravity = b.world->getGravity();
+  std::vector<RecordSums> sums(pieceCount(n, kBoxesPerRecordPiece));
+  std::vector<char> moved(n, 0);
+  const bool first = all_poses_.size() != n;
+  all_poses_.resize(n);
+  record_.speeds.assign(n, 0.0f);
+  tasks_.forEachPiece(n, kBoxesPerRecordPiece, [&](std::size_t first_box, std::size_t end) {
+    RecordSums& sum = sums[first_box / kBoxesPerRecordPiece];
+    for (std::size_t i = first_box; i < end; ++i) {
+      if (b.removed[i]) {
+        ++sum.removed;
+        continue;
+      }
+      const btRigidBody& body = *b.bodies[i];
+      const btTransform& t = body.getWorldTransform();
+      const btVector3& c = t.getOrigin();
+      const btQuaternion q = t.getRotation();
+      const BoxPose pose{{c.x(), c.y(), c.z()},
+                         {q.x(), q.y(), q.z(), q.w()},
+                         static_cast<float>(layout_.boxes[i].edge),
+                         layout_.boxes[i].size_class,
+                         touching[i] != 0};
+      moved[i] = first || !samePose(pose, all_poses_[i]) ? 1 : 0;
+      all_poses_[i] = pose;
+      record_.speeds[i] = body.getLinearVelocity().length();
+      if (body.getActivationState() == ISLAND_SLEEPING) ++sum.sleeping;
+      const double reach = std::max({std::fabs(c.x()), std::fabs(c.y()), std::fabs(c.z())});
+      if (reach > outer) ++sum.escaped;
+      if (reach > h) ++sum.sunk;
+      const double mass = 1.0 / body.getInvMass();
+      const btVector3 spin = body.getAngularVelocity() * t.getBasis();
+      const btVector3 rotational = body.getLocalInertia() * spin * spin;  // I w^2 per local axis
+      sum.kinetic += 0.5 * (mass * body.getLinearVelocity().length2() + rotational.x() +
+                            rotational.y() + rotational.z());
+      sum.potential -= mass * gravity.dot(c);
+    }
+  });
+  record_.poses.clear();
+  record_.moved.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (b.removed[i]) continue;
+    record_.poses.push_back(all_poses_[i]);
+    if (moved[i] != 0) record_.moved.push_back(static_cast<int>(i));
+  }
+  record_.began = b.new_contacts;
+  if (report == nullptr) return;
+  for (const RecordSums& sum : sums) {
+    report->removed_from_simulation += sum.removed;
+    report->sleeping += sum.sleeping;
+    report->escaped += sum.escaped;
+    report->sunk += sum.sunk;
+    report->kinetic_energy += sum.kinetic;
+    report->potential_energy += sum.potential;
+  }
+  report->max_penetration = deepest;
 }
 
 std::uint64_t PhysicsWorld::stateHash() const {
@@ -434,44 +487,6 @@ std::uint64_t PhysicsWorld::contactHash() const {
     }
   }
   return hash;
-}
-
-std::vector<BoxPose> PhysicsWorld::boxPoses() const {
-  const Bullet& b = *bullet_;
-  const auto n = layout_.boxes.size();
-  std::vector<bool> touching(n, false);
-  b.forEachManifold([&](const btPersistentManifold& manifold) {
-    bool contact = false;
-    for (int p = 0; p < manifold.getNumContacts(); ++p) {
-      contact = contact || manifold.getContactPoint(p).getDistance() < kContactDistance;
-    }
-    if (!contact) return;
-    for (const btCollisionObject* object : {manifold.getBody0(), manifold.getBody1()}) {
-      const auto index = static_cast<std::size_t>(object->getUserIndex());
-      if (index < n) touching[index] = true;
-    }
-  });
-  std::vector<BoxPose> poses;
-  poses.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (b.removed[i]) continue;
-    const btTransform& t = b.bodies[i]->getWorldTransform();
-    const btQuaternion q = t.getRotation();
-    poses.push_back(BoxPose{{t.getOrigin().x(), t.getOrigin().y(), t.getOrigin().z()},
-                            {q.x(), q.y(), q.z(), q.w()},
-                            static_cast<float>(layout_.boxes[i].edge),
-                            layout_.boxes[i].size_class,
-                            touching[i]});
-  }
-  return poses;
-}
-
-std::vector<float> PhysicsWorld::boxSpeeds() const {
-  std::vector<float> speeds(layout_.boxes.size(), 0.0f);
-  for (std::size_t i = 0; i < speeds.size(); ++i) {
-    if (!bullet_->removed[i]) speeds[i] = bullet_->bodies[i]->getLinearVelocity().length();
-  }
-  return speeds;
 }
 
 std::vector<Aabb> PhysicsWorld::aabbs() const {
@@ -577,10 +592,6 @@ void PhysicsWorld::noteContactsStarted() {
   }
 }
 
-const std::vector<NewContact>& PhysicsWorld::newContacts() const {
-  return bullet_->new_contacts;
-}
-
 void PhysicsWorld::injectBoxPosition(int box, const Eigen::Vector3d& position) {
   if (box < 0 || box >= static_cast<int>(layout_.boxes.size())) {
     throw std::out_of_range("injectBoxPosition: no box " + std::to_string(box));
@@ -589,6 +600,7 @@ void PhysicsWorld::injectBoxPosition(int box, const Eigen::Vector3d& position) {
   body.getWorldTransform().setOrigin(toBullet(position));
   body.activate(true);
   removeBrokenBoxes();
+  recordFrame(nullptr);
 }
 
 btDiscreteDynamicsWorld& PhysicsWorld::bulletWorld() {

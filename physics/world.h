@@ -72,6 +72,19 @@ struct NewContact {
   float edge;           // the smaller box's edge
 };
 
+// What the world is after its last frame (or its building, or an
+// injectBoxPosition), filled once: everything read of the boxes between
+// frames comes from here, so nothing rescans the world (Box2D's move and
+// begin-touch events are the model).  Changes made through bulletWorld()
+// show after the next frame.
+struct FrameRecord {
+  std::vector<BoxPose> poses;      // the boxes in the simulation, in box order
+  std::vector<float> speeds;       // per box, m/s; 0 for a box out of the simulation
+  std::vector<int> moved;          // the boxes whose pose changed in the frame, ascending
+  std::vector<NewContact> began;   // contacts that began in the frame, by substep, then (a, b)
+  double deepest_penetration = 0;  // the deepest contact overlap / the smaller box's edge
+};
+
 class PhysicsWorld {
  public:
   PhysicsWorld(const SceneConfig& config, const WorldOptions& options);
@@ -104,9 +117,10 @@ class PhysicsWorld {
   // bodies, then each point's positions, normal, depth, impulse and age, so
   // two runs compare contact for contact.
   std::uint64_t contactHash() const;
-  std::vector<BoxPose> boxPoses() const;
-  // Each box's linear speed (m/s); 0 for a box out of the simulation.
-  std::vector<float> boxSpeeds() const;
+  // The last frame's record, and its parts by name.
+  const FrameRecord& record() const { return record_; }
+  const std::vector<BoxPose>& boxPoses() const { return record_.poses; }
+  const std::vector<float>& boxSpeeds() const { return record_.speeds; }
   // The broadphase's current AABBs, boxes then walls.
   std::vector<Aabb> aabbs() const;
   // Overlapping pairs of the world's own bodies in the cache, sorted; walls
@@ -114,8 +128,7 @@ class PhysicsWorld {
   // left out).
   PairList cachedPairs() const;
 
-  // Contacts that began during the last frame, by substep, then by (a, b).
-  const std::vector<NewContact>& newContacts() const;
+  const std::vector<NewContact>& newContacts() const { return record_.began; }
 
   // Puts box `box` at `position` (any value, NaN included), for hard cases:
   // a box whose state is unusable leaves the simulation at once, with a
@@ -142,9 +155,9 @@ class PhysicsWorld {
   void addWalls();
   void applySceneForces();
   void planFrame(FrameReport& report);
-  void measureContainment(FrameReport& report) const;
-  void measureEnergy(FrameReport& report) const;
-  double deepestPenetration() const;
+  // The record, and with `report` the frame's counts and energy, in one pass
+  // over the manifolds and one over the boxes (on the task system).
+  void recordFrame(FrameReport* report);
   void removeBrokenBoxes();
   void noteContactsStarted();
 
@@ -158,6 +171,8 @@ class PhysicsWorld {
   std::string algorithm_;
   std::string algorithm_notice_;
   std::unique_ptr<Bullet> bullet_;
+  FrameRecord record_;
+  std::vector<BoxPose> all_poses_;  // per box, the last record's (removed ones too)
 };
 
 }  // namespace overlap::physics

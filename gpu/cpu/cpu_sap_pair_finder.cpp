@@ -4,6 +4,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -297,7 +298,11 @@ void CpuSapPairFinder::computeDelta() {
   const bool parallel = batches_.size() > 1 && smallest_batch >= kMinPairsPerParallelBatch;
   batches_.push_back(inverted_pairs_.keys());
   if (parallel) {
-    current_.assign(slot_count_, batches_, &tasks_);
+    const PairSet::ForEachPart on_tasks = [this](std::size_t parts,
+                                                 const std::function<void(std::size_t)>& part) {
+      tasks_.forEachPiece(parts, 1, [&](std::size_t k, std::size_t /*end*/) { part(k); });
+    };
+    current_.assign(slot_count_, batches_, &on_tasks);
   } else {
     current_.assign(slot_count_, batches_);
   }

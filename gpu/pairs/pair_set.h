@@ -19,11 +19,11 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
 #include "gpu/pairs/pair_types.h"
-#include "gpu/task_system.h"
 
 namespace overlap::finders {
 
@@ -55,12 +55,18 @@ class PairKeys {
 
 class PairSet {
  public:
+  // Runs part(k) once for each k < parts, perhaps several at once on other
+  // threads, and returns when all have ended (the caller's task system:
+  // gpu/task_system.h, which this layer does not see).
+  using ForEachPart =
+      std::function<void(std::size_t parts, const std::function<void(std::size_t)>& part)>;
+
   // Replaces the set with the pairs in `batches`: pairKey()s over slots
   // [0, slot_count), each pair in at most one batch, at most once.  With
-  // `tasks`, the batches are counted and placed on its threads, a batch a
-  // piece; the set is the same either way.
+  // `for_each_part`, the batches are counted and placed through it, a batch
+  // a part; the set is the same either way.
   void assign(std::uint32_t slot_count, std::span<const std::span<const std::uint64_t>> batches,
-              TaskSystem* tasks = nullptr);
+              const ForEachPart* for_each_part = nullptr);
 
   std::uint32_t slotCount() const { return static_cast<std::uint32_t>(offsets_.size() - 1); }
   std::size_t size() const { return partners_.size(); }

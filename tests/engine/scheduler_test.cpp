@@ -122,7 +122,13 @@ TEST(FrameScheduler, TheTimelineShowsTheJobsInTheGraphsOrder) {
         const Span& narrowphase = spans["narrowphase"][k];
         EXPECT_GE(search.at.start, substeps[k].at.start) << "frame " << frame << ", substep " << k;
         EXPECT_LE(search.at.start, search.at.end) << "frame " << frame << ", substep " << k;
-        EXPECT_LE(search.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
+        if (search.lane == "search") {  // beside the narrowphase, ended inside it
+          EXPECT_LE(search.at.start, narrowphase.at.start)
+              << "frame " << frame << ", substep " << k;
+          EXPECT_LE(search.at.end, narrowphase.at.end) << "frame " << frame << ", substep " << k;
+        } else {
+          EXPECT_LE(search.at.end, narrowphase.at.start) << "frame " << frame << ", substep " << k;
+        }
         EXPECT_LE(narrowphase.at.end, substeps[k].at.end) << "frame " << frame << ", substep " << k;
       }
     }

@@ -57,8 +57,9 @@ std::vector<ObjectBounds> pile(std::uint32_t n, int frame, int flat_axis = 1, fl
 
 TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   if (!sap::avx2Available()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
-  CpuSapPairFinder scalar(1, SweepKernel::kScalar);
-  CpuSapPairFinder avx2(1, SweepKernel::kAvx2);
+  const auto single = makeTaskSystem(1);
+  CpuSapPairFinder scalar(*single, SweepKernel::kScalar);
+  CpuSapPairFinder avx2(*single, SweepKernel::kAvx2);
   EXPECT_EQ(scalar.kernel(), SweepKernel::kScalar);
   EXPECT_EQ(avx2.kernel(), SweepKernel::kAvx2);
   for (const BoxSet set : testing::kAllBoxSets) {
@@ -72,7 +73,8 @@ TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
 TEST(CpuSapPairFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   for (const SweepKernel kernel : {SweepKernel::kScalar, SweepKernel::kAvx2}) {
     if (kernel == SweepKernel::kAvx2 && !sap::avx2Available()) continue;
-    CpuSapPairFinder finder(2, kernel);
+    const auto two = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
+    CpuSapPairFinder finder(*two, kernel);
     std::vector<IndexPair> pairs;
     for (int frame = 0; frame < 4; ++frame) {
       SCOPED_TRACE("kernel " + std::to_string(static_cast<int>(kernel)) + ", frame " +
@@ -116,7 +118,10 @@ TEST(CpuSapPairFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
 
 TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   // Every finder must see every frame: one single-thread reference per comparison.
-  CpuSapPairFinder one(1), one_again(1), two(2), four(4);
+  const auto single = makeTaskSystem(1);
+  const auto pair_of_threads = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
+  const auto four_threads = makeTaskSystem(4, TaskBackEnd::kPlainThreads);
+  CpuSapPairFinder one(*single), one_again(*single), two(*pair_of_threads), four(*four_threads);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = pile(5000, frame);
     EXPECT_TRUE(testing::sameDeltaAs(two, one, boxes)) << "2 threads, frame " << frame;
@@ -372,7 +377,12 @@ TEST(PairSetTest, RowsComeOutSortedWhetherBuiltSeriallyOrInParallel) {
       all.first(third), all.subspan(third, third), all.subspan(2 * third)};
   PairSet serial, parallel;
   serial.assign(3000, batches);
-  parallel.assign(3000, batches, true);
+  const auto tasks = makeTaskSystem(3, TaskBackEnd::kPlainThreads);
+  const PairSet::ForEachPart on_tasks = [&](std::size_t parts,
+                                            const std::function<void(std::size_t)>& part) {
+    tasks->forEachPiece(parts, 1, [&](std::size_t k, std::size_t /*end*/) { part(k); });
+  };
+  parallel.assign(3000, batches, &on_tasks);
   ASSERT_EQ(serial.size(), keys.size());
   ASSERT_EQ(parallel.size(), keys.size());
   for (std::uint32_t a = 0; a < 3000; ++a) {

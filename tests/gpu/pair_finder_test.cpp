@@ -187,9 +187,11 @@ INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
                          ::testing::ValuesIn(testing::finderNames(true)), testing::finderTestName);
 
 TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
-  CpuPairFinder one(1);
-  CpuPairFinder two(2);
-  CpuPairFinder all(0);
+  const auto single = makeTaskSystem(1);
+  const auto pair_of_threads = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
+  CpuPairFinder one(*single);
+  CpuPairFinder two(*pair_of_threads);
+  CpuPairFinder all(defaultTaskSystem());
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 1500, frame);
     for (PairFinder* finder : {static_cast<PairFinder*>(&one), static_cast<PairFinder*>(&two),

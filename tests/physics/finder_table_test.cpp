@@ -113,7 +113,7 @@ TEST(FinderTable, ARowAddedToACopyOfTheTableIsListedAndMadeByName) {
   EXPECT_EQ(catalogue.names().back(), "naive");
   // The product's catalogue is untouched.
   EXPECT_THROW(broadphaseInfo("naive"), std::invalid_argument);
-  EXPECT_EQ(finders::makePairFinder("naive", 0, table)->name(), "naive");
+  EXPECT_EQ(finders::makePairFinder("naive", defaultTaskSystem(), table)->name(), "naive");
 }
 
 TEST(FinderTable, BulletRunsTheAddedFinderWithCpubfsPairs) {
