@@ -33,7 +33,10 @@ enum class SolverMode { kPile, kBullet };    // solverSettings()
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
-// Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
+// The most substeps a frame may be given (--substeps K).
+inline constexpr int kMostSubsteps = 1000;
+// Parses "auto" (kAutoSubsteps) or a K in 1..kMostSubsteps in plain decimal
+// digits ("010", " 5" and "+5" are refused); throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
