@@ -51,12 +51,14 @@ std::string modeName(const NamedMode<Mode> (&table)[N], Mode mode) {
 
 int parseSubsteps(const std::string& text) {
   if (text == "auto") return kAutoSubsteps;
-  int k = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), k);
   // from_chars takes no space and no sign; a leading zero is refused as
   // every whole-number option refuses it.
-  if (error != std::errc() || end != text.data() + text.size() || text.empty() || text[0] == '0' ||
-      k < 1 || k > kMostSubsteps) {
+  const std::string_view digits =
+      std::string_view(text).substr(!text.empty() && text[0] == '+' ? 1 : 0);
+  int k = 0;
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), k);
+  if (error != std::errc() || end != digits.data() + digits.size() || digits.empty() ||
+      digits[0] == '0' || k < 1 || k > kMostSubsteps) {
     throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1.." +
                                 std::to_string(kMostSubsteps));
   }

@@ -36,7 +36,8 @@ SolverMode parseSolverMode(const std::string& text);
 // The most substeps a frame may be given (--substeps K).
 inline constexpr int kMostSubsteps = 1000;
 // Parses "auto" (kAutoSubsteps) or a K in 1..kMostSubsteps in plain decimal
-// digits ("010", " 5" and "+5" are refused); throws std::invalid_argument.
+// digits, as every whole-number option reads them (an optional '+'; "010"
+// and " 5" are refused); throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
