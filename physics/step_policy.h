@@ -24,6 +24,10 @@ namespace overlap::physics {
 
 // `--substeps`: 0 chooses K every frame (chooseSubsteps); K >= 1 is fixed.
 constexpr int kAutoSubsteps = 0;
+// The most substeps a frame may be given.  parseSubsteps() reads K in plain
+// decimal digits, as every whole-number option reads them (an optional '+';
+// "010" and " 5" are refused).
+inline constexpr int kMostSubsteps = 1000;
 
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default
@@ -33,11 +37,7 @@ enum class SolverMode { kPile, kBullet };    // solverSettings()
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
-// The most substeps a frame may be given (--substeps K).
-inline constexpr int kMostSubsteps = 1000;
-// Parses "auto" (kAutoSubsteps) or a K in 1..kMostSubsteps in plain decimal
-// digits, as every whole-number option reads them (an optional '+'; "010"
-// and " 5" are refused); throws std::invalid_argument.
+// Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
