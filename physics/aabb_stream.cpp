@@ -288,7 +288,7 @@ std::string boxProblemAt(const Aabb& box, std::size_t frame, std::size_t object)
 }  // namespace
 
 AabbStreamWriter::AabbStreamWriter(const std::filesystem::path& path,
-                                   const AabbStreamHeader& header)
+                                   const AabbStreamHeader& header, FinalLink link)
     : header_(header) {
   if (header.objects <= 0 || header.stored_frames < 2) {
     fail(path, "inconsistent stream to write");
@@ -304,7 +304,7 @@ AabbStreamWriter::AabbStreamWriter(const std::filesystem::path& path,
   const std::int32_t counts[4] = {header.objects, header.stored_frames - 1, 0, 0};
   std::memcpy(bytes.data() + 2 * kNameBytes, counts, sizeof(counts));
   encodeAabb(header.world, bytes.data() + 2 * kNameBytes + sizeof(counts));
-  file_ = std::make_unique<OutputFile>(path);
+  file_ = std::make_unique<OutputFile>(path, link);
   file_->write(std::string_view(bytes.data(), bytes.size()));
 }
 
@@ -335,7 +335,7 @@ void AabbStreamWriter::commit() {
   file_->commit();
 }
 
-void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream) {
+void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream, FinalLink link) {
   if (stream.objects <= 0 || stream.stored_frames < 2 ||
       stream.boxes.size() != static_cast<std::size_t>(stream.objects) * stream.stored_frames) {
     throw AabbStreamError(path.string() + ": inconsistent stream to write");
@@ -349,7 +349,7 @@ void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream
       fail(path, problem);
     }
   }
-  AabbStreamWriter writer(path, stream);
+  AabbStreamWriter writer(path, stream, link);
   for (int frame = 0; frame < stream.stored_frames; ++frame) writer.write(stream.frame(frame));
   writer.commit();
 }

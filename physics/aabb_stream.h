@@ -29,11 +29,8 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/output_file.h"
 #include "physics/aabb.h"
-
-namespace overlap {
-class OutputFile;  // gpu/base/output_file.h
-}
 
 namespace overlap::physics {
 
@@ -118,10 +115,14 @@ AabbStream readAabbStream(AabbStreamReader& reader);
 // Destroyed before commit(), it leaves the old file as it was (its
 // temporary is removed).  Throws AabbStreamError for an inconsistent stream
 // or a box the reader would refuse (naming its frame and object),
-// OutputError when the file cannot be written.
+// OutputError when the file cannot be written.  `link` says how a symlink
+// at `path` is taken (output_file.h): a name the user gave is followed; a
+// name in a folder of the program's own (the benchmark's stream cache) is
+// replaced, its target untouched.
 class AabbStreamWriter {
  public:
-  AabbStreamWriter(const std::filesystem::path& path, const AabbStreamHeader& header);
+  AabbStreamWriter(const std::filesystem::path& path, const AabbStreamHeader& header,
+                   FinalLink link = FinalLink::kFollow);
   ~AabbStreamWriter();
   AabbStreamWriter(const AabbStreamWriter&) = delete;
   AabbStreamWriter& operator=(const AabbStreamWriter&) = delete;
@@ -138,6 +139,7 @@ class AabbStreamWriter {
 
 // The whole stream through AabbStreamWriter, every box checked before a
 // byte is written.
-void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream);
+void writeAabbStream(const std::filesystem::path& path, const AabbStream& stream,
+                     FinalLink link = FinalLink::kFollow);
 
 }  // namespace overlap::physics

@@ -1,6 +1,7 @@
 #include "physics/scene.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <numeric>
@@ -13,6 +14,13 @@
 
 namespace overlap::physics {
 namespace {
+
+// `value` in the fewest digits that read back as the same double.
+std::string shortestText(double value) {
+  char text[32];
+  const auto [end, error] = std::to_chars(text, text + sizeof(text), value);
+  return error == std::errc() ? std::string(text, end) : std::string("?");
+}
 
 constexpr double kSqrt3 = 1.7320508075688772;
 // Rejection sampling gives up on a box after this many tries: at the paper's
@@ -196,11 +204,13 @@ void SceneConfig::validate() const {
     const char* largest_name = largest == large.hi     ? "large-sizes"
                                : largest == average.hi ? "average-sizes"
                                                        : "small-sizes";
-    std::ostringstream ratio;
-    ratio << "its " << largest << " is " << largest / smallest << " times the smallest edge, "
-          << smallest;
-    require(largest <= kMostEdgeRatio * smallest, largest_name,
-            ratio.str() +
+    // The ratio compared is the one printed, in the shortest digits that
+    // read back as it: a refused ratio never reads as 100.
+    const double edge_ratio = largest / smallest;
+    const std::string ratio = "its " + shortestText(largest) + " is " + shortestText(edge_ratio) +
+                              " times the smallest edge, " + shortestText(smallest);
+    require(edge_ratio <= kMostEdgeRatio, largest_name,
+            ratio +
                 "; scene 4's largest edge may be at most 100 times its smallest (a mass ratio "
                 "of 10^6, the most Bullet's contact solver holds without NaN)");
   }

@@ -1,6 +1,7 @@
 #include "physics/step_policy.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <stdexcept>
 #include <string_view>
@@ -54,15 +55,16 @@ std::string modeName(const NamedMode<Mode> (&table)[N], Mode mode) {
 
 int parseSubsteps(const std::string& text) {
   if (text == "auto") return kAutoSubsteps;
-  std::size_t used = 0;
+  // from_chars takes no space and no sign; a leading zero is refused as
+  // every whole-number option refuses it.
+  const std::string_view digits =
+      std::string_view(text).substr(!text.empty() && text[0] == '+' ? 1 : 0);
   int k = 0;
-  try {
-    k = std::stoi(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || used == 0 || k < 1 || k > 1000) {
-    throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1..1000");
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), k);
+  if (error != std::errc() || end != digits.data() + digits.size() || digits.empty() ||
+      digits[0] == '0' || k < 1 || k > kMostSubsteps) {
+    throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1.." +
+                                std::to_string(kMostSubsteps));
   }
   return k;
 }

@@ -24,6 +24,10 @@ namespace overlap::physics {
 
 // `--substeps`: 0 chooses K every frame (chooseSubsteps); K >= 1 is fixed.
 constexpr int kAutoSubsteps = 0;
+// The most substeps a frame may be given.  parseSubsteps() reads K in plain
+// decimal digits, as every whole-number option reads them (an optional '+';
+// "010" and " 5" are refused).
+inline constexpr int kMostSubsteps = 1000;
 
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default

@@ -72,9 +72,10 @@ void capture(const CaptureOptions& options) {
   }
   progress.finish();
   const std::vector<std::string> removed = outputs.commit();
-  std::fprintf(stderr, "overlap capture: wrote %s in %s%s\n",
-               counted(static_cast<long long>(camera->written().size()), "PNG").c_str(),
-               options.out.string().c_str(), removedText(removed).c_str());
+  const std::string wrote = "overlap capture: wrote " +
+                            counted(static_cast<long long>(camera->written().size()), "PNG") +
+                            " in " + options.out.string() + removedText(removed);
+  std::fprintf(stderr, "%s\n", oneLine(wrote).c_str());
   printSummary(options.quiet,
                "overlap capture: " + counted(frames.frames(), "frame") + " of scene " +
                    std::to_string(config.scene) + ", " + std::to_string(config.objects) +

@@ -18,27 +18,6 @@ std::string shownPath(const std::filesystem::path& path) {
   return path.empty() ? std::string("\"\"") : path.string();
 }
 
-// `message` on one line: newline, carriage return and every other control
-// character written as an escape (\n, \r, \xNN).
-std::string oneLine(std::string_view message) {
-  std::string line;
-  for (const char c : message) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (c == '\n') {
-      line += "\\n";
-    } else if (c == '\r') {
-      line += "\\r";
-    } else if (byte < 0x20 || byte == 0x7f) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\x%02x", byte);
-      line += escaped;
-    } else {
-      line += c;
-    }
-  }
-  return line;
-}
-
 // CLI11's words for a parse error, in the project's where they are its
 // own jargon: "--objects: At Most 1 required but received 2".
 std::string parseErrorText(const CLI::ParseError& error) {
@@ -68,6 +47,25 @@ int flushStandardOutput(const char* program) {
 }
 
 }  // namespace
+
+std::string oneLine(std::string_view message) {
+  std::string line;
+  for (const char c : message) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '\n') {
+      line += "\\n";
+    } else if (c == '\r') {
+      line += "\\r";
+    } else if (byte < 0x20 || byte == 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02x", byte);
+      line += escaped;
+    } else {
+      line += c;
+    }
+  }
+  return line;
+}
 
 int runProgram(const char* program, CLI::App& app, const std::function<int()>& body) {
   int code = 0;
@@ -143,6 +141,16 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
                                                       std::string_view option) {
   if (const std::string problem = outputNameProblem(prefix); !problem.empty()) {
     throw UsageError(std::string(option) + " " + shownPath(prefix) + ": " + problem);
+  }
+  // The prefix itself is never written: its files go beside it, so a
+  // device, FIFO or socket there (/dev/null) is a name mistaken for a file.
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(prefix, error);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
+      !std::filesystem::is_directory(status)) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) +
+                     ": is a device, FIFO or socket, not a prefix of files (its files would be "
+                     "made beside it)");
   }
   std::vector<std::filesystem::path> files;
   for (const std::string& suffix : suffixes) {

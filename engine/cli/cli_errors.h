@@ -47,7 +47,8 @@ std::string readableBytes(std::uint64_t bytes);
 
 // The files `prefix` + each suffix ("--out results" -> results.csv,
 // results.json), each checked as above; the prefix itself must name a file
-// ("", ".", "dir/" and "/" are UsageErrors).
+// ("", ".", "dir/" and "/" are UsageErrors), and not a device, FIFO or
+// socket (/dev/null: the files would be made beside it).
 std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
                                                       const std::vector<std::string>& suffixes,
                                                       std::string_view option);
@@ -56,6 +57,12 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
 // UsageError when another output of the run is that file.
 void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
                    std::string_view option);
+
+// `message` on one line: newline, carriage return and every other control
+// character written as an escape (\n, \r, \xNN).  Every message that names
+// a path the user gave goes through it (the errors here, the lines naming
+// what a command wrote).
+std::string oneLine(std::string_view message);
 
 // "--size": an option's name as the user typed it, hidden options included.
 std::string optionName(const CLI::Option* option);

@@ -71,7 +71,7 @@ void generate(const GenerateOptions& options) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::fprintf(stderr, "overlap generate: wrote %s (%s, the start and %s) in %.1f s\n",
-               options.out.string().c_str(), counted(header.objects, "object").c_str(),
+               oneLine(options.out.string()).c_str(), counted(header.objects, "object").c_str(),
                counted(header.stored_frames - 1, "frame").c_str(), seconds);
   const FrameSpread spread = spreadOf(step_ms);
   printSummary(options.quiet,

@@ -75,6 +75,10 @@ std::string wholeProblem(const std::string& text, Int lo, Int hi) {
 
 }  // namespace
 
+std::string wholeNumberProblem(const std::string& text, std::int64_t lo, std::int64_t hi) {
+  return wholeProblem<std::int64_t>(text, lo, hi);
+}
+
 CLI::Validator wholeNumberIn(std::int64_t lo, std::int64_t hi) {
   return CLI::Validator(
       [lo, hi](std::string& text) { return wholeProblem<std::int64_t>(text, lo, hi); },

@@ -12,6 +12,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <string>
 
 namespace overlap::engine {
 
@@ -20,6 +21,9 @@ inline constexpr double kMostReal = 1e6;
 
 // A whole number in [lo, hi] (decimal digits, no leading zero, an optional sign).
 CLI::Validator wholeNumberIn(std::int64_t lo, std::int64_t hi);
+// The same check for an option that also takes words (--substeps auto|K):
+// "" when `text` is such a number, else the message.
+std::string wholeNumberProblem(const std::string& text, std::int64_t lo, std::int64_t hi);
 // A seed: a whole number in [0, 2^64 - 1].
 CLI::Validator seedNumber();
 // A finite decimal number in [lo, hi], or (lo, hi] when `above_lo`.

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "engine/cli/cli_errors.h"
+#include "engine/cli/number_options.h"
 
 namespace overlap::engine {
 namespace {
@@ -29,7 +30,13 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
       .add_option("--substeps", substeps_,
                   "steps per frame: auto (chosen each frame from the boxes' speeds, the walls "
                   "and gravity) or a fixed K")
-      ->check(parsedBy(physics::parseSubsteps, "auto|K"))
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            // K as every whole-number option takes it: "010" and " 5" are refused.
+            return text == "auto" ? std::string()
+                                  : wholeNumberProblem(text, 1, physics::kMostSubsteps);
+          },
+          "auto|K"))
       ->capture_default_str();
   if (substeps_only) return;
   command

@@ -57,11 +57,6 @@ constexpr int kPaperFrames = 2048;
 // PNGs the demo writes when --capture-every is not given: frames 0, F/4, F/2, 3F/4.
 constexpr int kDefaultKeyframes = 4;
 
-// The documented bounds of the task sizes (docs/CLI.md): a voice or an agent
-// costs a few hundred bytes and its share of every frame.
-constexpr int kMostVoices = 100'000;
-constexpr int kMostAgents = 100'000;
-
 // The command line's values as parsed: nothing filled in or checked between options.
 struct RunArguments {
   SceneOptions scene;
@@ -324,6 +319,16 @@ void calibrateTasks(RunPlan& plan) {
       calibrateTaskLoad(*plan.task_load, plan.frames, plan.config, plan.world, plan.sound, plan.ai);
   calibrating.finish();
   const TaskLoadCalibration& calibration = *plan.calibration;
+  if (!calibration.beyond_bound.empty()) {
+    const bool sound = calibration.beyond_bound == "sound";
+    throw UsageError(
+        "--task-load " + load.str() + ": the " + calibration.beyond_bound + " task at its most (" +
+        (sound ? std::to_string(kMostVoices) + " voices"
+               : std::to_string(kMostAgents) + " agents") +
+        ") costs " + fixedText(sound ? calibration.sound_ms : calibration.ai_ms, 3) +
+        " ms, less than its share of " + load.str() + " x the " +
+        fixedText(calibration.physics_ms, 3) + " ms physics step; give a lower --task-load");
+  }
   std::fprintf(stderr,
                "overlap: task load %g: physics step %.3g ms (median of %d physics-only "
                "frames) -> %d voices (%d always sounding), %d agents\n",
@@ -594,7 +599,8 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   Timeline timeline;
   const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);
   const std::vector<std::string> removed = writeOutputs(plan, runs, timeline, outputs);
-  std::fprintf(stderr, "%s\n", writtenLine(plan.out, plan.wav_file, camera.get(), removed).c_str());
+  std::fprintf(stderr, "%s\n",
+               oneLine(writtenLine(plan.out, plan.wav_file, camera.get(), removed)).c_str());
   printRunSummary(plan, runs);
 }
 

@@ -47,11 +47,11 @@ void record(const RecordOptions& options) {
   } catch (const std::invalid_argument& error) {  // a scene the options cannot build
     throw UsageError(std::string("--") + error.what());
   }
-  Progress writing("overlap record: writing " + options.out.string(), 0);
+  Progress writing("overlap record: writing " + oneLine(options.out.string()), 0);
   physics::writeAabbStream(options.out, stream);
   writing.finish();
   std::fprintf(stderr, "overlap record: wrote %s (%s, the start and %s)\n",
-               options.out.string().c_str(), counted(stream.objects, "object").c_str(),
+               oneLine(options.out.string()).c_str(), counted(stream.objects, "object").c_str(),
                counted(stream.stored_frames - 1, "frame").c_str());
   printSummary(options.quiet,
                "overlap record: " + counted(frames.frames(), "frame") + " of scene " +

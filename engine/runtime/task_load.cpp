@@ -17,21 +17,21 @@ constexpr int kTimedFrames = 3;  // frames timed per guess
 constexpr int kRescales = 5;     // guesses after the first
 constexpr double kClose = 0.05;  // a guess this close to the budget is kept
 
-// The count whose cost (ms per frame, measured by `cost`) is about
-// `budget_ms`, starting from `guess`: each next guess assumes cost ~ count^k,
-// with k measured from the last two guesses (first 1.25: a crowd's cost grows
-// faster than its size, and overshooting it is what takes long).
-int sizeToBudget(double budget_ms, int guess, const std::function<double(int)>& cost,
+// The count, at most `most`, whose cost (ms per frame, measured by `cost`) is
+// about `budget_ms`, starting from `guess`: each next guess assumes cost ~
+// count^k, with k measured from the last two guesses (first 1.25: a crowd's
+// cost grows faster than its size, and overshooting it is what takes long).
+int sizeToBudget(double budget_ms, int guess, int most, const std::function<double(int)>& cost,
                  double& cost_ms) {
   cost_ms = 0;
   if (budget_ms <= 0) return 0;
-  int count = std::max(1, guess);
+  int count = std::clamp(guess, 1, most);
   cost_ms = cost(count);
   double exponent = 1.25;
   for (int attempt = 0; attempt < kRescales; ++attempt) {
     if (cost_ms <= 0 || std::fabs(cost_ms / budget_ms - 1) < kClose) break;
-    const int next = std::max(
-        1, static_cast<int>(std::lround(count * std::pow(budget_ms / cost_ms, 1 / exponent))));
+    const double wanted = count * std::pow(budget_ms / cost_ms, 1 / exponent);
+    const int next = static_cast<int>(std::lround(std::clamp(wanted, 1.0, double(most))));
     if (next == count) break;
     const double next_ms = cost(next);
     if (next_ms > 0 && cost_ms > 0) {
@@ -78,8 +78,10 @@ TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfi
 
   stubs::SoundConfig sound_config = sound;
   sound_config.frame_seconds = config.frame_time;
+  // The impacts' pool comes on top of the always-sounding voices.
+  const int most_background = kMostVoices - kImpactVoicePool;
   result.background_voices = sizeToBudget(
-      budget_ms, stubs::SoundConfig{}.voices,
+      budget_ms, stubs::SoundConfig{}.voices, most_background,
       [&](int voices) {
         sound_config.voices = sound_config.background_voices = voices;
         stubs::SoundMixer mixer(sound_config);
@@ -87,6 +89,9 @@ TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfi
       },
       result.sound_ms);
   result.voices = result.background_voices + std::min(kImpactVoicePool, result.background_voices);
+  if (result.background_voices == most_background && result.sound_ms < budget_ms * (1 - kClose)) {
+    result.beyond_bound = "sound";
+  }
 
   std::vector<stubs::Obstacle> obstacles;
   for (const physics::BoxPose& pose : world.boxPoses()) {
@@ -97,13 +102,17 @@ TaskLoadCalibration calibrate(double load, int frames, const physics::SceneConfi
   ai_config.frame_seconds = config.frame_time;
   const auto half_extent = static_cast<float>(world.layout().half_extent);
   result.agents = sizeToBudget(
-      budget_ms, stubs::AiConfig{}.agents,
+      budget_ms, stubs::AiConfig{}.agents, kMostAgents,
       [&](int agents) {
         ai_config.agents = agents;
         stubs::AgentCrowd crowd(ai_config, half_extent);
         return frameMs(budget_ms, [&] { crowd.runFrame(obstacles); });
       },
       result.ai_ms);
+  if (result.beyond_bound.empty() && result.agents == kMostAgents &&
+      result.ai_ms < budget_ms * (1 - kClose)) {
+    result.beyond_bound = "AI";
+  }
 
   sound.voices = result.voices;
   sound.background_voices = result.background_voices;

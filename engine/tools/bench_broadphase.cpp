@@ -65,6 +65,7 @@
 #include "engine/tools/stream_statistics.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
+#include "gpu/base/standard_streams.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
@@ -566,9 +567,19 @@ int run(const BenchOptions& options, const std::string& command) {
   for (const Row& row : rows) json["rows"].push_back(withDeviceColumns(row, rowJson(row)));
   const std::filesystem::path& csv_path = outputs[0];
   const std::filesystem::path& json_path = outputs[1];
-  writeFileAtomically(csv_path, csvText(rows, command, notes));
-  writeFileAtomically(json_path, json.dump(2) + '\n');
-  std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, csv_path.c_str(), json_path.c_str());
+  // Both or neither: each is finished, then a signal that came meanwhile
+  // stops the run before either is published.
+  overlap::OutputFile csv(csv_path);
+  overlap::OutputFile json_file(json_path);
+  csv.write(csvText(rows, command, notes));
+  json_file.write(json.dump(2) + '\n');
+  csv.finish();
+  json_file.finish();
+  stopIfInterrupted("the publication of the outputs");
+  csv.publish();
+  json_file.publish();
+  std::fprintf(stderr, "%s: wrote %s and %s\n", kProgram, oneLine(csv_path.string()).c_str(),
+               oneLine(json_path.string()).c_str());
   printBenchSummary(options, rows);
 
   const std::vector<std::string> failed = failures(rows);
@@ -582,6 +593,7 @@ int run(const BenchOptions& options, const std::string& command) {
 }  // namespace overlap::engine
 
 int main(int argc, char** argv) {
+  overlap::holdStandardStreams();  // first: before anything opens a file
   using namespace overlap::engine;
   CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams", kProgram};
   app.footer(

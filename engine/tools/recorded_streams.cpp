@@ -120,7 +120,9 @@ CachedStream loadOrRecordStream(const std::filesystem::path& folder,
   } else {
     cached.stream = recordStream(
         config, frames, "overlap_bench_broadphase: recording n=" + std::to_string(config.objects));
-    physics::writeAabbStream(cached.path, cached.stream);
+    // The cache is the benchmark's own folder: a link planted at a stream's
+    // name is replaced by the stream, never written through.
+    physics::writeAabbStream(cached.path, cached.stream, FinalLink::kReplace);
     cached.recorded = true;
   }
   cached.seconds = secondsSince(start);

@@ -10,8 +10,22 @@
 namespace overlap {
 namespace {
 
+// The first of SIGINT, SIGTERM and SIGHUP is stored; any later one, of the
+// same kind or another, ends the process by its own default action (the
+// shell sees it killed by that signal).  Only async-signal-safe calls: the
+// signal is blocked while its handler runs, so raise() delivers it, now
+// undefended, as the handler returns.
 extern "C" void onSignal(int signal_number) {
-  interrupt_detail::received.store(signal_number, std::memory_order_relaxed);
+  int none = 0;
+  if (interrupt_detail::received.compare_exchange_strong(none, signal_number,
+                                                         std::memory_order_relaxed)) {
+    return;
+  }
+  struct sigaction fallback {};
+  fallback.sa_handler = SIG_DFL;
+  sigemptyset(&fallback.sa_mask);
+  sigaction(signal_number, &fallback, nullptr);
+  raise(signal_number);
 }
 
 const char* signalName(int signal_number) {
@@ -46,7 +60,9 @@ void catchInterrupts() {
   sigemptyset(&action.sa_mask);
   // No SA_RESTART: a blocking read, write or open returns EINTR, so the wait
   // it was in sees the flag at once.
-  action.sa_flags = SA_RESETHAND;  // a second signal ends the process at once
+  // Not SA_RESETHAND, which resets only the handler of the signal that
+  // came: a second signal of another kind must end the process too.
+  action.sa_flags = 0;
   for (const int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
     sigaction(signal_number, &action, nullptr);
   }

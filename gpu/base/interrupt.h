@@ -7,17 +7,19 @@
 // one line, and the program exits 128 + the signal (129, 130, 143).
 //
 // Rules:
-//   * A second signal ends the process at once (the handler is reset after
-//     the first): a stuck run can always be stopped; only hidden
-//     temporaries (".NAME.overlap-PID-XXXXXX") are then left beside the
-//     untouched outputs, and the next run writing into that folder removes
-//     them (output_file.h).
+//   * A second signal, of the same kind or another (SIGTERM after SIGINT),
+//     ends the process at once by that signal's default action: a stuck
+//     run can always be stopped; only hidden temporaries
+//     (".NAME.overlap-PID-XXXXXX") are then left beside the untouched
+//     outputs, and the next run writing into that folder removes them
+//     (output_file.h).
 //   * SIGPIPE is ignored: a write to a pipe or FIFO whose reader has gone
 //     fails with EPIPE like any failed write, so the writer names the output,
 //     removes its temporaries and exits 1 instead of dying silently.
 //   * SIGXFSZ is ignored too: a write past the file-size limit (`ulimit -f`)
 //     fails with EFBIG ("File too large"), reported naming the file.
-//   * The handlers only store the signal's number: nothing else is
+//   * The handlers only store the first signal's number, or restore the
+//     default action and raise a later one: nothing else is
 //     async-signal-safe to do there.
 #pragma once
 

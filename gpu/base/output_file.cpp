@@ -424,6 +424,12 @@ void OutputFile::publish() {
   published_ = true;
 }
 
+void OutputFile::commit() {
+  finish();
+  stopIfInterrupted("the publication of " + path_.string());
+  publish();
+}
+
 void writeFileAtomically(const fs::path& path, std::string_view contents) {
   OutputFile file(path);
   file.write(contents);
@@ -440,57 +446,139 @@ OutputFolder::~OutputFolder() {
   while (!files_.empty()) files_.pop_back();
 }
 
+namespace {
+
+// An open folder (O_PATH: nothing is read through it), closed when done.
+struct PathHandle {
+  explicit PathHandle(int descriptor) : fd(descriptor) {}
+  ~PathHandle() {
+    if (fd >= 0) ::close(fd);
+  }
+  PathHandle(const PathHandle&) = delete;
+  PathHandle& operator=(const PathHandle&) = delete;
+  void reset(int descriptor) {
+    if (fd >= 0) ::close(fd);
+    fd = descriptor;
+  }
+  int fd;
+};
+
+// The kernel's own path of an open folder (what /proc/self/fd names), or
+// empty where /proc is not mounted.
+std::string kernelPath(int fd) {
+  char link[PATH_MAX + 1];
+  const std::string self = "/proc/self/fd/" + std::to_string(fd);
+  const ssize_t got = ::readlink(self.c_str(), link, PATH_MAX);
+  if (got <= 0 || link[0] != '/') return {};
+  return std::string(link, static_cast<std::size_t>(got));
+}
+
+bool sameFile(const struct stat& a, const struct stat& b) {
+  return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+// Where a name lands: the folder holding it, as the kernel resolves it.
+struct Resolved {
+  std::string folder;       // absolute, no link in the part that exists
+  std::string passed_link;  // see resolve(); empty if none
+};
+
+// The folder holding `path`'s name, resolved one part at a time by the
+// kernel (openat follows each link from where it stands, so "link/.." is
+// the parent of the link's target, as for open()); parts not made yet are
+// kept as named, a ".." among them taking back the one before.  With
+// `run` (the run folder, when it exists), `passed_link` is the first link
+// met as named once the walk has entered the run folder.
+Resolved resolve(const fs::path& path, const struct stat* run = nullptr) {
+  Resolved resolved;
+  PathHandle at(::open(path.is_absolute() ? "/" : ".", O_PATH | O_DIRECTORY | O_CLOEXEC));
+  std::vector<std::string> missing;
+  fs::path named;
+  int depth_in_run = -1;  // parts below the run folder; -1: not inside it
+  for (const fs::path& part : folderOf(path)) {
+    const std::string text = part.string();
+    named /= part;
+    if (text.empty() || text == "." || part == part.root_path()) continue;
+    if (!missing.empty() || at.fd < 0) {
+      if (text == ".." && !missing.empty()) {
+        missing.pop_back();
+      } else {
+        missing.push_back(text);
+      }
+      continue;
+    }
+    struct stat here {};
+    if (run != nullptr && ::fstat(at.fd, &here) == 0 && sameFile(here, *run)) depth_in_run = 0;
+    if (depth_in_run >= 0 && text != ".." && resolved.passed_link.empty()) {
+      struct stat info {};
+      if (::fstatat(at.fd, text.c_str(), &info, AT_SYMLINK_NOFOLLOW) == 0 &&
+          S_ISLNK(info.st_mode)) {
+        resolved.passed_link = named.string();
+      }
+    }
+    const int next = ::openat(at.fd, text.c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC);
+    if (next < 0) {
+      missing.push_back(text);  // not made yet (or not a folder: its check says so)
+      continue;
+    }
+    at.reset(next);
+    if (depth_in_run >= 0) depth_in_run += text == ".." ? -1 : 1;
+  }
+  fs::path folder;
+  if (at.fd >= 0) folder = kernelPath(at.fd);
+  if (folder.empty()) {  // no /proc: the library's resolution of the same folder
+    std::error_code error;
+    folder = fs::weakly_canonical(fs::absolute(folderOf(path), error), error);
+    missing.clear();
+  }
+  for (const std::string& part : missing) folder /= part;
+  resolved.folder = folder.string();
+  return resolved;
+}
+
+}  // namespace
+
 OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {
-  std::error_code error;
-  fs::path absolute = fs::absolute(folder_, error).lexically_normal();
-  if (!absolute.has_filename() && absolute.has_relative_path()) absolute = absolute.parent_path();
-  const fs::path canonical = fs::weakly_canonical(absolute, error);
-  folder_identity_ = (error ? absolute : canonical).string();
+  folder_identity_ = resolve(folder_ / "name").folder;
   const fs::path manifest = folder_ / kManifestName;
   declared_.emplace(identity(manifest), manifest.string());
 }
 
 // What makes two names one output: the file they reach, however spelled
-// ("r/x", "./r/x", "r//x", "/abs/r/x", "r/new/../x").  Inside the folder:
-// the folder's identity and the name relative to it (no link followed
-// there).  Elsewhere: links followed, and made absolute first, so the
-// folders not made yet are resolved from the nearest one that exists
-// (weakly_canonical leaves a relative path relative when its first part
-// does not exist yet).
+// ("r/x", "./r/x", "r//x", "/abs/r/x", "r/new/../x", "link/../r/x"): the
+// folder holding the name as the kernel resolves it (resolve()), plus the
+// name.  Inside the run folder the name's own link is not followed (it is
+// replaced); elsewhere it is, as the file written is its target.
 std::string OutputFolder::identity(const fs::path& path) const {
   if (const std::optional<fs::path> relative = inside(path)) {
     return (fs::path(folder_identity_) / *relative).string();
   }
-  std::error_code error;
-  const fs::path target = fs::absolute(followLinks(path), error).lexically_normal();
-  if (!target.has_filename()) return target.string();
-  const fs::path folder = fs::weakly_canonical(target.parent_path(), error);
-  return ((error ? target.parent_path() : folder) / target.filename()).lexically_normal().string();
+  const fs::path target = followLinks(path);
+  if (!target.has_filename()) return resolve(target).folder;
+  return (fs::path(resolve(target).folder) / target.filename()).string();
 }
 
 std::optional<fs::path> OutputFolder::inside(const fs::path& path) const {
-  std::error_code error;
-  const fs::path relative =
-      fs::absolute(path, error)
-          .lexically_normal()
-          .lexically_relative(fs::absolute(folder_, error).lexically_normal());
-  if (error || !safeRelative(relative)) return std::nullopt;
-  return relative;
+  if (!path.has_filename()) return std::nullopt;
+  const std::string folder = resolve(path).folder;
+  std::string relative = path.filename().string();
+  if (folder != folder_identity_) {
+    const std::string above =
+        folder_identity_.back() == '/' ? folder_identity_ : folder_identity_ + "/";
+    if (folder.compare(0, above.size(), above) != 0) return std::nullopt;
+    relative = folder.substr(above.size()) + "/" + relative;
+  }
+  if (!safeRelative(relative)) return std::nullopt;
+  return fs::path(relative);
 }
 
-std::string OutputFolder::linkProblem(const fs::path& relative) const {
-  fs::path at = folder_;
-  for (const fs::path& part : relative.parent_path()) {
-    at /= part;
-    struct stat info {};
-    if (::lstat(at.c_str(), &info) != 0) return {};  // not made yet: this run makes it
-    if (S_ISLNK(info.st_mode)) {
-      return at.string() +
-             " is a symbolic link: a run folder's outputs are written inside it, never through "
-             "a link";
-    }
-  }
-  return {};
+std::string OutputFolder::linkProblem(const fs::path& path) const {
+  struct stat run {};
+  if (::stat(folder_.c_str(), &run) != 0) return {};  // not made yet: nothing in it is a link
+  const Resolved resolved = resolve(path, &run);
+  if (resolved.passed_link.empty()) return {};
+  return resolved.passed_link +
+         " is a symbolic link: a run folder's outputs are written inside it, never through a link";
 }
 
 namespace {
@@ -512,10 +600,7 @@ std::string OutputFolder::declare(const fs::path& path) {
     return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
   }
   // Links first: the checks below try the folder by making a file there.
-  const std::optional<fs::path> relative = inside(path);
-  if (relative) {
-    if (std::string problem = linkProblem(*relative); !problem.empty()) return problem;
-  }
+  if (std::string problem = linkProblem(path); !problem.empty()) return problem;
   if (std::string problem = outputFileProblemIn(path, &writable_folders_); !problem.empty()) {
     return problem;
   }
@@ -548,13 +633,12 @@ OutputFile& OutputFolder::open(const fs::path& path) {
   if (!opened_.insert(identity(path)).second) {
     throw OutputError(path.string() + ": opened twice as one run's output");
   }
-  if (relative) {
-    if (const std::string problem = linkProblem(*relative); !problem.empty()) {
-      throw OutputError(path.string() + ": " + problem);
-    }
-    inside_.insert(relative->generic_string());
+  if (const std::string problem = linkProblem(opened); !problem.empty()) {
+    throw OutputError(path.string() + ": " + problem);
   }
   files_.push_back(std::make_unique<OutputFile>(opened, link));
+  listed_.push_back(relative ? relative->generic_string() : std::string());
+  if (relative) inside_.insert(listed_.back());
   return *files_.back();
 }
 
@@ -639,13 +723,27 @@ void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
 
 std::vector<std::string> OutputFolder::commit() {
   for (const auto& file : files_) file->finish();
+  // The last moment a signal can stop the run whole: past here every rename
+  // is done, and a stop in between would leave a mix.
+  stopIfInterrupted("the publication of the outputs");
   // Listed before anything moves: if the process dies in between, the next
   // run still knows every file this one and the last may have left.
   const std::set<std::string> previous = previousOutputs();
   std::set<std::string> pending = previous;
   pending.insert(inside_.begin(), inside_.end());
   writeManifest(pending);
-  for (const auto& file : files_) file->publish();
+  std::set<std::string> published;
+  try {
+    for (std::size_t i = 0; i < files_.size(); ++i) {
+      files_[i]->publish();
+      if (!listed_[i].empty()) published.insert(listed_[i]);
+    }
+  } catch (const OutputError&) {
+    // What is there: the last run's files, untouched, and those published.
+    published.insert(previous.begin(), previous.end());
+    writeManifest(published);
+    throw;
+  }
   std::vector<std::string> removed;
   const FolderHandle folder(folder_);
   for (const std::string& entry : previous) {

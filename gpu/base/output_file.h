@@ -45,7 +45,17 @@
 //   * Two outputs of one run never share a path: declare() refuses, before
 //     any work and however the names are spelled, a second name for a file
 //     already declared, a file that is the run folder, a folder above it or
-//     a folder of another output, and a file inside another output.
+//     a folder of another output, and a file inside another output.  Names
+//     are compared by where the kernel puts them, never by their text: the
+//     folder holding each is opened one part at a time (a link followed
+//     from where it stands, so "link/.." is the parent of the link's
+//     target), and its path as the kernel has it, plus the name, is the
+//     file's identity; folders not made yet keep their names.
+//   * commit() lists in the manifest only files that are there: if a rename
+//     fails, the list is rewritten with what was published and what the
+//     last run left, before the error goes on.
+//   * A signal (interrupt.h) that arrived before commit() starts moving
+//     anything stops it: nothing is published (Interrupted is thrown).
 // Plain POSIX and the standard library: no Bullet here.
 #pragma once
 
@@ -114,12 +124,12 @@ class OutputFile {
   // temporary name (nothing more for an output written through).
   void finish();
   // Renames the finished temporary over the name; refuses if the name has
-  // meanwhile become something other than a regular file.
+  // meanwhile become something other than a regular file.  Looks at no
+  // signal: the caller decides when the last chance to stop is.
   void publish();
-  void commit() {
-    finish();
-    publish();
-  }
+  // finish(), then publish() unless a signal arrived (interrupt.h):
+  // Interrupted is thrown and nothing is published.
+  void commit();
 
   const std::filesystem::path& path() const { return path_; }
   // True for a device, FIFO or socket: written in place, nothing to rename.
@@ -178,18 +188,21 @@ class OutputFolder {
 
  private:
   std::string identity(const std::filesystem::path& path) const;
-  // `path` relative to the folder, lexically, when it names a file inside it.
+  // `path` relative to the folder when the file it names is inside it, as
+  // the kernel resolves the folders on the way (links and ".." alike).
   std::optional<std::filesystem::path> inside(const std::filesystem::path& path) const;
-  // Empty unless a folder between the run folder and `relative` is a symlink.
-  std::string linkProblem(const std::filesystem::path& relative) const;
+  // Empty unless `path`, as named, passes a symlink after it has reached
+  // the run folder.
+  std::string linkProblem(const std::filesystem::path& path) const;
   std::set<std::string> previousOutputs() const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;
   std::string folder_identity_;
   std::vector<std::unique_ptr<OutputFile>> files_;
-  std::set<std::string> inside_;                 // the outputs inside the folder, relative to it
-  std::map<std::string, std::string> declared_;  // identity() -> the name declared
+  std::vector<std::string> listed_;  // files_[i]'s manifest entry; empty: outside the folder
+  std::set<std::string> inside_;     // the outputs inside the folder, relative to it
+  std::map<std::string, std::string> declared_;       // identity() -> the name declared
   std::set<std::filesystem::path> writable_folders_;  // tried once by declare()
   std::set<std::string> opened_;                      // identity() of each file opened
 };

@@ -9,10 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/standard_streams.h"
 #include "gpu/pair_finder.h"
 #include "tests/gpu/frame_cost.h"
 
 int main(int argc, char** argv) {
+  overlap::holdStandardStreams();  // first: before anything opens a file
   using namespace overlap::finders;
   std::vector<std::uint32_t> sizes;
   for (int i = 1; i < argc; ++i) {

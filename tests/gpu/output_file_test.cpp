@@ -2,6 +2,7 @@
 #include "gpu/base/output_file.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/stat.h>
 
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <string>
 #include <thread>
 
+#include "gpu/base/interrupt.h"
 #include "tests/scratch_path.h"
 
 namespace overlap {
@@ -167,6 +169,59 @@ TEST_F(OutputFileTest, AFolderReplacesOnlyWhatTheLastRunWrote) {
   EXPECT_EQ(textOf(folder_ / "a.txt"), "2");
   EXPECT_FALSE(fs::exists(folder_ / "frames" / "x.png"));
   EXPECT_EQ(textOf(folder_ / "mine.txt"), "mine");
+}
+
+// Two names of one file are one output however a link and ".." spell it:
+// "link/.." is the parent of the link's target, as the kernel has it.
+TEST_F(OutputFileTest, NamesThroughALinkAndDotDotAreTheFileTheKernelReaches) {
+  fs::create_directories(folder_ / "run" / "sub");
+  fs::create_directory_symlink(folder_ / "run" / "sub", folder_ / "link");
+  OutputFolder run(folder_ / "run");
+  EXPECT_EQ(run.declare(folder_ / "run" / "frames.csv"), "");
+  EXPECT_NE(run.declare(folder_ / "link" / ".." / "frames.csv").find("is also"), std::string::npos);
+  EXPECT_NE(run.declare(folder_ / "link" / "." / ".." / "frames.csv").find("is also"),
+            std::string::npos);
+  // Beside the link itself is elsewhere: folder_/frames.csv.
+  EXPECT_EQ(run.declare(folder_ / "frames.csv"), "");
+  EXPECT_NE(run.declare(folder_ / "link" / ".." / ".." / "frames.csv").find("is also"),
+            std::string::npos);
+}
+
+// A signal that came before commit() publishes nothing: the old file stays
+// and no temporary is left, for a run folder as for one file.
+TEST_F(OutputFileTest, ASignalBeforeTheCommitPublishesNothing) {
+  std::ofstream(folder_ / "a.txt") << "old";
+  interrupt_detail::received.store(SIGINT);
+  {
+    OutputFolder run(folder_);
+    run.open(folder_ / "a.txt").write("new");
+    EXPECT_THROW(run.commit(), Interrupted);
+    OutputFile file(folder_ / "b.txt");
+    file.write("new");
+    EXPECT_THROW(file.commit(), Interrupted);
+  }
+  interrupt_detail::received.store(0);
+  EXPECT_EQ(textOf(folder_ / "a.txt"), "old");
+  EXPECT_EQ(entries(folder_), 1);
+}
+
+// A rename that fails at the commit leaves a manifest listing only files
+// that are there: the last run's and those already published.
+TEST_F(OutputFileTest, AFailedCommitListsOnlyTheFilesThatAreThere) {
+  {
+    OutputFolder run(folder_);
+    run.open(folder_ / "old.txt").write("1");
+    run.commit();
+  }
+  OutputFolder run(folder_);
+  run.open(folder_ / "a.txt").write("2");
+  run.open(folder_ / "b.txt").write("2");
+  fs::create_directory(folder_ / "b.txt");  // b.txt cannot be renamed into place
+  EXPECT_THROW(run.commit(), OutputError);
+  const std::string manifest = textOf(folder_ / OutputFolder::kManifestName);
+  EXPECT_NE(manifest.find("\na.txt\n"), std::string::npos) << manifest;
+  EXPECT_NE(manifest.find("\nold.txt\n"), std::string::npos) << manifest;
+  EXPECT_EQ(manifest.find("b.txt"), std::string::npos) << manifest;
 }
 
 }  // namespace

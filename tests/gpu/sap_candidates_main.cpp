@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/standard_streams.h"
 #include "gpu/pairs/pair_logic.h"
 #include "gpu/pairs/sap_sweep.h"
 #include "physics/aabb_stream.h"
@@ -87,6 +88,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
 }  // namespace
 
 int main(int argc, char** argv) {
+  overlap::holdStandardStreams();  // first: before anything opens a file
   if (argc < 2 || argc > 3) {
     std::fprintf(stderr, "usage: overlap_sap_candidates FILE [FRAME]\n");
     return 2;

@@ -22,7 +22,8 @@ FrameMotion motion(double speed, double gravity, double edge, double wall) {
 TEST(StepPolicy, ParsesTheOptionsAndRejectsTheRest) {
   EXPECT_EQ(parseSubsteps("auto"), kAutoSubsteps);
   EXPECT_EQ(parseSubsteps("8"), 8);
-  for (const char* bad : {"0", "-1", "8x", "", "1001", "eight"}) {
+  EXPECT_EQ(parseSubsteps("+8"), 8);  // as every whole-number option reads it
+  for (const char* bad : {"0", "-1", "8x", "", "1001", "eight", "010", " 5", "5 ", "+-5"}) {
     EXPECT_THROW(parseSubsteps(bad), std::invalid_argument) << bad;
   }
   EXPECT_EQ(parseCcdMode("off"), CcdMode::kOff);

@@ -1,0 +1,26 @@
+// The three standard descriptors at a program's start (docs/CLI.md,
+// "Outputs").  A program started with fd 0, 1 or 2 closed (`2>&-`) would
+// give that number to the first file it opens, and its messages (stderr)
+// or its CSV rows (stdout) would land in that file: a WAV, a stream.
+//
+// Rules:
+//   * holdStandardStreams() is the first thing every program's main()
+//     does, before anything can open a file; it is called once.
+//   * A closed 0, 1 or 2 is given /dev/null, opened so that it keeps
+//     behaving as the closed descriptor did: 1 and 2 read-only, 0
+//     write-only.  A write to a closed stdout still fails (EBADF, the exit 1
+//     of writeStandardOutput()), a message to a closed stderr is still
+//     lost, a read of a closed stdin still fails; but no file the program
+//     opens can take one of the three numbers.
+//   * An open descriptor is left as it is.  If /dev/null cannot be opened
+//     (a chroot without it, no descriptor left), the program exits 127 at
+//     once, writing nothing: there is nowhere safe to write.
+// Plain POSIX: no Bullet here.
+#pragma once
+
+namespace overlap {
+
+// Gives every closed standard descriptor /dev/null (see above).
+void holdStandardStreams();
+
+}  // namespace overlap
