@@ -3,17 +3,31 @@ the one table of names, exactness and device needs (physics/broadphase_factory.h
 
 load() runs the binary once; the other functions answer from what it printed, in the
 catalogue's order, so a broadphase added to the code reaches the study with no edit here.
+A binary that is missing or cannot list its broadphases ends the program with one line
+naming it (exit 2), never a traceback.
 """
 import json
 import subprocess
+import sys
 
 _TABLE = []
 
 
 def load(overlap: str) -> None:
-    listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
-                            capture_output=True, text=True).stdout
-    _TABLE[:] = json.loads(listed)["broadphases"]
+    try:
+        listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
+                                capture_output=True, text=True).stdout
+        _TABLE[:] = json.loads(listed)["broadphases"]
+    except OSError as error:
+        refuse(f"{overlap}: cannot run it ({error.strerror}): build it first, or name another "
+               "with --overlap")
+    except (subprocess.CalledProcessError, ValueError, KeyError) as error:
+        refuse(f"{overlap} --list-algos --json failed ({error})")
+
+
+def refuse(problem: str):
+    print(problem, file=sys.stderr)
+    sys.exit(2)
 
 
 def names() -> list:
