@@ -51,7 +51,7 @@ FAKE
     chmod +x "$tree/build-emulation/overlap"
     "$tree/scripts/gpu_check.sh" --dry-run >"$tree/stdout" 2>&1 &
     driver=$!
-    for _ in {1..300}; do [[ -s "$PIDS/child" && -s "$PIDS/overlap" ]] && break; sleep 0.1; done
+    for _ in {1..600}; do [[ -s "$PIDS/child" && -s "$PIDS/overlap" ]] && break; sleep 0.1; done
     [[ -s "$PIDS/child" && -s "$PIDS/overlap" ]] || failed "the info step never started: $(cat "$tree/stdout")"
     kill -TERM "$driver"
     wait "$driver"
