@@ -46,16 +46,16 @@ step_frames() { # ALGO FOLDER OPTIONS...: one `overlap run`; ALGO must be the on
 step_study() { # one shard per core into one --out; each starts once the one before probed the GPU
   local i log failed=0 && [[ -f .gpu-carry/resume.tar.xz ]] && tar -C "$WORK" -xJf .gpu-carry/resume.tar.xz ./study
   for ((i = 1; i <= SHARDS; i++)); do # a shard prints nothing before its GPU probe
-    log="$WORK/logs/study_shard$i.log" && PYTHONUNBUFFERED=1 "$PY" scripts/study.py $STUDY --out "$WORK/study" \
+    log="$WORK/logs/study_shard$i.log"; PYTHONUNBUFFERED=1 "$PY" scripts/study.py $STUDY --out "$WORK/study" \
       --shard "$i/$SHARDS" --runs-only >"$log" 2>&1 &
     for _ in {1..300}; do [[ -s "$log" ]] || ! kill -0 $! 2>/dev/null && break; sleep 0.1; done
   done
   for i in $(jobs -p); do wait "$i" || failed=$((failed + 1)); done
   note "$SHARDS shards, $failed failed (logs/study_shard*.log)" && ((failed == 0)) || fail "$failed shards failed"
-}
-checked_jobs() { checked "$(steps jobs $STUDY --out "$WORK/study")"; }
+} && checked_jobs() { checked "$(steps jobs $STUDY --out "$WORK/study")"; }
 step_report() { # what the development machine runs on the returned archive, kept in $OUT/gpu-study-report
-  "$PY" scripts/study.py --from-archive "$OUT/gpu_study.tar.xz" --overlap "$ROOT/$BUILD/overlap" \
+  local py="$PY" && "$py" -c 'import matplotlib' 2>/dev/null || py=/usr/bin/python3 # the figures need it
+  "$py" scripts/study.py --from-archive "$OUT/gpu_study.tar.xz" --overlap "$ROOT/$BUILD/overlap" \
     --out "$OUT/gpu-study-report" && [[ -s "$OUT/gpu-study-report/REPORT.md" ]] || fail "no report from the archive"
   note "REPORT.md and $(find "$OUT/gpu-study-report/report" -name '*.png' | wc -l) figures from the archive"
 }
@@ -123,7 +123,7 @@ stop() { # SIGNAL: every running step's process group ends (TERM, then KILL), th
   exit $((128 + $(kill -l "$1")))
 }
 trap 'stop TERM' TERM && trap 'stop INT' INT && trap 'stop HUP' HUP && trap 'rm -rf "$SCRATCH"' EXIT
-run() { start "$@" && finish; }
+run() { start "$@" && finish; } # start and wait: one step alone
 [[ $MODE == gpu ]] && run unpack 30 scripts/gpu_pack.sh --unpack
 export GPU_FINDERS && GPU_FINDERS="$(steps gpu-finders "$BUILD/overlap")" ||
   { record finders FAIL 0 0 "$GPU_FINDERS" && run archive 10 step_archive; exit 1; }
