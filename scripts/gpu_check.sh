@@ -109,11 +109,11 @@ start() { # NAME BUDGET FUNCTION ARGS...: in the background, in timeout's own pr
   timeout -k 5 "$budget" "$SELF" --step "$name" "$@" >"$WORK/logs/$name.log" 2>&1 &
   running+=("$name $! $budget $(date +%s)")
 }
-finish() { # waits for the started steps, then records each
+finish() { # waits for the started steps, then records each (its time: to its log's last line)
   local entry name pid budget began status && for entry in "${running[@]}"; do
     read -r name pid budget began <<<"$entry" && wait "$pid"
     case $? in 0) status=pass ;; 124 | 137) status=TIMEOUT ;; *) status=FAIL ;; esac
-    record "$name" $status $(($(date +%s) - began)) "$budget" "$(cat "$WORK/notes/$name" 2>/dev/null || tail -1 "$WORK/logs/$name.log")"
+    record "$name" $status $(($(stat -c %Y "$WORK/logs/$name.log") - began)) "$budget" "$(cat "$WORK/notes/$name" 2>/dev/null || tail -1 "$WORK/logs/$name.log")"
   done && running=()
 }
 stop() { # SIGNAL: every running step's process group ends (TERM, then KILL), then this script
