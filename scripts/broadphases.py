@@ -3,6 +3,8 @@ the one table of names, exactness and device needs (physics/broadphase/broadphas
 
 load() runs the binary once; the other functions answer from what it printed, in the
 catalogue's order, so a broadphase added to the code reaches the study with no edit here.
+A binary that is missing or cannot list its broadphases ends the program with one line
+naming it (exit 2), never a traceback.
 """
 import json
 import subprocess
@@ -18,9 +20,11 @@ def load(overlap: str) -> None:
         listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
                                 capture_output=True, text=True).stdout
         _TABLE[:] = json.loads(listed)["broadphases"]
-    except (OSError, subprocess.CalledProcessError, ValueError, KeyError, TypeError) as error:
-        raise BadInput(f"--overlap {overlap}: does not list its broadphases "
-                       f"(--list-algos --json: {error})")
+    except OSError as error:
+        raise BadInput(f"{overlap}: cannot run it ({error.strerror}): build it first, or name "
+                       "another with --overlap")
+    except (subprocess.CalledProcessError, ValueError, KeyError, TypeError) as error:
+        raise BadInput(f"{overlap} --list-algos --json failed ({error})")
 
 
 def names() -> list:

@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
 # Packs, on the development machine, what scripts/gpu_check.sh needs on a GPU
-# machine that has no Bullet, oneTBB, OSMesa or network (docs/GPU.md):
+# machine that has no Bullet, oneTBB, OSMesa or network (docs/GPU_LOAN.md):
 #   scripts/gpu_pack.sh [--no-build] [BUILD_DIR]      (default: build, the nvcc Release build)
 # writes .gpu-carry/overlap-gpu.tar.xz (git ignores .gpu-carry/; the device
-# tool's call names it in `carry`).  Rules, each with its reason:
+# tool's call names it in `carry`).  On the GPU machine, gpu_check.sh's first step
+#   scripts/gpu_pack.sh --unpack
+# unpacks it into the tree: the packed checkout's path made to lead here, the
+# tracked files compared with the pack's sums (a changed source stops it), and
+# the CTest files' cmake and python3 pointed at this machine's where the packed
+# ones are absent.  Rules, each with its reason:
 # - It holds BUILD_DIR's binaries (every ELF executable and shared object),
 #   its CTest files (CTestTestfile.cmake, GoogleTest's discovered lists),
 #   CMakeCache.txt and the headers CMake wrote for the tests, and in
@@ -40,6 +45,50 @@ fail() {
   echo "gpu_pack: $*" >&2
   exit 1
 }
+
+# The pack into this tree, on the GPU machine (the header above).
+unpack() {
+  local pack="$PACK" manifest source_dir changed packed_cmake packed_python here_cmake python fixed=""
+  [[ -f "$pack" ]] || fail "$pack is missing: run scripts/gpu_pack.sh on the development machine and carry $CARRY"
+  tar -xJf "$pack" || fail "$pack did not unpack"
+  manifest="$(tar -tJf "$pack" | grep 'gpu-pack/manifest$')" || fail "$pack holds no gpu-pack/manifest"
+  source_dir="$(sed -n 's/^source_dir=//p' "$manifest")"
+  if [[ "$source_dir" != "$ROOT" ]]; then
+    if [[ -e "$source_dir" || -L "$source_dir" ]]; then
+      [[ "$(realpath "$source_dir")" == "$(realpath "$ROOT")" ]] ||
+        fail "$source_dir (the packed build's checkout) exists here and is not this tree"
+    else
+      mkdir -p "$(dirname "$source_dir")" && ln -s "$ROOT" "$source_dir" || fail "cannot make $source_dir lead to $ROOT"
+    fi
+    echo "gpu_pack: $source_dir -> $ROOT (the CTest files and the tests name it)"
+  fi
+  changed="$(sha256sum --quiet -c "$(dirname "$manifest")/sums" 2>/dev/null | sed 's/: .*//' || true)"
+  echo "gpu_pack: files changed since the pack: ${changed:-none}"
+  if grep -Eq '\.(cpp|h|cu|cuh|cmake)$|CMakeLists\.txt$|CMakePresets\.json$|^tests/' <<<"$changed"; then
+    fail "sources changed since the pack (above): run scripts/gpu_pack.sh again"
+  fi
+  # The tests' launcher and the layering checks call the configuring machine's cmake,
+  # study.* its python3 (here one with matplotlib, where there is one).
+  packed_cmake="$(sed -n 's/^cmake=//p' "$manifest")" packed_python="$(sed -n 's/^study_python=//p' "$manifest")"
+  here_cmake="$(command -v cmake || true)"
+  for python in python3 /usr/bin/python3; do
+    "$python" -c 'import matplotlib, numpy' 2>/dev/null && python="$(command -v "$python")" && break
+    python=""
+  done
+  local -a ctest_files
+  mapfile -t ctest_files < <(find "$(dirname "$(dirname "$manifest")")" \( -name CTestTestfile.cmake -o -name '*_tests.cmake' \))
+  if [[ -n "$packed_cmake" && ! -x "$packed_cmake" && -n "$here_cmake" ]]; then
+    sed -i "s|$packed_cmake\([]\"]\)|$here_cmake\1|g" "${ctest_files[@]}" && fixed+=" cmake: $here_cmake;"
+  fi
+  if [[ -n "$packed_python" && -n "$python" && "$packed_python" != "$python" ]]; then
+    sed -i "s|$packed_python\([]\"]\)|$python\1|g" "${ctest_files[@]}" && fixed+=" python3: $python (matplotlib);"
+  fi
+  echo "gpu_pack: $(sed -n 's/^commit=/commit /p' "$manifest");${fixed:- CTest files as packed}"
+}
+if [[ "${1:-}" == "--unpack" ]]; then
+  unpack
+  exit
+fi
 
 build=1
 if [[ "${1:-}" == "--no-build" ]]; then

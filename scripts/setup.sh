@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
 # Installs the Debian packages Overlap needs (idempotent: apt-get update runs
-# once, and only when something is missing), then configures and builds the
-# project with CMake in Release, through ccache (a rebuild, or a build in
-# another clone with the same CCACHE_BASEDIR, compiles only what changed).
-# The CUDA architectures: CMakeLists.txt's five, or CMake's CUDAARCHS.
-# Usage: scripts/setup.sh [BUILD_DIR [CMAKE_ARGS...]] (the arguments go to
-# the configure step: .ci/run asks for a unity build)
+# once, and only when something is missing), then configures build/ with the
+# preset CI builds (CMakePresets.json's release: Release, Ninja, unity batches
+# of 16 sources, ccache) and builds
+#   scripts/setup.sh          the demo: the overlap program and what it links
+#   scripts/setup.sh --all    everything: the tests and the benchmark too
+# ccache makes a rebuild, or a build in another clone with the same
+# CCACHE_BASEDIR, compile only what changed.  The CUDA kernels: for this
+# machine's GPU (CUDAARCHS=native) where nvidia-smi sees one, else for sm_90
+# alone, as CI (no kernel runs here; the H100 and H200 are sm_90); CUDAARCHS
+# chooses others (CMakeLists.txt's default is a fat binary of five).
 set -euo pipefail
 
 readonly PACKAGES=(
@@ -14,8 +18,14 @@ readonly PACKAGES=(
   googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   nlohmann-json3-dev libpng-dev python3-matplotlib
   libboost-context-dev  # fibers for the CUDA emulation build (gpu/emulation/)
-  ccache ninja-build  # .ci/run builds with Ninja
+  ccache ninja-build  # the release preset builds with Ninja, through ccache
 )
+
+case "${1:-}" in
+  "") target=overlap what="the demo: overlap and the libraries it links, 16 of the build's 32 compiles (the CUDA ones among them), under the whole build's 2 minutes cold on 2 cores" ;;
+  --all) target=all what="everything: the demo, every test and the benchmark, 32 compiles, about 2 minutes cold on 2 cores" ;;
+  *) echo "setup: unknown argument '$1' (none: the demo; --all: everything)" >&2 && exit 2 ;;
+esac
 
 missing=()
 for pkg in "${PACKAGES[@]}"; do
@@ -33,7 +43,13 @@ if ((${#missing[@]})); then
 fi
 
 cd "$(dirname "$0")/.."
-build_dir="${1:-build}"
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache "${@:2}"
-cmake --build "$build_dir" -j "$(nproc)"
+if [[ -f build/CMakeCache.txt ]] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' build/CMakeCache.txt; then
+  echo "setup: build/ was configured with another generator than the preset's Ninja: remove it (rm -rf build) and run again" >&2
+  exit 2
+fi
+if [[ -z "${CUDAARCHS:-}" ]]; then
+  if nvidia-smi -L >/dev/null 2>&1; then export CUDAARCHS=native; else export CUDAARCHS=90; fi
+fi
+echo "setup: building $what into build/ (CUDA kernels for $CUDAARCHS)" >&2
+cmake --preset release >/dev/null
+cmake --build build -j "$(nproc)" --target "$target"

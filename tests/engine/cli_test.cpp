@@ -16,8 +16,8 @@
 #include <utility>
 #include <vector>
 
-#include "gpu/pair_finder.h"
 #include "tests/engine/cli_test_support.h"
+#include "tests/needs_device.h"
 
 namespace {
 
@@ -279,8 +279,8 @@ TEST_F(CliTest, RecordWritesBoxesThatLeftTheSimulationSoPairsReadsThem) {
 // device (the emulation build's counts): then `overlap` must run them, not
 // fall back to a CPU finder, and their pairs must be cpubf's.
 TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
-  std::string why;
-  if (!overlap::finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  const char* const gpu_finders[] = {"gpubf", "gpubf-paper", "gpusap"};
+  for (const char* algorithm : gpu_finders) OVERLAP_NEEDS_DEVICE_FOR(algorithm);
   std::filesystem::create_directories(out_);
   const std::filesystem::path stream = out_ / "scene4.aabbs";
   ASSERT_EQ(
@@ -290,7 +290,7 @@ TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
   const std::string exact = stdoutOf("pairs --algo cpubf --input " + stream.string(), &exit_code);
   ASSERT_EQ(exit_code, 0);
   ASSERT_GT(lineCount(exact), 100);
-  for (const std::string algo : {"gpubf", "gpubf-paper", "gpusap"}) {
+  for (const std::string algo : gpu_finders) {
     const std::string args = "pairs --algo " + algo + " --input " + stream.string();
     const Result result = runOverlap(args);
     ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
@@ -303,8 +303,7 @@ TEST_F(CliTest, PairsFromTheGpuFindersEqualCpubfsByteForByte) {
 
 // Where this process sees a CUDA device, so does `overlap`: it runs gpubf there.
 TEST_F(CliTest, RunWithGpubfNamesTheDeviceItRanOn) {
-  std::string why;
-  if (!overlap::finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  OVERLAP_NEEDS_DEVICE_FOR("gpubf");
   const Result result =
       runOverlap("run --scene 4 --objects 150 --frames 6 --algo gpubf --out " + out_.string());
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;

@@ -12,8 +12,8 @@
 #include <stdexcept>
 
 #include "gpu/base/stopwatch.h"
-#include "gpu/pair_finder.h"
 #include "tests/engine/scheduler_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::engine {
 namespace {
@@ -263,10 +263,9 @@ TEST(FrameScheduler, EveryBroadphaseSoundsTheSame) {
 }
 
 TEST(FrameScheduler, AsyncAndSyncGiveTheSameAnswersWithTheGpuFinders) {
-  std::string why;
-  if (!finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
   const Outcome reference = runFrames("cpubf", true, 30);
   for (const char* algorithm : {"gpubf", "gpubf-paper", "gpusap"}) {
+    OVERLAP_NEEDS_DEVICE_FOR(algorithm);
     const Outcome async_run = runFrames(algorithm, false, 30);
     EXPECT_EQ(async_run.pairs, reference.pairs) << algorithm;
     EXPECT_EQ(async_run.state_hash, reference.state_hash) << algorithm;

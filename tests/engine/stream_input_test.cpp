@@ -10,8 +10,8 @@
 #include <sstream>
 #include <string>
 
-#include "gpu/pair_finder.h"
 #include "tests/engine/cli_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::testing {
 namespace {
@@ -67,8 +67,7 @@ TEST_F(StreamInputTest, AStreamFromAPipeIsTimedAsTheSameStreamFromAFile) {
 }
 
 TEST_F(StreamInputTest, TheGpuColumnsHoldWhatTheGpuFindersDidAndNothingForTheOthers) {
-  std::string why;
-  if (!finders::cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
+  for (const char* algorithm : {"gpubf", "gpubf-paper"}) OVERLAP_NEEDS_DEVICE_FOR(algorithm);
   const std::filesystem::path a = out_ / "a.aabbs";
   ASSERT_EQ(runOverlap("generate --scene 4 --objects 300 --frames 3 --out " + a.string()).exit_code,
             0);

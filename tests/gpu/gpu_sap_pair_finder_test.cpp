@@ -16,6 +16,7 @@
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/grid_pair_checker.h"
 #include "tests/gpu/pair_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::finders {
 namespace {
@@ -24,10 +25,7 @@ using testing::BoxSet;
 
 class GpuSapTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string why;
-    if (!cudaDeviceAvailable(&why)) GTEST_SKIP() << "no CUDA device: " << why;
-  }
+  void SetUp() override { OVERLAP_NEEDS_DEVICE_FOR("gpusap"); }
 };
 
 TEST_F(GpuSapTest, SameDeltasAsCpubfAtTheCubBoundarySizes) {

@@ -12,6 +12,7 @@
 
 #include "gpu/cpu/cpu_pair_finder.h"
 #include "tests/gpu/pair_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::finders {
 namespace {
@@ -22,10 +23,7 @@ using testing::BoxSet;
 class PairFinderTest : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {
-    std::string why;
-    if (testing::isGpuFinder(GetParam()) && !cudaDeviceAvailable(&why)) {
-      GTEST_SKIP() << "no CUDA device: " << why;
-    }
+    OVERLAP_NEEDS_DEVICE_FOR(GetParam());
     finder_ = makePairFinder(GetParam());
   }
 

@@ -190,10 +190,6 @@ inline std::vector<ObjectBounds> pileOfThreeSizes(std::uint32_t n, const float (
   return boxes;
 }
 
-inline bool isGpuFinder(std::string_view name) {
-  return pairFinderRow(name).needs_device;
-}
-
 // The names of the finders of the product's table (finders::pairFinderTable()),
 // for tests parameterized over them; `device` picks the CPU or GPU ones.
 inline std::vector<std::string_view> finderNames() {

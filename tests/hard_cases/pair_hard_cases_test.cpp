@@ -22,6 +22,7 @@
 #include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "tests/hard_cases/hard_case_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::hard_cases {
 namespace {
@@ -265,12 +266,7 @@ HardCase longThinCase() {
 
 class PairHardCases : public ::testing::TestWithParam<std::string_view> {
  protected:
-  void SetUp() override {
-    std::string why;
-    if (physics::broadphaseInfo(GetParam()).needs_device && !finders::cudaDeviceAvailable(&why)) {
-      GTEST_SKIP() << "no CUDA device: " << why;
-    }
-  }
+  void SetUp() override { OVERLAP_NEEDS_DEVICE_FOR(GetParam()); }
 
   // Feeds every frame to the broadphase and checks its cache against the oracle.
   void check(const HardCase& hard_case) {

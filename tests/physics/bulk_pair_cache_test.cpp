@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "tests/gpu/pair_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::physics {
 namespace {
@@ -163,10 +164,7 @@ void applyOneByOne(btOverlappingPairCache& cache, const finders::PairDelta& delt
 class BulkPairCacheFinders : public ::testing::TestWithParam<std::string_view> {};
 
 TEST_P(BulkPairCacheFinders, HoldsTheSamePairsInTheSameOrderAsBulletsCacheCallByCall) {
-  std::string why;
-  if (finders::testing::isGpuFinder(GetParam()) && !finders::cudaDeviceAvailable(&why)) {
-    GTEST_SKIP() << "no CUDA device: " << why;
-  }
+  OVERLAP_NEEDS_DEVICE_FOR(GetParam());
   const std::unique_ptr<finders::PairFinder> finder = finders::makePairFinder(GetParam());
   TwoCaches caches;
   Scene scene(600);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "tests/gpu/pair_test_support.h"
+#include "tests/needs_device.h"
 
 namespace overlap::physics {
 namespace {
@@ -56,10 +57,7 @@ class PairLedger : public btOverlappingPairCallback {
 class PairFinderBroadphaseTest : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override {
-    std::string why;
-    if (finders::testing::isGpuFinder(GetParam()) && !finders::cudaDeviceAvailable(&why)) {
-      GTEST_SKIP() << "no CUDA device: " << why;
-    }
+    OVERLAP_NEEDS_DEVICE_FOR(GetParam());
     broadphase_ = std::make_unique<PairFinderBroadphase>(finders::makePairFinder(GetParam()));
     broadphase_->getOverlappingPairCache()->setInternalGhostPairCallback(&ledger_);
   }

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "gpu/pair_finder.h"
+#include "tests/needs_device.h"
 #include "tests/physics/aabb_oracle.h"
 
 namespace overlap::physics {
@@ -97,10 +98,7 @@ TEST_P(OurBroadphaseTest, CacheStaysExactAndPersistentOverScene4) {
   // pair set, each pair once, and a pair that stays keeps its cache entry (a
   // marker left on the entry survives; a removed and re-added pair would come
   // back without it).  One substep per frame, so a frame is one search.
-  std::string why;
-  if (!std::string(GetParam()).starts_with("cpu") && !finders::cudaDeviceAvailable(&why)) {
-    GTEST_SKIP() << "no CUDA device: " << why;
-  }
+  OVERLAP_NEEDS_DEVICE_FOR(GetParam());
   PhysicsWorld world(smallScene(4, 250), WorldOptions{GetParam(), 1});
   static int marker;
   std::set<finders::IndexPair> previous;
