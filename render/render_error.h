@@ -22,9 +22,10 @@ struct ImageSizeError : RenderError {
   using RenderError::RenderError;
 };
 
-// The renderer's process died (render/renderer_process.h): OSMesa dies so
-// when an allocation fails.  A std::bad_alloc, reported as running out of
-// memory; what() says how it ended.
+// OSMesa ran out of memory: it gave no context or framebuffer, or the
+// renderer's process died (render/renderer_process.h), as OSMesa does when
+// an allocation fails.  A std::bad_alloc, reported as running out of
+// memory; what() says where.
 struct RendererOutOfMemory : std::bad_alloc {
   explicit RendererOutOfMemory(std::string why) : why_(std::move(why)) {}
   const char* what() const noexcept override { return why_.c_str(); }

@@ -84,6 +84,8 @@ bool replying(int fd, Work&& work) {
     return true;
   } catch (const ImageSizeError& error) {
     replyError(fd, Reply::kImageSizeError, error.what());
+  } catch (const RendererOutOfMemory& error) {
+    replyError(fd, Reply::kOutOfMemory, error.what());
   } catch (const std::bad_alloc&) {
     replyError(fd, Reply::kOutOfMemory, "an allocation in OSMesa's renderer failed");
   } catch (const std::exception& error) {

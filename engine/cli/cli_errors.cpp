@@ -112,7 +112,12 @@ int runProgram(const char* program, CLI::App& app, const std::function<int()>& b
     printError(program, outOfMemoryText(app, error));
     code = 1;
   } catch (const std::exception& error) {
-    printError(program, std::string("error: ") + error.what());
+    // A thread whose stack cannot be mapped (ulimit -v) is memory run out.
+    const bool no_thread = std::string_view(error.what()).starts_with("pthread_create has failed");
+    printError(program, no_thread ? "out of memory: a thread could not be started (" +
+                                        std::string(error.what()) +
+                                        "; ulimit -v, the machine's memory or its threads)"
+                                  : std::string("error: ") + error.what());
     code = 1;
   }
   const int flushed = flushStandardOutput(program);
