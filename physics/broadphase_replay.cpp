@@ -164,12 +164,13 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   return ReplayPhases{ours->lastSearchStats(), ours->lastCacheUpdateMs()};
 }
 
-void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes) {
+void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes, std::uint64_t caller_per_pair) {
   auto* cache = dynamic_cast<BulkPairCache*>(bullet_->broadphase->getOverlappingPairCache());
   if (cache == nullptr) throw std::logic_error("replay: the broadphase has no bulk pair cache");
-  // Our finders keep this and the last search's pairs, 8 bytes each.
+  // Our finders keep this and the last search's pairs, 8 bytes each; pairs()
+  // copies them out, 8 more.
   const bool ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get()) != nullptr;
-  cache->setMemoryLimit(bytes, ours ? 16 : 0);
+  cache->setMemoryLimit(bytes, (ours ? 16 : 0) + sizeof(PairList::value_type) + caller_per_pair);
   bullet_->bounded = bytes != 0 ? cache : nullptr;
 }
 

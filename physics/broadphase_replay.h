@@ -74,10 +74,11 @@ class BroadphaseReplay {
   // outside its timing) spares the comparison of every box.  Not the first
   // update.
   void updateChanged(std::span<const Aabb> boxes, std::span<const std::uint32_t> changed);
-  // The most bytes the pair cache (and our finders' own pair lists) may
+  // The most bytes the pair cache (with our finders' own pair lists,
+  // pairs()' copy and `caller_per_pair` bytes a pair the caller keeps) may
   // hold; findPairs() throws PairMemoryError (physics/broadphase/bulk_pair_cache.h)
   // instead of growing past it.  0: no limit.
-  void setPairMemoryLimit(std::uint64_t bytes);
+  void setPairMemoryLimit(std::uint64_t bytes, std::uint64_t caller_per_pair = 0);
   // Finds the pairs and updates the persistent pair cache.  A signal may cut
   // a finder's search short (cpubf): the pairs are then not whole, and the
   // caller, which looks at the flag after it, stops.

@@ -181,8 +181,11 @@ struct OffscreenRenderer::Context {
                            " framebuffer");
     const GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
     if (status != GL_FRAMEBUFFER_COMPLETE) {
-      throw RenderError("the " + std::to_string(width) + "x" + std::to_string(height) +
-                        " framebuffer is incomplete (status " + std::to_string(status) + ")");
+      // Both formats are ones OpenGL 3.3 must render to: only their
+      // storage can be missing.
+      throw RendererOutOfMemory("OSMesa cannot allocate the " + std::to_string(width) + "x" +
+                                std::to_string(height) + " framebuffer (status " +
+                                std::to_string(status) + ")");
     }
   }
 
@@ -272,7 +275,9 @@ OffscreenRenderer::OffscreenRenderer(int width, int height, ColourMode mode)
                             3,
                             0};
   c.osmesa.reset(OSMesaCreateContextAttribs(attributes, nullptr));
-  if (!c.osmesa) throw RenderError("OSMesa cannot create an OpenGL 3.3 core context");
+  // This Mesa gives a 3.3 core context (the render tests check it): only
+  // memory can be missing.
+  if (!c.osmesa) throw RendererOutOfMemory("OSMesa cannot create an OpenGL 3.3 core context");
   c.makeCurrent();
   c.gl = loadGlFunctions();
   c.createFramebuffer();

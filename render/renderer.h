@@ -11,8 +11,8 @@
 // Invariants: a render is deterministic (the same renderer size, mode and
 // scene give the same pixels); an Image is either complete or not returned at
 // all: every OSMesa or GL failure, and every malformed input, throws a
-// RenderError naming it.  An OffscreenRenderer owns one GL context and must
-// be used from one thread at a time (Mesa contexts are per thread).
+// RenderError naming it (RendererOutOfMemory where memory ran out).  An OffscreenRenderer owns one
+// GL context and must be used from one thread at a time (Mesa contexts are per thread).
 #pragma once
 
 #include <Eigen/Core>
@@ -61,7 +61,8 @@ class OffscreenRenderer {
  public:
   // Creates the GL context and everything the draws need.  Throws
   // ImageSizeError if the size is not positive or above this OpenGL's limit,
-  // RenderError if OSMesa cannot give an OpenGL 3.3 core context.
+  // RendererOutOfMemory (a std::bad_alloc) if OSMesa cannot give an
+  // OpenGL 3.3 core context or the framebuffer's storage.
   OffscreenRenderer(int width, int height, ColourMode mode = ColourMode::kSizeClass);
   ~OffscreenRenderer();
   // A moved-from renderer may only be destroyed or assigned to.

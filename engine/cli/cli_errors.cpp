@@ -46,6 +46,31 @@ int flushStandardOutput(const char* program) {
   return 1;
 }
 
+// "out of memory: WHAT (ulimit -v or the machine's memory)", advising
+// --max-memory only to a command that has it and was not given it.
+std::string outOfMemoryText(const CLI::App& app, const std::bad_alloc& error) {
+  const std::string what = error.what();
+  std::string text =
+      "out of memory: " +
+      (what == std::bad_alloc().what() ? std::string("an allocation failed") : what) +
+      " (ulimit -v or the machine's memory)";
+  const CLI::App* command = &app;
+  for (const CLI::App* chosen = &app; chosen != nullptr;) {
+    command = chosen;
+    const std::vector<CLI::App*> parsed = chosen->get_subcommands();  // those given
+    chosen = parsed.empty() ? nullptr : parsed.front();
+  }
+  const CLI::Option* limit = nullptr;
+  try {
+    limit = command->get_option("--max-memory");
+  } catch (const CLI::OptionNotFound&) {
+  }
+  if (limit != nullptr && limit->count() == 0) {
+    text += "; a --max-memory below what it can allocate refuses such a run before it allocates";
+  }
+  return text;
+}
+
 }  // namespace
 
 std::string oneLine(std::string_view message) {
@@ -81,13 +106,16 @@ int runProgram(const char* program, CLI::App& app, const std::function<int()>& b
     code = 2;
   } catch (const Interrupted& stop) {
     code = reportInterrupted(program, stop);
-  } catch (const std::bad_alloc&) {
-    printError(program,
-               "out of memory: an allocation failed (ulimit -v or the machine's memory); a "
-               "lower --max-memory refuses such a run before it allocates");
+  } catch (const std::bad_alloc& error) {
+    printError(program, outOfMemoryText(app, error));
     code = 1;
   } catch (const std::exception& error) {
-    printError(program, std::string("error: ") + error.what());
+    // A thread whose stack cannot be mapped (ulimit -v) is memory run out.
+    const bool no_thread = std::string_view(error.what()).starts_with("pthread_create has failed");
+    printError(program, no_thread ? "out of memory: a thread could not be started (" +
+                                        std::string(error.what()) +
+                                        "; ulimit -v, the machine's memory or its threads)"
+                                  : std::string("error: ") + error.what());
     code = 1;
   }
   const int flushed = flushStandardOutput(program);

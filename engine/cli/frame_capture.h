@@ -2,7 +2,9 @@
 // with the scene and the frame (scene4_frame0512.png), as outputs of the
 // run's OutputFolder (published with the rest of the run).  Rendering happens on
 // the main thread after the frame's physics and is timed on its own, never
-// inside the physics timings.
+// inside the physics timings.  OSMesa runs in a process of its own
+// (render/renderer_process.h): where it runs out of memory the run ends
+// with std::bad_alloc, never a signal.
 #pragma once
 
 #include <filesystem>
@@ -12,7 +14,7 @@
 
 #include "gpu/base/output_file.h"
 #include "physics/world.h"
-#include "render/renderer.h"
+#include "render/renderer_process.h"
 
 namespace overlap::engine {
 
@@ -32,7 +34,7 @@ class FrameCapture {
  private:
   OutputFolder& outputs_;
   std::filesystem::path folder_;
-  render::OffscreenRenderer renderer_;
+  render::RendererProcess renderer_;  // OSMesa in a process of its own
   std::vector<std::filesystem::path> written_;
 };
 

@@ -4,6 +4,7 @@
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -115,7 +116,10 @@ void printPairs(const PairsOptions& options) {
     // The pairs get what the boxes leave of the limit.
     const std::uint64_t box_bytes =
         replayBytes(algorithm, static_cast<std::uint64_t>(header.objects));
-    replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, options.max_memory_mb));
+    // A frame's CSV rows are held before they are written: "F,A,B\n".
+    const std::uint64_t row_bytes =
+        std::to_string(header.stored_frames).size() + 2 * std::to_string(header.objects).size() + 3;
+    replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, options.max_memory_mb), row_bytes);
 
     Progress progress("overlap pairs", header.stored_frames);
     std::vector<double> search_ms;
@@ -132,6 +136,9 @@ void printPairs(const PairsOptions& options) {
         throw pairMemoryRefusal(error, options.max_memory_mb,
                                 "--input " + options.input.string() + ", frame " +
                                     std::to_string(frame) + " with --algo " + algorithm);
+      } catch (const std::invalid_argument& error) {  // boxes sap's grid cannot hold
+        throw UsageError("--input " + options.input.string() + ", frame " + std::to_string(frame) +
+                         ": " + error.what());
       }
       // A signal cuts cpubf's search short: its pairs are not whole.
       if (pendingInterrupt() != 0) {

@@ -440,6 +440,12 @@ void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) 
     physics::AabbStreamHeader header;
     try {
       physics::AabbStreamReader reader(workload.input);
+      // The benchmark holds the stream whole: what its header claims must
+      // fit the limit before a box is read (a pipe's header included).
+      requireMemory(physics::aabbStreamBytes(reader.header()), options.max_memory_mb,
+                    "--input " + workload.input.string() + ": " +
+                        std::to_string(reader.header().stored_frames) + " frames of " +
+                        std::to_string(reader.header().objects) + " boxes, held whole,");
       if (reader.sized()) {
         reader.checkAll();
         header = reader.header();

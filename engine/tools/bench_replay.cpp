@@ -148,7 +148,12 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
   const std::uint64_t box_bytes =
       replayBytes(row.algorithm, objects) +
       objects * static_cast<std::uint64_t>(stream.stored_frames) * sizeof(physics::Aabb);
-  replay.setPairMemoryLimit(pairMemoryLimit(box_bytes, max_memory_mb));
+  // ... and the reference pairs held (which the reference run adds to).
+  std::uint64_t reference_bytes = 0;
+  for (const physics::PairList& frame_pairs : reference) {
+    reference_bytes += frame_pairs.size() * sizeof(physics::PairList::value_type);
+  }
+  replay.setPairMemoryLimit(pairMemoryLimit(box_bytes + reference_bytes, max_memory_mb));
   if (replay.algorithm() != row.algorithm) {
     throw std::runtime_error("algorithm " + row.algorithm + " ran as " + replay.algorithm() + ": " +
                              replay.notice());
@@ -185,6 +190,9 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
       throw pairMemoryRefusal(error, max_memory_mb,
                               "n=" + std::to_string(stream.objects) + " with --algos " +
                                   row.algorithm + ", frame " + std::to_string(frame));
+    } catch (const std::invalid_argument& error) {  // boxes sap's grid cannot hold
+      throw UsageError("n=" + std::to_string(stream.objects) + ", frame " + std::to_string(frame) +
+                       ": " + error.what());
     }
     const double elapsed_us = usSince(start);
     // After the clock: a signal cuts cpubf's search short, its pairs not whole.
@@ -197,7 +205,9 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
       row.pairs_sum += static_cast<double>(pairs.size());
     }
     if (fills_reference) {
+      reference_bytes += pairs.size() * sizeof(physics::PairList::value_type);
       reference.push_back(std::move(pairs));
+      replay.setPairMemoryLimit(pairMemoryLimit(box_bytes + reference_bytes, max_memory_mb));
     } else if (has_reference) {
       const physics::PairList& all = reference[static_cast<std::size_t>(frame)];
       const physics::PairList exact =

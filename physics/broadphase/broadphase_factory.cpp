@@ -4,11 +4,15 @@
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
 #include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <type_traits>
 
+#include "gpu/base/interrupt.h"
 #include "physics/broadphase/bulk_pair_cache.h"
 #include "physics/broadphase/ccd_query_broadphase.h"
 #include "physics/broadphase/growing_sweep_and_prune.h"
@@ -20,6 +24,14 @@ namespace {
 // btAxisSweep3 stores handles in 16 bits and reserves a few for itself.
 constexpr int kMaxSap16Objects = 32766;
 
+// What Bullet's bf, sap and sap32 throw when a proxy past the max_objects
+// they were made for is added: Bullet's own would hand out a broken one.
+[[noreturn]] void throwMaxObjectsExceeded(std::string_view name, int max_objects) {
+  throw std::invalid_argument("algo " + std::string(name) + ": made with max_objects " +
+                              std::to_string(max_objects) +
+                              ", and one more proxy was added; make it with a larger max_objects");
+}
+
 // Bullet's own broadphases with our pair cache, which holds the same pairs in
 // the same order as theirs (physics/broadphase/bulk_pair_cache.h) but checks its
 // allocations and can be bounded.  The cache is the first base, so it is
@@ -30,16 +42,78 @@ struct PairCacheOwner {
 
 class BruteForceBroadphase final : private PairCacheOwner, public btSimpleBroadphase {
  public:
-  explicit BruteForceBroadphase(int max_objects) : btSimpleBroadphase(max_objects, &cache) {}
+  // Bullet's writes before its handles when made for none: it gets one.
+  explicit BruteForceBroadphase(int max_objects)
+      : btSimpleBroadphase(std::max(max_objects, 1), &cache), max_objects_(max_objects) {}
+
+  // Bullet's returns null past max_objects, and its world writes through it.
+  btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
+                                 void* userPtr, int collisionFilterGroup, int collisionFilterMask,
+                                 btDispatcher* dispatcher) override {
+    if (m_numHandles >= max_objects_) throwMaxObjectsExceeded("bf", max_objects_);
+    return btSimpleBroadphase::createProxy(aabbMin, aabbMax, shapeType, userPtr,
+                                           collisionFilterGroup, collisionFilterMask, dispatcher);
+  }
+
+  // Bullet's pass, pair for pair and in its order (the same pairs, the same
+  // cache), with a look at the signal flag every kRowsPerLook rows: a frame
+  // of 150k boxes is minutes, and a signal cuts it short (the world then
+  // stops, gpu/base/interrupt.h).  Bullet's deferred-removal branch is only
+  // for a cache the broadphase owns, which this one never does.
+  void calculateOverlappingPairs(btDispatcher* dispatcher) override {
+    constexpr int kRowsPerLook = 64;
+    int last_used = -1;
+    for (int i = 0; i <= m_LastHandleIndex; ++i) {
+      if (i % kRowsPerLook == 0 && pendingInterrupt() != 0) return;
+      btSimpleBroadphaseProxy* proxy0 = &m_pHandles[i];
+      if (proxy0->m_clientObject == nullptr) continue;
+      last_used = i;
+      for (int j = i + 1; j <= m_LastHandleIndex; ++j) {
+        btSimpleBroadphaseProxy* proxy1 = &m_pHandles[j];
+        if (proxy1->m_clientObject == nullptr) continue;
+        if (aabbOverlap(proxy0, proxy1)) {
+          if (m_pairCache->findPair(proxy0, proxy1) == nullptr) {
+            m_pairCache->addOverlappingPair(proxy0, proxy1);
+          }
+        } else if (!m_pairCache->hasDeferredRemoval() &&
+                   m_pairCache->findPair(proxy0, proxy1) != nullptr) {
+          m_pairCache->removeOverlappingPair(proxy0, proxy1, dispatcher);
+        }
+      }
+    }
+    m_LastHandleIndex = last_used;
+  }
+
+ private:
+  int max_objects_;
 };
 
 template <class Sweep, class Handle>
 class SweepBroadphase final : private PairCacheOwner, public Sweep {
  public:
-  SweepBroadphase(const btVector3& world_min, const btVector3& world_max, Handle handles)
+  SweepBroadphase(const btVector3& world_min, const btVector3& world_max, int max_objects)
       // No ray-test tree of its own: makeWorldBroadphase() answers every
-      // broadphase's ray and sweep queries through one shared tree.
-      : Sweep(world_min, world_max, handles, &cache, true) {}
+      // broadphase's ray and sweep queries through one shared tree.  Bullet
+      // adds its sentinel handle to these, and takes it for a proxy when
+      // made for none.
+      : Sweep(world_min, world_max, static_cast<Handle>(std::max(max_objects, 1)), &cache, true),
+        max_objects_(max_objects) {}
+
+  btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
+                                 void* userPtr, int collisionFilterGroup, int collisionFilterMask,
+                                 btDispatcher* dispatcher) override {
+    if (static_cast<int>(this->m_numHandles) >= max_objects_) {
+      throwMaxObjectsExceeded(name(), max_objects_);
+    }
+    return Sweep::createProxy(aabbMin, aabbMax, shapeType, userPtr, collisionFilterGroup,
+                              collisionFilterMask, dispatcher);
+  }
+
+ private:
+  static constexpr std::string_view name() {
+    return std::is_same_v<Handle, unsigned short> ? "sap" : "sap32";
+  }
+  int max_objects_;
 };
 
 class TreeBroadphase final : private PairCacheOwner, public btDbvtBroadphase {
@@ -69,14 +143,14 @@ constexpr BulletRow kBulletRows[] = {
          throw std::invalid_argument("algo sap: " + problem);
        }
        return std::make_unique<SweepBroadphase<GrowingAxisSweep16, unsigned short>>(
-           world_min, world_max, static_cast<unsigned short>(max_objects + 1));
+           world_min, world_max, max_objects);
      }},
     {{"sap32", false, false,
       "Bullet's bt32BitAxisSweep3: sweep and prune on 32-bit quantized bounds"},
      [](const btVector3& world_min, const btVector3& world_max,
         int max_objects) -> std::unique_ptr<btBroadphaseInterface> {
        return std::make_unique<SweepBroadphase<GrowingAxisSweep32, unsigned int>>(
-           world_min, world_max, static_cast<unsigned int>(max_objects + 1));
+           world_min, world_max, max_objects);
      }},
     {{"bvh", false, false, "Bullet's btDbvtBroadphase: trees of fattened boxes (the paper's BVH)"},
      [](const btVector3&, const btVector3&, int) -> std::unique_ptr<btBroadphaseInterface> {
@@ -86,19 +160,19 @@ constexpr BulletRow kBulletRows[] = {
 
 // Bullet's allocations return null when memory runs out, and Bullet writes
 // through it: a signal.  Through this allocator they throw std::bad_alloc.
+// It is installed as the program starts, before any Bullet object (a
+// btDefaultCollisionConfiguration's pools are allocated before any
+// broadphase): every program that links this library gets it.
 void* checkedAllocation(std::size_t bytes) {
   void* memory = std::malloc(bytes);
   if (memory == nullptr) throw std::bad_alloc();
   return memory;
 }
 
-void checkBulletAllocations() {
-  static const bool installed = [] {
-    btAlignedAllocSetCustom(checkedAllocation, std::free);
-    return true;
-  }();
-  (void)installed;
-}
+[[maybe_unused]] const bool kBulletAllocationsChecked = [] {
+  btAlignedAllocSetCustom(checkedAllocation, std::free);
+  return true;
+}();
 
 }  // namespace
 
@@ -133,7 +207,10 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
                                            const btVector3& world_max, int max_objects,
                                            TaskSystem& tasks) const {
   const BroadphaseInfo& info = this->info(name);
-  checkBulletAllocations();
+  if (max_objects < 0) {
+    throw std::invalid_argument("algo " + std::string(name) + ": max_objects " +
+                                std::to_string(max_objects) + " is negative");
+  }
   BroadphaseChoice choice;
   choice.name = std::string(name);
   for (const BulletRow& row : kBulletRows) {

@@ -15,9 +15,9 @@
 // counts).  Not exact: it holds all of them and may hold more.
 // Every broadphase keeps its pairs in a BulkPairCache (physics/broadphase/bulk_pair_cache.h:
 // the same pairs in the same order as Bullet's own cache), which checks its
-// allocations and can be bounded; and from the first broadphase made on,
-// Bullet's allocations throw std::bad_alloc when memory runs out instead of
-// returning null.
+// allocations and can be bounded; and from the program's start (before any
+// Bullet object: linking this library installs it), Bullet's allocations
+// throw std::bad_alloc when memory runs out instead of returning null.
 // A device name without a CUDA device runs kDeviceFallback, the fastest exact
 // CPU finder; the returned notice says so in one line, and `name` is what
 // actually runs.
@@ -91,9 +91,12 @@ class BroadphaseCatalogue {
   // are where objects are expected (SAP quantizes inside them first and grows
   // them around any box outside: physics/broadphase/growing_sweep_and_prune.h);
   // `max_objects` is the most proxies the run will create.  Throws
-  // std::invalid_argument for an unknown name or a count the algorithm can't
-  // hold.  Our CPU finders search on `tasks`' threads, which must outlive
-  // the broadphase.
+  // std::invalid_argument for an unknown name, a negative max_objects or
+  // one the algorithm can't hold.  Bullet's bf, sap and sap32 hold
+  // max_objects proxies at most: one more throws std::invalid_argument
+  // naming max_objects (the object added is then left without a proxy);
+  // bvh and our finders grow.  Our CPU finders search on `tasks`' threads,
+  // which must outlive the broadphase.
   BroadphaseChoice make(std::string_view name, const btVector3& world_min,
                         const btVector3& world_max, int max_objects,
                         TaskSystem& tasks = defaultTaskSystem()) const;

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -81,6 +84,7 @@ void GrowingSweepAndPrune<Sweep>::calculateOverlappingPairs(btDispatcher* dispat
   const auto count = static_cast<int>(this->m_numHandles);
   btVector3 lo(BT_LARGE_FLOAT, BT_LARGE_FLOAT, BT_LARGE_FLOAT);
   btVector3 hi = -lo;
+  btScalar smallest = BT_LARGE_FLOAT;  // the smallest box's widest side, points left out
   const Edge* edges = this->m_pEdges[0];
   for (int e = 1; e <= 2 * count; ++e) {
     if (edges[e].IsMax() != 0) continue;
@@ -88,6 +92,9 @@ void GrowingSweepAndPrune<Sweep>::calculateOverlappingPairs(btDispatcher* dispat
     if (!finite(handle->m_aabbMin) || !finite(handle->m_aabbMax)) continue;
     lo.setMin(handle->m_aabbMin);
     hi.setMax(handle->m_aabbMax);
+    const btVector3 side = handle->m_aabbMax - handle->m_aabbMin;
+    const btScalar size = std::max({side.x(), side.y(), side.z()});
+    if (size > 0) smallest = std::min(smallest, size);
   }
   if (count > 0 && lo.x() <= hi.x()) {
     const btVector3 extent = hi - lo;
@@ -97,15 +104,49 @@ void GrowingSweepAndPrune<Sweep>::calculateOverlappingPairs(btDispatcher* dispat
     for (int axis = 0; axis < 3; ++axis) {
       loose = loose || bounds[axis] > 4 * std::max(extent[axis], widest * btScalar(1e-3));
     }
-    if (loose) {
+    // Too coarse for the boxes: as fine as their spread allows first.
+    if (loose || coarserThanTheBoxes(smallest)) {
       btVector3 room;
       for (int axis = 0; axis < 3; ++axis) {
         room[axis] = btScalar(0.25) * std::max(extent[axis], widest * btScalar(1e-3));
       }
       setBounds(lo - room, hi + room, dispatcher);
     }
+    refuseCoarseGrid(lo, hi, smallest);
   }
   Sweep::calculateOverlappingPairs(dispatcher);
+}
+
+template <typename Sweep>
+btScalar GrowingSweepAndPrune<Sweep>::cell() const {
+  btScalar widest = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    widest = std::max(widest, btScalar(1) / this->m_quantize[axis]);
+  }
+  return widest;
+}
+
+template <typename Sweep>
+bool GrowingSweepAndPrune<Sweep>::coarserThanTheBoxes(btScalar smallest) const {
+  return smallest < BT_LARGE_FLOAT && cell() * kCellsPerSmallestBox > smallest;
+}
+
+template <typename Sweep>
+void GrowingSweepAndPrune<Sweep>::refuseCoarseGrid(const btVector3& lo, const btVector3& hi,
+                                                   btScalar smallest) const {
+  if (!coarserThanTheBoxes(smallest)) return;
+  const bool sixteen = std::is_same_v<Sweep, btAxisSweep3>;
+  const auto point = [](const btVector3& v) {
+    return "(" + std::to_string(v.x()) + ", " + std::to_string(v.y()) + ", " +
+           std::to_string(v.z()) + ")";
+  };
+  throw std::invalid_argument(
+      std::string("algo ") + (sixteen ? "sap" : "sap32") + ": boxes from " + point(lo) + " to " +
+      point(hi) + " leave its " + (sixteen ? "16" : "32") + "-bit grid cells of " +
+      std::to_string(cell()) + " m, coarser than 1/" + std::to_string(kCellsPerSmallestBox) +
+      " of the smallest box (" + std::to_string(smallest) +
+      " m): it would pair boxes that do not touch; " +
+      (sixteen ? "use sap32 or an exact one (cpusap)" : "use an exact one (cpusap)"));
 }
 
 // Every proxy's box on the new grid, each axis sorted again, and the pair

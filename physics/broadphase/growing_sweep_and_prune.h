@@ -15,11 +15,19 @@
 //
 // Invariants: every finite box lies inside the bounds, so the pair cache
 // holds every overlapping pair and only the pairs whose quantized boxes
-// overlap (a few more, from rounding to the grid); the proxies a caller
+// overlap (boxes within 4 cells, from rounding); the proxies a caller
 // holds never move.  Before each pair search the bounds shrink back around
 // the boxes if these span under a quarter of them on some axis (a box that
 // flew far and left must not leave the grid coarse), an O(n) look.  A box
 // with a non-finite corner grows nothing (Bullet clamps it, as before).
+//
+// A grid cell is at most 1/kCellsPerSmallestBox of the smallest box (its
+// widest side; points aside), so a pair held that does not overlap is two
+// boxes within 4 cells of each other on every axis (Bullet rounds each side
+// out by up to 2).  Boxes spread so far (one box gone far off) that the
+// grid would be coarser make the pair search throw std::invalid_argument
+// naming the spread, the cell and the smallest box, instead of pairing
+// boxes that do not touch.
 #pragma once
 
 #include <BulletCollision/BroadphaseCollision/btAxisSweep3.h>
@@ -37,8 +45,12 @@ class GrowingSweepAndPrune : public Sweep {
   void setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
                btDispatcher* dispatcher) override;
   // First shrinks the bounds to the boxes when they span under a quarter of
-  // them on an axis (one far box gone must not leave the grid coarse).
+  // them on an axis (one far box gone must not leave the grid coarse); then
+  // throws std::invalid_argument if the grid is coarser than the boxes.
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
+
+  // The most a grid cell may be, as a share of the smallest box.
+  static constexpr int kCellsPerSmallestBox = 64;
 
   // How many times the bounds grew (for tests).
   int growths() const { return growths_; }
@@ -49,6 +61,9 @@ class GrowingSweepAndPrune : public Sweep {
   void fit(const btVector3& aabbMin, const btVector3& aabbMax, btDispatcher* dispatcher);
   void setBounds(const btVector3& lo, const btVector3& hi, btDispatcher* dispatcher);
   void requantize(btDispatcher* dispatcher);
+  btScalar cell() const;  // the grid's widest cell, in metres
+  bool coarserThanTheBoxes(btScalar smallest) const;
+  void refuseCoarseGrid(const btVector3& lo, const btVector3& hi, btScalar smallest) const;
   int growths_ = 0;
 };
 

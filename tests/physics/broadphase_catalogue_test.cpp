@@ -2,16 +2,21 @@
 // broadphases: every name in it makes its broadphase, and README's table
 // lists the same names with the same exactness.  Whether an "exact" entry
 // really is exact is checked on the hard cases (tests/hard_cases/).
+#include <btBulletDynamicsCommon.h>
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "gpu/base/interrupt.h"
 #include "gpu/pair_finder.h"
 #include "physics/broadphase/broadphase_factory.h"
 
@@ -97,6 +102,96 @@ TEST(BroadphaseCatalogue, EveryNameMakesItsBroadphaseOrSaysWhyNot) {
   EXPECT_THROW(broadphaseInfo("octree"), std::invalid_argument);
   EXPECT_THROW(makeBroadphase("octree", btVector3(-1, -1, -1), btVector3(1, 1, 1), 4),
                std::invalid_argument);
+}
+
+// `boxes` unit boxes added, in a row, to a stock Bullet world on the
+// broadphase `name` makes for `max_objects` (what a package user writes).
+void addBoxes(std::string_view name, int max_objects, int boxes) {
+  BroadphaseChoice choice =
+      makeWorldBroadphase(name, btVector3(-100, -100, -100), btVector3(100, 100, 100), max_objects);
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher(&config);
+  btSequentialImpulseConstraintSolver solver;
+  btDiscreteDynamicsWorld world(&dispatcher, choice.broadphase.get(), &solver, &config);
+  btBoxShape shape(btVector3(0.5f, 0.5f, 0.5f));
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  struct Remove {
+    btDiscreteDynamicsWorld& world;
+    std::vector<std::unique_ptr<btRigidBody>>& bodies;
+    ~Remove() {
+      for (auto& body : bodies) {
+        if (body->getBroadphaseHandle() != nullptr) world.removeRigidBody(body.get());
+      }
+    }
+  } remove{world, bodies};
+  for (int i = 0; i < boxes; ++i) {
+    bodies.push_back(std::make_unique<btRigidBody>(1.0f, nullptr, &shape, btVector3(1, 1, 1)));
+    bodies.back()->setWorldTransform(
+        btTransform(btQuaternion::getIdentity(), btVector3(0.9f * static_cast<float>(i), 0, 0)));
+    world.addRigidBody(bodies.back().get());
+  }
+  world.stepSimulation(1.0f / 60.0f, 0);
+}
+
+TEST(BroadphaseCatalogue, BulletsFixedBroadphasesRefuseAProxyPastMaxObjectsNamingIt) {
+  for (const std::string_view name : {"bf", "sap", "sap32"}) {
+    for (const int max_objects : {0, 5}) {
+      try {
+        addBoxes(name, max_objects, 50);
+        ADD_FAILURE() << name << " with max_objects " << max_objects << " took 50 boxes";
+      } catch (const std::invalid_argument& error) {
+        const std::string text = error.what();
+        EXPECT_NE(text.find("max_objects " + std::to_string(max_objects)), std::string::npos)
+            << text;
+        EXPECT_NE(text.find("algo " + std::string(name) + ":"), std::string::npos) << text;
+      }
+    }
+    EXPECT_NO_THROW(addBoxes(name, 50, 50)) << name << " holds as many as it was made for";
+  }
+}
+
+TEST(BroadphaseCatalogue, TheGrowingBroadphasesTakeMoreThanMaxObjects) {
+  for (const std::string_view name : {"bvh", "cpusap", "cpubf"}) {
+    EXPECT_NO_THROW(addBoxes(name, 5, 50)) << name;
+  }
+}
+
+TEST(BroadphaseCatalogue, ANegativeMaxObjectsIsRefusedNamingIt) {
+  for (const BroadphaseInfo& info : broadphaseCatalogue()) {
+    try {
+      makeBroadphase(info.name, btVector3(-1, -1, -1), btVector3(1, 1, 1), -1);
+      ADD_FAILURE() << info.name << " took max_objects -1";
+    } catch (const std::invalid_argument& error) {
+      EXPECT_NE(std::string(error.what()).find("max_objects -1"), std::string::npos)
+          << error.what();
+    }
+  }
+}
+
+// bf's pass over every pair looks at the signal flag as it goes: a frame of
+// many boxes stops early, and a later pass finds every pair.
+TEST(BroadphaseCatalogue, BfsPairPassStopsForASignalAndFindsEveryPairAfter) {
+  constexpr int kBoxes = 2000;
+  BroadphaseChoice bf =
+      makeBroadphase("bf", btVector3(-10, -10, -10), btVector3(3000, 10, 10), kBoxes);
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher(&config);
+  std::vector<btBroadphaseProxy*> proxies;
+  int owner = 0;  // bf skips a proxy with no client object
+  for (int i = 0; i < kBoxes; ++i) {
+    const btVector3 centre(0.9f * static_cast<float>(i), 0, 0);
+    proxies.push_back(bf.broadphase->createProxy(centre - btVector3(0.5f, 0.5f, 0.5f),
+                                                 centre + btVector3(0.5f, 0.5f, 0.5f),
+                                                 BOX_SHAPE_PROXYTYPE, &owner, 1, -1, &dispatcher));
+  }
+  interrupt_detail::received = SIGINT;
+  bf.broadphase->calculateOverlappingPairs(&dispatcher);
+  interrupt_detail::received = 0;
+  const int cut_short = bf.broadphase->getOverlappingPairCache()->getNumOverlappingPairs();
+  EXPECT_LT(cut_short, kBoxes - 1) << "the pass ran to its end with a signal pending";
+  bf.broadphase->calculateOverlappingPairs(&dispatcher);
+  EXPECT_EQ(bf.broadphase->getOverlappingPairCache()->getNumOverlappingPairs(), kBoxes - 1);
+  for (btBroadphaseProxy* proxy : proxies) bf.broadphase->destroyProxy(proxy, &dispatcher);
 }
 
 }  // namespace

@@ -2,9 +2,13 @@
 // grows them around boxes outside, so sap and sap32 keep every overlapping
 // pair and only a few more, wherever the boxes are: a row of boxes far
 // beyond the stated world, one that moves further out, one box thrown far
-// and back, and one created through a world's broadphase outside its bounds.
+// and back, and one created through a world's broadphase outside its bounds;
+// and a spread the grid cannot hold finely is refused.
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <string>
+#include <tuple>
 #include <vector>
 
 #include "physics/broadphase/broadphase_factory.h"
@@ -64,13 +68,48 @@ TEST(GrowingSweepAndPrune, TheBoundsShrinkBackWhenAFarBoxReturns) {
     std::vector<Aabb> boxes = row(0);
     replay.update(boxes);
     replay.findPairs();
-    boxes[0] = Aabb{{1e6f, 0, 0}, {1e6f + 3, 3, 3}};
+    // As far as sap's 16-bit grid allows boxes of edge 3 (cells of 3/64 m).
+    boxes[0] = Aabb{{1000, 0, 0}, {1003, 3, 3}};
     replay.update(boxes);
     replay.findPairs();
     boxes = row(0);
     replay.update(boxes);
     replay.findPairs();
     expectFewExtraPairs(replay, boxes);
+  }
+}
+
+// One box far enough off that the grid would turn coarser than the boxes
+// (sap: a box 1e6 m off gives cells of 19 m) is refused, naming the spread,
+// the cell and the smallest box, where Bullet would pair boxes that do not
+// touch; sap32's finer grid holds it, up to a spread of 1e30 m.
+TEST(GrowingSweepAndPrune, AFarBoxThatWouldMakeTheGridCoarserThanTheBoxesIsRefused) {
+  const Aabb stated{{0, 0, 0}, {6, 3, 3}};
+  for (const auto& [algo, far, refused] :
+       {std::tuple{"sap", 1e6f, true}, std::tuple{"sap", 1e7f, true},
+        std::tuple{"sap32", 1e6f, false}, std::tuple{"sap32", 1e30f, true}}) {
+    BroadphaseReplay replay(algo, stated, kBoxes);
+    std::vector<Aabb> boxes = row(0);
+    replay.update(boxes);
+    replay.findPairs();
+    boxes[kBoxes - 1] = Aabb{{far, 0, 0}, {far + 3, 3, 3}};
+    replay.update(boxes);
+    if (!refused) {
+      replay.findPairs();
+      const PairList wanted = testing::oraclePairs(boxes);
+      EXPECT_EQ(countMissing(wanted, replay.pairs()), 0u) << algo;
+      EXPECT_LE(replay.pairs().size(), wanted.size() + wanted.size() / 10) << algo << " " << far;
+      continue;
+    }
+    try {
+      replay.findPairs();
+      ADD_FAILURE() << algo << " paired boxes spread to " << far << " m";
+    } catch (const std::invalid_argument& error) {
+      const std::string text = error.what();
+      EXPECT_NE(text.find(std::string("algo ") + algo + ": boxes from"), std::string::npos) << text;
+      EXPECT_NE(text.find("grid cells of"), std::string::npos) << text;
+      EXPECT_NE(text.find("smallest box (3.0"), std::string::npos) << text;
+    }
   }
 }
 

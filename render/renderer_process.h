@@ -1,0 +1,58 @@
+// An OffscreenRenderer in a process of its own, so that OSMesa cannot take
+// the program down.
+//
+// OSMesa writes through the null that a failed allocation returns (in
+// OSMesaCreateContextAttribs, in its shader linking, in a draw), and a
+// program that runs out of memory there dies by SIGSEGV or SIGABRT,
+// leaving its temporaries behind.  A RendererProcess forks a child that
+// owns the GL context and does every OSMesa call; it draws what it is sent
+// through a pipe and sends the image back.  The child ignores the signals
+// the program handles (gpu/base/interrupt.h: the program stops, and the
+// child ends with it), holds no descriptor of the program's but its two
+// pipes, and ends when the program closes them or dies.
+//
+// Invariants: the same errors as OffscreenRenderer's (ImageSizeError,
+// RenderError naming the problem), raised in the program; a child that
+// dies throws RendererOutOfMemory, and every later call throws it too; the
+// destructor waits for the child, so none outlives its RendererProcess.
+#pragma once
+
+#include <sys/types.h>
+
+#include <cstddef>
+#include <string>
+
+#include "render/renderer.h"
+
+namespace overlap::render {
+
+class RendererProcess {
+ public:
+  // Starts the child and has it make the renderer (OffscreenRenderer's
+  // constructor, and its errors).  Throws std::bad_alloc if no process can
+  // be started.
+  RendererProcess(int width, int height, ColourMode mode = ColourMode::kSizeClass);
+  ~RendererProcess();
+  RendererProcess(const RendererProcess&) = delete;
+  RendererProcess& operator=(const RendererProcess&) = delete;
+
+  // OffscreenRenderer::render(), done in the child.
+  Image render(const SceneView& view);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  void send(const void* bytes, std::size_t size);
+  void receive(void* bytes, std::size_t size);
+  void receiveReply();
+  [[noreturn]] void childDied();
+
+  int width_;
+  int height_;
+  pid_t child_ = -1;
+  int to_child_ = -1;  // a socket to the child, both ways
+  std::string why_;    // how the child ended, once it has
+};
+
+}  // namespace overlap::render
