@@ -33,13 +33,12 @@
 
 #include "gpu/cuda/cuda_buffers.h"
 #include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/launch_shape.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/pair_logic.h"
 
 namespace overlap::finders {
 namespace {
-
-constexpr unsigned kThreadsPerBlock = 256;
 
 __global__ void paperPairsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
                                  std::uint8_t* __restrict__ results) {

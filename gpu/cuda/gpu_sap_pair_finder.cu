@@ -88,7 +88,6 @@ namespace {
 
 using namespace sap_kernels;
 
-constexpr unsigned kMaxBlocks = 1u << 16;
 // Sweep blocks per multiprocessor at least, whatever n: the candidates
 // outnumber the boxes, and the grid strides over them.
 constexpr unsigned kSweepBlocksPerSm = 8;
@@ -99,11 +98,6 @@ std::size_t withHeadroom(std::size_t wanted) {
   return wanted + wanted / 4 + 64;
 }
 
-unsigned blocksFor(std::uint64_t items) {
-  const std::uint64_t blocks = (items + kThreadsPerBlock - 1) / kThreadsPerBlock;
-  return static_cast<unsigned>(std::clamp<std::uint64_t>(blocks, 1, kMaxBlocks));
-}
-
 class GpuSapPairFinder final : public PairFinder {
  public:
   GpuSapPairFinder() {
@@ -111,12 +105,13 @@ class GpuSapPairFinder final : public PairFinder {
     cudaDeviceProp properties{};
     CUDA_CHECK(cudaGetDevice(&device));
     CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
-    sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
+    sweep_blocks_ = static_cast<unsigned>(std::min<std::uint64_t>(
+        std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm, kMaxBlocks));
     counters_ = DeviceBuffer<FrameCounters>(1);
     // Zero for the first frame; each frame's last kernel zeroes them for the next.
     CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), frame_.stream()));
-    block_ = DeviceBuffer<ResultBlock>(1);
-    host_ = PinnedBuffer<ResultBlock>(1);
+    block_ = DeviceBuffer<SapResultBlock>(1);
+    host_ = PinnedBuffer<SapResultBlock>(1);
   }
 
   GpuSapPairFinder(const GpuSapPairFinder&) = delete;
@@ -125,10 +120,11 @@ class GpuSapPairFinder final : public PairFinder {
   std::string_view name() const override { return "gpusap"; }
 
  private:
+  // The stage times are read from the last frame's events only here, when asked.
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.search_ms = last_search_ms_;
-    stats.device = frame_.lastWork();
+    stats.device = frame_.lastWorkTimed();
+    stats.search_ms = stats.device.upload_ms + stats.device.kernels_ms + stats.device.download_ms;
     return stats;
   }
 
@@ -156,15 +152,19 @@ class GpuSapPairFinder final : public PairFinder {
   // checked with its caller's file and line, by frame_ (gpu/cuda/device_frame.h).
   using Where = std::source_location;
 
-  // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
-  // temp_ grown to fit) the work.
+  // Runs a CUB call.  CUB's protocol asks its temporary size first; that
+  // query is made only while sizing_ (the first frame of a new shape of the
+  // calls' arguments, enqueueSearch()), and temp_ grown to the largest
+  // answer; other frames make only the call.
   template <class CubCall>
   void cub(CubCall cub_call, Where where = Where::current()) {
-    std::size_t bytes = 0;
-    frame_.check(cub_call(nullptr, bytes), "a CUB size query", where);
-    // At least one byte: a null temp_ would make the second call a query too.
-    reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
-    bytes = temp_.size();
+    if (sizing_) {
+      std::size_t bytes = 0;
+      frame_.check(cub_call(nullptr, bytes), "a CUB size query", where);
+      // At least one byte: a null temp_ would make the call a query too.
+      reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
+    }
+    std::size_t bytes = temp_.size();
     frame_.check(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
   }
 
@@ -216,6 +216,10 @@ class GpuSapPairFinder final : public PairFinder {
     const int first = (previous_ + 1) % 3;
     const int second = (previous_ + 2) % 3;
     current_ = first;
+    // What CUB's temporary sizes depend on: its item counts and bit ranges.
+    const CubShape shape{entries, pairs, maxSlabs(),
+                         n > 0 ? static_cast<int>(std::bit_width(n)) : -1, last_set_room_};
+    sizing_ = shape != cub_shape_;
     if (n > 0) {
       boundsKernel<<<blocksFor(std::max<std::uint64_t>({n, entries, pairs})), kThreadsPerBlock, 0,
                      frame_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
@@ -242,8 +246,8 @@ class GpuSapPairFinder final : public PairFinder {
         return cub::DeviceScan::ExclusiveSum(temp, bytes, counts, offsets_.data(), entries + 1,
                                              frame_.stream());
       });
-      sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
-                    kThreadsPerBlock, 0, frame_.stream()>>>(
+      sweepKernel<<<std::max(blocksFor(entries), sweep_blocks_), kThreadsPerBlock, 0,
+                    frame_.stream()>>>(
           objects_.data(), entries, max_slabs, keys.Current(), slots.Current(), offsets_.data(),
           counters, pairs_[first].data(), static_cast<unsigned long long>(pairs));
       frame_.launched();
@@ -282,41 +286,49 @@ class GpuSapPairFinder final : public PairFinder {
     packKernel<<<1, kPackThreads, 0, frame_.stream()>>>(free, last_frame, counters, block_.data());
     frame_.launched();
     frame_.record(DeviceFrame::kSearched);
-    frame_.download(host_.data(), block_.data(), sizeof(ResultBlock));
+    frame_.download(host_.data(), block_.data(), sizeof(SapResultBlock));
     frame_.record(DeviceFrame::kDone);
+    cub_shape_ = shape;  // only now: a frame that threw part way sizes again
   }
 
   // The one of the three pair buffers that is neither last frame's nor this one's.
   int freeBuffer() const { return 3 - previous_ - current_; }
 
   PairDelta collectDelta() {
-    DeviceWork& work = frame_.work();
     frame_.wait(DeviceFrame::kDone);
-    work.upload_ms = frame_.elapsed(DeviceFrame::kStarted, DeviceFrame::kUploaded);
-    noteSearchTimes();
-    const ResultBlock& block = *host_.data();
-    if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
-      reserveEntries(withHeadroom(block.entries));
-      reservePairs(withHeadroom(block.pairs));
+    SapResultBlock& block = *host_.data();
+    if (spoiled(block.counts.entries, block.counts.pairs, keys_[0].size(), pairCapacity())) {
+      // The first run counts too, never the host's time between the runs:
+      // the second records the events again, so the first's are read now.
+      DeviceWork& work = frame_.work();
+      work.upload_ms += frame_.elapsed(DeviceFrame::kStarted, DeviceFrame::kUploaded);
+      work.kernels_ms += frame_.elapsed(DeviceFrame::kUploaded, DeviceFrame::kSearched);
+      work.download_ms += frame_.elapsed(DeviceFrame::kSearched, DeviceFrame::kDone);
+      reserveEntries(withHeadroom(block.counts.entries));
+      reservePairs(withHeadroom(block.counts.pairs));
+      frame_.record(DeviceFrame::kStarted);  // the boxes are on the device already
       frame_.record(DeviceFrame::kUploaded);
       enqueueSearch();
       frame_.wait(DeviceFrame::kDone);
-      noteSearchTimes();
-      if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
+      if (spoiled(block.counts.entries, block.counts.pairs, keys_[0].size(), pairCapacity())) {
         throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
       }
     }
-    const std::size_t added_count = block.added;
-    const std::size_t removed_count = block.removed;
-    const IndexPair* added = block.head;
-    const IndexPair* removed = block.head + std::min<std::size_t>(added_count, kHeadEntries);
+    const std::size_t added_count = block.counts.added;
+    const std::size_t removed_count = block.counts.removed;
+    const std::size_t added_in_head = std::min(added_count, kHeadEntries);
+    const std::size_t removed_in_head = std::min(removed_count, kHeadEntries - added_in_head);
+    IndexPair* const added_head = block.head[0];
+    IndexPair* const removed_head = added_head + added_in_head;
+    const IndexPair* added = added_head;
+    const IndexPair* removed = removed_head;
     if (added_count + removed_count > kHeadEntries) {
-      added = joinHeadAndTail(block.head, 0, pairs_[freeBuffer()], host_added_, added_count);
-      removed = joinHeadAndTail(block.head, std::min<std::size_t>(added_count, kHeadEntries),
-                                pairs_[previous_], host_removed_, removed_count);
+      added = frame_.joinHeadAndRest({added_head, added_in_head}, added_count,
+                                     pairs_[freeBuffer()].data() + added_in_head, host_added_);
+      removed = frame_.joinHeadAndRest({removed_head, removed_in_head}, removed_count,
+                                       pairs_[previous_].data() + removed_in_head, host_removed_);
       frame_.record(DeviceFrame::kTailsDone);
       frame_.wait(DeviceFrame::kTailsDone);
-      work.download_ms += frame_.elapsed(DeviceFrame::kDone, DeviceFrame::kTailsDone);
     }
     previous_ = current_;  // nothing below can fail: this frame is now the reference
     last_set_room_ = this_set_room_;
@@ -324,40 +336,30 @@ class GpuSapPairFinder final : public PairFinder {
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
-  // The list of `count` entries whose first entries are head[from ..
-  // kHeadEntries): the head itself when it holds them all, else `host`,
-  // filled with that part of the head and (queued; the caller waits) the
-  // rest from the device list.
-  const IndexPair* joinHeadAndTail(const IndexPair* head, std::size_t from,
-                                   const DeviceBuffer<IndexPair>& list,
-                                   PinnedBuffer<IndexPair>& host, std::size_t count) {
-    const std::size_t in_head = std::min(count, kHeadEntries - from);
-    if (count == in_head) return head + from;
-    return frame_.joinHeadAndRest(head + from, in_head, list.data() + in_head, host, count);
-  }
-
-  // The search just waited for: its kernels and its copy back.  A frame run
-  // twice adds both runs, never the host's time between them.
-  void noteSearchTimes() {
-    DeviceWork& work = frame_.work();
-    work.kernels_ms += frame_.elapsed(DeviceFrame::kUploaded, DeviceFrame::kSearched);
-    work.download_ms += frame_.elapsed(DeviceFrame::kSearched, DeviceFrame::kDone);
-    last_search_ms_ = work.upload_ms + work.kernels_ms + work.download_ms;
-  }
+  // The arguments of a frame's CUB calls that their temporary sizes depend on.
+  struct CubShape {
+    std::uint64_t entries = 0;
+    std::uint64_t pairs = 0;
+    std::uint32_t max_slabs = 0;
+    int slot_bits = -2;  // bit_width(n), -1 with no boxes; -2: no frame yet
+    std::size_t last_set_room = 0;
+    friend bool operator==(const CubShape&, const CubShape&) = default;
+  };
 
   DeviceFrame frame_;  // the stream, events, staging and counted calls
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
-  double last_search_ms_ = 0;
 
   DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
   DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
   DeviceBuffer<std::uint32_t> slots_[2];      // entry slots, and CUB's other half
   DeviceBuffer<unsigned long long> offsets_;  // per entry rank: its candidates' scan
   DeviceBuffer<FrameCounters> counters_;
-  DeviceBuffer<ResultBlock> block_;   // what comes back, assembled on the device
-  DeviceBuffer<unsigned char> temp_;  // CUB's temporary storage, shared by its calls
+  DeviceBuffer<SapResultBlock> block_;  // what comes back, assembled on the device
+  DeviceBuffer<unsigned char> temp_;    // CUB's temporary storage, shared by its calls
+  CubShape cub_shape_;                  // ... sized for the calls of this shape
+  bool sizing_ = false;                 // this frame's calls query their sizes
   // pairs_[previous_] holds last frame's sorted pairs, then kNoPair, over
   // last_set_room_ slots (0 before the first frame); the other two are this
   // frame's (current_, this_set_room_ slots) and the sort's other half.
@@ -367,7 +369,7 @@ class GpuSapPairFinder final : public PairFinder {
   int current_ = 1;
   std::size_t last_set_room_ = 0;
   std::size_t this_set_room_ = 0;
-  PinnedBuffer<ResultBlock> host_;
+  PinnedBuffer<SapResultBlock> host_;
   PinnedBuffer<IndexPair> host_added_;  // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;
 };

@@ -18,6 +18,7 @@
 
 #include "gpu/cpu/cpu_pair_finder.h"
 #include "gpu/pairs/pair_set.h"
+#include "gpu/pairs/sap_sweep.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::finders {
@@ -53,6 +54,23 @@ std::vector<ObjectBounds> pile(std::uint32_t n, int frame, int flat_axis = 1, fl
     boxes[i].mask = -1;
   }
   return boxes;
+}
+
+// The one ordered key of cpusap's and gpusap's sorts: the floats' order,
+// -0 and +0 one key, and back to the float.
+TEST(OrderedKeyTest, KeysOrderAsTheFloatsDoAndBothZerosShareOneKey) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float least = std::numeric_limits<float>::denorm_min();
+  const std::vector<float> ascending = {-inf,  -3e38f, -1.5f,  -least, 0.0f,
+                                        least, 1.0f,   2.5e7f, 3e38f,  inf};
+  for (std::size_t i = 0; i + 1 < ascending.size(); ++i) {
+    EXPECT_LT(sap::orderedKey(ascending[i]), sap::orderedKey(ascending[i + 1])) << ascending[i];
+  }
+  EXPECT_EQ(sap::orderedKey(-0.0f), sap::orderedKey(0.0f));
+  for (const float value : ascending) {
+    EXPECT_EQ(sap::fromOrderedKey(sap::orderedKey(value)), value);
+  }
+  EXPECT_FALSE(std::signbit(sap::fromOrderedKey(sap::orderedKey(-0.0f))));
 }
 
 TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {

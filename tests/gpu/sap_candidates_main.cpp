@@ -22,11 +22,6 @@ namespace {
 using overlap::finders::ObjectBounds;
 namespace sap = overlap::finders::sap;
 
-// sap::orderedBits with -0 read as +0, as gpusap's keys are.
-std::uint64_t keyOf(float value) {
-  return sap::orderedBits(value == 0.0f ? 0.0f : value);
-}
-
 struct Count {
   sap::SweepAxes axes;
   std::uint64_t entries = 0;
@@ -58,7 +53,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
     for (std::uint64_t slab = axes.grid.slabOf(box.min[axes.slab]);
          slab <= axes.grid.slabOf(box.max[axes.slab]); ++slab) {
       order.push_back(keys.size());
-      keys.push_back((slab << 32) | keyOf(box.min[axes.sweep]));
+      keys.push_back((slab << 32) | sap::orderedKey(box.min[axes.sweep]));
       slots.push_back(slot);
     }
   }
@@ -70,7 +65,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
   for (std::size_t r = 0; r < order.size(); ++r) {
     const std::uint64_t slab = sorted[r] >> 32;
     const ObjectBounds& box = boxes[slots[order[r]]];
-    const std::uint64_t end_key = (slab << 32) | keyOf(box.max[axes.sweep]);
+    const std::uint64_t end_key = (slab << 32) | sap::orderedKey(box.max[axes.sweep]);
     const auto end = std::upper_bound(sorted.begin() + r + 1, sorted.end(), end_key);
     count.candidates += static_cast<std::uint64_t>(end - sorted.begin()) - r - 1;
     if (!pairs) continue;
