@@ -27,6 +27,10 @@ constexpr NamedMode<SleepMode> kSleepModes[] = {
     {SleepMode::kScene, "scene"}, {SleepMode::kOn, "on"}, {SleepMode::kOff, "off"}};
 constexpr NamedMode<SolverMode> kSolverModes[] = {{SolverMode::kPile, "pile"},
                                                   {SolverMode::kBullet, "bullet"}};
+constexpr NamedMode<NarrowphaseMode> kNarrowphaseModes[] = {
+    {NarrowphaseMode::kBullet, "bullet"},
+    {NarrowphaseMode::kParallel, "parallel"},
+    {NarrowphaseMode::kBesideSearch, "beside-search"}};
 
 template <typename Mode, std::size_t N>
 Mode parseMode(const NamedMode<Mode> (&table)[N], const std::string& text) {
@@ -71,6 +75,12 @@ SleepMode parseSleepMode(const std::string& text) {
 }
 SolverMode parseSolverMode(const std::string& text) {
   return parseMode(kSolverModes, text);
+}
+NarrowphaseMode parseNarrowphaseMode(const std::string& text) {
+  return parseMode(kNarrowphaseModes, text);
+}
+std::string narrowphaseModeName(NarrowphaseMode mode) {
+  return modeName(kNarrowphaseModes, mode);
 }
 std::string ccdModeName(CcdMode mode) {
   return modeName(kCcdModes, mode);

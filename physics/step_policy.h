@@ -28,16 +28,26 @@ constexpr int kAutoSubsteps = 0;
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default
 enum class SolverMode { kPile, kBullet };    // solverSettings()
+// How the narrowphase runs (physics/parallel_dispatcher.h); every mode gives
+// the same contacts in the same order, so the same state.
+enum class NarrowphaseMode {
+  kBullet,        // Bullet's serial dispatch
+  kParallel,      // the box-box pairs' contacts on the task system
+  kBesideSearch,  // kParallel, and the cached pairs' contacts while our finder searches
+};
 
 // Parses "off|auto|all", "scene|on|off" and "pile|bullet"; throws std::invalid_argument.
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
+// Parses "bullet|parallel|beside-search"; throws std::invalid_argument.
+NarrowphaseMode parseNarrowphaseMode(const std::string& text);
 // Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
 std::string solverModeName(SolverMode mode);
+std::string narrowphaseModeName(NarrowphaseMode mode);
 
 // The numbers of the automatic rule.  Each bound is a share of a length a box
 // must not cross in one substep; K is the least that keeps all of them.

@@ -22,7 +22,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -30,6 +29,7 @@
 
 #include "gpu/pair_finder.h"
 #include "physics/aabb.h"
+#include "physics/frame_report.h"
 #include "physics/scene.h"
 #include "physics/step_policy.h"
 
@@ -44,42 +44,10 @@ struct WorldOptions {
   CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
   SleepMode sleep = SleepMode::kScene;    // Bullet's deactivation, sleepAllowed()
   SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
-};
-
-struct FrameTimings {
-  double update_ms = 0;       // AABBs written into the broadphase
-  double broadphase_ms = 0;   // pair search and pair-cache update, one call per substep
-  double narrowphase_ms = 0;  // contact generation for the cached pairs
-  double solver_ms = 0;       // constraint solver
-  double integrate_ms = 0;    // motion prediction and integration
-  double ccd_query_ms = 0;    // CCD's sweeps finding what they may hit (CcdQueryBroadphase)
-  double total_ms = 0;        // the whole step
-};
-
-// One substep, as the main thread lived it.
-struct SubstepReport {
-  std::chrono::steady_clock::time_point start;
-  std::chrono::steady_clock::time_point broadphase_start;   // the pair search called
-  std::chrono::steady_clock::time_point narrowphase_start;  // the pairs are in the cache
-  std::chrono::steady_clock::time_point narrowphase_end;
-  std::chrono::steady_clock::time_point end;
-};
-
-struct FrameReport {
-  int frame = 0;
-  FrameTimings timings;
-  std::vector<SubstepReport> substep_reports;  // one per substep, in order
-  int pairs = 0;                               // overlapping pairs in the cache after the frame
-  int escaped = 0;                             // boxes whose centre is beyond a wall's outer face
-  int sunk = 0;                                // boxes whose centre is outside the interior
-  double max_penetration = 0;                  // deepest contact overlap / that box's edge
-  int removed_from_simulation = 0;             // boxes taken out: non-finite, huge or far away
-  double kinetic_energy = 0;                   // J, linear and rotational, boxes in the simulation
-  double potential_energy = 0;                 // J, -sum m (g . x) for the gravity of this frame
-  int substeps = 0;                            // K this frame used
-  int ccd_bodies = 0;                          // boxes with CCD this frame
-  int sleeping = 0;                            // boxes asleep after the frame
-  double fastest_speed = 0;  // m/s, the fastest box at the frame's start (K's input)
+  // The threads the step's parallel parts and a CPU search run on; it must
+  // outlive the world.  Null: defaultTaskSystem().
+  TaskSystem* tasks = nullptr;
+  NarrowphaseMode narrowphase = NarrowphaseMode::kBesideSearch;
 };
 
 struct BoxPose {
@@ -128,9 +96,14 @@ class PhysicsWorld {
   int framesDone() const { return frame_; }
   const std::string& algorithm() const { return algorithm_; }
   const std::string& algorithmNotice() const { return algorithm_notice_; }
+  TaskSystem& tasks() const { return tasks_; }
 
   // FNV-1a over every box's position, rotation and velocities.
   std::uint64_t stateHash() const;
+  // FNV-1a over every contact manifold in the dispatcher's order: its two
+  // bodies, then each point's positions, normal, depth, impulse and age, so
+  // two runs compare contact for contact.
+  std::uint64_t contactHash() const;
   std::vector<BoxPose> boxPoses() const;
   // Each box's linear speed (m/s); 0 for a box out of the simulation.
   std::vector<float> boxSpeeds() const;
@@ -181,6 +154,7 @@ class PhysicsWorld {
   bool automatic_substeps_;
   CcdMode ccd_;
   int frame_ = 0;
+  TaskSystem& tasks_;
   std::string algorithm_;
   std::string algorithm_notice_;
   std::unique_ptr<Bullet> bullet_;

@@ -1,5 +1,5 @@
 """The broadphase catalogue as the study's scripts read it: `overlap --list-algos --json`,
-the one table of names, exactness and device needs (physics/broadphase_factory.h).
+the one table of names, exactness and device needs (physics/broadphase/broadphase_factory.h).
 
 load() runs the binary once; the other functions answer from what it printed, in the
 catalogue's order, so a broadphase added to the code reaches the study with no edit here.
@@ -7,13 +7,20 @@ catalogue's order, so a broadphase added to the code reaches the study with no e
 import json
 import subprocess
 
+from script_cli import BadInput
+
 _TABLE = []
 
 
 def load(overlap: str) -> None:
-    listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
-                            capture_output=True, text=True).stdout
-    _TABLE[:] = json.loads(listed)["broadphases"]
+    """Raises BadInput naming `overlap` when it does not list its broadphases."""
+    try:
+        listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
+                                capture_output=True, text=True).stdout
+        _TABLE[:] = json.loads(listed)["broadphases"]
+    except (OSError, subprocess.CalledProcessError, ValueError, KeyError, TypeError) as error:
+        raise BadInput(f"--overlap {overlap}: does not list its broadphases "
+                       f"(--list-algos --json: {error})")
 
 
 def names() -> list:

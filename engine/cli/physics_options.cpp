@@ -50,13 +50,21 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
           "velocity solve: holds a 50 g pile at fewer substeps) or bullet (Bullet's defaults)")
       ->check(parsedBy(physics::parseSolverMode, "pile|bullet"))
       ->capture_default_str();
+  command
+      .add_option("--narrowphase", narrowphase_,
+                  "how contacts are found, the same ones in every mode: beside-search (on every "
+                  "thread, the cached pairs' while our finder searches), parallel (on every "
+                  "thread, after the search) or bullet (Bullet's serial dispatch)")
+      ->check(parsedBy(physics::parseNarrowphaseMode, "beside-search|parallel|bullet"))
+      ->capture_default_str();
 }
 
 physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
                                               const physics::SceneConfig& config) const {
-  const physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
-                                      physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
-                                      physics::parseSolverMode(solver_)};
+  physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
+                                physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
+                                physics::parseSolverMode(solver_)};
+  options.narrowphase = physics::parseNarrowphaseMode(narrowphase_);
   try {
     physics::sleepAllowed(config, options.sleep);
   } catch (const std::invalid_argument& error) {
@@ -71,7 +79,8 @@ nlohmann::json toJson(const physics::WorldOptions& options) {
                                                               : nlohmann::json(options.substeps)},
       {"ccd", physics::ccdModeName(options.ccd)},
       {"sleep", physics::sleepModeName(options.sleep)},
-      {"solver", physics::solverModeName(options.solver)}};
+      {"solver", physics::solverModeName(options.solver)},
+      {"narrowphase", physics::narrowphaseModeName(options.narrowphase)}};
 }
 
 }  // namespace overlap::engine

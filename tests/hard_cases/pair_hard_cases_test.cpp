@@ -4,7 +4,7 @@
 // from the origin; long thin boxes crossing many.  Each case runs over several
 // frames, so pairs also leave and re-enter the cache.
 //
-// The catalogue's exact broadphases (physics/broadphase_factory.h: bf and
+// The catalogue's exact broadphases (physics/broadphase/broadphase_factory.h: bf and
 // ours) must match the oracle; the others (sap, sap32 quantized, bvh
 // fattened) must miss nothing, and their extra pairs are printed and kept
 // within a bound each (maxExtraPercent()).
@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "tests/hard_cases/hard_case_support.h"
 

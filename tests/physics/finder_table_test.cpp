@@ -15,7 +15,7 @@
 
 #include "gpu/pair_finder.h"
 #include "physics/aabb.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::physics {
@@ -51,7 +51,7 @@ std::vector<finders::PairFinderRow> tableWithNaive() {
   std::vector<finders::PairFinderRow> table(finders::pairFinderTable().begin(),
                                             finders::pairFinderTable().end());
   table.push_back({"naive", false, "every pair tested, one by one",
-                   [](int) -> std::unique_ptr<finders::PairFinder> {
+                   [](TaskSystem&) -> std::unique_ptr<finders::PairFinder> {
                      return std::make_unique<NaiveFinder>();
                    }});
   return table;
