@@ -3,7 +3,7 @@
 // std::runtime_error naming the call, the caller's file and line, and CUDA's
 // own description of the error, and consumes it (the next check reports
 // only what happens after it): CUDA_CHECK(call) names the call's text and
-// line; a helper that makes a call for its caller (DeviceFrame, which also
+// line; a helper that makes a call for its caller (FinderDevice, which also
 // counts it in DeviceWork::api_calls) takes the caller's std::source_location
 // and passes it on, so that the error names the caller's line, not its own.
 #pragma once

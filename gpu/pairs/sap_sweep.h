@@ -1,4 +1,4 @@
-// The sweep of cpusap (gpu/cpu/cpu_sap_pair_finder.h): boxes sorted by their
+// The sweep of cpusap (gpu/cpu/cpu_sweep_and_prune.h): boxes sorted by their
 // minimum on the sweep axis, each tested against the boxes that start inside
 // its own extent on that axis, within slabs of a second axis.
 //
@@ -86,7 +86,7 @@ inline constexpr std::uint32_t kMinBoxesPerSlab = 32;
 inline constexpr std::uint32_t kMaxGpuSlabs = 1024;
 
 // Slabs of equal width along the slab axis, the outer ones open-ended
-// (cpusap's, and gpusap's: gpu/cuda/gpu_sap_kernels.cuh).
+// (cpusap's, and gpusap's: gpu/cuda/gpu_sweep_and_prune_kernels.cuh).
 struct SlabGrid {
   float origin = 0;  // where slab 0 starts (it also takes everything below)
   float inverse_width = 0;
@@ -102,7 +102,7 @@ struct SlabGrid {
   }
 };
 
-// gpusap's axes and slabs for a frame (gpu/cuda/gpu_sap_kernels.cuh; cpusap
+// gpusap's axes and slabs for a frame (gpu/cuda/gpu_sweep_and_prune_kernels.cuh; cpusap
 // chooses its own, from a sample and with hysteresis): sweep along the axis
 // whose centres spread widest (x if none is finite), cut the wider of the
 // other two into slabs kSlabWidthInExtents mean box extents wide, at most

@@ -1,6 +1,6 @@
 // What gpusap's sweep tests per box on a .aabbs stream's frame, counted on
-// the CPU with gpusap's own rules (gpu/cuda/gpu_sap_kernels.cuh, gpu/pairs/sap_sweep.h):
-// its candidates along one axis (the sweep before slabs) and within the
+// the CPU with gpusap's own rules (gpu/cuda/gpu_sweep_and_prune_kernels.cuh,
+// gpu/pairs/sap_sweep.h): its candidates along one axis (the sweep before slabs) and within the
 // slabs of a second axis, the entries per box the slabs cost, and the pairs
 // per box (found within the slabs, each once).
 // Usage: overlap_sap_candidates FILE [FRAME] (FRAME 1 unless given).

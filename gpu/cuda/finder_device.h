@@ -1,7 +1,8 @@
-// The device side of a GPU finder's frame, one helper for gpubf, gpubf-paper
-// and gpusap (nvcc and the emulation only): the stream, the stage events, the
-// pinned staging of the boxes, the counted and checked CUDA call, and the
-// CUDA graph that replays a frame's fixed chain.
+// FinderDevice: the device side of a GPU finder, which lives as long as the
+// finder, across all its frames; one helper for gpubf, gpubf-paper and gpusap
+// (nvcc and the emulation only): the stream, the stage events, the pinned
+// staging of the boxes, the counted and checked CUDA call, and the CUDA
+// graphs that replay a frame's fixed chain.
 //
 // Rules, each with its reason:
 // - Every runtime call a frame makes goes through check() (or a helper here
@@ -48,7 +49,7 @@
 
 namespace overlap::finders {
 
-class DeviceFrame {
+class FinderDevice {
  public:
   using Where = std::source_location;
   // kTailsDone: after a second copy back, where a finder makes one.
@@ -56,7 +57,7 @@ class DeviceFrame {
   // kLegacyDefault: the default stream, as gpubf-paper's paper has it.
   enum class StreamKind { kOwn, kLegacyDefault };
 
-  explicit DeviceFrame(StreamKind kind = StreamKind::kOwn) {
+  explicit FinderDevice(StreamKind kind = StreamKind::kOwn) {
     for (auto& set : events_) {
       for (Event& event : set) event = makeEvent();
     }

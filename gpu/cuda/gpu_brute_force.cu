@@ -23,7 +23,7 @@
 // may fill itself: stagingFor()), the one kernel, one copy back of a result
 // block holding both counts and the first kHeadEntries of both lists
 // (gpu/cuda/launch_shape.h), and the
-// four stage events (gpu/cuda/device_frame.h); nothing else unless more changed
+// four stage events (gpu/cuda/finder_device.h); nothing else unless more changed
 // than the block holds.  That chain is a CUDA graph, captured when the sizes,
 // buffers or parities it bakes in are new and launched with one call when
 // they are as in one of the last two frames (a steady frame: two calls, the
@@ -46,7 +46,7 @@
 #include <utility>
 
 #include "gpu/cuda/cuda_buffers.h"
-#include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/finder_device.h"
 #include "gpu/cuda/finish_frame.h"
 #include "gpu/cuda/launch_shape.h"
 #include "gpu/pair_finder.h"
@@ -265,9 +265,9 @@ __global__ void __launch_bounds__(kThreadsPerBlock, kSearchBlocksPerSm)
   sortHeadsInLastBlock(lists);
 }
 
-class GpuPairFinder final : public PairFinder {
+class GpuBruteForceFinder final : public PairFinder {
  public:
-  GpuPairFinder() {
+  GpuBruteForceFinder() {
     block_ = DeviceBuffer<GpubfResultBlock>(1);
     host_block_ = PinnedBuffer<GpubfResultBlock>(1);
     blocks_done_ = DeviceBuffer<unsigned>(1);
@@ -275,60 +275,60 @@ class GpuPairFinder final : public PairFinder {
     // one uses, and its last block sets blocks_done_ back to 0.  The whole
     // block, as every frame copies all of it back (compute-sanitizer's
     // initcheck reports a copy of unwritten memory).
-    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(GpubfResultBlock), frame_.stream()));
-    CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned), frame_.stream()));
+    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(GpubfResultBlock), device_.stream()));
+    CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned), device_.stream()));
     growTails(kInitialListCapacity - kHeadEntries);
   }
 
-  GpuPairFinder(const GpuPairFinder&) = delete;
-  GpuPairFinder& operator=(const GpuPairFinder&) = delete;
+  GpuBruteForceFinder(const GpuBruteForceFinder&) = delete;
+  GpuBruteForceFinder& operator=(const GpuBruteForceFinder&) = delete;
 
   std::string_view name() const override { return "gpubf"; }
 
  private:
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
-    stats.device = frame_.lastWorkTimed();
+    stats.search_ms = device_.lastMs(FinderDevice::kStarted, FinderDevice::kDone);
+    stats.device = device_.lastWorkTimed();
     return stats;
   }
 
-  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
+  std::span<ObjectBounds> staging(std::size_t count) override { return device_.stagingRoom(count); }
 
   // Grows what the frame needs first (a capture refuses allocations), then
   // enqueues the frame's chain: a graph launch when it is as in one of the
   // last two frames.
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    frame_.begin();
+    device_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
     reserveDiscarding(objects_, objects.size());
-    frame_.stage(objects);
+    device_.stage(objects);
     reading_ = counting_;
     const bool searches = row_words::runCount(slot_count_) > 0;
     const ChangeLists lists = changeLists();
     const auto as_key = [](const void* pointer) {
       return reinterpret_cast<std::uintptr_t>(pointer);
     };
-    frame_.enqueueChain(
+    device_.enqueueChain(
         {slot_count_, as_key(objects_.data()), as_key(words_[previous_].data()),
          as_key(words_[1 - previous_].data()), as_key(block_.data()), as_key(host_block_.data()),
          lists.counting, as_key(lists.added_tail), as_key(lists.removed_tail),
          static_cast<std::uintptr_t>(lists.tail_capacity), as_key(lists.blocks_done)},
         [&] {
-          frame_.record(DeviceFrame::kStarted);
-          frame_.upload(objects_.data(), objects.size());
-          frame_.record(DeviceFrame::kUploaded);
+          device_.record(FinderDevice::kStarted);
+          device_.upload(objects_.data(), objects.size());
+          device_.record(FinderDevice::kUploaded);
           if (searches) {
-            findPairsKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+            findPairsKernel<<<searchBlocks(), kThreadsPerBlock, 0, device_.stream()>>>(
                 objects_.data(), slot_count_, words_[previous_].data(),
                 words_[1 - previous_].data(), lists);
-            frame_.launched();
+            device_.launched();
           }
-          frame_.record(DeviceFrame::kSearched);
+          device_.record(FinderDevice::kSearched);
           enqueueBlockCopy();
-          frame_.record(DeviceFrame::kDone);
+          device_.record(FinderDevice::kDone);
         });
     if (searches) counting_ = 1 - counting_;
   }
@@ -337,11 +337,11 @@ class GpuPairFinder final : public PairFinder {
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
   PairDelta finishSearch() override {
-    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
+    return finishFrame(device_.stream(), [&] { return collectDelta(); });
   }
 
   PairDelta collectDelta() {
-    frame_.wait(DeviceFrame::kDone);
+    device_.wait(FinderDevice::kDone);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
     std::size_t removed_count = host_block_.data()->counts[reading_][1];
     IndexPair* head_added = host_block_.data()->head[kAdded];
@@ -353,12 +353,12 @@ class GpuPairFinder final : public PairFinder {
       // the copy back (the done event is recorded again after them).
       const std::size_t needed = std::max(added_count, removed_count) - kHeadEntries;
       if (needed > added_tail_.size()) recollectChanges(needed);
-      added = frame_.joinHeadAndRest({head_added, std::min(added_count, kHeadEntries)}, added_count,
-                                     added_tail_.data(), host_added_);
-      removed = frame_.joinHeadAndRest({head_removed, std::min(removed_count, kHeadEntries)},
-                                       removed_count, removed_tail_.data(), host_removed_);
-      frame_.record(DeviceFrame::kDone);
-      frame_.wait(DeviceFrame::kDone);
+      added = device_.joinHeadAndRest({head_added, std::min(added_count, kHeadEntries)},
+                                      added_count, added_tail_.data(), host_added_);
+      removed = device_.joinHeadAndRest({head_removed, std::min(removed_count, kHeadEntries)},
+                                        removed_count, removed_tail_.data(), host_removed_);
+      device_.record(FinderDevice::kDone);
+      device_.wait(FinderDevice::kDone);
     }
     previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
@@ -368,9 +368,9 @@ class GpuPairFinder final : public PairFinder {
          {std::pair{added, added_count}, std::pair{removed, removed_count}}) {
       if (count <= kHeadEntries) continue;
       std::sort(list, list + count);
-      frame_.work().host_entries_sorted += count;
+      device_.work().host_entries_sorted += count;
     }
-    frame_.end();
+    device_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
@@ -391,7 +391,7 @@ class GpuPairFinder final : public PairFinder {
   }
 
   void enqueueBlockCopy() {
-    frame_.download(host_block_.data(), block_.data(), sizeof(GpubfResultBlock));
+    device_.download(host_block_.data(), block_.data(), sizeof(GpubfResultBlock));
   }
 
   // Both tails are replaced only once both exist: they share one capacity.
@@ -411,7 +411,7 @@ class GpuPairFinder final : public PairFinder {
       const std::size_t capacity = std::max<std::size_t>(words, 2 * words_[0].size());
       DeviceBuffer<std::uint32_t> last_frame(capacity);
       DeviceBuffer<std::uint32_t> this_frame(capacity);
-      const cudaStream_t stream = frame_.stream();
+      const cudaStream_t stream = device_.stream();
       CUDA_CHECK(cudaMemsetAsync(last_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
       CUDA_CHECK(cudaMemsetAsync(this_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
       if (word_count_ > 0) {
@@ -433,16 +433,16 @@ class GpuPairFinder final : public PairFinder {
   void recollectChanges(std::size_t needed) {
     growTails(needed);
     reading_ = counting_;
-    collectChangesKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+    collectChangesKernel<<<searchBlocks(), kThreadsPerBlock, 0, device_.stream()>>>(
         slot_count_, words_[previous_].data(), words_[1 - previous_].data(), changeLists());
-    frame_.launched();
+    device_.launched();
     counting_ = 1 - counting_;
     enqueueBlockCopy();
-    frame_.record(DeviceFrame::kDone);
-    frame_.wait(DeviceFrame::kDone);
+    device_.record(FinderDevice::kDone);
+    device_.wait(FinderDevice::kDone);
   }
 
-  DeviceFrame frame_;  // the stream, events, staging, counted calls and graphs
+  FinderDevice device_;  // the stream, events, staging, counted calls and graphs
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
@@ -465,8 +465,8 @@ class GpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuPairFinder(TaskSystem& /*tasks*/) {
-  return std::make_unique<GpuPairFinder>();
+std::unique_ptr<PairFinder> makeGpuBruteForceFinder(TaskSystem& /*tasks*/) {
+  return std::make_unique<GpuBruteForceFinder>();
 }
 
 }  // namespace overlap::finders

@@ -4,7 +4,7 @@
 // boxes that cannot be swept (NaN, inverted, infinite) are handled as cpubf
 // handles them; slots leave and return mid-run; and it agrees with cpubf on
 // a long run of moving boxes.
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
 #include "gpu/pairs/pair_set.h"
 #include "gpu/pairs/sap_sweep.h"
 #include "tests/gpu/pair_test_support.h"
@@ -73,10 +73,10 @@ TEST(OrderedKeyTest, KeysOrderAsTheFloatsDoAndBothZerosShareOneKey) {
   EXPECT_FALSE(std::signbit(sap::fromOrderedKey(sap::orderedKey(-0.0f))));
 }
 
-TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
+TEST(CpuSweepAndPruneFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   if (!sap::avx2Available()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
-  CpuSapPairFinder scalar(1, SweepKernel::kScalar);
-  CpuSapPairFinder avx2(1, SweepKernel::kAvx2);
+  CpuSweepAndPruneFinder scalar(1, SweepKernel::kScalar);
+  CpuSweepAndPruneFinder avx2(1, SweepKernel::kAvx2);
   EXPECT_EQ(scalar.kernel(), SweepKernel::kScalar);
   EXPECT_EQ(avx2.kernel(), SweepKernel::kAvx2);
   for (const BoxSet set : testing::kAllBoxSets) {
@@ -87,10 +87,10 @@ TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   }
 }
 
-TEST(CpuSapPairFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
+TEST(CpuSweepAndPruneFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   for (const SweepKernel kernel : {SweepKernel::kScalar, SweepKernel::kAvx2}) {
     if (kernel == SweepKernel::kAvx2 && !sap::avx2Available()) continue;
-    CpuSapPairFinder finder(2, kernel);
+    CpuSweepAndPruneFinder finder(2, kernel);
     std::vector<IndexPair> pairs;
     for (int frame = 0; frame < 4; ++frame) {
       SCOPED_TRACE("kernel " + std::to_string(static_cast<int>(kernel)) + ", frame " +
@@ -103,7 +103,7 @@ TEST(CpuSapPairFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   }
 }
 
-TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxTheyMeet) {
+TEST(CpuSweepAndPruneFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxTheyMeet) {
   // Rods across the whole pile, along the sweep axis and along the slab
   // axis: a rod sits in every slab it crosses, and must still report each
   // pair once.  Some rods end exactly where others begin (touching).
@@ -114,7 +114,7 @@ TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxThey
     boxes.push_back(box(at, 3, -1, at + 0.05f, 3.05f, 41));  // along z
     boxes.push_back(box(at, 2.05f, -1, at + 0.05f, 3, 41));  // touching both layers
   }
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   for (int frame = 0; frame < 2; ++frame) {
     testing::expectFrameMatchesOracle(finder, boxes, pairs);
@@ -124,17 +124,18 @@ TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxThey
   }
 }
 
-TEST(CpuSapPairFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
-  EXPECT_EQ(CpuSapPairFinder().kernel(),
+TEST(CpuSweepAndPruneFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
+  EXPECT_EQ(CpuSweepAndPruneFinder().kernel(),
             sap::avx2Available() ? SweepKernel::kAvx2 : SweepKernel::kScalar);
   if (!sap::avx2Available()) {
-    EXPECT_THROW(CpuSapPairFinder(defaultTaskSystem(), SweepKernel::kAvx2), std::runtime_error);
+    EXPECT_THROW(CpuSweepAndPruneFinder(defaultTaskSystem(), SweepKernel::kAvx2),
+                 std::runtime_error);
   }
 }
 
-TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
+TEST(CpuSweepAndPruneFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   // Every finder must see every frame: one single-thread reference per comparison.
-  CpuSapPairFinder one(1), one_again(1), two(2), four(4);
+  CpuSweepAndPruneFinder one(1), one_again(1), two(2), four(4);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = pile(5000, frame);
     EXPECT_TRUE(testing::sameDeltaAs(two, one, boxes)) << "2 threads, frame " << frame;
@@ -142,10 +143,10 @@ TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   }
 }
 
-TEST(CpuSapPairFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
+TEST(CpuSweepAndPruneFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
   // The pile lies flat on z, then on x, then on y: the sweep axis must move
   // each time (a full re-sort), and the deltas across the switch stay exact.
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   std::vector<int> axes;
   for (const int flat_axis : {2, 2, 0, 0, 1, 1}) {
@@ -166,8 +167,8 @@ TEST(CpuSapPairFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
   EXPECT_NE(axes[2], axes[4]);
 }
 
-TEST(CpuSapPairFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
-  CpuSapPairFinder finder;
+TEST(CpuSweepAndPruneFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   testing::expectFrameMatchesOracle(finder, pile(2000, 0), pairs);
   EXPECT_FALSE(finder.lastSortWasIncremental()) << "the first frame has no order to start from";
@@ -181,10 +182,10 @@ TEST(CpuSapPairFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
   EXPECT_FALSE(finder.lastSortWasIncremental());
 }
 
-TEST(CpuSapPairFinderTest, SlotsLeaveAndReturnMidRun) {
+TEST(CpuSweepAndPruneFinderTest, SlotsLeaveAndReturnMidRun) {
   // As the Bullet adapter does: a destroyed proxy's slot is searched as unused
   // (group = mask = 0), later reused by a new box; new slots are appended.
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   std::vector<ObjectBounds> boxes = pile(800, 0);
   std::mt19937 random(3);
@@ -203,7 +204,7 @@ TEST(CpuSapPairFinderTest, SlotsLeaveAndReturnMidRun) {
   }
 }
 
-TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
+TEST(CpuSweepAndPruneFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   // cpubf's rule, read literally: NaN never pairs; an inverted interval
   // [2, 1] still meets [0, 3]; infinite coordinates compare as numbers.
   std::vector<ObjectBounds> boxes = pile(600, 0);
@@ -215,8 +216,8 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   boxes[8] = box(kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity);
   boxes[9] = box(3, 3, 3, kQuietNaN, 4, 4);
   boxes[10] = box(5, 5, 5, 4, 6, 6);  // the inverted box again: they pair
-  CpuSapPairFinder sap, checked;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap, checked;
+  CpuBruteForceFinder brute_force;
   std::vector<IndexPair> pairs;
   for (int frame = 0; frame < 3; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
@@ -229,22 +230,22 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   }
 }
 
-TEST(CpuSapPairFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+TEST(CpuSweepAndPruneFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   for (int frame = 0; frame < 20; ++frame) {
     ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, pile(3000, frame))) << "frame " << frame;
   }
 }
 
-TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
+TEST(CpuSweepAndPruneFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
   // 1% of the boxes move each frame, far or by a hair, some become unused
   // or NaN and come back; every few frames many move, forcing a full search
   // that must take over the moved-box frames' pairs.
   std::vector<ObjectBounds> boxes = pile(3000, 0);
   const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   std::vector<IndexPair> pairs;
   std::mt19937 random(11);
   int moved_only = 0, full_after_moved_only = 0;
@@ -282,14 +283,14 @@ TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
   EXPECT_TRUE(none.added.empty() && none.removed.empty());
 }
 
-TEST(CpuSapPairFinderTest, TheCallersChangedSlotsAreAllItCompares) {
+TEST(CpuSweepAndPruneFinderTest, TheCallersChangedSlotsAreAllItCompares) {
   // As above, the caller naming the slots it wrote: the changed ones, some
   // unchanged ones and one twice.  A box changed but left out of the list
   // would be missed: the list is the whole truth, so it must be complete.
   std::vector<ObjectBounds> boxes = pile(3000, 0);
   const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   std::mt19937 random(12);
   int moved_only = 0;
   for (int frame = 0; frame < 30; ++frame) {
@@ -315,10 +316,10 @@ TEST(CpuSapPairFinderTest, TheCallersChangedSlotsAreAllItCompares) {
   EXPECT_THROW(sap.launchWithChanges(boxes, past_the_end), std::runtime_error);
 }
 
-TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
+TEST(CpuSweepAndPruneFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   std::vector<ObjectBounds> boxes = pile(1000, 0);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
   boxes[17] = box(5, 5, 5, 4, 6, 6);
   ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
@@ -328,8 +329,8 @@ TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   EXPECT_FALSE(sap.lastSearchWasMovedOnly()) << "an inverted box is swept by the full search only";
 }
 
-TEST(CpuSapPairFinderTest, RejectsASecondLaunchBeforeTheFirstFinished) {
-  CpuSapPairFinder finder;
+TEST(CpuSweepAndPruneFinderTest, RejectsASecondLaunchBeforeTheFirstFinished) {
+  CpuSweepAndPruneFinder finder;
   const std::vector<ObjectBounds> boxes(3, box(0, 0, 0, 1, 1, 1));
   finder.launch(boxes);
   EXPECT_THROW(finder.launch(boxes), std::runtime_error);

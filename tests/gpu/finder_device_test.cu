@@ -1,4 +1,4 @@
-// The GPU finders' device frame (gpu/cuda/device_frame.h) and the owning
+// The GPU finders' device frame (gpu/cuda/finder_device.h) and the owning
 // handles it is made of (gpu/cuda/cuda_handles.h): a creation that fails
 // part way through leaves no stream, event or graph behind, and a finder
 // whose frame fails to build its graph leaks nothing either.  Emulation
@@ -11,7 +11,7 @@
 #include <string>
 
 #include "gpu/cuda/cuda_handles.h"
-#include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/finder_device.h"
 #include "gpu/emulation/api_counters.h"
 #include "gpu/pair_finder.h"
 #include "tests/gpu/frame_cost.h"
@@ -24,43 +24,43 @@ using cuda_emulation::LiveHandles;
 using cuda_emulation::liveHandles;
 
 // No injected failure outlives a test, whether or not it fired.
-class DeviceFrameTest : public ::testing::Test {
+class FinderDeviceTest : public ::testing::Test {
  protected:
   void TearDown() override { failHandleCreation(0); }
 };
 
-TEST_F(DeviceFrameTest, AFrameHoldsTenEventsAndItsStreamAndReleasesThemAll) {
+TEST_F(FinderDeviceTest, AFrameHoldsTenEventsAndItsStreamAndReleasesThemAll) {
   const LiveHandles before = liveHandles();
   {
-    const DeviceFrame frame;
+    const FinderDevice frame;
     const LiveHandles held = liveHandles();
     EXPECT_EQ(held.streams, before.streams + 1);
-    EXPECT_EQ(held.events, before.events + 2 * DeviceFrame::kStageCount);
+    EXPECT_EQ(held.events, before.events + 2 * FinderDevice::kStageCount);
   }
   EXPECT_EQ(liveHandles(), before);
   {
-    const DeviceFrame frame(DeviceFrame::StreamKind::kLegacyDefault);
+    const FinderDevice frame(FinderDevice::StreamKind::kLegacyDefault);
     EXPECT_EQ(liveHandles().streams, before.streams);
     EXPECT_EQ(frame.stream(), nullptr);
   }
   EXPECT_EQ(liveHandles(), before);
 }
 
-TEST_F(DeviceFrameTest, AFailedCreationAtAnyPointOfTheConstructorLeaksNothing) {
+TEST_F(FinderDeviceTest, AFailedCreationAtAnyPointOfTheConstructorLeaksNothing) {
   const LiveHandles before = liveHandles();
-  const int creations = 2 * DeviceFrame::kStageCount + 1;  // the events, then the stream
+  const int creations = 2 * FinderDevice::kStageCount + 1;  // the events, then the stream
   for (int nth = 1; nth <= creations; ++nth) {
     SCOPED_TRACE("creation " + std::to_string(nth) + " fails");
     failHandleCreation(nth);
-    EXPECT_THROW(DeviceFrame{}, std::runtime_error);
+    EXPECT_THROW(FinderDevice{}, std::runtime_error);
     EXPECT_EQ(liveHandles(), before);
   }
   failHandleCreation(creations + 1);  // one past the constructor's: it succeeds
-  { const DeviceFrame frame; }
+  { const FinderDevice frame; }
   EXPECT_EQ(liveHandles(), before);
 }
 
-TEST_F(DeviceFrameTest, AHandleMovedFromReleasesNothingAndItsNewOwnerReleasesOnce) {
+TEST_F(FinderDeviceTest, AHandleMovedFromReleasesNothingAndItsNewOwnerReleasesOnce) {
   const LiveHandles before = liveHandles();
   Event first = makeEvent();
   Event second = std::move(first);
@@ -73,7 +73,7 @@ TEST_F(DeviceFrameTest, AHandleMovedFromReleasesNothingAndItsNewOwnerReleasesOnc
   EXPECT_EQ(liveHandles(), before);
 }
 
-TEST_F(DeviceFrameTest, AGpubfFrameWhoseGraphFailsToInstantiateThrowsAndLeaksNothing) {
+TEST_F(FinderDeviceTest, AGpubfFrameWhoseGraphFailsToInstantiateThrowsAndLeaksNothing) {
   const LiveHandles before = liveHandles();
   {
     const auto finder = makePairFinder("gpubf");

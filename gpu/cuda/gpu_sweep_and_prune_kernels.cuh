@@ -1,4 +1,4 @@
-// gpusap's kernels and device helpers (included by gpu/cuda/gpu_sap_pair_finder.cu
+// gpusap's kernels and device helpers (included by gpu/cuda/gpu_sweep_and_prune.cu
 // only): the frame's bounds and the fill of its empty slots, the entries and
 // their sort keys, each entry's candidate count (read by the scan), the
 // balanced sweep, the pair-set helpers the CUB sort and selections use, and
