@@ -75,8 +75,9 @@ TEST(OrderedKeyTest, KeysOrderAsTheFloatsDoAndBothZerosShareOneKey) {
 
 TEST(CpuSweepAndPruneFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   if (!sap::avx2Available()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
-  CpuSweepAndPruneFinder scalar(1, SweepKernel::kScalar);
-  CpuSweepAndPruneFinder avx2(1, SweepKernel::kAvx2);
+  const auto tasks = makeTaskSystem(1);
+  CpuSweepAndPruneFinder scalar(*tasks, SweepKernel::kScalar);
+  CpuSweepAndPruneFinder avx2(*tasks, SweepKernel::kAvx2);
   EXPECT_EQ(scalar.kernel(), SweepKernel::kScalar);
   EXPECT_EQ(avx2.kernel(), SweepKernel::kAvx2);
   for (const BoxSet set : testing::kAllBoxSets) {
@@ -90,7 +91,8 @@ TEST(CpuSweepAndPruneFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
 TEST(CpuSweepAndPruneFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   for (const SweepKernel kernel : {SweepKernel::kScalar, SweepKernel::kAvx2}) {
     if (kernel == SweepKernel::kAvx2 && !sap::avx2Available()) continue;
-    CpuSweepAndPruneFinder finder(2, kernel);
+    const auto tasks = makeTaskSystem(2);
+    CpuSweepAndPruneFinder finder(*tasks, kernel);
     std::vector<IndexPair> pairs;
     for (int frame = 0; frame < 4; ++frame) {
       SCOPED_TRACE("kernel " + std::to_string(static_cast<int>(kernel)) + ", frame " +
@@ -135,7 +137,10 @@ TEST(CpuSweepAndPruneFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
 
 TEST(CpuSweepAndPruneFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   // Every finder must see every frame: one single-thread reference per comparison.
-  CpuSweepAndPruneFinder one(1), one_again(1), two(2), four(4);
+  const auto one_thread = makeTaskSystem(1), two_threads = makeTaskSystem(2),
+             four_threads = makeTaskSystem(4);
+  CpuSweepAndPruneFinder one(*one_thread), one_again(*one_thread), two(*two_threads),
+      four(*four_threads);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = pile(5000, frame);
     EXPECT_TRUE(testing::sameDeltaAs(two, one, boxes)) << "2 threads, frame " << frame;
@@ -391,7 +396,8 @@ TEST(PairSetTest, RowsComeOutSortedWhetherBuiltSeriallyOrInParallel) {
       all.first(third), all.subspan(third, third), all.subspan(2 * third)};
   PairSet serial, parallel;
   serial.assign(3000, batches);
-  parallel.assign(3000, batches, true);
+  const auto tasks = makeTaskSystem(3);
+  parallel.assign(3000, batches, tasks.get());
   ASSERT_EQ(serial.size(), keys.size());
   ASSERT_EQ(parallel.size(), keys.size());
   for (std::uint32_t a = 0; a < 3000; ++a) {

@@ -187,9 +187,11 @@ INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
                          ::testing::ValuesIn(testing::finderNames(true)), testing::finderTestName);
 
 TEST(CpuBruteForceFinderTest, ThreadCountDoesNotChangeTheAnswer) {
-  CpuBruteForceFinder one(1);
-  CpuBruteForceFinder two(2);
-  CpuBruteForceFinder all(0);
+  const auto one_thread = makeTaskSystem(1), two_threads = makeTaskSystem(2),
+             every_thread = makeTaskSystem(0);
+  CpuBruteForceFinder one(*one_thread);
+  CpuBruteForceFinder two(*two_threads);
+  CpuBruteForceFinder all(*every_thread);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 1500, frame);
     for (PairFinder* finder : {static_cast<PairFinder*>(&one), static_cast<PairFinder*>(&two),
