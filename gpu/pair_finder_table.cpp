@@ -3,17 +3,17 @@
 // makes one) plus its row here; nothing else names it.
 #include <memory>
 
-#include "gpu/cpu/cpu_pair_finder.h"
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 #include "gpu/pair_finder.h"
 
 namespace overlap::finders {
 
 #if OVERLAP_HAVE_CUDA
 // Defined in the GPU finders' own .cu files.
-std::unique_ptr<PairFinder> makeGpuPairFinder(TaskSystem& tasks);
-std::unique_ptr<PairFinder> makePaperGpuPairFinder(TaskSystem& tasks);
-std::unique_ptr<PairFinder> makeGpuSapPairFinder(TaskSystem& tasks);
+std::unique_ptr<PairFinder> makeGpuBruteForceFinder(TaskSystem& tasks);
+std::unique_ptr<PairFinder> makePaperBruteForceFinder(TaskSystem& tasks);
+std::unique_ptr<PairFinder> makeGpuSweepAndPruneFinder(TaskSystem& tasks);
 #define OVERLAP_GPU_FINDER(make) make
 #else
 // Never called: makePairFinder() refuses a device finder without a device.
@@ -29,17 +29,17 @@ std::unique_ptr<PairFinder> makeCpuFinder(TaskSystem& tasks) {
 
 constexpr PairFinderRow kTable[] = {
     {"cpubf", false, "ours: brute force on CPU threads, gpubf's twin and the reference",
-     makeCpuFinder<CpuPairFinder>},
+     makeCpuFinder<CpuBruteForceFinder>},
     {"cpusap", false, "ours: sort and sweep on CPU threads (AVX2), the fastest exact CPU finder",
-     makeCpuFinder<CpuSapPairFinder>},
+     makeCpuFinder<CpuSweepAndPruneFinder>},
     {"gpubf", true, "ours: CUDA brute force, pairs as bits, only the changes copied back",
-     OVERLAP_GPU_FINDER(makeGpuPairFinder)},
+     OVERLAP_GPU_FINDER(makeGpuBruteForceFinder)},
     {"gpubf-paper", true,
      "the paper's CUDA brute force as published: a byte per pair, all copied back",
-     OVERLAP_GPU_FINDER(makePaperGpuPairFinder)},
+     OVERLAP_GPU_FINDER(makePaperBruteForceFinder)},
     {"gpusap", true,
      "ours: CUDA sort and sweep (CUB), pairs kept on the device, only the changes copied back",
-     OVERLAP_GPU_FINDER(makeGpuSapPairFinder)},
+     OVERLAP_GPU_FINDER(makeGpuSweepAndPruneFinder)},
 };
 
 }  // namespace

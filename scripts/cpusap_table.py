@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""cpusap against cpubf and Bullet's broadphases on recorded scene-4 streams (issue 13).
+"""cpusap against cpubf and Bullet's broadphases on recorded scene-4 streams.
 
 Runs overlap_bench_broadphase once, every algorithm in one process on the same
 streams (scene 4, seed 42, 64 frames: each n's median ms per frame over the 56
@@ -74,7 +74,7 @@ def live_run_dir(runs: pathlib.Path, scene: int, algorithm: str) -> pathlib.Path
 
 
 def measure_live(runs: pathlib.Path) -> dict:
-    """The live loop, issue 13's second target: `overlap run` at n = 3500 in scenes 1-4 with
+    """The live loop, cpusap's second target: `overlap run` at n = 3500 in scenes 1-4 with
     sap and cpusap (physics only), the median of update_ms + broadphase_ms per frame after
     the warm-up frames."""
     before = load_average()

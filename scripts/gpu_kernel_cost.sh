@@ -3,9 +3,10 @@
 # CUDA emulation; no GPU is needed and no time is measured.
 #   scripts/gpu_kernel_cost.sh [--rev REV] [EMULATION_BUILD_DIR]
 #
-# 1. Compiles gpu/cuda/gpu_pair_finder.cu, gpu/cuda/gpu_pair_finder_paper.cu and
-#    gpu/cuda/gpu_sap_pair_finder.cu (of the work tree, or of git revision REV; a
-#    revision without gpusap skips it) for sm_90 with this machine's nvcc at
+# 1. Compiles gpu/cuda/gpu_brute_force.cu, gpu/cuda/paper_brute_force.cu and
+#    gpu/cuda/gpu_sweep_and_prune.cu (of the work tree, or of git revision REV,
+#    under the names that revision gave them; a revision without gpusap
+#    skips it) for sm_90 with this machine's nvcc at
 #    -O3, and disassembles them (cuobjdump -sass).  CUB's own kernels (gpusap's
 #    sorts, scan and selections) are listed by name only: they are the
 #    library's, tuned per architecture, and cost a few passes over the data.
@@ -81,8 +82,12 @@ echo "# gpu_kernel_cost: commit $(git rev-parse --short "${rev:-HEAD}")$([[ -z "
 # The CUDA finders' folder: gpu/cuda/, or gpu/ in revisions before it.
 cuda_dir=gpu/cuda
 [[ -d "$source_root/$cuda_dir" ]] || cuda_dir=gpu
-sources=(gpu_pair_finder gpu_pair_finder_paper)
-[[ -f "$source_root/$cuda_dir/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
+if [[ -f "$source_root/$cuda_dir/gpu_brute_force.cu" ]]; then
+  sources=(gpu_brute_force paper_brute_force gpu_sweep_and_prune)
+else  # the names before the finders were named after their algorithms
+  sources=(gpu_pair_finder gpu_pair_finder_paper)
+  [[ -f "$source_root/$cuda_dir/gpu_sap_pair_finder.cu" ]] && sources+=(gpu_sap_pair_finder)
+fi
 for source in "${sources[@]}"; do
   "$nvcc" -std=c++20 -O3 -arch=sm_90 -cubin -I"$source_root" \
     "$source_root/$cuda_dir/$source.cu" -o "$work/$source.cubin" ||
@@ -307,10 +312,10 @@ def report(name, code):
                 print(f"  load {'uniform' if uniform else 'per lane'}: {text}")
             loads.append(per_lane / 32 if uniform else per_lane)
     kernel = re.search(r"([a-z][A-Za-z]*Kernel)E", name)
-    source = re.search(r"(gpu_pair_finder\w*?)_cu", name)
+    source = re.search(r"((?:gpu_pair_finder|gpu_brute_force|paper_brute_force)\w*?)_cu", name)
     short = (f"{source.group(1)}.cu {kernel.group(1)}" if kernel and source else name)
     if kernel and "sap_kernels" in name:
-        short = f"gpu_sap_kernels.cuh {kernel.group(1)}"
+        short = f"gpu_sweep_and_prune_kernels.cuh {kernel.group(1)}"
         if words and kernel.group(1) == "sweepKernel":  # the others' VOTEs are shuffles' masks
             per32 = len(path) / words
             print(f"{short}: {per32:.1f} instructions per 32 candidates (warp), "
@@ -353,7 +358,7 @@ for path in sys.argv[1:]:
         if "Kernel" in name and "Probe" not in name and "sortHeads" not in name:
             costs[name] = report(name, code)
 if cub_kernels:
-    print("gpu_sap_pair_finder.cu CUB kernels: " + ", ".join(sorted(cub_kernels)))
+    print("gpusap CUB kernels: " + ", ".join(sorted(cub_kernels)))
 gpubf = [cost for name, cost in costs.items() if "findPairsKernel" in name]
 print(f"gpubf instructions per 32 pairs: {gpubf[0]:.1f}" if gpubf else "gpubf: no findPairsKernel")
 PYTHON

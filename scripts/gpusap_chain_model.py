@@ -2,7 +2,8 @@
 """gpusap's steady frame step by step, and its kernel time refitted by the steps' count: the
 model of docs/results/gpu_kernel_cost.md's gpusap sections, its fixed time no longer one
 constant scaled by a guessed ratio but a cost for each GPU step of the chain, fitted to the
-H100's measured stages; then the predictions for the chain before and after issue 41's cut.
+H100's measured stages; then the predictions for the chain before and after its cut from 36
+calls a frame to 28.
 
 A GPU step is one kernel or one memset the device runs.  The chain's own kernels are one
 each; CUB's calls (CUDA 13.0's CUB, sm_90 policies, read from its dispatch code):

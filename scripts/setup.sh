@@ -15,7 +15,7 @@ set -euo pipefail
 readonly PACKAGES=(
   build-essential cmake pkg-config git
   libbullet-dev libeigen3-dev libosmesa6-dev libtbb-dev
-  googletest libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  googletest libgtest-dev libgmock-dev libcli11-dev
   nlohmann-json3-dev libpng-dev python3-matplotlib
   libboost-context-dev  # fibers for the CUDA emulation build (gpu/emulation/)
   ccache ninja-build  # the release preset builds with Ninja, through ccache

@@ -2,7 +2,7 @@
 """The study: the paper's sweep redone and extended, with figures and a report.
 
 plan -> run -> collect -> plot -> report.  The plan lists every job of the
-experiments of project issue 6 (scripts/study_plan.py); the runs go one
+experiments the study plans (scripts/study_plan.py); the runs go one
 `overlap` process after another (never two at once, so runs do not compete
 for cores), each into its own folder under --out; then the results are
 collected into CSV files (scripts/study_results.py), drawn

@@ -1,4 +1,4 @@
-"""The study's physics section (issue 14): substeps, CCD, sleep and the contact solver
+"""The study's physics section: substeps, CCD, sleep and the contact solver
 against escapes, sinking and penetration, and the automatic setting against the fixed K
 the project ran before (8 substeps at 50 g, 2 at 1 g, Bullet's own solver settings).
 

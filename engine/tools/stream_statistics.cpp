@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 
 namespace overlap::engine {
 
@@ -15,7 +15,7 @@ StreamStatistics measureStream(const physics::AabbStream& stream, int first_fram
                                 " leaves no frame of " + std::to_string(stream.stored_frames) +
                                 " to measure");
   }
-  finders::CpuSapPairFinder finder;
+  finders::CpuSweepAndPruneFinder finder;
   std::vector<finders::ObjectBounds> bounds;
   std::vector<std::uint32_t> changed_boxes;
   StreamStatistics statistics;

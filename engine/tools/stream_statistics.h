@@ -3,7 +3,7 @@
 // per box, the share of them that changed since the frame before (added plus
 // removed over this frame's pairs; none for a frame without pairs), and the
 // share of boxes whose AABB moved.
-// The pairs are cpusap's (exact; gpu/cpu/cpu_sap_pair_finder.h), every box in one
+// The pairs are cpusap's (exact; gpu/cpu/cpu_sweep_and_prune.h), every box in one
 // filter group.
 #pragma once
 

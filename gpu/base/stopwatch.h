@@ -14,11 +14,6 @@ inline double toMilliseconds(SteadyClock::duration duration) {
   return std::chrono::duration<double, std::milli>(duration).count();
 }
 
-// Rounded to the clock's tick.
-inline SteadyClock::duration fromMilliseconds(double ms) {
-  return std::chrono::round<SteadyClock::duration>(std::chrono::duration<double, std::milli>(ms));
-}
-
 class HostStopwatch {
  public:
   // Milliseconds since construction.

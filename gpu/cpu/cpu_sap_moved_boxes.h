@@ -1,4 +1,4 @@
-// cpusap's moved-box path (gpu/cpu/cpu_sap_pair_finder.h): a frame in which few
+// cpusap's moved-box path (gpu/cpu/cpu_sweep_and_prune.h): a frame in which few
 // boxes changed costs in proportion to them and their pairs.
 //
 // The boxes that differ from the last frame's are found among the caller's

@@ -1,7 +1,7 @@
 // What a program asked of the CUDA emulation's device, counted since the
-// process started: for cost reports (tests/gpu/gpu_frame_cost.cpp, run by
-// scripts/gpu_kernel_cost.sh) and for tests of how much one frame asks.  The
-// counts are the program's requests, the same on a GPU; no time is counted.
+// process started, what it holds now, and one injected failure: for cost reports
+// (tests/gpu/gpu_frame_cost.cpp, run by scripts/gpu_kernel_cost.sh) and for tests of how much one
+// frame asks.  The counts are the program's requests, the same on a GPU; no time is counted.
 #pragma once
 
 #include <cstdint>
@@ -41,5 +41,22 @@ ApiCounters apiCounters();
 // The bytes of device memory allocated and not yet freed, now: what a finder
 // holds on the device (tests of its memory budget).
 std::uint64_t liveDeviceBytes();
+
+// The streams, events, graphs and graph executables created and not yet
+// destroyed, now: what a program would leak (tests of the owning handles).
+struct LiveHandles {
+  std::uint64_t streams = 0;
+  std::uint64_t events = 0;
+  std::uint64_t graphs = 0;
+  std::uint64_t graph_execs = 0;
+  friend bool operator==(const LiveHandles&, const LiveHandles&) = default;
+};
+LiveHandles liveHandles();
+
+// Makes the `nth` handle creation from now (a stream, an event or a graph
+// executable; 1 the next one) fail with cudaErrorMemoryAllocation, once, as
+// a device out of resources would; 0 makes none fail.  For tests that a
+// throw between two creations leaks nothing.
+void failHandleCreation(std::uint64_t nth);
 
 }  // namespace overlap::cuda_emulation

@@ -269,6 +269,17 @@ class Runtime {
     for (CudaEmulationStream* each : streams_) runUntil(*each, each->enqueued);
   }
 
+  // --- handles -------------------------------------------------------------
+  // Whether this creation is the one failHandleCreation() asked to fail.
+  bool creationFails() {
+    if (fail_creation_in_ == 0) return false;
+    return --fail_creation_in_ == 0;
+  }
+  void failCreation(std::uint64_t nth) { fail_creation_in_ = nth; }
+  LiveHandles liveHandles() const {
+    return LiveHandles{streams_.size(), events_.size(), graphs_.size(), execs_.size()};
+  }
+
   // --- events --------------------------------------------------------------
   bool known(cudaEvent_t event) const { return events_.count(event) != 0; }
   void add(cudaEvent_t event) { events_.insert(event); }
@@ -308,6 +319,7 @@ class Runtime {
   std::set<CudaEmulationEvent*> events_;
   std::set<CudaEmulationGraph*> graphs_;
   std::set<CudaEmulationGraphExec*> execs_;
+  std::uint64_t fail_creation_in_ = 0;  // creations until the injected failure; 0: none
 };
 
 Runtime& runtime() {
@@ -591,6 +603,7 @@ cudaError_t cudaStreamCreateWithFlags(cudaStream_t* stream, unsigned flags) {
   }
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (rt.creationFails()) return record(cudaErrorMemoryAllocation);
   *stream = rt.createStream((flags & cudaStreamNonBlocking) == 0);
   return cudaSuccess;
 }
@@ -660,6 +673,7 @@ cudaError_t cudaEventCreateWithFlags(cudaEvent_t* event, unsigned flags) {
   }
   Runtime& rt = runtime();
   const std::lock_guard lock(rt.mutex);
+  if (rt.creationFails()) return record(cudaErrorMemoryAllocation);
   *event = new CudaEmulationEvent;
   (*event)->timing = (flags & cudaEventDisableTiming) == 0;
   rt.add(*event);
@@ -773,6 +787,7 @@ cudaError_t cudaGraphInstantiate(cudaGraphExec_t* exec, cudaGraph_t graph,
   const std::lock_guard lock(rt.mutex);
   if (exec == nullptr || flags != 0) return record(cudaErrorInvalidValue);
   if (!rt.known(graph)) return record(cudaErrorInvalidResourceHandle);
+  if (rt.creationFails()) return record(cudaErrorMemoryAllocation);
   *exec = new CudaEmulationGraphExec{graph->nodes};
   rt.add(*exec);
   return cudaSuccess;
@@ -810,6 +825,18 @@ std::uint64_t liveDeviceBytes() {
   detail::Runtime& rt = detail::runtime();
   const std::lock_guard lock(rt.mutex);
   return rt.liveDeviceBytes();
+}
+
+LiveHandles liveHandles() {
+  detail::Runtime& rt = detail::runtime();
+  const std::lock_guard lock(rt.mutex);
+  return rt.liveHandles();
+}
+
+void failHandleCreation(std::uint64_t nth) {
+  detail::Runtime& rt = detail::runtime();
+  const std::lock_guard lock(rt.mutex);
+  rt.failCreation(nth);
 }
 
 }  // namespace overlap::cuda_emulation

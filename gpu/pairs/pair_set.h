@@ -1,6 +1,6 @@
 // PairSet: one frame's overlapping pairs, grouped by their lower slot, and
 // the delta between two frames' sets, which is how cpusap
-// (gpu/cpu/cpu_sap_pair_finder.h) reports what changed without asking Bullet's
+// (gpu/cpu/cpu_sweep_and_prune.h) reports what changed without asking Bullet's
 // hash table.
 //
 // The pairs (a, b), a < b, are stored compressed by row: slot a's partners b

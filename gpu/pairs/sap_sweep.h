@@ -1,4 +1,4 @@
-// The sweep of cpusap (gpu/cpu/cpu_sap_pair_finder.h): boxes sorted by their
+// The sweep of cpusap (gpu/cpu/cpu_sweep_and_prune.h): boxes sorted by their
 // minimum on the sweep axis, each tested against the boxes that start inside
 // its own extent on that axis, within slabs of a second axis.
 //
@@ -24,6 +24,8 @@
 // tests eight candidates per step; which runs is chosen at run time.
 #pragma once
 
+#include <string.h>  // ::memcpy, which device code may call too
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -48,16 +50,28 @@ enum class SweepKernel {
 // True when this CPU (and this build) can run the AVX2 kernel.
 bool avx2Available();
 
-// The float's bits as an unsigned key with the same order: -inf < ... < -0 <
-// +0 < ... < +inf.  Not for NaN, which cpusap keeps out of its sorts.
-inline std::uint32_t orderedBits(float value) {
-  const auto bits = std::bit_cast<std::uint32_t>(value);
+// The float's bits as an unsigned key with the same order: -inf < ... < 0 <
+// ... < +inf, -0 read as +0 (-0 == +0 as floats: an order that split them
+// would put a box starting at +0 past one ending at -0).  Not for NaN, which
+// the sweeps keep out of their sorts.  cpusap's and gpusap's keys both.
+OVERLAP_HD inline std::uint32_t orderedKey(float value) {
+  std::uint32_t bits = 0;
+  ::memcpy(&bits, &value, sizeof bits);  // std::bit_cast, which device code may not call
+  if (bits == 0x80000000u) bits = 0;     // -0 is +0
   return bits ^ ((bits >> 31) != 0 ? 0xFFFFFFFFu : 0x80000000u);
+}
+
+// The float whose orderedKey() is `key` (+0 for the key of either zero).
+OVERLAP_HD inline float fromOrderedKey(std::uint32_t key) {
+  const std::uint32_t bits = key ^ ((key >> 31) != 0 ? 0x80000000u : 0xFFFFFFFFu);
+  float value = 0;
+  ::memcpy(&value, &bits, sizeof value);
+  return value;
 }
 
 // What cpusap sorts: the key of the box's min on `axis`, then the slot.
 inline std::uint64_t sortEntry(const ObjectBounds& box, int axis, std::uint32_t slot) {
-  return (std::uint64_t{orderedBits(box.min[axis])} << 32) | slot;
+  return (std::uint64_t{orderedKey(box.min[axis])} << 32) | slot;
 }
 
 // Slabs this many mean box extents wide: on scene-4 streams, 3 to 4 gave
@@ -72,7 +86,7 @@ inline constexpr std::uint32_t kMinBoxesPerSlab = 32;
 inline constexpr std::uint32_t kMaxGpuSlabs = 1024;
 
 // Slabs of equal width along the slab axis, the outer ones open-ended
-// (cpusap's, and gpusap's: gpu/cuda/gpu_sap_kernels.cuh).
+// (cpusap's, and gpusap's: gpu/cuda/gpu_sweep_and_prune_kernels.cuh).
 struct SlabGrid {
   float origin = 0;  // where slab 0 starts (it also takes everything below)
   float inverse_width = 0;
@@ -88,7 +102,7 @@ struct SlabGrid {
   }
 };
 
-// gpusap's axes and slabs for a frame (gpu/cuda/gpu_sap_kernels.cuh; cpusap
+// gpusap's axes and slabs for a frame (gpu/cuda/gpu_sweep_and_prune_kernels.cuh; cpusap
 // chooses its own, from a sample and with hysteresis): sweep along the axis
 // whose centres spread widest (x if none is finite), cut the wider of the
 // other two into slabs kSlabWidthInExtents mean box extents wide, at most

@@ -2,15 +2,19 @@
 // scene's box count on this machine, by the one rule stated here.
 //
 // With a CUDA device: cpubf below kGpubfFrom boxes, gpubf up to kGpusapFrom,
-// gpusap from there.  The crossovers are the H100's finder times, launch()
-// to finish() on the host, on generated scene-4 streams
-// (docs/results/gpu/h100/, docs/DESIGN.md "The default
-// broadphase"): at 500 boxes cpubf (16 threads) and gpubf tie at 60 us, and
-// below it a GPU round trip cannot win; gpubf beats gpusap at 10^4 (215 us
-// against 364) and loses at 3*10^4 (2550 against 567), and a power law
-// through each finder's two points crosses near 1.3*10^4.  Those were the
-// single-axis gpusap's; the slab version's crossover awaits a GPU
-// (docs/results/gpu_kernel_cost.md predicts it between the same two sizes).
+// gpusap from there.  kGpubfFrom is measured: the H100's finder times,
+// launch() to finish() on the host, on generated scene-4 streams
+// (docs/results/gpu/h100/, docs/DESIGN.md "The default broadphase"): at 500
+// boxes cpubf (16 threads) and gpubf tie at 60 us, and below it a GPU round
+// trip cannot win.  kGpusapFrom is not: no GPU has yet run the slab gpusap,
+// and the 13000 was where power laws through gpubf's and the replaced
+// single-axis gpusap's H100 times crossed.  What it rests on now is gpubf's
+// H100 times (215 us at 10^4, 2550 at 3*10^4) against the slab gpusap's
+// modelled ones (scripts/gpusap_chain_model.py --raw
+// docs/results/gpu/h100/raw: 242 to 336 us at 10^4, 289 to 383 at 3*10^4, a
+// prediction): power laws through those cross between 10600 and 12300
+// boxes.  So, by the model, 13000 keeps gpubf a little past its crossover
+// and never hands gpusap a size it loses.
 // Without a device: cpusap, the fastest exact CPU finder (kDeviceFallback).
 // Every name picked is exact (tests/physics/default_broadphase_test.cpp).
 #pragma once

@@ -1,5 +1,5 @@
 // PairFinderBroadphase: a Bullet broadphase backed by a finders::PairFinder
-// (cpubf, cpusap, gpubf or gpubf-paper), usable unchanged by any
+// (any finder of gpu/pair_finder.h's table), usable unchanged by any
 // btCollisionWorld / btDiscreteDynamicsWorld.
 //
 // Each proxy owns a slot of the finder; its m_uniqueId is its slot index, so

@@ -457,8 +457,7 @@ std::string quotedCommand(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   initializeDocTestForAssertionsOutOfTestCases();
-  CLI::App app{"Times one of Broadmark's CPU broadphases on a .aabbs stream (project issue 26)",
-               kProgram};
+  CLI::App app{"Times one of Broadmark's CPU broadphases on a .aabbs stream", kProgram};
   Options options;
   bool list = false;
   app.add_flag("--list", list, "print the algorithms and stop");

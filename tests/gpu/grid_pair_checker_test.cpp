@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 #include "gpu/pairs/pair_set.h"
 #include "tests/gpu/pair_test_support.h"
 
@@ -63,7 +63,7 @@ TEST(GridPairCheckerTest, AgreesWithCpusapAtAHundredThousandBoxes) {
     boxes[i].group = 1;
     boxes[i].mask = -1;
   }
-  CpuSapPairFinder sap;
+  CpuSweepAndPruneFinder sap;
   sap.launch(boxes);
   const PairDelta delta = sap.finish();
   std::vector<std::uint64_t> found;

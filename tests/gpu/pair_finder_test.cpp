@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
 #include "tests/gpu/pair_test_support.h"
 #include "tests/needs_device.h"
 
@@ -169,7 +169,7 @@ INSTANTIATE_TEST_SUITE_P(AllFinders, PairFinderTest, ::testing::ValuesIn(testing
 class GpuAgreesWithCpuTest : public PairFinderTest {};
 
 TEST_P(GpuAgreesWithCpuTest, SameDeltasAsCpubf) {
-  CpuPairFinder cpu;
+  CpuBruteForceFinder cpu;
   for (int frame = 0; frame < 20; ++frame) {
     const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 2000, frame);
     cpu.launch(boxes);
@@ -184,12 +184,12 @@ TEST_P(GpuAgreesWithCpuTest, SameDeltasAsCpubf) {
 INSTANTIATE_TEST_SUITE_P(GpuFinders, GpuAgreesWithCpuTest,
                          ::testing::ValuesIn(testing::finderNames(true)), testing::finderTestName);
 
-TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
+TEST(CpuBruteForceFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   const auto single = makeTaskSystem(1);
   const auto pair_of_threads = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
-  CpuPairFinder one(*single);
-  CpuPairFinder two(*pair_of_threads);
-  CpuPairFinder all(defaultTaskSystem());
+  CpuBruteForceFinder one(*single);
+  CpuBruteForceFinder two(*pair_of_threads);
+  CpuBruteForceFinder all(defaultTaskSystem());
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 1500, frame);
     for (PairFinder* finder : {static_cast<PairFinder*>(&one), static_cast<PairFinder*>(&two),
@@ -197,7 +197,7 @@ TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
       finder->launch(boxes);
     }
     const PairDelta reference = one.finish();
-    for (CpuPairFinder* finder : {&two, &all}) {
+    for (CpuBruteForceFinder* finder : {&two, &all}) {
       const PairDelta delta = finder->finish();
       EXPECT_TRUE(testing::samePairs(delta.added, reference.added));
       EXPECT_TRUE(testing::samePairs(delta.removed, reference.removed));
@@ -205,7 +205,7 @@ TEST(CpuPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   }
 }
 
-TEST(CpuPairFinderTest, ReportNoDeviceWork) {
+TEST(CpuBruteForceFinderTest, ReportNoDeviceWork) {
   for (const std::string_view name : testing::finderNames(false)) {
     SCOPED_TRACE(name);
     const auto finder = makePairFinder(name);

@@ -1,6 +1,6 @@
 // What gpusap's sweep tests per box on a .aabbs stream's frame, counted on
-// the CPU with gpusap's own rules (gpu/cuda/gpu_sap_kernels.cuh, gpu/pairs/sap_sweep.h):
-// its candidates along one axis (the sweep before slabs) and within the
+// the CPU with gpusap's own rules (gpu/cuda/gpu_sweep_and_prune_kernels.cuh,
+// gpu/pairs/sap_sweep.h): its candidates along one axis (the sweep before slabs) and within the
 // slabs of a second axis, the entries per box the slabs cost, and the pairs
 // per box (found within the slabs, each once).
 // Usage: overlap_sap_candidates FILE [FRAME] (FRAME 1 unless given).
@@ -22,11 +22,6 @@ namespace {
 
 using overlap::finders::ObjectBounds;
 namespace sap = overlap::finders::sap;
-
-// sap::orderedBits with -0 read as +0, as gpusap's keys are.
-std::uint64_t keyOf(float value) {
-  return sap::orderedBits(value == 0.0f ? 0.0f : value);
-}
 
 struct Count {
   sap::SweepAxes axes;
@@ -59,7 +54,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
     for (std::uint64_t slab = axes.grid.slabOf(box.min[axes.slab]);
          slab <= axes.grid.slabOf(box.max[axes.slab]); ++slab) {
       order.push_back(keys.size());
-      keys.push_back((slab << 32) | keyOf(box.min[axes.sweep]));
+      keys.push_back((slab << 32) | sap::orderedKey(box.min[axes.sweep]));
       slots.push_back(slot);
     }
   }
@@ -71,7 +66,7 @@ Count countFrame(const std::vector<ObjectBounds>& boxes, std::uint32_t max_slabs
   for (std::size_t r = 0; r < order.size(); ++r) {
     const std::uint64_t slab = sorted[r] >> 32;
     const ObjectBounds& box = boxes[slots[order[r]]];
-    const std::uint64_t end_key = (slab << 32) | keyOf(box.max[axes.sweep]);
+    const std::uint64_t end_key = (slab << 32) | sap::orderedKey(box.max[axes.sweep]);
     const auto end = std::upper_bound(sorted.begin() + r + 1, sorted.end(), end_key);
     count.candidates += static_cast<std::uint64_t>(end - sorted.begin()) - r - 1;
     if (!pairs) continue;

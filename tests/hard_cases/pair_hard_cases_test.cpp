@@ -6,7 +6,8 @@
 //
 // The catalogue's exact broadphases (physics/broadphase/broadphase_factory.h: bf and
 // ours) must match the oracle; the others (sap, sap32 quantized, bvh
-// fattened) must miss nothing; their extra pairs are printed, not asserted.
+// fattened) must miss nothing, and their extra pairs are printed and kept
+// within a bound each (maxExtraPercent()).
 // So these cases also check the catalogue's word "exact".
 #include <gtest/gtest.h>
 
@@ -264,6 +265,19 @@ HardCase longThinCase() {
   return {{{crossing, 3 * kRow * kRow}, {lifted, kRow * kRow}, {crossing, 3 * kRow * kRow}}};
 }
 
+// The inexact broadphases (Bullet's) report extra pairs: boxes their
+// quantization or margins cannot tell apart.  Over a case's frames, each
+// reports at most this many percent of the case's exact pairs.  The bounds
+// sit just above the most they reported on any of the cases below: sap 233%
+// (737 beside 316, FarFromTheOrigin), sap32 76% (34 beside 45, OneFloatStepApartIsNotAPair), bvh
+// 67% (30 beside 45, the same case).
+int maxExtraPercent(std::string_view algorithm) {
+  if (algorithm == "sap") return 240;
+  if (algorithm == "sap32") return 80;
+  if (algorithm == "bvh") return 70;
+  return -1;  // none: an inexact broadphase without a bound fails the test
+}
+
 class PairHardCases : public ::testing::TestWithParam<std::string_view> {
  protected:
   void SetUp() override { OVERLAP_NEEDS_DEVICE_FOR(GetParam()); }
@@ -294,6 +308,11 @@ class PairHardCases : public ::testing::TestWithParam<std::string_view> {
     if (!isExact(algorithm)) {
       std::printf("[ extras   ] %s: %zu extra pairs beside %zu exact ones over %zu frames\n",
                   algorithm.c_str(), extras, exact_pairs, hard_case.frames.size());
+      const int bound = maxExtraPercent(algorithm);
+      ASSERT_GE(bound, 0) << algorithm << " is inexact and has no bound on its extra pairs";
+      EXPECT_LE(extras * 100, static_cast<std::size_t>(bound) * exact_pairs)
+          << algorithm << ": " << extras << " extra pairs beside " << exact_pairs
+          << " exact ones, over its bound of " << bound << "%";
     }
   }
 };

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/grid_pair_checker.h"
 #include "tests/gpu/pair_test_support.h"
@@ -35,7 +35,7 @@ TEST_F(GpuSapTest, SameDeltasAsCpubfAtTheCubBoundarySizes) {
       if (set == BoxSet::kIdentical && n > 1025) continue;
       SCOPED_TRACE(testing::boxSetName(set) + ", n = " + std::to_string(n));
       const auto gpusap = makePairFinder("gpusap");
-      CpuPairFinder cpubf;
+      CpuBruteForceFinder cpubf;
       for (int frame = 0; frame < 4; ++frame) {
         ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, testing::makeBoxes(set, n, frame)))
             << "frame " << frame;
@@ -73,7 +73,7 @@ std::vector<ObjectBounds> skewedBoxes(std::uint32_t n, int frame) {
 
 TEST_F(GpuSapTest, ManySmallBoxesAndAFewHugeOnesStayExact) {
   const auto gpusap = makePairFinder("gpusap");
-  CpuPairFinder cpubf;
+  CpuBruteForceFinder cpubf;
   for (int frame = 0; frame < 5; ++frame) {
     ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, skewedBoxes(6000, frame)))
         << "frame " << frame;
@@ -87,7 +87,7 @@ TEST_F(GpuSapTest, ABoxSpanningTheWorldPairsWithEveryBoxAtEverySize) {
   for (const std::uint32_t n : {1u, 2u, 31u, 32u, 33u, 1023u, 1025u, 6000u}) {
     SCOPED_TRACE("n = " + std::to_string(n));
     const auto gpusap = makePairFinder("gpusap");
-    CpuPairFinder cpubf;
+    CpuBruteForceFinder cpubf;
     for (int frame = 0; frame < 3; ++frame) {
       std::vector<ObjectBounds> boxes = skewedBoxes(n, frame);
       boxes[n / 2] = testing::box(-1, -1, -1, 41, 41, 41);
@@ -101,7 +101,7 @@ TEST_F(GpuSapTest, ABoxSpanningTheWorldPairsWithEveryBoxAtEverySize) {
 // whose sort keys tie while their starts, ends and overlaps differ.
 TEST_F(GpuSapTest, StartsCloserThanTheSortsResolutionStayExact) {
   const auto gpusap = makePairFinder("gpusap");
-  CpuPairFinder cpubf;
+  CpuBruteForceFinder cpubf;
   for (int frame = 0; frame < 3; ++frame) {
     std::mt19937 random(5u + static_cast<unsigned>(frame));
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
@@ -122,7 +122,7 @@ TEST_F(GpuSapTest, StartsCloserThanTheSortsResolutionStayExact) {
 // again with room, and last frame's set survives its first run whole.
 TEST_F(GpuSapTest, AFrameThatOutgrowsItsRoomRunsAgainAndStaysExact) {
   const auto gpusap = makePairFinder("gpusap");
-  CpuPairFinder cpubf;
+  CpuBruteForceFinder cpubf;
   for (int frame = 0; frame < 4; ++frame) {
     const BoxSet set = frame == 2 ? BoxSet::kIdentical : BoxSet::kRandom;
     ASSERT_TRUE(testing::sameDeltaAs(*gpusap, cpubf, testing::makeBoxes(set, 1000, frame)))
@@ -134,7 +134,7 @@ TEST_F(GpuSapTest, NaNInvertedInfiniteAndUnusedBoxesPairAsCpubfDoes) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   const auto gpusap = makePairFinder("gpusap");
-  CpuPairFinder cpubf;
+  CpuBruteForceFinder cpubf;
   for (int frame = 0; frame < 3; ++frame) {
     std::vector<ObjectBounds> boxes = testing::makeBoxes(BoxSet::kRandom, 300, frame);
     boxes[3] = testing::box(kNaN, 0, 0, 1, 1, 1);

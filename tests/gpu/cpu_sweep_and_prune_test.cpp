@@ -4,7 +4,7 @@
 // boxes that cannot be swept (NaN, inverted, infinite) are handled as cpubf
 // handles them; slots leave and return mid-run; and it agrees with cpubf on
 // a long run of moving boxes.
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 
 #include <gtest/gtest.h>
 
@@ -16,8 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
 #include "gpu/pairs/pair_set.h"
+#include "gpu/pairs/sap_sweep.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::finders {
@@ -55,11 +56,28 @@ std::vector<ObjectBounds> pile(std::uint32_t n, int frame, int flat_axis = 1, fl
   return boxes;
 }
 
-TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
+// The one ordered key of cpusap's and gpusap's sorts: the floats' order,
+// -0 and +0 one key, and back to the float.
+TEST(OrderedKeyTest, KeysOrderAsTheFloatsDoAndBothZerosShareOneKey) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float least = std::numeric_limits<float>::denorm_min();
+  const std::vector<float> ascending = {-inf,  -3e38f, -1.5f,  -least, 0.0f,
+                                        least, 1.0f,   2.5e7f, 3e38f,  inf};
+  for (std::size_t i = 0; i + 1 < ascending.size(); ++i) {
+    EXPECT_LT(sap::orderedKey(ascending[i]), sap::orderedKey(ascending[i + 1])) << ascending[i];
+  }
+  EXPECT_EQ(sap::orderedKey(-0.0f), sap::orderedKey(0.0f));
+  for (const float value : ascending) {
+    EXPECT_EQ(sap::fromOrderedKey(sap::orderedKey(value)), value);
+  }
+  EXPECT_FALSE(std::signbit(sap::fromOrderedKey(sap::orderedKey(-0.0f))));
+}
+
+TEST(CpuSweepAndPruneFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   if (!sap::avx2Available()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernel runs";
   const auto single = makeTaskSystem(1);
-  CpuSapPairFinder scalar(*single, SweepKernel::kScalar);
-  CpuSapPairFinder avx2(*single, SweepKernel::kAvx2);
+  CpuSweepAndPruneFinder scalar(*single, SweepKernel::kScalar);
+  CpuSweepAndPruneFinder avx2(*single, SweepKernel::kAvx2);
   EXPECT_EQ(scalar.kernel(), SweepKernel::kScalar);
   EXPECT_EQ(avx2.kernel(), SweepKernel::kAvx2);
   for (const BoxSet set : testing::kAllBoxSets) {
@@ -70,11 +88,11 @@ TEST(CpuSapPairFinderTest, ScalarAndAvx2KernelsFindTheSamePairs) {
   }
 }
 
-TEST(CpuSapPairFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
+TEST(CpuSweepAndPruneFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   for (const SweepKernel kernel : {SweepKernel::kScalar, SweepKernel::kAvx2}) {
     if (kernel == SweepKernel::kAvx2 && !sap::avx2Available()) continue;
     const auto two = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
-    CpuSapPairFinder finder(*two, kernel);
+    CpuSweepAndPruneFinder finder(*two, kernel);
     std::vector<IndexPair> pairs;
     for (int frame = 0; frame < 4; ++frame) {
       SCOPED_TRACE("kernel " + std::to_string(static_cast<int>(kernel)) + ", frame " +
@@ -87,7 +105,7 @@ TEST(CpuSapPairFinderTest, EachKernelMatchesTheOracleOnAPileWithManySlabs) {
   }
 }
 
-TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxTheyMeet) {
+TEST(CpuSweepAndPruneFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxTheyMeet) {
   // Rods across the whole pile, along the sweep axis and along the slab
   // axis: a rod sits in every slab it crosses, and must still report each
   // pair once.  Some rods end exactly where others begin (touching).
@@ -98,7 +116,7 @@ TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxThey
     boxes.push_back(box(at, 3, -1, at + 0.05f, 3.05f, 41));  // along z
     boxes.push_back(box(at, 2.05f, -1, at + 0.05f, 3, 41));  // touching both layers
   }
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   for (int frame = 0; frame < 2; ++frame) {
     testing::expectFrameMatchesOracle(finder, boxes, pairs);
@@ -108,20 +126,22 @@ TEST(CpuSapPairFinderTest, LongThinBoxesCrossingManySlabsPairOnceWithEachBoxThey
   }
 }
 
-TEST(CpuSapPairFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
-  EXPECT_EQ(CpuSapPairFinder().kernel(),
+TEST(CpuSweepAndPruneFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
+  EXPECT_EQ(CpuSweepAndPruneFinder().kernel(),
             sap::avx2Available() ? SweepKernel::kAvx2 : SweepKernel::kScalar);
   if (!sap::avx2Available()) {
-    EXPECT_THROW(CpuSapPairFinder(defaultTaskSystem(), SweepKernel::kAvx2), std::runtime_error);
+    EXPECT_THROW(CpuSweepAndPruneFinder(defaultTaskSystem(), SweepKernel::kAvx2),
+                 std::runtime_error);
   }
 }
 
-TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
+TEST(CpuSweepAndPruneFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   // Every finder must see every frame: one single-thread reference per comparison.
   const auto single = makeTaskSystem(1);
   const auto pair_of_threads = makeTaskSystem(2, TaskBackEnd::kPlainThreads);
   const auto four_threads = makeTaskSystem(4, TaskBackEnd::kPlainThreads);
-  CpuSapPairFinder one(*single), one_again(*single), two(*pair_of_threads), four(*four_threads);
+  CpuSweepAndPruneFinder one(*single), one_again(*single), two(*pair_of_threads),
+      four(*four_threads);
   for (int frame = 0; frame < 5; ++frame) {
     const std::vector<ObjectBounds> boxes = pile(5000, frame);
     EXPECT_TRUE(testing::sameDeltaAs(two, one, boxes)) << "2 threads, frame " << frame;
@@ -129,10 +149,10 @@ TEST(CpuSapPairFinderTest, ThreadCountDoesNotChangeTheAnswer) {
   }
 }
 
-TEST(CpuSapPairFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
+TEST(CpuSweepAndPruneFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
   // The pile lies flat on z, then on x, then on y: the sweep axis must move
   // each time (a full re-sort), and the deltas across the switch stay exact.
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   std::vector<int> axes;
   for (const int flat_axis : {2, 2, 0, 0, 1, 1}) {
@@ -153,8 +173,8 @@ TEST(CpuSapPairFinderTest, SweepAxisFollowsTheWidestSpreadAndPairsStayExact) {
   EXPECT_NE(axes[2], axes[4]);
 }
 
-TEST(CpuSapPairFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
-  CpuSapPairFinder finder;
+TEST(CpuSweepAndPruneFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   testing::expectFrameMatchesOracle(finder, pile(2000, 0), pairs);
   EXPECT_FALSE(finder.lastSortWasIncremental()) << "the first frame has no order to start from";
@@ -168,10 +188,10 @@ TEST(CpuSapPairFinderTest, SortsIncrementallyWhileBoxesMoveLittle) {
   EXPECT_FALSE(finder.lastSortWasIncremental());
 }
 
-TEST(CpuSapPairFinderTest, SlotsLeaveAndReturnMidRun) {
+TEST(CpuSweepAndPruneFinderTest, SlotsLeaveAndReturnMidRun) {
   // As the Bullet adapter does: a destroyed proxy's slot is searched as unused
   // (group = mask = 0), later reused by a new box; new slots are appended.
-  CpuSapPairFinder finder;
+  CpuSweepAndPruneFinder finder;
   std::vector<IndexPair> pairs;
   std::vector<ObjectBounds> boxes = pile(800, 0);
   std::mt19937 random(3);
@@ -190,7 +210,7 @@ TEST(CpuSapPairFinderTest, SlotsLeaveAndReturnMidRun) {
   }
 }
 
-TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
+TEST(CpuSweepAndPruneFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   // cpubf's rule, read literally: NaN never pairs; an inverted interval
   // [2, 1] still meets [0, 3]; infinite coordinates compare as numbers.
   std::vector<ObjectBounds> boxes = pile(600, 0);
@@ -202,8 +222,8 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   boxes[8] = box(kInfinity, kInfinity, kInfinity, kInfinity, kInfinity, kInfinity);
   boxes[9] = box(3, 3, 3, kQuietNaN, 4, 4);
   boxes[10] = box(5, 5, 5, 4, 6, 6);  // the inverted box again: they pair
-  CpuSapPairFinder sap, checked;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap, checked;
+  CpuBruteForceFinder brute_force;
   std::vector<IndexPair> pairs;
   for (int frame = 0; frame < 3; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
@@ -216,22 +236,22 @@ TEST(CpuSapPairFinderTest, NaNInvertedAndInfiniteBoxesPairAsTheBruteForceDoes) {
   }
 }
 
-TEST(CpuSapPairFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+TEST(CpuSweepAndPruneFinderTest, AgreesWithCpubfOnALongRunOfMovingBoxes) {
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   for (int frame = 0; frame < 20; ++frame) {
     ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, pile(3000, frame))) << "frame " << frame;
   }
 }
 
-TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
+TEST(CpuSweepAndPruneFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
   // 1% of the boxes move each frame, far or by a hair, some become unused
   // or NaN and come back; every few frames many move, forcing a full search
   // that must take over the moved-box frames' pairs.
   std::vector<ObjectBounds> boxes = pile(3000, 0);
   const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   std::vector<IndexPair> pairs;
   std::mt19937 random(11);
   int moved_only = 0, full_after_moved_only = 0;
@@ -269,14 +289,14 @@ TEST(CpuSapPairFinderTest, FramesWithFewMovedBoxesQueryOnlyThoseAndStayExact) {
   EXPECT_TRUE(none.added.empty() && none.removed.empty());
 }
 
-TEST(CpuSapPairFinderTest, TheCallersChangedSlotsAreAllItCompares) {
+TEST(CpuSweepAndPruneFinderTest, TheCallersChangedSlotsAreAllItCompares) {
   // As above, the caller naming the slots it wrote: the changed ones, some
   // unchanged ones and one twice.  A box changed but left out of the list
   // would be missed: the list is the whole truth, so it must be complete.
   std::vector<ObjectBounds> boxes = pile(3000, 0);
   const std::vector<ObjectBounds> elsewhere = pile(3000, 5);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   std::mt19937 random(12);
   int moved_only = 0;
   for (int frame = 0; frame < 30; ++frame) {
@@ -302,10 +322,10 @@ TEST(CpuSapPairFinderTest, TheCallersChangedSlotsAreAllItCompares) {
   EXPECT_THROW(sap.launchWithChanges(boxes, past_the_end), std::runtime_error);
 }
 
-TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
+TEST(CpuSweepAndPruneFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   std::vector<ObjectBounds> boxes = pile(1000, 0);
-  CpuSapPairFinder sap;
-  CpuPairFinder brute_force;
+  CpuSweepAndPruneFinder sap;
+  CpuBruteForceFinder brute_force;
   ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
   boxes[17] = box(5, 5, 5, 4, 6, 6);
   ASSERT_TRUE(testing::sameDeltaAs(sap, brute_force, boxes));
@@ -315,8 +335,8 @@ TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   EXPECT_FALSE(sap.lastSearchWasMovedOnly()) << "an inverted box is swept by the full search only";
 }
 
-TEST(CpuSapPairFinderTest, RejectsASecondLaunchBeforeTheFirstFinished) {
-  CpuSapPairFinder finder;
+TEST(CpuSweepAndPruneFinderTest, RejectsASecondLaunchBeforeTheFirstFinished) {
+  CpuSweepAndPruneFinder finder;
   const std::vector<ObjectBounds> boxes(3, box(0, 0, 0, 1, 1, 1));
   finder.launch(boxes);
   EXPECT_THROW(finder.launch(boxes), std::runtime_error);

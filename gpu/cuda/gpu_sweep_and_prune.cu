@@ -1,12 +1,12 @@
 // gpusap: the GPU sort-and-sweep pair finder, cpusap's method
-// (gpu/cpu/cpu_sap_pair_finder.h) in the shape a GPU wants.  The boxes are
+// (gpu/cpu/cpu_sweep_and_prune.h) in the shape a GPU wants.  The boxes are
 // sorted on the axis where their centres spread widest, within slabs of a
 // second axis: each box has one entry per slab it reaches, and its
 // candidates are the entries after it in its slab that start inside its
 // extent on the sweep axis, counted by binary search.  An exclusive scan of
 // the counts hands the candidates out to warps in equal shares, so a long
 // box costs its candidates, not a serial scan.  The rules the kernels keep
-// are in gpu/cuda/gpu_sap_kernels.cuh.
+// are in gpu/cuda/gpu_sweep_and_prune_kernels.cuh.
 //
 // Why slabs (docs/results/gpusap_candidates.md): along one axis a box meets
 // every box in a slice across the whole scene, so candidates per box grow as
@@ -78,9 +78,9 @@
 #include <string>
 
 #include "gpu/cuda/cuda_buffers.h"
-#include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/finder_device.h"
 #include "gpu/cuda/finish_frame.h"
-#include "gpu/cuda/gpu_sap_kernels.cuh"
+#include "gpu/cuda/gpu_sweep_and_prune_kernels.cuh"
 #include "gpu/pair_finder.h"
 
 namespace overlap::finders {
@@ -88,7 +88,6 @@ namespace {
 
 using namespace sap_kernels;
 
-constexpr unsigned kMaxBlocks = 1u << 16;
 // Sweep blocks per multiprocessor at least, whatever n: the candidates
 // outnumber the boxes, and the grid strides over them.
 constexpr unsigned kSweepBlocksPerSm = 8;
@@ -99,73 +98,74 @@ std::size_t withHeadroom(std::size_t wanted) {
   return wanted + wanted / 4 + 64;
 }
 
-unsigned blocksFor(std::uint64_t items) {
-  const std::uint64_t blocks = (items + kThreadsPerBlock - 1) / kThreadsPerBlock;
-  return static_cast<unsigned>(std::clamp<std::uint64_t>(blocks, 1, kMaxBlocks));
-}
-
-class GpuSapPairFinder final : public PairFinder {
+class GpuSweepAndPruneFinder final : public PairFinder {
  public:
-  GpuSapPairFinder() {
+  GpuSweepAndPruneFinder() {
     int device = 0;
     cudaDeviceProp properties{};
     CUDA_CHECK(cudaGetDevice(&device));
     CUDA_CHECK(cudaGetDeviceProperties(&properties, device));
-    sweep_blocks_ = std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm;
+    sweep_blocks_ = static_cast<unsigned>(std::min<std::uint64_t>(
+        std::max(1, properties.multiProcessorCount) * kSweepBlocksPerSm, kMaxBlocks));
     counters_ = DeviceBuffer<FrameCounters>(1);
     // Zero for the first frame; each frame's last kernel zeroes them for the next.
-    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), frame_.stream()));
-    block_ = DeviceBuffer<ResultBlock>(1);
-    host_ = PinnedBuffer<ResultBlock>(1);
+    CUDA_CHECK(cudaMemsetAsync(counters_.data(), 0, sizeof(FrameCounters), device_.stream()));
+    block_ = DeviceBuffer<SapResultBlock>(1);
+    host_ = PinnedBuffer<SapResultBlock>(1);
   }
 
-  GpuSapPairFinder(const GpuSapPairFinder&) = delete;
-  GpuSapPairFinder& operator=(const GpuSapPairFinder&) = delete;
+  GpuSweepAndPruneFinder(const GpuSweepAndPruneFinder&) = delete;
+  GpuSweepAndPruneFinder& operator=(const GpuSweepAndPruneFinder&) = delete;
 
   std::string_view name() const override { return "gpusap"; }
 
  private:
+  // The stage times are read from the last frame's events only here, when asked.
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.search_ms = last_search_ms_;
-    stats.device = frame_.lastWork();
+    stats.device = device_.lastWorkTimed();
+    stats.search_ms = stats.device.upload_ms + stats.device.kernels_ms + stats.device.download_ms;
     return stats;
   }
 
-  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
+  std::span<ObjectBounds> staging(std::size_t count) override { return device_.stagingRoom(count); }
 
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    frame_.begin();
+    device_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     reserveBoxBuffers(objects.size());
-    frame_.stage(objects);
-    frame_.record(DeviceFrame::kStarted);
-    frame_.upload(objects_.data(), objects.size());
-    frame_.record(DeviceFrame::kUploaded);
+    device_.stage(objects);
+    device_.record(FinderDevice::kStarted);
+    device_.upload(objects_.data(), objects.size());
+    device_.record(FinderDevice::kUploaded);
     enqueueSearch();
   }
 
   // The frame ends here whether this returns or throws.  After a throw,
   // previous_ still names the last frame the caller received a delta for.
   PairDelta finishSearch() override {
-    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
+    return finishFrame(device_.stream(), [&] { return collectDelta(); });
   }
 
   // Every runtime call of a frame is counted (DeviceWork::api_calls) and
-  // checked with its caller's file and line, by frame_ (gpu/cuda/device_frame.h).
+  // checked with its caller's file and line, by device_ (gpu/cuda/finder_device.h).
   using Where = std::source_location;
 
-  // Runs a CUB call twice as CUB's protocol asks: the size query, then (with
-  // temp_ grown to fit) the work.
+  // Runs a CUB call.  CUB's protocol asks its temporary size first; that
+  // query is made only while sizing_ (the first frame of a new shape of the
+  // calls' arguments, enqueueSearch()), and temp_ grown to the largest
+  // answer; other frames make only the call.
   template <class CubCall>
   void cub(CubCall cub_call, Where where = Where::current()) {
-    std::size_t bytes = 0;
-    frame_.check(cub_call(nullptr, bytes), "a CUB size query", where);
-    // At least one byte: a null temp_ would make the second call a query too.
-    reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
-    bytes = temp_.size();
-    frame_.check(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
+    if (sizing_) {
+      std::size_t bytes = 0;
+      device_.check(cub_call(nullptr, bytes), "a CUB size query", where);
+      // At least one byte: a null temp_ would make the call a query too.
+      reserveDiscarding(temp_, std::max<std::size_t>(bytes, 1));  // cudaFree waits for its users
+    }
+    std::size_t bytes = temp_.size();
+    device_.check(cub_call(temp_.data(), bytes), "a CUB device-wide call", where);
   }
 
   void reserveBoxBuffers(std::size_t n) {
@@ -216,21 +216,25 @@ class GpuSapPairFinder final : public PairFinder {
     const int first = (previous_ + 1) % 3;
     const int second = (previous_ + 2) % 3;
     current_ = first;
+    // What CUB's temporary sizes depend on: its item counts and bit ranges.
+    const CubShape shape{entries, pairs, maxSlabs(),
+                         n > 0 ? static_cast<int>(std::bit_width(n)) : -1, last_set_room_};
+    sizing_ = shape != cub_shape_;
     if (n > 0) {
       boundsKernel<<<blocksFor(std::max<std::uint64_t>({n, entries, pairs})), kThreadsPerBlock, 0,
-                     frame_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
-                                        pairs_[first].data(), pairs);
-      frame_.launched();
-      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, frame_.stream()>>>(
+                     device_.stream()>>>(objects_.data(), n, counters, keys_[0].data(), entries,
+                                         pairs_[first].data(), pairs);
+      device_.launched();
+      entryKernel<<<blocksFor(n), kThreadsPerBlock, 0, device_.stream()>>>(
           objects_.data(), n, counters, max_slabs, entries, keys_[0].data(), slots_[0].data());
-      frame_.launched();
+      device_.launched();
       cub::DoubleBuffer<std::uint64_t> keys(keys_[0].data(), keys_[1].data());
       cub::DoubleBuffer<std::uint32_t> slots(slots_[0].data(), slots_[1].data());
       // The slab's bits and the min's top 32 - drop (the kernels' header).
       const int drop = std::bit_width(max_slabs - 1);
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceRadixSort::SortPairs(temp, bytes, keys, slots, entries, drop, 32 + drop,
-                                               frame_.stream());
+                                               device_.stream());
       });
       const CandidateCounts counts{.objects = objects_.data(),
                                    .counters = counters,
@@ -240,20 +244,20 @@ class GpuSapPairFinder final : public PairFinder {
                                    .drop = static_cast<unsigned>(drop)};
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceScan::ExclusiveSum(temp, bytes, counts, offsets_.data(), entries + 1,
-                                             frame_.stream());
+                                             device_.stream());
       });
-      sweepKernel<<<std::max(blocksFor(entries), std::min(sweep_blocks_, kMaxBlocks)),
-                    kThreadsPerBlock, 0, frame_.stream()>>>(
+      sweepKernel<<<std::max(blocksFor(entries), sweep_blocks_), kThreadsPerBlock, 0,
+                    device_.stream()>>>(
           objects_.data(), entries, max_slabs, keys.Current(), slots.Current(), offsets_.data(),
           counters, pairs_[first].data(), static_cast<unsigned long long>(pairs));
-      frame_.launched();
+      device_.launched();
       cub::DoubleBuffer<IndexPair> pair_buffers(pairs_[first].data(), pairs_[second].data());
       // Slots below n: a and b need bit_width(n) bits each, b all 32 below a's,
       // and kNoPair has every bit set.
       const int pair_bits = 32 + std::bit_width(n);
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceRadixSort::SortKeys(temp, bytes, pair_buffers, pairs, PairBits{}, 0,
-                                              pair_bits, frame_.stream());
+                                              pair_bits, device_.stream());
       });
       current_ = pair_buffers.selector == 0 ? first : second;
     }
@@ -269,95 +273,93 @@ class GpuSapPairFinder final : public PairFinder {
         return cub::DeviceSelect::If(temp, bytes, this_frame, free, &counters->added,
                                      static_cast<std::int64_t>(this_set_room_),
                                      NotIn{last_frame, last_set_room_, counters, entries, pairs},
-                                     frame_.stream());
+                                     device_.stream());
       });
     }
     if (last_set_room_ > 0) {
       cub([&](void* temp, std::size_t& bytes) {
         return cub::DeviceSelect::If(
             temp, bytes, last_frame, &counters->removed, static_cast<std::int64_t>(last_set_room_),
-            NotIn{this_frame, this_set_room_, counters, entries, pairs}, frame_.stream());
+            NotIn{this_frame, this_set_room_, counters, entries, pairs}, device_.stream());
       });
     }
-    packKernel<<<1, kPackThreads, 0, frame_.stream()>>>(free, last_frame, counters, block_.data());
-    frame_.launched();
-    frame_.record(DeviceFrame::kSearched);
-    frame_.download(host_.data(), block_.data(), sizeof(ResultBlock));
-    frame_.record(DeviceFrame::kDone);
+    packKernel<<<1, kPackThreads, 0, device_.stream()>>>(free, last_frame, counters, block_.data());
+    device_.launched();
+    device_.record(FinderDevice::kSearched);
+    device_.download(host_.data(), block_.data(), sizeof(SapResultBlock));
+    device_.record(FinderDevice::kDone);
+    cub_shape_ = shape;  // only now: a frame that threw part way sizes again
   }
 
   // The one of the three pair buffers that is neither last frame's nor this one's.
   int freeBuffer() const { return 3 - previous_ - current_; }
 
   PairDelta collectDelta() {
-    DeviceWork& work = frame_.work();
-    frame_.wait(DeviceFrame::kDone);
-    work.upload_ms = frame_.elapsed(DeviceFrame::kStarted, DeviceFrame::kUploaded);
-    noteSearchTimes();
-    const ResultBlock& block = *host_.data();
-    if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
-      reserveEntries(withHeadroom(block.entries));
-      reservePairs(withHeadroom(block.pairs));
-      frame_.record(DeviceFrame::kUploaded);
+    device_.wait(FinderDevice::kDone);
+    SapResultBlock& block = *host_.data();
+    if (spoiled(block.counts.entries, block.counts.pairs, keys_[0].size(), pairCapacity())) {
+      // The first run counts too, never the host's time between the runs:
+      // the second records the events again, so the first's are read now.
+      DeviceWork& work = device_.work();
+      work.upload_ms += device_.elapsed(FinderDevice::kStarted, FinderDevice::kUploaded);
+      work.kernels_ms += device_.elapsed(FinderDevice::kUploaded, FinderDevice::kSearched);
+      work.download_ms += device_.elapsed(FinderDevice::kSearched, FinderDevice::kDone);
+      reserveEntries(withHeadroom(block.counts.entries));
+      reservePairs(withHeadroom(block.counts.pairs));
+      device_.record(FinderDevice::kStarted);  // the boxes are on the device already
+      device_.record(FinderDevice::kUploaded);
       enqueueSearch();
-      frame_.wait(DeviceFrame::kDone);
-      noteSearchTimes();
-      if (spoiled(block.entries, block.pairs, keys_[0].size(), pairCapacity())) {
+      device_.wait(FinderDevice::kDone);
+      if (spoiled(block.counts.entries, block.counts.pairs, keys_[0].size(), pairCapacity())) {
         throw std::logic_error("gpusap: a frame outgrew the room its own counts asked for");
       }
     }
-    const std::size_t added_count = block.added;
-    const std::size_t removed_count = block.removed;
-    const IndexPair* added = block.head;
-    const IndexPair* removed = block.head + std::min<std::size_t>(added_count, kHeadEntries);
+    const std::size_t added_count = block.counts.added;
+    const std::size_t removed_count = block.counts.removed;
+    const std::size_t added_in_head = std::min(added_count, kHeadEntries);
+    const std::size_t removed_in_head = std::min(removed_count, kHeadEntries - added_in_head);
+    IndexPair* const added_head = block.head[0];
+    IndexPair* const removed_head = added_head + added_in_head;
+    const IndexPair* added = added_head;
+    const IndexPair* removed = removed_head;
     if (added_count + removed_count > kHeadEntries) {
-      added = joinHeadAndTail(block.head, 0, pairs_[freeBuffer()], host_added_, added_count);
-      removed = joinHeadAndTail(block.head, std::min<std::size_t>(added_count, kHeadEntries),
-                                pairs_[previous_], host_removed_, removed_count);
-      frame_.record(DeviceFrame::kTailsDone);
-      frame_.wait(DeviceFrame::kTailsDone);
-      work.download_ms += frame_.elapsed(DeviceFrame::kDone, DeviceFrame::kTailsDone);
+      added = device_.joinHeadAndRest({added_head, added_in_head}, added_count,
+                                      pairs_[freeBuffer()].data() + added_in_head, host_added_);
+      removed = device_.joinHeadAndRest({removed_head, removed_in_head}, removed_count,
+                                        pairs_[previous_].data() + removed_in_head, host_removed_);
+      device_.record(FinderDevice::kTailsDone);
+      device_.wait(FinderDevice::kTailsDone);
     }
     previous_ = current_;  // nothing below can fail: this frame is now the reference
     last_set_room_ = this_set_room_;
-    frame_.end();
+    device_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
   }
 
-  // The list of `count` entries whose first entries are head[from ..
-  // kHeadEntries): the head itself when it holds them all, else `host`,
-  // filled with that part of the head and (queued; the caller waits) the
-  // rest from the device list.
-  const IndexPair* joinHeadAndTail(const IndexPair* head, std::size_t from,
-                                   const DeviceBuffer<IndexPair>& list,
-                                   PinnedBuffer<IndexPair>& host, std::size_t count) {
-    const std::size_t in_head = std::min(count, kHeadEntries - from);
-    if (count == in_head) return head + from;
-    return frame_.joinHeadAndRest(head + from, in_head, list.data() + in_head, host, count);
-  }
+  // The arguments of a frame's CUB calls that their temporary sizes depend on.
+  struct CubShape {
+    std::uint64_t entries = 0;
+    std::uint64_t pairs = 0;
+    std::uint32_t max_slabs = 0;
+    int slot_bits = -2;  // bit_width(n), -1 with no boxes; -2: no frame yet
+    std::size_t last_set_room = 0;
+    friend bool operator==(const CubShape&, const CubShape&) = default;
+  };
 
-  // The search just waited for: its kernels and its copy back.  A frame run
-  // twice adds both runs, never the host's time between them.
-  void noteSearchTimes() {
-    DeviceWork& work = frame_.work();
-    work.kernels_ms += frame_.elapsed(DeviceFrame::kUploaded, DeviceFrame::kSearched);
-    work.download_ms += frame_.elapsed(DeviceFrame::kSearched, DeviceFrame::kDone);
-    last_search_ms_ = work.upload_ms + work.kernels_ms + work.download_ms;
-  }
-
-  DeviceFrame frame_;  // the stream, events, staging and counted calls
+  FinderDevice device_;  // the stream, events, staging and counted calls
   unsigned sweep_blocks_ = 1;
 
   std::uint32_t slot_count_ = 0;
-  double last_search_ms_ = 0;
 
   DeviceBuffer<ObjectBounds> objects_;        // ... uploaded, by slot
   DeviceBuffer<std::uint64_t> keys_[2];       // entry keys, and CUB's other half
   DeviceBuffer<std::uint32_t> slots_[2];      // entry slots, and CUB's other half
   DeviceBuffer<unsigned long long> offsets_;  // per entry rank: its candidates' scan
   DeviceBuffer<FrameCounters> counters_;
-  DeviceBuffer<ResultBlock> block_;   // what comes back, assembled on the device
-  DeviceBuffer<unsigned char> temp_;  // CUB's temporary storage, shared by its calls
+  DeviceBuffer<SapResultBlock> block_;  // what comes back, assembled on the device
+  DeviceBuffer<unsigned char> temp_;    // CUB's temporary storage, shared by its calls
+  CubShape cub_shape_;                  // ... sized for the calls of this shape
+  bool sizing_ = false;                 // this frame's calls query their sizes
   // pairs_[previous_] holds last frame's sorted pairs, then kNoPair, over
   // last_set_room_ slots (0 before the first frame); the other two are this
   // frame's (current_, this_set_room_ slots) and the sort's other half.
@@ -367,15 +369,15 @@ class GpuSapPairFinder final : public PairFinder {
   int current_ = 1;
   std::size_t last_set_room_ = 0;
   std::size_t this_set_room_ = 0;
-  PinnedBuffer<ResultBlock> host_;
+  PinnedBuffer<SapResultBlock> host_;
   PinnedBuffer<IndexPair> host_added_;  // whole lists, when longer than the head
   PinnedBuffer<IndexPair> host_removed_;
 };
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuSapPairFinder(TaskSystem& /*tasks*/) {
-  return std::make_unique<GpuSapPairFinder>();
+std::unique_ptr<PairFinder> makeGpuSweepAndPruneFinder(TaskSystem& /*tasks*/) {
+  return std::make_unique<GpuSweepAndPruneFinder>();
 }
 
 }  // namespace overlap::finders

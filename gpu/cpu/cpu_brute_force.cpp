@@ -1,4 +1,4 @@
-#include "gpu/cpu/cpu_pair_finder.h"
+#include "gpu/cpu/cpu_brute_force.h"
 
 #include <algorithm>
 #include <array>
@@ -90,10 +90,10 @@ inline std::uint32_t chunkBits(const Columns& columns, const Slot& b, std::uint3
 
 }  // namespace
 
-CpuPairFinder::CpuPairFinder(TaskSystem& tasks)
+CpuBruteForceFinder::CpuBruteForceFinder(TaskSystem& tasks)
     : tasks_(tasks), thread_changes_(static_cast<std::size_t>(tasks.threads())) {}
 
-void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
+void CpuBruteForceFinder::storeObjects(std::span<const ObjectBounds> objects) {
   const std::size_t padded = objects.size() + kBitsPerWord;
   for (auto* column : {&min_x_, &min_y_, &min_z_, &max_x_, &max_y_, &max_z_}) {
     column->resize(padded, 0.0f);
@@ -113,8 +113,9 @@ void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
   }
 }
 
-OVERLAP_VECTOR_CLONES void CpuPairFinder::searchWords(std::uint64_t first_word,
-                                                      std::uint64_t end_word, Changes& changes) {
+OVERLAP_VECTOR_CLONES void CpuBruteForceFinder::searchWords(std::uint64_t first_word,
+                                                            std::uint64_t end_word,
+                                                            Changes& changes) {
   std::array<std::uint32_t, kBlockWords> fresh{};
   const Columns columns{min_x_.data(), min_y_.data(), min_z_.data(), max_x_.data(),
                         max_y_.data(), max_z_.data(), group_.data(), mask_.data()};
@@ -152,8 +153,8 @@ OVERLAP_VECTOR_CLONES void CpuPairFinder::searchWords(std::uint64_t first_word,
   }
 }
 
-void CpuPairFinder::startSearch(std::span<const ObjectBounds> objects,
-                                const std::span<const std::uint32_t>* /*changed*/) {
+void CpuBruteForceFinder::startSearch(std::span<const ObjectBounds> objects,
+                                      const std::span<const std::uint32_t>* /*changed*/) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   storeObjects(objects);
   // New words start at zero: new slots had no pairs last frame.
@@ -189,7 +190,7 @@ void CpuPairFinder::startSearch(std::span<const ObjectBounds> objects,
   stats_.search_ms = msSinceLaunch();
 }
 
-PairDelta CpuPairFinder::finishSearch() {
+PairDelta CpuBruteForceFinder::finishSearch() {
   return PairDelta{result_.added, result_.removed};
 }
 

@@ -24,9 +24,9 @@
 
 namespace overlap::finders {
 
-class CpuPairFinder final : public PairFinder {
+class CpuBruteForceFinder final : public PairFinder {
  public:
-  explicit CpuPairFinder(TaskSystem& tasks = defaultTaskSystem());
+  explicit CpuBruteForceFinder(TaskSystem& tasks = defaultTaskSystem());
 
   std::string_view name() const override { return "cpubf"; }
 

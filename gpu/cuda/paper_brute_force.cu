@@ -19,7 +19,7 @@
 //   the other finders is applied too, so that all three give one answer.
 // - Block size 256 and the default stream.
 // launch() uploads and starts the kernel; finish() copies back and compares.
-// Timed as gpubf is: the stage events of gpu/cuda/device_frame.h (search_ms
+// Timed as gpubf is: the stage events of gpu/cuda/finder_device.h (search_ms
 // from before the upload to after the copy back, the host's XOR and sort
 // outside it), launch_to_finish_ms on the host's clock (everything).
 #include <cuda_runtime.h>
@@ -32,14 +32,13 @@
 #include <vector>
 
 #include "gpu/cuda/cuda_buffers.h"
-#include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/finder_device.h"
+#include "gpu/cuda/launch_shape.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/pair_logic.h"
 
 namespace overlap::finders {
 namespace {
-
-constexpr unsigned kThreadsPerBlock = 256;
 
 __global__ void paperPairsKernel(const ObjectBounds* __restrict__ objects, std::uint32_t n,
                                  std::uint8_t* __restrict__ results) {
@@ -53,18 +52,18 @@ __global__ void paperPairsKernel(const ObjectBounds* __restrict__ objects, std::
   }
 }
 
-class PaperGpuPairFinder final : public PairFinder {
+class PaperBruteForceFinder final : public PairFinder {
  public:
-  PaperGpuPairFinder() = default;
-  PaperGpuPairFinder(const PaperGpuPairFinder&) = delete;
-  PaperGpuPairFinder& operator=(const PaperGpuPairFinder&) = delete;
+  PaperBruteForceFinder() = default;
+  PaperBruteForceFinder(const PaperBruteForceFinder&) = delete;
+  PaperBruteForceFinder& operator=(const PaperBruteForceFinder&) = delete;
 
   std::string_view name() const override { return "gpubf-paper"; }
 
  private:
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    frame_.begin();
+    device_.begin();
     const std::uint32_t slot_count = checkedSlotCount(name(), slot_count_, objects.size());
     const std::uint64_t thread_count = static_cast<std::uint64_t>(slot_count) * slot_count;
     const std::uint64_t block_count = (thread_count + kThreadsPerBlock - 1) / kThreadsPerBlock;
@@ -80,16 +79,16 @@ class PaperGpuPairFinder final : public PairFinder {
     previous_.resize(pair_count, 0);
     current_.resize(pair_count);
     if (pair_count > 0) {
-      frame_.record(DeviceFrame::kStarted);
-      frame_.check(
+      device_.record(FinderDevice::kStarted);
+      device_.check(
           cudaMemcpy(objects_.data(), objects.data(), objects.size_bytes(), cudaMemcpyHostToDevice),
           "cudaMemcpy");
-      frame_.work().bytes_to_device += objects.size_bytes();
-      frame_.record(DeviceFrame::kUploaded);
+      device_.work().bytes_to_device += objects.size_bytes();
+      device_.record(FinderDevice::kUploaded);
       paperPairsKernel<<<static_cast<unsigned>(block_count), kThreadsPerBlock>>>(
           objects_.data(), slot_count_, results_.data());
-      frame_.launched();
-      frame_.record(DeviceFrame::kSearched);
+      device_.launched();
+      device_.record(FinderDevice::kSearched);
     }
   }
 
@@ -98,12 +97,12 @@ class PaperGpuPairFinder final : public PairFinder {
     removed_.clear();
     searched_ = false;
     if (!current_.empty()) {
-      frame_.check(
+      device_.check(
           cudaMemcpy(current_.data(), results_.data(), current_.size(), cudaMemcpyDeviceToHost),
           "cudaMemcpy");
-      frame_.work().bytes_from_device += current_.size();
-      frame_.record(DeviceFrame::kDone);
-      frame_.wait(DeviceFrame::kDone);
+      device_.work().bytes_from_device += current_.size();
+      device_.record(FinderDevice::kDone);
+      device_.wait(FinderDevice::kDone);
       searched_ = true;
       compareWithLastFrame();
       std::swap(current_, previous_);
@@ -111,16 +110,16 @@ class PaperGpuPairFinder final : public PairFinder {
     // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
     std::sort(added_.begin(), added_.end());
     std::sort(removed_.begin(), removed_.end());
-    frame_.work().host_entries_sorted = added_.size() + removed_.size();
-    frame_.end();
+    device_.work().host_entries_sorted = added_.size() + removed_.size();
+    device_.end();
     return PairDelta{added_, removed_};
   }
 
   // With no pairs there is no GPU work: zero times.
   SearchStats searchStats() const override {
     SearchStats stats;
-    if (searched_) stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
-    stats.device = searched_ ? frame_.lastWorkTimed() : frame_.lastWork();
+    if (searched_) stats.search_ms = device_.lastMs(FinderDevice::kStarted, FinderDevice::kDone);
+    stats.device = searched_ ? device_.lastWorkTimed() : device_.lastWork();
     return stats;
   }
 
@@ -145,7 +144,7 @@ class PaperGpuPairFinder final : public PairFinder {
 
   std::uint32_t slot_count_ = 0;
   bool searched_ = false;  // the last finished frame had pairs, so device work
-  DeviceFrame frame_{DeviceFrame::StreamKind::kLegacyDefault};
+  FinderDevice device_{FinderDevice::StreamKind::kLegacyDefault};
   DeviceBuffer<ObjectBounds> objects_;
   DeviceBuffer<std::uint8_t> results_;
   std::vector<std::uint8_t> current_;  // pageable, as in the paper
@@ -156,8 +155,8 @@ class PaperGpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makePaperGpuPairFinder(TaskSystem& /*tasks*/) {
-  return std::make_unique<PaperGpuPairFinder>();
+std::unique_ptr<PairFinder> makePaperBruteForceFinder(TaskSystem& /*tasks*/) {
+  return std::make_unique<PaperBruteForceFinder>();
 }
 
 }  // namespace overlap::finders

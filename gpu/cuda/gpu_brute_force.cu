@@ -21,8 +21,9 @@
 //
 // One frame is: an upload of the boxes from pinned staging (which the caller
 // may fill itself: stagingFor()), the one kernel, one copy back of a result
-// block holding both counts and the first kHeadEntries of both lists, and the
-// four stage events (gpu/cuda/device_frame.h); nothing else unless more changed
+// block holding both counts and the first kHeadEntries of both lists
+// (gpu/cuda/launch_shape.h), and the
+// four stage events (gpu/cuda/finder_device.h); nothing else unless more changed
 // than the block holds.  That chain is a CUDA graph, captured when the sizes,
 // buffers or parities it bakes in are new and launched with one call when
 // they are as in one of the last two frames (a steady frame: two calls, the
@@ -45,8 +46,9 @@
 #include <utility>
 
 #include "gpu/cuda/cuda_buffers.h"
-#include "gpu/cuda/device_frame.h"
+#include "gpu/cuda/finder_device.h"
 #include "gpu/cuda/finish_frame.h"
+#include "gpu/cuda/launch_shape.h"
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/row_words.h"
 
@@ -54,18 +56,10 @@ namespace overlap::finders {
 namespace {
 
 using pair_logic::kBitsPerWord;
+static_assert(kBitsPerWord == kLanes, "a warp's ballot is one row word");
 
-constexpr unsigned kThreadsPerBlock = 256;
-constexpr unsigned kWarpsPerBlock = kThreadsPerBlock / kBitsPerWord;
-// Enough blocks to fill any current GPU; larger problems loop (grid-stride).
-constexpr std::uint64_t kMaxBlocks = 1u << 16;
-// The entries of each list that come back with the counts in one copy: a
-// frame that changes fewer pairs (the common case) needs no second round
-// trip.  32 KiB a list.
-constexpr std::size_t kHeadEntries = 1u << 12;
 // Each list holds this many entries at first, the head included.
 constexpr std::size_t kInitialListCapacity = 1u << 14;
-constexpr unsigned kFullWarp = 0xFFFFFFFFu;
 // Blocks of the search kernels resident per multiprocessor, at least: their
 // registers are capped to fit (40 a thread at 256 threads from sm_80, 64 on
 // sm_75's 1024 threads), which the search needs; the head sort, which would
@@ -77,17 +71,16 @@ constexpr unsigned kSearchBlocksPerSm = 4;
 constexpr unsigned kSearchBlocksPerSm = 6;
 #endif
 
-// What one copy brings back each frame.
-struct ResultBlock {
-  // [pair][0 added, 1 removed]: counting kernels use the pairs in turn, each
-  // zeroing the other for the next; a count may exceed the lists' capacity.
-  unsigned long long counts[2][2];
-  IndexPair added[kHeadEntries];  // entries 0 .. kHeadEntries - 1 of each list
-  IndexPair removed[kHeadEntries];
-};
+// What one copy brings back each frame (gpu/cuda/launch_shape.h): the counts
+// [pair][0 added, 1 removed], counting kernels using the pairs in turn, each
+// zeroing the other for the next (a count may exceed the lists' capacity);
+// then the heads, added's (kAdded) and removed's (kRemoved).
+enum List : unsigned { kAdded, kRemoved };
+using Counts = unsigned long long[2][2];
+using GpubfResultBlock = ResultBlock<Counts, 2>;
 
 struct ChangeLists {
-  ResultBlock* block;
+  GpubfResultBlock* block;
   unsigned counting;      // the count pair this kernel adds to; it zeroes the other
   IndexPair* added_tail;  // entries from kHeadEntries on
   IndexPair* removed_tail;
@@ -131,7 +124,7 @@ __device__ void appendChanges(std::uint32_t previous, std::uint32_t current, std
                                              : removed_base + __popc(removed & lanes_below);
     const IndexPair pair{a, b};
     if (slot < kHeadEntries) {
-      (is_added ? lists.block->added : lists.block->removed)[slot] = pair;
+      lists.block->head[is_added ? kAdded : kRemoved][slot] = pair;
     } else if (slot - kHeadEntries < lists.tail_capacity) {
       (is_added ? lists.added_tail : lists.removed_tail)[slot - kHeadEntries] = pair;
     }
@@ -195,7 +188,7 @@ __device__ void sortHeadsInLastBlock(const ChangeLists& lists) {
   __threadfence();
   if (threadIdx.x == 0) *lists.blocks_done = 0;  // for the next launch
   for (unsigned which = 0; which < 2; ++which) {
-    IndexPair* const list = which == 0 ? lists.block->added : lists.block->removed;
+    IndexPair* const list = lists.block->head[which];
     const unsigned long long count =
         *static_cast<volatile unsigned long long*>(&lists.block->counts[lists.counting][which]);
     if (count < 2 || count > kHeadEntries) continue;  // uniform
@@ -272,74 +265,70 @@ __global__ void __launch_bounds__(kThreadsPerBlock, kSearchBlocksPerSm)
   sortHeadsInLastBlock(lists);
 }
 
-unsigned blocksFor(std::uint64_t runs) {
-  return static_cast<unsigned>(std::min((runs + kWarpsPerBlock - 1) / kWarpsPerBlock, kMaxBlocks));
-}
-
-class GpuPairFinder final : public PairFinder {
+class GpuBruteForceFinder final : public PairFinder {
  public:
-  GpuPairFinder() {
-    block_ = DeviceBuffer<ResultBlock>(1);
-    host_block_ = PinnedBuffer<ResultBlock>(1);
+  GpuBruteForceFinder() {
+    block_ = DeviceBuffer<GpubfResultBlock>(1);
+    host_block_ = PinnedBuffer<GpubfResultBlock>(1);
     blocks_done_ = DeviceBuffer<unsigned>(1);
     // Once: from here on each counting kernel zeroes the count pair the next
     // one uses, and its last block sets blocks_done_ back to 0.  The whole
     // block, as every frame copies all of it back (compute-sanitizer's
     // initcheck reports a copy of unwritten memory).
-    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(ResultBlock), frame_.stream()));
-    CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned), frame_.stream()));
+    CUDA_CHECK(cudaMemsetAsync(block_.data(), 0, sizeof(GpubfResultBlock), device_.stream()));
+    CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned), device_.stream()));
     growTails(kInitialListCapacity - kHeadEntries);
   }
 
-  GpuPairFinder(const GpuPairFinder&) = delete;
-  GpuPairFinder& operator=(const GpuPairFinder&) = delete;
+  GpuBruteForceFinder(const GpuBruteForceFinder&) = delete;
+  GpuBruteForceFinder& operator=(const GpuBruteForceFinder&) = delete;
 
   std::string_view name() const override { return "gpubf"; }
 
  private:
   SearchStats searchStats() const override {
     SearchStats stats;
-    stats.search_ms = frame_.lastMs(DeviceFrame::kStarted, DeviceFrame::kDone);
-    stats.device = frame_.lastWorkTimed();
+    stats.search_ms = device_.lastMs(FinderDevice::kStarted, FinderDevice::kDone);
+    stats.device = device_.lastWorkTimed();
     return stats;
   }
 
-  std::span<ObjectBounds> staging(std::size_t count) override { return frame_.stagingRoom(count); }
+  std::span<ObjectBounds> staging(std::size_t count) override { return device_.stagingRoom(count); }
 
   // Grows what the frame needs first (a capture refuses allocations), then
   // enqueues the frame's chain: a graph launch when it is as in one of the
   // last two frames.
   void startSearch(std::span<const ObjectBounds> objects,
                    const std::span<const std::uint32_t>* /*changed*/) override {
-    frame_.begin();
+    device_.begin();
     slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
     growWords(row_words::wordCount(slot_count_));
     reserveDiscarding(objects_, objects.size());
-    frame_.stage(objects);
+    device_.stage(objects);
     reading_ = counting_;
     const bool searches = row_words::runCount(slot_count_) > 0;
     const ChangeLists lists = changeLists();
     const auto as_key = [](const void* pointer) {
       return reinterpret_cast<std::uintptr_t>(pointer);
     };
-    frame_.enqueueChain(
+    device_.enqueueChain(
         {slot_count_, as_key(objects_.data()), as_key(words_[previous_].data()),
          as_key(words_[1 - previous_].data()), as_key(block_.data()), as_key(host_block_.data()),
          lists.counting, as_key(lists.added_tail), as_key(lists.removed_tail),
          static_cast<std::uintptr_t>(lists.tail_capacity), as_key(lists.blocks_done)},
         [&] {
-          frame_.record(DeviceFrame::kStarted);
-          frame_.upload(objects_.data(), objects.size());
-          frame_.record(DeviceFrame::kUploaded);
+          device_.record(FinderDevice::kStarted);
+          device_.upload(objects_.data(), objects.size());
+          device_.record(FinderDevice::kUploaded);
           if (searches) {
-            findPairsKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+            findPairsKernel<<<searchBlocks(), kThreadsPerBlock, 0, device_.stream()>>>(
                 objects_.data(), slot_count_, words_[previous_].data(),
                 words_[1 - previous_].data(), lists);
-            frame_.launched();
+            device_.launched();
           }
-          frame_.record(DeviceFrame::kSearched);
+          device_.record(FinderDevice::kSearched);
           enqueueBlockCopy();
-          frame_.record(DeviceFrame::kDone);
+          device_.record(FinderDevice::kDone);
         });
     if (searches) counting_ = 1 - counting_;
   }
@@ -348,25 +337,28 @@ class GpuPairFinder final : public PairFinder {
   // of it stays queued, and previous_ still names the last frame the caller
   // received a delta for, so the next frame's delta is taken against it.
   PairDelta finishSearch() override {
-    return finishFrame(frame_.stream(), [&] { return collectDelta(); });
+    return finishFrame(device_.stream(), [&] { return collectDelta(); });
   }
 
   PairDelta collectDelta() {
-    frame_.wait(DeviceFrame::kDone);
+    device_.wait(FinderDevice::kDone);
     std::size_t added_count = host_block_.data()->counts[reading_][0];
     std::size_t removed_count = host_block_.data()->counts[reading_][1];
-    IndexPair* added = host_block_.data()->added;
-    IndexPair* removed = host_block_.data()->removed;
+    IndexPair* head_added = host_block_.data()->head[kAdded];
+    IndexPair* head_removed = host_block_.data()->head[kRemoved];
+    IndexPair* added = head_added;
+    IndexPair* removed = head_removed;
     if (std::max(added_count, removed_count) > kHeadEntries) {
       // More changes than the block holds: fetch the tails too, as part of
       // the copy back (the done event is recorded again after them).
       const std::size_t needed = std::max(added_count, removed_count) - kHeadEntries;
       if (needed > added_tail_.size()) recollectChanges(needed);
-      added = joinHeadAndTail(host_block_.data()->added, added_tail_, host_added_, added_count);
-      removed =
-          joinHeadAndTail(host_block_.data()->removed, removed_tail_, host_removed_, removed_count);
-      frame_.record(DeviceFrame::kDone);
-      frame_.wait(DeviceFrame::kDone);
+      added = device_.joinHeadAndRest({head_added, std::min(added_count, kHeadEntries)},
+                                      added_count, added_tail_.data(), host_added_);
+      removed = device_.joinHeadAndRest({head_removed, std::min(removed_count, kHeadEntries)},
+                                        removed_count, removed_tail_.data(), host_removed_);
+      device_.record(FinderDevice::kDone);
+      device_.wait(FinderDevice::kDone);
     }
     previous_ = 1 - previous_;  // nothing below can fail: this frame is now the reference
 
@@ -376,19 +368,10 @@ class GpuPairFinder final : public PairFinder {
          {std::pair{added, added_count}, std::pair{removed, removed_count}}) {
       if (count <= kHeadEntries) continue;
       std::sort(list, list + count);
-      frame_.work().host_entries_sorted += count;
+      device_.work().host_entries_sorted += count;
     }
-    frame_.end();
+    device_.end();
     return PairDelta{{added, added_count}, {removed, removed_count}};
-  }
-
-  // The list of `count` entries whose head is `head` (in the block): the
-  // head itself when it holds them all, else `host`, filled with the head and
-  // (queued; the caller waits) the device tail.
-  IndexPair* joinHeadAndTail(IndexPair* head, const DeviceBuffer<IndexPair>& tail,
-                             PinnedBuffer<IndexPair>& host, std::size_t count) {
-    if (count <= kHeadEntries) return head;
-    return frame_.joinHeadAndRest(head, kHeadEntries, tail.data(), host, count);
   }
 
   ChangeLists changeLists() const {
@@ -403,10 +386,12 @@ class GpuPairFinder final : public PairFinder {
                        slot_bits};
   }
 
-  unsigned searchBlocks() const { return blocksFor(row_words::runCount(slot_count_)); }
+  unsigned searchBlocks() const {
+    return blocksFor(row_words::runCount(slot_count_), kWarpsPerBlock);
+  }
 
   void enqueueBlockCopy() {
-    frame_.download(host_block_.data(), block_.data(), sizeof(ResultBlock));
+    device_.download(host_block_.data(), block_.data(), sizeof(GpubfResultBlock));
   }
 
   // Both tails are replaced only once both exist: they share one capacity.
@@ -426,7 +411,7 @@ class GpuPairFinder final : public PairFinder {
       const std::size_t capacity = std::max<std::size_t>(words, 2 * words_[0].size());
       DeviceBuffer<std::uint32_t> last_frame(capacity);
       DeviceBuffer<std::uint32_t> this_frame(capacity);
-      const cudaStream_t stream = frame_.stream();
+      const cudaStream_t stream = device_.stream();
       CUDA_CHECK(cudaMemsetAsync(last_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
       CUDA_CHECK(cudaMemsetAsync(this_frame.data(), 0, capacity * sizeof(std::uint32_t), stream));
       if (word_count_ > 0) {
@@ -448,16 +433,16 @@ class GpuPairFinder final : public PairFinder {
   void recollectChanges(std::size_t needed) {
     growTails(needed);
     reading_ = counting_;
-    collectChangesKernel<<<searchBlocks(), kThreadsPerBlock, 0, frame_.stream()>>>(
+    collectChangesKernel<<<searchBlocks(), kThreadsPerBlock, 0, device_.stream()>>>(
         slot_count_, words_[previous_].data(), words_[1 - previous_].data(), changeLists());
-    frame_.launched();
+    device_.launched();
     counting_ = 1 - counting_;
     enqueueBlockCopy();
-    frame_.record(DeviceFrame::kDone);
-    frame_.wait(DeviceFrame::kDone);
+    device_.record(FinderDevice::kDone);
+    device_.wait(FinderDevice::kDone);
   }
 
-  DeviceFrame frame_;  // the stream, events, staging, counted calls and graphs
+  FinderDevice device_;  // the stream, events, staging, counted calls and graphs
 
   std::uint32_t slot_count_ = 0;
   std::uint64_t word_count_ = 0;
@@ -467,8 +452,8 @@ class GpuPairFinder final : public PairFinder {
   // other the frame being searched (or last searched, if finish() threw).
   DeviceBuffer<std::uint32_t> words_[2];
   int previous_ = 0;
-  DeviceBuffer<ResultBlock> block_;
-  PinnedBuffer<ResultBlock> host_block_;
+  DeviceBuffer<GpubfResultBlock> block_;
+  PinnedBuffer<GpubfResultBlock> host_block_;
   DeviceBuffer<unsigned> blocks_done_;
   unsigned counting_ = 0;                 // the count pair the next counting kernel adds to
   unsigned reading_ = 0;                  // ... and the one the block copied back holds
@@ -480,8 +465,8 @@ class GpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuPairFinder(TaskSystem& /*tasks*/) {
-  return std::make_unique<GpuPairFinder>();
+std::unique_ptr<PairFinder> makeGpuBruteForceFinder(TaskSystem& /*tasks*/) {
+  return std::make_unique<GpuBruteForceFinder>();
 }
 
 }  // namespace overlap::finders

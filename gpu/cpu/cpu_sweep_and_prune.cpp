@@ -1,4 +1,4 @@
-#include "gpu/cpu/cpu_sap_pair_finder.h"
+#include "gpu/cpu/cpu_sweep_and_prune.h"
 
 #include <algorithm>
 #include <array>
@@ -51,13 +51,14 @@ sap::SweepKernel resolveKernel(sap::SweepKernel kernel) {
 
 }  // namespace
 
-CpuSapPairFinder::CpuSapPairFinder(TaskSystem& tasks, sap::SweepKernel kernel)
+CpuSweepAndPruneFinder::CpuSweepAndPruneFinder(TaskSystem& tasks, sap::SweepKernel kernel)
     : tasks_(tasks),
       kernel_(resolveKernel(kernel)),
       thread_pairs_(static_cast<std::size_t>(tasks.threads())),
       moved_boxes_(tasks) {}
 
-CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBounds> objects) {
+CpuSweepAndPruneFinder::Spread CpuSweepAndPruneFinder::sortOutBoxes(
+    std::span<const ObjectBounds> objects) {
   regular_.clear();
   inverted_.clear();
   placed_.assign(slot_count_, 0);
@@ -113,7 +114,7 @@ CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBo
   return spread;
 }
 
-void CpuSapPairFinder::chooseAxes(const Spread& spread) {
+void CpuSweepAndPruneFinder::chooseAxes(const Spread& spread) {
   const std::array<double, 3>& variance = spread.variance;
   const int widest =
       static_cast<int>(std::max_element(variance.begin(), variance.end()) - variance.begin());
@@ -138,7 +139,7 @@ void CpuSapPairFinder::chooseAxes(const Spread& spread) {
   grid_.inverse_width = static_cast<float>(slabs / range);
 }
 
-void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool same_axis) {
+void CpuSweepAndPruneFinder::sortBoxes(std::span<const ObjectBounds> objects, bool same_axis) {
   sorted_incrementally_ = false;
   if (same_axis && !entries_.empty()) {
     // Last frame's order, re-keyed, without the boxes that left the sweep,
@@ -169,7 +170,7 @@ void CpuSapPairFinder::sortBoxes(std::span<const ObjectBounds> objects, bool sam
   radixSort();
 }
 
-bool CpuSapPairFinder::insertionSortWithin(std::size_t moves) {
+bool CpuSweepAndPruneFinder::insertionSortWithin(std::size_t moves) {
   std::uint64_t* const entries = entries_.data();
   const std::size_t count = entries_.size();
   for (std::size_t i = 1; i < count; ++i) {
@@ -184,7 +185,7 @@ bool CpuSapPairFinder::insertionSortWithin(std::size_t moves) {
   return true;
 }
 
-void CpuSapPairFinder::radixSort() {
+void CpuSweepAndPruneFinder::radixSort() {
   // Least significant digit first over the key's 32 bits (the entry's high
   // half); each pass is stable, so the order ends up by the whole key.
   const std::size_t count = entries_.size();
@@ -217,7 +218,7 @@ void CpuSapPairFinder::radixSort() {
   }
 }
 
-void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
+void CpuSweepAndPruneFinder::layOut(std::span<const ObjectBounds> objects) {
   layout_.plan(objects, entries_, sweep_axis_, slab_axis_, grid_);
   const std::size_t grain =
       grainFor(layout_.size(), tasks_.threads(), kChunksPerThread, kMinEntriesPerGather);
@@ -226,7 +227,7 @@ void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
   });
 }
 
-void CpuSapPairFinder::sweep() {
+void CpuSweepAndPruneFinder::sweep() {
   for (PairKeys& pairs : thread_pairs_) pairs.clear();
   const auto threads = static_cast<std::size_t>(tasks_.threads());
   const std::size_t chunks =
@@ -242,7 +243,7 @@ void CpuSapPairFinder::sweep() {
   });
 }
 
-void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) {
+void CpuSweepAndPruneFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) {
   inverted_pairs_.clear();
   for (std::size_t i = 0; i < inverted_.size(); ++i) {
     const ObjectBounds& box = objects[inverted_[i]];
@@ -259,8 +260,8 @@ void CpuSapPairFinder::testInvertedBoxes(std::span<const ObjectBounds> objects) 
   }
 }
 
-void CpuSapPairFinder::startSearch(std::span<const ObjectBounds> objects,
-                                   const std::span<const std::uint32_t>* changed) {
+void CpuSweepAndPruneFinder::startSearch(std::span<const ObjectBounds> objects,
+                                         const std::span<const std::uint32_t>* changed) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
   moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, stats_.phases);
@@ -269,7 +270,7 @@ void CpuSapPairFinder::startSearch(std::span<const ObjectBounds> objects,
   moved_boxes_.searchFinished();
 }
 
-void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
+void CpuSweepAndPruneFinder::searchAll(std::span<const ObjectBounds> objects) {
   moved_boxes_.applyPendingChanges(previous_);
   const int last_sweep_axis = sweep_axis_;
   chooseAxes(sortOutBoxes(objects));                   // steps 1, 2
@@ -285,7 +286,7 @@ void CpuSapPairFinder::searchAll(std::span<const ObjectBounds> objects) {
   stats_.phases.delta_ms = msSinceLaunch() - stats_.phases.sort_ms - stats_.phases.sweep_ms;
 }
 
-void CpuSapPairFinder::computeDelta() {
+void CpuSweepAndPruneFinder::computeDelta() {
   // Counting the threads' batches of pairs in parallel pays when there are
   // several and each is large.
   batches_.clear();
@@ -331,7 +332,7 @@ void CpuSapPairFinder::computeDelta() {
   std::swap(previous_, current_);
 }
 
-PairDelta CpuSapPairFinder::finishSearch() {
+PairDelta CpuSweepAndPruneFinder::finishSearch() {
   return PairDelta{added_, removed_};
 }
 

@@ -45,12 +45,12 @@
 
 namespace overlap::finders {
 
-class CpuSapPairFinder final : public PairFinder {
+class CpuSweepAndPruneFinder final : public PairFinder {
  public:
   // Searches on `tasks`' threads.  Throws std::runtime_error for kAvx2 on a
   // CPU without AVX2.
-  explicit CpuSapPairFinder(TaskSystem& tasks = defaultTaskSystem(),
-                            sap::SweepKernel kernel = sap::SweepKernel::kFastest);
+  explicit CpuSweepAndPruneFinder(TaskSystem& tasks = defaultTaskSystem(),
+                                  sap::SweepKernel kernel = sap::SweepKernel::kFastest);
 
   std::string_view name() const override { return "cpusap"; }
 

@@ -1,4 +1,4 @@
-// gpusap's kernels and device helpers (included by gpu/cuda/gpu_sap_pair_finder.cu
+// gpusap's kernels and device helpers (included by gpu/cuda/gpu_sweep_and_prune.cu
 // only): the frame's bounds and the fill of its empty slots, the entries and
 // their sort keys, each entry's candidate count (read by the scan), the
 // balanced sweep, the pair-set helpers the CUB sort and selections use, and
@@ -58,7 +58,6 @@
 #pragma once
 
 #include <cuda_runtime.h>
-#include <string.h>  // ::memcpy, which device code may call too
 
 #include <cstddef>
 #include <cstdint>
@@ -66,14 +65,12 @@
 #include <iterator>
 #include <type_traits>
 
+#include "gpu/cuda/launch_shape.h"
 #include "gpu/pairs/pair_logic.h"
 #include "gpu/pairs/sap_sweep.h"
 
 namespace overlap::finders::sap_kernels {
 
-inline constexpr unsigned kThreadsPerBlock = 256;
-inline constexpr unsigned kFullWarp = 0xFFFFFFFFu;
-inline constexpr unsigned kLanes = 32;
 // Each warp takes this many candidates at a time, 32 consecutive per step.
 inline constexpr unsigned kStepsPerWarp = 8;
 inline constexpr std::uint64_t kWarpSpan = kLanes * kStepsPerWarp;
@@ -84,10 +81,6 @@ inline constexpr std::uint64_t kNoEntry = ~std::uint64_t{0};
 inline constexpr std::uint32_t kNoSlot = 0xFFFFFFFFu;  // both slots of kNoPair
 // packKernel's one block: it copies at most kHeadEntries pairs.
 inline constexpr unsigned kPackThreads = 1024;
-// The entries of the changes that come back in the result block, added's
-// first, then removed's: a frame that changes fewer pairs (the common case)
-// needs no further copy.  32 KiB.
-inline constexpr std::uint32_t kHeadEntries = 1u << 12;
 
 // Per frame, on the device, zero at its start: what the kernels count.
 // centre_bounds holds, per axis, the complement of the ordered bits of the
@@ -104,30 +97,19 @@ struct FrameCounters {
   unsigned long long removed;
 };
 
-// What comes back to the host, in one copy: the counts, then the changes'
-// heads (added's first min(added, kHeadEntries), then as many of removed's
-// as fit), as IndexPairs.
-struct ResultBlock {
+// What comes back to the host, in one copy (gpu/cuda/launch_shape.h): the
+// counts, then one head of the changes, added's first min(added,
+// kHeadEntries), then as many of removed's as fit.
+struct SapCounts {
   unsigned long long entries;
   unsigned long long pairs;
   unsigned long long added;
   unsigned long long removed;
-  IndexPair head[kHeadEntries];
 };
+using SapResultBlock = ResultBlock<SapCounts, 1>;
 
-__host__ __device__ inline std::uint32_t orderedKey(float value) {
-  std::uint32_t bits = 0;
-  ::memcpy(&bits, &value, sizeof bits);
-  if (bits == 0x80000000u) bits = 0;  // -0 is +0
-  return bits ^ ((bits >> 31) != 0 ? 0xFFFFFFFFu : 0x80000000u);
-}
-
-__host__ __device__ inline float fromOrderedKey(std::uint32_t key) {
-  const std::uint32_t bits = key ^ ((key >> 31) != 0 ? 0x80000000u : 0xFFFFFFFFu);
-  float value = 0;
-  ::memcpy(&value, &bits, sizeof value);
-  return value;
-}
+using sap::fromOrderedKey;
+using sap::orderedKey;
 
 __host__ __device__ inline bool swept(const ObjectBounds& box) {
   bool nan = false;
@@ -429,20 +411,17 @@ struct NotIn {
 // counters for the next frame.
 __global__ void __launch_bounds__(kPackThreads)
     packKernel(const IndexPair* __restrict__ added, const IndexPair* __restrict__ removed,
-               FrameCounters* __restrict__ counters, ResultBlock* __restrict__ block) {
+               FrameCounters* __restrict__ counters, SapResultBlock* __restrict__ block) {
   const unsigned long long added_count = counters->added;
   const unsigned long long removed_count = counters->removed;
   if (threadIdx.x == 0) {
-    block->entries = counters->entries;
-    block->pairs = counters->pairs;
-    block->added = added_count;
-    block->removed = removed_count;
+    block->counts = SapCounts{counters->entries, counters->pairs, added_count, removed_count};
   }
   for (std::uint64_t i = threadIdx.x; i < kHeadEntries; i += kPackThreads) {
     if (i < added_count) {
-      block->head[i] = added[i];
+      block->head[0][i] = added[i];
     } else if (i - added_count < removed_count) {
-      block->head[i] = removed[i - added_count];
+      block->head[0][i] = removed[i - added_count];
     }
   }
   __syncthreads();  // every thread has read the counts
