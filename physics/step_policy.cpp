@@ -27,6 +27,8 @@ constexpr NamedMode<SleepMode> kSleepModes[] = {
     {SleepMode::kScene, "scene"}, {SleepMode::kOn, "on"}, {SleepMode::kOff, "off"}};
 constexpr NamedMode<SolverMode> kSolverModes[] = {{SolverMode::kPile, "pile"},
                                                   {SolverMode::kBullet, "bullet"}};
+constexpr NamedMode<SolverOrder> kSolverOrders[] = {{SolverOrder::kColoured, "coloured"},
+                                                    {SolverOrder::kSerial, "serial"}};
 
 template <typename Mode, std::size_t N>
 Mode parseMode(const NamedMode<Mode> (&table)[N], const std::string& text) {
@@ -72,6 +74,9 @@ SleepMode parseSleepMode(const std::string& text) {
 SolverMode parseSolverMode(const std::string& text) {
   return parseMode(kSolverModes, text);
 }
+SolverOrder parseSolverOrder(const std::string& text) {
+  return parseMode(kSolverOrders, text);
+}
 std::string ccdModeName(CcdMode mode) {
   return modeName(kCcdModes, mode);
 }
@@ -80,6 +85,9 @@ std::string sleepModeName(SleepMode mode) {
 }
 std::string solverModeName(SolverMode mode) {
   return modeName(kSolverModes, mode);
+}
+std::string solverOrderName(SolverOrder order) {
+  return modeName(kSolverOrders, order);
 }
 
 double typicalEdge(std::span<const double> edges) {

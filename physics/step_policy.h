@@ -28,16 +28,24 @@ constexpr int kAutoSubsteps = 0;
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default
 enum class SolverMode { kPile, kBullet };    // solverSettings()
+// The order the contact solver sweeps its rows in: kColoured, colour after
+// colour with each colour's manifolds in parallel, the same result for every
+// thread count (physics/coloured_solver.h); kSerial, Bullet's stock
+// btSequentialImpulseConstraintSolver, in manifold order on one thread.
+enum class SolverOrder { kColoured, kSerial };
 
-// Parses "off|auto|all", "scene|on|off" and "pile|bullet"; throws std::invalid_argument.
+// Parses "off|auto|all", "scene|on|off", "pile|bullet" and "coloured|serial";
+// throws std::invalid_argument.
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
+SolverOrder parseSolverOrder(const std::string& text);
 // Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
 std::string solverModeName(SolverMode mode);
+std::string solverOrderName(SolverOrder order);
 
 // The numbers of the automatic rule.  Each bound is a share of a length a box
 // must not cross in one substep; K is the least that keeps all of them.

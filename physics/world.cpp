@@ -20,6 +20,7 @@
 #include "gpu/base/stopwatch.h"
 #include "physics/broadphase_factory.h"
 #include "physics/ccd_query_broadphase.h"
+#include "physics/coloured_solver.h"
 #include "physics/growing_sweep_and_prune.h"
 #include "physics/timed_world.h"
 
@@ -57,7 +58,7 @@ struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
   std::unique_ptr<CcdQueryBroadphase> broadphase;  // the pair search, CCD's queries apart
-  btSequentialImpulseConstraintSolver solver;
+  std::unique_ptr<btConstraintSolver> solver;      // WorldOptions::solver_order's
   std::unique_ptr<TimedDynamicsWorld> world;
   std::vector<std::unique_ptr<btBoxShape>> shapes;
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
@@ -159,7 +160,8 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
   setup.ccd_queries = b.broadphase.get();
   setup.after_aabb_update = [this] { removeBrokenBoxes(); };
   setup.after_narrowphase = [this] { noteContactsStarted(); };
-  b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
+  b.solver = makeConstraintSolver(options.solver_order, defaultTaskSystem());
+  b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), b.solver.get(),
                                                  &b.collision_config, std::move(setup));
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
   applySolverSettings(b.world->getSolverInfo(), options.solver);

@@ -44,6 +44,9 @@ struct WorldOptions {
   CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
   SleepMode sleep = SleepMode::kScene;    // Bullet's deactivation, sleepAllowed()
   SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
+  // The contact solver's sweep: coloured batches on the task system, or
+  // Bullet's serial solver (physics/coloured_solver.h).
+  SolverOrder solver_order = SolverOrder::kColoured;
 };
 
 struct FrameTimings {

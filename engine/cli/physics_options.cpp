@@ -50,13 +50,21 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
           "velocity solve: holds a 50 g pile at fewer substeps) or bullet (Bullet's defaults)")
       ->check(parsedBy(physics::parseSolverMode, "pile|bullet"))
       ->capture_default_str();
+  command
+      .add_option("--solver-order", solver_order_,
+                  "the contact solver's sweep: coloured (colour after colour, each colour on "
+                  "every thread; the same state for any --threads) or serial (Bullet's own, in "
+                  "manifold order)")
+      ->check(parsedBy(physics::parseSolverOrder, "coloured|serial"))
+      ->capture_default_str();
 }
 
 physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
                                               const physics::SceneConfig& config) const {
-  const physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
-                                      physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
-                                      physics::parseSolverMode(solver_)};
+  physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
+                                physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
+                                physics::parseSolverMode(solver_)};
+  options.solver_order = physics::parseSolverOrder(solver_order_);
   try {
     physics::sleepAllowed(config, options.sleep);
   } catch (const std::invalid_argument& error) {
@@ -71,7 +79,8 @@ nlohmann::json toJson(const physics::WorldOptions& options) {
                                                               : nlohmann::json(options.substeps)},
       {"ccd", physics::ccdModeName(options.ccd)},
       {"sleep", physics::sleepModeName(options.sleep)},
-      {"solver", physics::solverModeName(options.solver)}};
+      {"solver", physics::solverModeName(options.solver)},
+      {"solver_order", physics::solverOrderName(options.solver_order)}};
 }
 
 }  // namespace overlap::engine

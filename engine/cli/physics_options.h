@@ -4,6 +4,8 @@
 //                         it this frame, every box
 //   --sleep scene|on|off  Bullet's deactivation (scene: on for scenes 1-2)
 //   --solver pile|bullet  Bullet's contact solver settings (physics/step_policy.h)
+//   --solver-order coloured|serial  its sweep: coloured batches on every
+//                         thread (physics/coloured_solver.h) or Bullet's serial one
 // Kept apart from scene_options.* so the scene's numbers and the model's
 // choices can change independently.
 #pragma once
@@ -18,7 +20,8 @@ namespace overlap::engine {
 
 class PhysicsOptions {
  public:
-  // Registers --substeps, and unless `substeps_only` also --ccd, --sleep and --solver.
+  // Registers --substeps, and unless `substeps_only` also --ccd, --sleep,
+  // --solver and --solver-order.
   void addTo(CLI::App& command, bool substeps_only = false);
   // The world options the parsed text describes; throws UsageError when the
   // scene does not allow them (--sleep on where gravity turns).
@@ -30,6 +33,7 @@ class PhysicsOptions {
   std::string ccd_ = "auto";
   std::string sleep_ = "scene";
   std::string solver_ = "pile";
+  std::string solver_order_ = "coloured";
 };
 
 // summary.json's record of what the run modelled.
