@@ -63,7 +63,8 @@ std::string colouringProblem(const ContactColouring& colouring) {
   return "";
 }
 
-ColouredConstraintSolver::ColouredConstraintSolver(TaskSystem& tasks) : tasks_(tasks) {}
+ColouredConstraintSolver::ColouredConstraintSolver(TaskSystem& tasks, int colours)
+    : tasks_(tasks), colours_(std::clamp(colours, 0, kColours)) {}
 
 btScalar ColouredConstraintSolver::solveGroupCacheFriendlySetup(
     btCollisionObject** bodies, int numBodies, btPersistentManifold** manifolds, int numManifolds,
@@ -157,6 +158,32 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
   int contacts = 0;
   int rolling_rows = 0;
   int used_colours = 0;
+  const auto touchesStatic = [&](const btContactManifoldCachedInfo& cached) {
+    return cached.solverBodyIds[0] == m_fixedBodyId || cached.solverBodyIds[1] == m_fixedBodyId;
+  };
+  // The lowest colour from `lowest` on that neither moving body holds.
+  const auto colourFrom = [&](int m, int lowest) {
+    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+    const int a = cached.solverBodyIds[0];
+    const int b = cached.solverBodyIds[1];
+    const std::uint64_t held =
+        (a == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(a)]) |
+        (b == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(b)]);
+    const std::uint64_t free = lowest >= kColours ? 0 : ~held & (~std::uint64_t{0} << lowest);
+    int colour = kColours;  // the overflow batch
+    if (free != 0 && std::countr_zero(free) < colours_) {
+      colour = std::countr_zero(free);
+      const std::uint64_t bit = std::uint64_t{1} << colour;
+      if (a != m_fixedBodyId) body_colours_[static_cast<std::size_t>(a)] |= bit;
+      if (b != m_fixedBodyId) body_colours_[static_cast<std::size_t>(b)] |= bit;
+      used_colours = std::max(used_colours, colour + 1);
+    }
+    colour_[static_cast<std::size_t>(m)] = colour;
+    ++batch_fill_[static_cast<std::size_t>(colour)];
+  };
+  // Pass 1: the rows and the manifolds between two moving bodies; pass 2:
+  // the manifolds on a static body, in colours after those (so each sweep
+  // ends on the walls: physics/coloured_solver.h).
   for (int m = 0; m < numManifolds; ++m) {
     btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
     const int a = cached.solverBodyIds[0];
@@ -172,27 +199,19 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
     for (int p = 0; p < cached.numTouchingContacts; ++p) {
       if (cached.contactHasRollingFriction[p]) rolling_rows += 3;
     }
-    if (cached.numTouchingContacts == 0) {
-      colour_[static_cast<std::size_t>(m)] = -1;
-      continue;
+    colour_[static_cast<std::size_t>(m)] = -1;
+    if (cached.numTouchingContacts > 0 && !touchesStatic(cached)) colourFrom(m, 0);
+  }
+  const int first_static_colour = used_colours;
+  for (int m = 0; m < numManifolds; ++m) {
+    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+    if (cached.numTouchingContacts > 0 && touchesStatic(cached)) {
+      colourFrom(m, first_static_colour);
     }
-    const std::uint64_t held =
-        (a == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(a)]) |
-        (b == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(b)]);
-    int colour = kColours;  // the overflow batch
-    if (~held != 0) {
-      colour = std::countr_zero(~held);
-      const std::uint64_t bit = std::uint64_t{1} << colour;
-      if (a != m_fixedBodyId) body_colours_[static_cast<std::size_t>(a)] |= bit;
-      if (b != m_fixedBodyId) body_colours_[static_cast<std::size_t>(b)] |= bit;
-      used_colours = std::max(used_colours, colour + 1);
-    }
-    colour_[static_cast<std::size_t>(m)] = colour;
-    ++batch_fill_[static_cast<std::size_t>(colour)];
   }
 
-  // The batches: the colours in order (a greedy colouring uses 0..used-1),
-  // then the overflow batch if any manifold is in it.
+  // The batches: the colours in order (each pass's greedy colouring leaves
+  // no colour empty), then the overflow batch if any manifold is in it.
   colouring_.overflow = batch_fill_[kColours] > 0;
   const int batches = used_colours + (colouring_.overflow ? 1 : 0);
   colouring_.batch_begin.resize(static_cast<std::size_t>(batches) + 1);

@@ -20,11 +20,17 @@
 // - The colours depend on the manifolds alone (their order and bodies),
 //   never on the thread count: each manifold with a touching point takes,
 //   in manifold order, the lowest of kColours colours that neither of its
-//   moving bodies holds yet (greedy colouring).  A manifold that finds none
-//   goes to the overflow batch, solved last in each sweep, in manifold order,
-//   in one piece.  So no coloured batch holds two constraints on one moving
-//   body, the manifolds of a batch touch disjoint bodies, and the order in
-//   which a batch's pieces run cannot change a bit of the result.
+//   moving bodies holds yet (greedy colouring), first the manifolds between
+//   two moving bodies, then those on a static body, in colours after all of
+//   theirs.  A manifold that finds none goes to the overflow batch, solved
+//   last in each sweep, in manifold order, in one piece.  So no coloured
+//   batch holds two constraints on one moving body, the manifolds of a batch
+//   touch disjoint bodies, and the order in which a batch's pieces run
+//   cannot change a bit of the result.
+// - The wall rows come last in each sweep, so that a sweep ends with every
+//   box's wall contacts met: mixed in with the box-box colours, a pile under
+//   50 g pushed boxes into the walls (scene 4, 400 boxes: 18 boxes sunk
+//   where Bullet's serial order sank none; docs/results/solver_order_error.md).
 // - The static walls are never written: all static bodies share Bullet's one
 //   fixed solver body, and Bullet's SIMD row functions add (zero) impulses to
 //   it, so no row names it; a row against a static body names instead the
@@ -40,6 +46,12 @@
 //   serial solver does, the largest squared residual of the sweep.
 //   SOLVER_RANDMIZE_ORDER is not followed: the order is the colours'.
 // - No allocation per iteration: the per-solve arrays keep their capacity.
+// - Shared state outside the bodies and rows: Bullet's split-impulse row
+//   function counts its calls in a global int (gNumSplitImpulseRecoveries,
+//   read by nothing); with split impulse on (SolverMode::kBullet) the pieces
+//   of a batch bump it unsynchronised, as Bullet's own Mt solver does.  No
+//   other Bullet call made inside a piece writes anything but the piece's
+//   rows, bodies and contact points.
 //
 // Thread use: solveGroup runs on its caller and on the task system's
 // threads inside forEachPiece; one solver serves one world.
@@ -88,7 +100,9 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   static constexpr int kManifoldsPerPiece = 32;       // a coloured batch's pieces
   static constexpr std::size_t kItemsPerPiece = 256;  // bodies, manifolds, rows: the other loops
 
-  explicit ColouredConstraintSolver(TaskSystem& tasks);
+  // `colours`: at most kColours; with 0 every manifold is in the overflow
+  // batch, and the sweep is Bullet's serial one, in manifold order.
+  explicit ColouredConstraintSolver(TaskSystem& tasks, int colours = kColours);
 
   // The last solveGroup call's batches.
   const ContactColouring& lastColouring() const { return colouring_; }
@@ -144,6 +158,7 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   btScalar solveRollingFrictionRows(int contact);
 
   TaskSystem& tasks_;
+  int colours_;
   const btContactSolverInfo* info_ = nullptr;  // the running solveGroup call's
   ContactColouring colouring_;
   struct RowRange {
