@@ -119,6 +119,7 @@ def main() -> None:
         f.write(f"# commit {git_commit()}\n")
         f.write(f"# machine {platform.node()} ({os.cpu_count()} CPUs, {platform.machine()})\n")
         f.write(f"# command {' '.join(sys.argv)}\n")
+        f.write(f"# profile {a.profile}: {len(rows)} physics cells, each run with both orders\n")
         f.write(f"# load {load:.1f} (1-minute average at the end)\n")
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
