@@ -34,6 +34,7 @@ install(TARGETS ${OVERLAP_INSTALLED_TARGETS}
 # gpu.  The copies are written at configure time, again whenever a header changes.
 set(OVERLAP_PUBLIC_HEADERS
   gpu/pair_finder.h
+  gpu/task_system.h
   physics/broadphase_factory.h
   physics/default_broadphase.h
   physics/bulk_pair_cache.h

@@ -62,7 +62,7 @@ const PairFinderRow& pairFinderRow(std::string_view name, std::span<const PairFi
   throw std::invalid_argument("pair finder: unknown name '" + std::string(name) + "'");
 }
 
-std::unique_ptr<PairFinder> makePairFinder(std::string_view name, int cpu_threads,
+std::unique_ptr<PairFinder> makePairFinder(std::string_view name, TaskSystem& tasks,
                                            std::span<const PairFinderRow> table) {
   const PairFinderRow& row = pairFinderRow(name, table);
   if (row.needs_device) {
@@ -71,7 +71,7 @@ std::unique_ptr<PairFinder> makePairFinder(std::string_view name, int cpu_thread
       throw std::runtime_error("makePairFinder: the GPU pair finders need a CUDA device: " + why);
     }
   }
-  return row.make(cpu_threads);
+  return row.make(tasks);
 }
 
 std::uint32_t checkedSlotCount(std::string_view finder, std::uint32_t previous,

@@ -36,6 +36,8 @@
 #include <string>
 #include <string_view>
 
+#include "gpu/task_system.h"
+
 namespace overlap::finders {
 
 // One slot's box and collision filter, as the caller hands it over.  32 bytes
@@ -182,9 +184,9 @@ struct PairFinderRow {
   std::string_view name;         // as --algo takes it
   bool needs_device;             // runs on a CUDA device
   std::string_view description;  // one line, for --list-algos
-  // Makes one.  cpu_threads = 0 lets a CPU finder use every thread of the
-  // caller's oneTBB arena; the GPU finders ignore it.
-  std::unique_ptr<PairFinder> (*make)(int cpu_threads);
+  // Makes one.  A CPU finder searches on `tasks`' threads, which must
+  // outlive it; the GPU finders run their host work on the caller.
+  std::unique_ptr<PairFinder> (*make)(TaskSystem& tasks);
 };
 
 // The product's finders, CPU ones first: cpubf, cpusap, gpubf, gpubf-paper,
@@ -199,7 +201,7 @@ const PairFinderRow& pairFinderRow(std::string_view name,
 // Makes the finder named `name`.  A device finder needs cudaDeviceAvailable()
 // and throws std::runtime_error with its reason otherwise.
 std::unique_ptr<PairFinder> makePairFinder(
-    std::string_view name, int cpu_threads = 0,
+    std::string_view name, TaskSystem& tasks = defaultTaskSystem(),
     std::span<const PairFinderRow> table = pairFinderTable());
 
 // The new slot count for a launch() over `objects` slots, after the checks

@@ -11,9 +11,9 @@ namespace overlap::finders {
 
 #if OVERLAP_HAVE_CUDA
 // Defined in the GPU finders' own .cu files.
-std::unique_ptr<PairFinder> makeGpuPairFinder(int cpu_threads);
-std::unique_ptr<PairFinder> makePaperGpuPairFinder(int cpu_threads);
-std::unique_ptr<PairFinder> makeGpuSapPairFinder(int cpu_threads);
+std::unique_ptr<PairFinder> makeGpuPairFinder(TaskSystem& tasks);
+std::unique_ptr<PairFinder> makePaperGpuPairFinder(TaskSystem& tasks);
+std::unique_ptr<PairFinder> makeGpuSapPairFinder(TaskSystem& tasks);
 #define OVERLAP_GPU_FINDER(make) make
 #else
 // Never called: makePairFinder() refuses a device finder without a device.
@@ -23,8 +23,8 @@ std::unique_ptr<PairFinder> makeGpuSapPairFinder(int cpu_threads);
 namespace {
 
 template <class Finder>
-std::unique_ptr<PairFinder> makeCpuFinder(int cpu_threads) {
-  return std::make_unique<Finder>(cpu_threads);
+std::unique_ptr<PairFinder> makeCpuFinder(TaskSystem& tasks) {
+  return std::make_unique<Finder>(tasks);
 }
 
 constexpr PairFinderRow kTable[] = {

@@ -130,7 +130,8 @@ std::string broadphaseCapacityProblem(std::string_view name, int objects, int re
 }
 
 BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector3& world_min,
-                                           const btVector3& world_max, int max_objects) const {
+                                           const btVector3& world_max, int max_objects,
+                                           TaskSystem& tasks) const {
   const BroadphaseInfo& info = this->info(name);
   checkBulletAllocations();
   BroadphaseChoice choice;
@@ -143,19 +144,20 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
   }
   std::string why;
   if (info.needs_device && !finders::cudaDeviceAvailable(&why)) {
-    choice = make(kDeviceFallback, world_min, world_max, max_objects);
+    choice = make(kDeviceFallback, world_min, world_max, max_objects, tasks);
     choice.notice =
         "algo " + std::string(name) + ": " + why + "; running " + choice.name + " instead";
     return choice;
   }
-  choice.broadphase =
-      std::make_unique<PairFinderBroadphase>(finders::makePairFinder(name, 0, finders_));
+  choice.broadphase = std::make_unique<PairFinderBroadphase>(
+      finders::makePairFinder(name, tasks, finders_), info.needs_device);
   return choice;
 }
 
 BroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name, const btVector3& world_min,
-                                                const btVector3& world_max, int max_objects) const {
-  BroadphaseChoice choice = make(name, world_min, world_max, max_objects);
+                                                const btVector3& world_max, int max_objects,
+                                                TaskSystem& tasks) const {
+  BroadphaseChoice choice = make(name, world_min, world_max, max_objects, tasks);
   choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
   return choice;
 }
@@ -178,13 +180,14 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name) {
 }
 
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
-                                const btVector3& world_max, int max_objects) {
-  return productCatalogue().make(name, world_min, world_max, max_objects);
+                                const btVector3& world_max, int max_objects, TaskSystem& tasks) {
+  return productCatalogue().make(name, world_min, world_max, max_objects, tasks);
 }
 
 BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects) {
-  return productCatalogue().makeWorld(name, world_min, world_max, max_objects);
+                                     const btVector3& world_max, int max_objects,
+                                     TaskSystem& tasks) {
+  return productCatalogue().makeWorld(name, world_min, world_max, max_objects, tasks);
 }
 
 }  // namespace overlap::physics

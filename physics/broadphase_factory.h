@@ -76,9 +76,11 @@ class BroadphaseCatalogue {
   // them around any box outside: physics/growing_sweep_and_prune.h);
   // `max_objects` is the most proxies the run will create.  Throws
   // std::invalid_argument for an unknown name or a count the algorithm can't
-  // hold.
+  // hold.  Our CPU finders search on `tasks`' threads, which must outlive
+  // the broadphase.
   BroadphaseChoice make(std::string_view name, const btVector3& world_min,
-                        const btVector3& world_max, int max_objects) const;
+                        const btVector3& world_max, int max_objects,
+                        TaskSystem& tasks = defaultTaskSystem()) const;
   // What a btCollisionWorld should get: make()'s pair search, with its ray
   // and sweep queries (raycasts, CCD) answered by one shared tree (the
   // broadphase returned is a CcdQueryBroadphase,
@@ -86,7 +88,8 @@ class BroadphaseCatalogue {
   // visiting every proxy; through the tree it costs O(log n) under every
   // name, and a program that never queries never builds it.
   BroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
-                             const btVector3& world_max, int max_objects) const;
+                             const btVector3& world_max, int max_objects,
+                             TaskSystem& tasks = defaultTaskSystem()) const;
 
  private:
   std::vector<finders::PairFinderRow> finders_;
@@ -104,8 +107,10 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name);
 
 // The product catalogue's make() and makeWorld().
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
-                                const btVector3& world_max, int max_objects);
+                                const btVector3& world_max, int max_objects,
+                                TaskSystem& tasks = defaultTaskSystem());
 BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects);
+                                     const btVector3& world_max, int max_objects,
+                                     TaskSystem& tasks = defaultTaskSystem());
 
 }  // namespace overlap::physics

@@ -57,13 +57,14 @@ btVector3 corner(const float (&xyz)[3]) {
 
 }  // namespace
 
-BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects)
+BroadphaseReplay::BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects,
+                                   TaskSystem& tasks)
     : bullet_(std::make_unique<Bullet>()) {
   if (objects <= 0) throw std::invalid_argument("objects: must be positive");
   // A margin keeps boxes on the world's boundary off SAP's clamped edge.
   const btVector3 lo = corner(world.min), hi = corner(world.max);
   const btVector3 margin = (hi - lo) * 0.125f + btVector3(1, 1, 1);
-  BroadphaseChoice choice = makeBroadphase(algorithm, lo - margin, hi + margin, objects);
+  BroadphaseChoice choice = makeBroadphase(algorithm, lo - margin, hi + margin, objects, tasks);
   algorithm_ = choice.name;
   notice_ = choice.notice;
   Bullet& b = *bullet_;

@@ -47,8 +47,10 @@ struct ReplayPhases {
 
 class BroadphaseReplay {
  public:
-  // `world` bounds every box of the stream (SAP quantizes inside it).
-  BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects);
+  // `world` bounds every box of the stream (SAP quantizes inside it); our
+  // CPU finders search on `tasks`, which must outlive the replay.
+  BroadphaseReplay(std::string_view algorithm, const Aabb& world, int objects,
+                   TaskSystem& tasks = defaultTaskSystem());
   ~BroadphaseReplay();
   BroadphaseReplay(const BroadphaseReplay&) = delete;
   BroadphaseReplay& operator=(const BroadphaseReplay&) = delete;

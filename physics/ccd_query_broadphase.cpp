@@ -1,5 +1,9 @@
 #include "physics/ccd_query_broadphase.h"
 
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
 #include "gpu/base/stopwatch.h"
 
 namespace overlap::physics {
@@ -46,19 +50,36 @@ btBroadphaseProxy* CcdQueryBroadphase::createProxy(const btVector3& aabbMin,
                                                    btDispatcher* dispatcher) {
   btBroadphaseProxy* proxy = pairs_->createProxy(
       aabbMin, aabbMax, shapeType, userPtr, collisionFilterGroup, collisionFilterMask, dispatcher);
+  if (proxy == nullptr) return nullptr;
+  if (proxy->m_uniqueId < 0) {
+    throw std::logic_error("CcdQueryBroadphase: a proxy numbered " +
+                           std::to_string(proxy->m_uniqueId));
+  }
+  const auto id = static_cast<std::size_t>(proxy->m_uniqueId);
+  if (id >= leaves_.size()) leaves_.resize(std::max(id + 1, 2 * leaves_.size()));
+  if (leaves_[id].proxy != nullptr) {
+    throw std::logic_error("CcdQueryBroadphase: two live proxies numbered " + std::to_string(id));
+  }
   btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
                                               collisionFilterGroup, collisionFilterMask, nullptr);
-  leaves_.emplace(proxy, Leaf{node, aabbMin, aabbMax, false, 0});
+  leaves_[id] = Leaf{proxy, node, aabbMin, aabbMax, false, 0};
   return proxy;
 }
 
+CcdQueryBroadphase::Leaf& CcdQueryBroadphase::leafOf(const btBroadphaseProxy* proxy) {
+  const auto id = static_cast<std::size_t>(proxy->m_uniqueId);
+  if (proxy->m_uniqueId < 0 || id >= leaves_.size() || leaves_[id].proxy != proxy) {
+    throw std::logic_error("CcdQueryBroadphase: a proxy it did not make, or one destroyed");
+  }
+  return leaves_[id];
+}
+
 void CcdQueryBroadphase::forgetProxy(btBroadphaseProxy* proxy) {
-  const auto found = leaves_.find(proxy);
-  if (found == leaves_.end()) return;
-  Leaf& leaf = found->second;
-  if (leaf.stale) stale_[leaf.stale_at] = nullptr;  // not erased: O(1) each
+  if (proxy == nullptr) return;
+  Leaf& leaf = leafOf(proxy);
+  if (leaf.stale) stale_[leaf.stale_at] = -1;  // not erased: O(1) each
   tree_.destroyProxy(leaf.node, nullptr);
-  leaves_.erase(found);
+  leaf = Leaf{};
 }
 
 void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
@@ -69,24 +90,30 @@ void CcdQueryBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* di
 void CcdQueryBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin,
                                  const btVector3& aabbMax, btDispatcher* dispatcher) {
   pairs_->setAabb(proxy, aabbMin, aabbMax, dispatcher);
-  Leaf& leaf = leaves_.at(proxy);
+  Leaf& leaf = leafOf(proxy);
   if (leaf.min == aabbMin && leaf.max == aabbMax) return;
   leaf.min = aabbMin;
   leaf.max = aabbMax;
   if (!leaf.stale) {
     leaf.stale_at = stale_.size();
-    stale_.push_back(&leaf);
+    stale_.push_back(proxy->m_uniqueId);
   }
   leaf.stale = true;
+  any_stale_.store(true, std::memory_order_relaxed);
 }
 
-void CcdQueryBroadphase::refresh() {
-  for (Leaf* leaf : stale_) {
-    if (leaf == nullptr) continue;
-    tree_.setAabb(leaf->node, leaf->min, leaf->max, nullptr);
-    leaf->stale = false;
+void CcdQueryBroadphase::refreshForQueries() {
+  if (!any_stale_.load(std::memory_order_acquire)) return;
+  const std::lock_guard lock(refresh_mutex_);
+  if (!any_stale_.load(std::memory_order_relaxed)) return;  // another query refreshed it
+  for (const int id : stale_) {
+    if (id < 0) continue;
+    Leaf& leaf = leaves_[static_cast<std::size_t>(id)];
+    tree_.setAabb(leaf.node, leaf.min, leaf.max, nullptr);
+    leaf.stale = false;
   }
   stale_.clear();
+  any_stale_.store(false, std::memory_order_release);
 }
 
 void CcdQueryBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
@@ -94,23 +121,37 @@ void CcdQueryBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
   pairs_->getAabb(proxy, aabbMin, aabbMax);
 }
 
+// btDbvtBroadphase::rayTest walks both of the tree's sets with one stack
+// shared by every caller (without BT_THREADSAFE); the same walk, with a
+// stack a thread.
 void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayTo,
                                  btBroadphaseRayCallback& callback, const btVector3& aabbMin,
                                  const btVector3& aabbMax) {
   const HostStopwatch watch;
-  refresh();
+  refreshForQueries();
   ForwardRay forward(callback);
-  tree_.rayTest(rayFrom, rayTo, forward, aabbMin, aabbMax);
-  query_ms_ += watch.ms();
+  struct Visit final : btDbvt::ICollide {
+    explicit Visit(ForwardRay& ray) : ray_(ray) {}
+    void Process(const btDbvtNode* leaf) override {
+      ray_.process(static_cast<const btBroadphaseProxy*>(leaf->data));
+    }
+    ForwardRay& ray_;
+  } visit(forward);
+  thread_local btAlignedObjectArray<const btDbvtNode*> stack;
+  for (const btDbvt& set : tree_.m_sets) {
+    set.rayTestInternal(set.m_root, rayFrom, rayTo, forward.m_rayDirectionInverse, forward.m_signs,
+                        forward.m_lambda_max, aabbMin, aabbMax, stack, visit);
+  }
+  addQueryMs(watch.ms());
 }
 
 void CcdQueryBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                                   btBroadphaseAabbCallback& callback) {
   const HostStopwatch watch;
-  refresh();
+  refreshForQueries();
   ForwardAabb forward(callback);
-  tree_.aabbTest(aabbMin, aabbMax, forward);
-  query_ms_ += watch.ms();
+  tree_.aabbTest(aabbMin, aabbMax, forward);  // its walk's stack is its own
+  addQueryMs(watch.ms());
 }
 
 void CcdQueryBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {

@@ -13,17 +13,23 @@
 //
 // Invariants: every call but rayTest and aabbTest goes to the wrapped
 // broadphase unchanged, with its own proxies (what the world holds); the
-// tree holds one leaf per proxy, refreshed from the latest setAabb at the
-// first query after it (a run without CCD never builds it); a query visits
-// proxies of the wrapped broadphase, in an order fixed by the calls alone.
-// Bullet is not thread-safe here: one thread.
+// tree holds one leaf per proxy, kept by the proxy's m_uniqueId in a vector
+// (every Bullet broadphase and ours number their live proxies apart) and
+// refreshed from the latest setAabb at the first query after it (a run
+// without CCD never builds it); a query visits proxies of the wrapped
+// broadphase, in an order fixed by the calls alone.
+// Threads: rayTest and aabbTest may run on several threads at once (CCD's
+// sweeps on the task system), between calls of the rest, which take one
+// thread: the first query after a setAabb refreshes the tree under a lock,
+// and each thread walks it with a stack of its own.
 #pragma once
 
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
 #include <btBulletCollisionCommon.h>
 
+#include <atomic>
 #include <memory>
-#include <unordered_map>
+#include <mutex>
 #include <vector>
 
 namespace overlap::physics {
@@ -40,7 +46,8 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   // broadphase that frees its proxies whole (isSweepAndPrune()).
   void forgetProxy(btBroadphaseProxy* proxy);
   // Time spent in rayTest and aabbTest (tree refresh included) since construction, ms.
-  double queryMs() const { return query_ms_; }
+  // Queries on several threads at once add up each one's time.
+  double queryMs() const { return query_ms_.load(std::memory_order_relaxed); }
 
   btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
                                  void* userPtr, int collisionFilterGroup, int collisionFilterMask,
@@ -62,13 +69,18 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
 
  private:
   struct Leaf {
-    btBroadphaseProxy* node;  // the tree's, whose client object is the wrapped proxy
-    btVector3 min, max;       // the latest setAabb
-    bool stale;               // min/max not yet in the tree (then it is in stale_)
-    std::size_t stale_at;     // its place in stale_, when stale
+    const btBroadphaseProxy* proxy = nullptr;  // the wrapped one; null: no leaf
+    btBroadphaseProxy* node = nullptr;  // the tree's, whose client object is the wrapped proxy
+    btVector3 min, max;                 // the latest setAabb
+    bool stale = false;                 // min/max not yet in the tree (then it is in stale_)
+    std::size_t stale_at = 0;           // its place in stale_, when stale
   };
-  // Brings every stale leaf into the tree, in the order setAabb saw them.
-  void refresh();
+  // The proxy's leaf; throws std::logic_error for a proxy without one.
+  Leaf& leafOf(const btBroadphaseProxy* proxy);
+  // Brings every stale leaf into the tree, in the order setAabb saw them,
+  // once for all the queries that follow.
+  void refreshForQueries();
+  void addQueryMs(double ms) { query_ms_.fetch_add(ms, std::memory_order_relaxed); }
   // Passes the tree's answers on as the wrapped broadphase's proxies.
   class ForwardRay;
   class ForwardAabb;
@@ -76,11 +88,12 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   std::unique_ptr<btBroadphaseInterface> pairs_;
   btNullPairCache no_pairs_;
   btDbvtBroadphase tree_{&no_pairs_};
-  // By the wrapped broadphase's proxy; a map's elements keep their addresses,
-  // so stale_ can point at them.
-  std::unordered_map<const btBroadphaseProxy*, Leaf> leaves_;
-  std::vector<Leaf*> stale_;  // in setAabb order; nullptr where a leaf was since destroyed
-  double query_ms_ = 0;
+  std::vector<Leaf> leaves_;  // by the wrapped proxy's m_uniqueId
+  // In setAabb order, by m_uniqueId; -1 where a leaf was since destroyed.
+  std::vector<int> stale_;
+  std::atomic<bool> any_stale_{false};
+  std::mutex refresh_mutex_;
+  std::atomic<double> query_ms_{0};
 };
 
 }  // namespace overlap::physics

@@ -7,13 +7,17 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "gpu/base/stopwatch.h"
 #include "gpu/pairs/pair_logic.h"
 
 namespace overlap::physics {
-PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder)
-    : finder_(std::move(finder)), pair_cache_(std::make_unique<BulkPairCache>()) {
+PairFinderBroadphase::PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder,
+                                           bool on_device)
+    : finder_(std::move(finder)),
+      on_device_(on_device),
+      pair_cache_(std::make_unique<BulkPairCache>()) {
   if (finder_ == nullptr) throw std::runtime_error("PairFinderBroadphase: no pair finder given");
 }
 
@@ -161,9 +165,35 @@ void PairFinderBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& a
 
 void PairFinderBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   launchFromStaging();
+  last_search_wait_ms_ = 0;
+  applySearch(dispatcher);
+}
+
+void PairFinderBroadphase::beginSearch(TaskGroup& beside) {
+  if (searching_ != nullptr) throw std::logic_error("PairFinderBroadphase: search already begun");
+  if (on_device_) {
+    launchFromStaging();
+  } else {
+    beside.run([this] { launchFromStaging(); });
+  }
+  searching_ = &beside;
+}
+
+void PairFinderBroadphase::endSearch(btDispatcher* dispatcher) {
+  if (searching_ == nullptr) throw std::logic_error("PairFinderBroadphase: no search begun");
+  const HostStopwatch wait_watch;
+  TaskGroup& group = *std::exchange(searching_, nullptr);
+  group.wait();
+  last_search_wait_ms_ = wait_watch.ms();
+  applySearch(dispatcher);
+}
+
+void PairFinderBroadphase::applySearch(btDispatcher* dispatcher) {
   for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
   changed_slots_.clear();
+  const HostStopwatch finish_watch;
   const finders::PairDelta delta = finder_->finish();
+  last_search_wait_ms_ += finish_watch.ms();
   const HostStopwatch cache_watch;
   // A pair with a destroyed proxy already left the cache with it: only pairs
   // of two live proxies apply.

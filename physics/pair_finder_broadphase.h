@@ -30,7 +30,13 @@
 // - A proxy whose AABB is not ordered (finders::pair_logic::boundsOrdered: a NaN,
 //   or min > max on some axis) is out of the search (its pairs are removed,
 //   one message on stderr) until it gets an ordered AABB.
-// Like the rest of Bullet, it is not thread-safe: call it from one thread.
+// - beginSearch() and endSearch() split a search around other work: between
+//   them the finder searches (a CPU finder as a job of the caller's group,
+//   a GPU finder on its device) while the pair cache stays as it was and may
+//   be read, and no other call may be made to the broadphase.
+// Like the rest of Bullet, it is not thread-safe: call it from one thread
+// (the search job of beginSearch() touches only the finder and the search
+// entries, which nothing else touches until endSearch()).
 #pragma once
 
 #include <btBulletCollisionCommon.h>
@@ -48,7 +54,10 @@ namespace overlap::physics {
 
 class PairFinderBroadphase final : public btBroadphaseInterface {
  public:
-  explicit PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder);
+  // on_device: the finder searches on a CUDA device, so its launch returns
+  // at once and needs no thread of its own to search beside other work.
+  explicit PairFinderBroadphase(std::unique_ptr<finders::PairFinder> finder,
+                                bool on_device = false);
   ~PairFinderBroadphase() override;
   PairFinderBroadphase(const PairFinderBroadphase&) = delete;
   PairFinderBroadphase& operator=(const PairFinderBroadphase&) = delete;
@@ -68,6 +77,15 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // One search: the finder's answer for the boxes as they are now, applied
   // to the pair cache.
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
+  // calculateOverlappingPairs() in two halves.  beginSearch() hands the
+  // boxes to the finder and starts its search: a CPU finder's runs as a job
+  // of `beside` (whose threads it shares with the caller's work), a GPU
+  // finder's on its device.  endSearch() waits for it (rethrowing a search
+  // job's error) and applies what changed to the pair cache.
+  void beginSearch(TaskGroup& beside);
+  void endSearch(btDispatcher* dispatcher);
+  // The last endSearch()'s wait for the search, before the cache update.
+  double lastSearchWaitMs() const { return last_search_wait_ms_; }
   btOverlappingPairCache* getOverlappingPairCache() override { return pair_cache_.get(); }
   const btOverlappingPairCache* getOverlappingPairCache() const override {
     return pair_cache_.get();
@@ -102,7 +120,12 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   // Live proxies with a usable AABB, the ones queries may report.
   void forEachSearchableProxy(const std::function<void(btBroadphaseProxy&)>& visit);
 
+  // endSearch() and calculateOverlappingPairs()'s second half.
+  void applySearch(btDispatcher* dispatcher);
+
   std::unique_ptr<finders::PairFinder> finder_;
+  bool on_device_;
+  TaskGroup* searching_ = nullptr;  // between beginSearch() and endSearch()
   std::unique_ptr<BulkPairCache> pair_cache_;
   // Indexed by slot.  A destroyed proxy stays allocated until its slot is
   // reused, so a stale result never names freed memory.
@@ -123,6 +146,7 @@ class PairFinderBroadphase final : public btBroadphaseInterface {
   std::vector<std::uint32_t> free_slots_;  // a stack: the last freed is reused first
   std::size_t live_count_ = 0;
   double last_cache_update_ms_ = 0;
+  double last_search_wait_ms_ = 0;
 };
 
 }  // namespace overlap::physics

@@ -29,6 +29,10 @@ constexpr NamedMode<SolverMode> kSolverModes[] = {{SolverMode::kPile, "pile"},
                                                   {SolverMode::kBullet, "bullet"}};
 constexpr NamedMode<SolverOrder> kSolverOrders[] = {{SolverOrder::kColoured, "coloured"},
                                                     {SolverOrder::kSerial, "serial"}};
+constexpr NamedMode<NarrowphaseMode> kNarrowphaseModes[] = {
+    {NarrowphaseMode::kBullet, "bullet"},
+    {NarrowphaseMode::kParallel, "parallel"},
+    {NarrowphaseMode::kBesideSearch, "beside-search"}};
 
 template <typename Mode, std::size_t N>
 Mode parseMode(const NamedMode<Mode> (&table)[N], const std::string& text) {
@@ -76,6 +80,12 @@ SolverMode parseSolverMode(const std::string& text) {
 }
 SolverOrder parseSolverOrder(const std::string& text) {
   return parseMode(kSolverOrders, text);
+}
+NarrowphaseMode parseNarrowphaseMode(const std::string& text) {
+  return parseMode(kNarrowphaseModes, text);
+}
+std::string narrowphaseModeName(NarrowphaseMode mode) {
+  return modeName(kNarrowphaseModes, mode);
 }
 std::string ccdModeName(CcdMode mode) {
   return modeName(kCcdModes, mode);

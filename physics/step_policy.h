@@ -33,6 +33,13 @@ enum class SolverMode { kPile, kBullet };    // solverSettings()
 // thread count (physics/coloured_solver.h); kSerial, Bullet's stock
 // btSequentialImpulseConstraintSolver, in manifold order on one thread.
 enum class SolverOrder { kColoured, kSerial };
+// How the narrowphase runs (physics/parallel_dispatcher.h); every mode gives
+// the same contacts in the same order, so the same state.
+enum class NarrowphaseMode {
+  kBullet,        // Bullet's serial dispatch
+  kParallel,      // the box-box pairs' contacts on the task system
+  kBesideSearch,  // kParallel, and the cached pairs' contacts while our finder searches
+};
 
 // Parses "off|auto|all", "scene|on|off", "pile|bullet" and "coloured|serial";
 // throws std::invalid_argument.
@@ -40,12 +47,15 @@ CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
 SolverOrder parseSolverOrder(const std::string& text);
+// Parses "bullet|parallel|beside-search"; throws std::invalid_argument.
+NarrowphaseMode parseNarrowphaseMode(const std::string& text);
 // Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
 int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
 std::string solverModeName(SolverMode mode);
 std::string solverOrderName(SolverOrder order);
+std::string narrowphaseModeName(NarrowphaseMode mode);
 
 // The numbers of the automatic rule.  Each bound is a share of a length a box
 // must not cross in one substep; K is the least that keeps all of them.

@@ -22,9 +22,11 @@
 // narrowphase ran, when it ended.  A step from elsewhere (stepSimulation) is
 // timed but not reported per substep.
 //
-// The search is one call, before the narrowphase, because the narrowphase
-// needs this substep's pairs; the frame's other work (the engine's tasks)
-// runs beside the whole step instead (docs/DESIGN.md).
+// The search is one call before the narrowphase, which needs this substep's
+// pairs, or, with TimedWorldSetup::search_beside, it runs beside the
+// narrowphase of the pairs already cached (searchBesideNarrowphase); the
+// frame's other work (the engine's tasks) runs beside the whole step
+// (docs/DESIGN.md).
 //
 // CCD: Bullet's motion clamp stops a fast body at the first body its swept
 // sphere meets while moving towards it, as if that body stood still, so two
@@ -37,12 +39,21 @@
 // freeze but lets small boxes through large moving ones.  Measured in
 // docs/REPORT.md, section 3.2.
 //
-// Bullet is not thread-safe here: one world, one thread.
+// Threads: the world is called from one thread.  With a task system in the
+// setup, the per-body parts of phases 1, 2, 3, 7 and 8 run on it, each body's
+// piece writing only that body (or its own slot of a vector); what touches
+// shared state (the broadphase's setAabb, the predictive manifolds) runs
+// after, in body order, as Bullet runs it.  Phase 7 finds every body's move
+// before it applies any, so a sweep never sees a body moved this substep
+// whatever the thread count.  The narrowphase runs on it through the
+// world's ParallelDispatcher (physics/parallel_dispatcher.h).
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
 
+#include <atomic>
 #include <functional>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -52,12 +63,18 @@
 namespace overlap::physics {
 
 class CcdQueryBroadphase;
+class PairFinderBroadphase;
+class ParallelDispatcher;
 
 // What TimedDynamicsWorld needs from its owner, given when it is built.
 struct TimedWorldSetup {
   const CcdQueryBroadphase* ccd_queries = nullptr;  // CCD's sweeps, timed apart into ccd_query_ms
-  std::function<void()> after_aabb_update;          // in phase 3, before the search reads them
-  std::function<void()> after_narrowphase;          // after phase 5, before the solver
+  TaskSystem* tasks = nullptr;                      // the step's parallel parts; null: none
+  // Our broadphase, when its search is to run beside the narrowphase (with a
+  // ParallelDispatcher that dispatches in parallel); null: search, then narrowphase.
+  PairFinderBroadphase* search_beside = nullptr;
+  std::function<void()> after_aabb_update;  // in phase 3, before the search reads them
+  std::function<void()> after_narrowphase;  // after phase 5, before the solver
 };
 
 class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
@@ -92,25 +109,62 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
  protected:
   // One substep: the phases above, in order.
   void internalSingleStepSimulation(btScalar dt) override;
-  // Phase 7: Bullet's integrateTransforms with the CCD clamp on relative motion.
+  // Phase 1, per body on the task system: Bullet's damping and predicted transform.
+  void predictUnconstraintMotion(btScalar dt) override;
+  // Phase 2: Bullet's predictive contacts; the sweeps on the task system, the
+  // manifolds made after them in body order, as Bullet makes them.
+  void createPredictiveContacts(btScalar dt) override;
+  // Phase 3: Bullet's AABBs computed on the task system, handed to the
+  // broadphase in object order, as Bullet hands them.
+  void updateAabbs() override;
+  // Phase 7: Bullet's integrateTransforms with the CCD clamp on relative
+  // motion: every body's move found on the task system from the substep's
+  // transforms, then applied, so no sweep reads a body moved this substep.
   void integrateTransforms(btScalar dt) override;
+  // Phase 8, per body on the task system: Bullet's sleep bookkeeping.
+  void updateActivationState(btScalar dt) override;
 
  private:
   // Runs `phase`, adding its time to `column`; CCD's sweep queries made
   // inside go to ccd_query_ms instead.
   template <typename Phase>
   void timePhase(double& column, Phase&& phase);
-  // Phase 4; stamps the reported substep's search and narrowphase start.
+  // Phases 4 and 5, one after the other or the search beside the
+  // narrowphase; stamps the reported substep's times.
+  void searchAndNarrowphase(btDispatcherInfo& dispatch);
+  // Phase 4 alone; stamps the reported substep's search and narrowphase start.
   void searchPairs();
+  void searchBesideNarrowphase(btDispatcherInfo& dispatch);
+  void stopIfSearchInterrupted() const;
   // The substep being reported, or none.
   SubstepReport* reported() { return reporting_ ? &substeps_.back() : nullptr; }
-  // Moves `body` by its velocities over dt, stopped where its swept sphere
-  // first meets a body it closes on, when its motion exceeds its CCD
+  // Where `body` moves by its velocities over dt, stopped where its swept
+  // sphere first meets a body it closes on, when its motion exceeds its CCD
   // threshold.
-  void integrateBody(btRigidBody& body, btScalar dt);
+  btTransform integratedTransform(btRigidBody& body, btScalar dt) const;
+  // body(i) for i in [0, count), on the task system when there is one
+  // (pieces of `grain`), each i writing only its own body's state.
+  template <typename Body>
+  void forEachIndex(int count, std::size_t grain, const Body& body);
   double ccdQueryMs() const;
 
+  // Per body of the substep's phase: what its parallel part found.
+  struct PredictiveHit {
+    const btCollisionObject* other = nullptr;  // null: none
+    btVector3 normal, to;
+    btScalar fraction = 1;
+  };
+
   TimedWorldSetup setup_;
+  std::vector<PredictiveHit> predictive_hits_;
+  std::vector<btTransform> moves_;
+  struct NewAabb {
+    btVector3 min, max;
+  };
+  std::vector<NewAabb> new_aabbs_;
+  std::atomic<double> piece_ms_{0};          // the parallel pieces' time, on all threads
+  ParallelDispatcher* parallel_dispatcher_;  // the world's dispatcher when it is one
+  std::unique_ptr<TaskGroup> search_group_;  // the search job beside the narrowphase
   FrameTimings timings_;
   std::vector<SubstepReport> substeps_;  // this frame's, the last one running
   bool reporting_ = false;               // inside stepReported()

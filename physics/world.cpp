@@ -22,6 +22,8 @@
 #include "physics/ccd_query_broadphase.h"
 #include "physics/coloured_solver.h"
 #include "physics/growing_sweep_and_prune.h"
+#include "physics/pair_finder_broadphase.h"
+#include "physics/parallel_dispatcher.h"
 #include "physics/timed_world.h"
 
 namespace overlap::physics {
@@ -55,8 +57,10 @@ std::uint64_t hashVector(const btVector3& v, std::uint64_t hash) {
 }  // namespace
 
 struct PhysicsWorld::Bullet {
+  explicit Bullet(TaskSystem& tasks) : dispatcher(&collision_config, tasks) {}
+
   btDefaultCollisionConfiguration collision_config;
-  btCollisionDispatcher dispatcher{&collision_config};
+  ParallelDispatcher dispatcher;                   // the narrowphase on the world's task system
   std::unique_ptr<CcdQueryBroadphase> broadphase;  // the pair search, CCD's queries apart
   std::unique_ptr<btConstraintSolver> solver;      // WorldOptions::solver_order's
   std::unique_ptr<TimedDynamicsWorld> world;
@@ -128,7 +132,8 @@ PhysicsWorld::PhysicsWorld(const SceneConfig& config, const WorldOptions& option
       substeps_(options.substeps),
       automatic_substeps_(options.substeps == kAutoSubsteps),
       ccd_(options.ccd),
-      bullet_(std::make_unique<Bullet>()) {
+      tasks_(options.tasks != nullptr ? *options.tasks : defaultTaskSystem()),
+      bullet_(std::make_unique<Bullet>(tasks_)) {
   if (options.substeps < 0) throw std::invalid_argument("substeps: must be at least 1");
   buildWorld(options);
   addBoxes(sleepAllowed(config, options.sleep));
@@ -149,18 +154,23 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
     throw std::invalid_argument("algo " + options.algorithm + ": " + problem);
   }
   BroadphaseChoice choice =
-      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects);
+      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects, tasks_);
   // Every broadphase answers CCD's sweeps through one shared tree: the same
   // queries for all (physics/ccd_query_broadphase.h), as makeWorldBroadphase() builds it.
   b.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 
+  b.dispatcher.setParallel(options.narrowphase != NarrowphaseMode::kBullet);
   TimedWorldSetup setup;
   setup.ccd_queries = b.broadphase.get();
+  setup.tasks = &tasks_;
+  if (options.narrowphase == NarrowphaseMode::kBesideSearch) {
+    setup.search_beside = dynamic_cast<PairFinderBroadphase*>(&b.broadphase->pairSearch());
+  }
   setup.after_aabb_update = [this] { removeBrokenBoxes(); };
   setup.after_narrowphase = [this] { noteContactsStarted(); };
-  b.solver = makeConstraintSolver(options.solver_order, defaultTaskSystem());
+  b.solver = makeConstraintSolver(options.solver_order, tasks_);
   b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), b.solver.get(),
                                                  &b.collision_config, std::move(setup));
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
@@ -400,6 +410,29 @@ std::uint64_t PhysicsWorld::stateHash() const {
     for (int r = 0; r < 3; ++r) hash = hashVector(t.getBasis()[r], hash);
     hash = hashVector(body.getLinearVelocity(), hash);
     hash = hashVector(body.getAngularVelocity(), hash);
+  }
+  return hash;
+}
+
+std::uint64_t PhysicsWorld::contactHash() const {
+  const btCollisionDispatcher& dispatcher = bullet_->dispatcher;
+  std::uint64_t hash = kFnv1aOffsetBasis;
+  for (int m = 0; m < dispatcher.getNumManifolds(); ++m) {
+    const btPersistentManifold& manifold = *dispatcher.getManifoldByIndexInternal(m);
+    const int head[] = {manifold.getBody0()->getUserIndex(), manifold.getBody1()->getUserIndex(),
+                        manifold.getNumContacts()};
+    hash = fnv1a(std::span<const int>(head), hash);
+    for (int p = 0; p < manifold.getNumContacts(); ++p) {
+      const btManifoldPoint& point = manifold.getContactPoint(p);
+      for (const btVector3* v :
+           {&point.m_localPointA, &point.m_localPointB, &point.m_positionWorldOnA,
+            &point.m_positionWorldOnB, &point.m_normalWorldOnB}) {
+        hash = hashVector(*v, hash);
+      }
+      const btScalar values[] = {point.m_distance1, point.m_appliedImpulse};
+      hash = fnv1a(std::span<const btScalar>(values), hash);
+      hash = fnv1a(std::span<const int>(&point.m_lifeTime, 1), hash);
+    }
   }
   return hash;
 }

@@ -7,10 +7,10 @@
 // reports what the frame cost and what it got wrong.  Each substep runs its
 // phases in the order physics/timed_world.h lists them; each phase's time is
 // summed over the substeps, and each substep reports when it ran, when its
-// pair search ran and when its narrowphase ran.  Bullet is not
-// thread-safe here: one PhysicsWorld is used from one thread; it starts no
-// task of its own (a CPU finder's search may use oneTBB's workers inside
-// the call).
+// pair search ran and when its narrowphase ran.  One PhysicsWorld is used
+// from one thread; inside stepFrame its parallel parts (the CPU search, the
+// narrowphase, the contact solver's coloured batches, the per-body phases)
+// run on WorldOptions::tasks, and nothing runs after it returns.
 //
 // A box whose state breaks (not finite, an AABB too large for Bullet, too
 // far away) leaves the simulation where it is found, with one message:
@@ -47,6 +47,10 @@ struct WorldOptions {
   // The contact solver's sweep: coloured batches on the task system, or
   // Bullet's serial solver (physics/coloured_solver.h).
   SolverOrder solver_order = SolverOrder::kColoured;
+  // The threads the step's parallel parts and a CPU search run on; it must
+  // outlive the world.  Null: defaultTaskSystem().
+  TaskSystem* tasks = nullptr;
+  NarrowphaseMode narrowphase = NarrowphaseMode::kBesideSearch;
 };
 
 struct FrameTimings {
@@ -57,15 +61,24 @@ struct FrameTimings {
   double integrate_ms = 0;    // motion prediction and integration
   double ccd_query_ms = 0;    // CCD's sweeps finding what they may hit (CcdQueryBroadphase)
   double total_ms = 0;        // the whole step
+  // Of the pair search's time, what ran beside the narrowphase (the search
+  // less the main thread's wait for it); 0 unless the search runs beside it.
+  double search_hidden_ms = 0;
 };
 
 // One substep, as the main thread lived it.
+// With the search beside the narrowphase, the narrowphase starts right
+// after the search's launch and the search ends (search_end) inside it;
+// otherwise search_wait and search_end are narrowphase_start.
 struct SubstepReport {
   std::chrono::steady_clock::time_point start;
   std::chrono::steady_clock::time_point broadphase_start;   // the pair search called
-  std::chrono::steady_clock::time_point narrowphase_start;  // the pairs are in the cache
+  std::chrono::steady_clock::time_point narrowphase_start;  // the first contacts computed
+  std::chrono::steady_clock::time_point search_wait;        // the main thread waits for the search
+  std::chrono::steady_clock::time_point search_end;         // the search's pairs are in the cache
   std::chrono::steady_clock::time_point narrowphase_end;
   std::chrono::steady_clock::time_point end;
+  bool search_beside = false;  // the search ran beside the narrowphase
 };
 
 struct FrameReport {
@@ -131,9 +144,14 @@ class PhysicsWorld {
   int framesDone() const { return frame_; }
   const std::string& algorithm() const { return algorithm_; }
   const std::string& algorithmNotice() const { return algorithm_notice_; }
+  TaskSystem& tasks() const { return tasks_; }
 
   // FNV-1a over every box's position, rotation and velocities.
   std::uint64_t stateHash() const;
+  // FNV-1a over every contact manifold in the dispatcher's order: its two
+  // bodies, then each point's positions, normal, depth, impulse and age, so
+  // two runs compare contact for contact.
+  std::uint64_t contactHash() const;
   std::vector<BoxPose> boxPoses() const;
   // Each box's linear speed (m/s); 0 for a box out of the simulation.
   std::vector<float> boxSpeeds() const;
@@ -184,6 +202,7 @@ class PhysicsWorld {
   bool automatic_substeps_;
   CcdMode ccd_;
   int frame_ = 0;
+  TaskSystem& tasks_;
   std::string algorithm_;
   std::string algorithm_notice_;
   std::unique_ptr<Bullet> bullet_;

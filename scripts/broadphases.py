@@ -7,13 +7,20 @@ catalogue's order, so a broadphase added to the code reaches the study with no e
 import json
 import subprocess
 
+from script_cli import BadInput
+
 _TABLE = []
 
 
 def load(overlap: str) -> None:
-    listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
-                            capture_output=True, text=True).stdout
-    _TABLE[:] = json.loads(listed)["broadphases"]
+    """Raises BadInput naming `overlap` when it does not list its broadphases."""
+    try:
+        listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
+                                capture_output=True, text=True).stdout
+        _TABLE[:] = json.loads(listed)["broadphases"]
+    except (OSError, subprocess.CalledProcessError, ValueError, KeyError, TypeError) as error:
+        raise BadInput(f"--overlap {overlap}: does not list its broadphases "
+                       f"(--list-algos --json: {error})")
 
 
 def names() -> list:

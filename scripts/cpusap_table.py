@@ -22,6 +22,14 @@ import subprocess
 import sys
 
 from overlap_runs import portable
+from script_cli import BadInput, Parser, run
+
+
+def positive(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number from 1")
+    return int(text)
+
 
 def load_average() -> str:
     return "%.2f %.2f %.2f" % os.getloadavg()
@@ -41,6 +49,8 @@ def run_bench(args) -> None:
     failed = subprocess.run(bench_command(args)).returncode
     after = load_average()
     json_path = pathlib.Path(args.out + ".json")
+    if failed and not json_path.exists():  # it refused its input (exit 2) or wrote nothing
+        raise SystemExit(failed)
     results = json.loads(json_path.read_text())
     results["load_average_before"], results["load_average_after"] = before, after
     json_path.write_text(json.dumps(results, indent=2) + "\n")
@@ -102,7 +112,7 @@ def write_live(out: str, live: dict, commit: str) -> None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", default="build/overlap_bench_broadphase")
     parser.add_argument("--streams", default="out/streams", help="folder of cached streams")
     parser.add_argument("--out", default="docs/results/broadphase_cpusap",
@@ -112,11 +122,13 @@ def main() -> int:
     parser.add_argument("--big-objects", default="100000")
     parser.add_argument("--big-algos", default="cpubf,cpusap",
                         help="at --big-objects (sap holds at most 32765 boxes)")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=positive, default=5)
     parser.add_argument("--live", metavar="RUNS",
                         help="also run the live loop (scenes 1-4, n = 3500, sap and cpusap) into "
                              "the folder RUNS and write OUT_live.csv")
     args = parser.parse_args()
+    if not os.access(args.bench, os.X_OK):
+        raise BadInput(f"--bench {args.bench}: not an executable (build it first)")
     run_bench(args)
     if args.live:
         commit = json.loads(pathlib.Path(args.out + ".json").read_text())["machine"]["git_commit"]
@@ -125,4 +137,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run(main))

@@ -29,14 +29,15 @@ is a stage the model does not describe (it says what to look for).
 
   scripts/gpu_cost_model.py [--raw docs/results/gpu/h100/raw]
 """
-import argparse
 import math
 import pathlib
 import re
 import statistics
+import sys
 
 import gpu_results
 from results_files import read_csv
+from script_cli import Parser, run
 
 CANDIDATES = pathlib.Path(__file__).resolve().parent.parent / "docs/results/gpusap_candidates.csv"
 
@@ -321,8 +322,9 @@ def print_resweep(fitted: dict, rows: list) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--raw", type=pathlib.Path, default=gpu_results.MACHINES[0])
+    parser = Parser(description=__doc__.splitlines()[0])
+    parser.add_argument("--raw", type=gpu_results.raw_folder, default=gpu_results.MACHINES[0],
+                        help="one machine's raw folder (default: the newest machine's)")
     raw = parser.parse_args().raw
     rows = stage_rows(raw)
     fitted = fit(rows)
@@ -336,4 +338,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run(main))

@@ -24,8 +24,10 @@ import json
 import pathlib
 import re
 import statistics
+import sys
 
 from results_files import read_csv
+from script_cli import Parser, run
 from study_targets import Target
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -45,6 +47,15 @@ def bench_files(raw: pathlib.Path, suffix: str) -> list:
     larger sizes in the order of their names)."""
     files = sorted(raw.glob(f"bench[-_]*.{suffix}"))
     return sorted(files, key=lambda path: "paper" not in path.name)
+
+
+def raw_folder(text: str) -> pathlib.Path:
+    """argparse type: a GPU machine's raw folder (its benchmark's bench_*.json in it)."""
+    path = pathlib.Path(text)
+    if not path.is_dir() or not bench_files(path, "json"):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: not a GPU machine's raw folder (no bench_*.json in it)")
+    return path
 
 
 def machine(raw: pathlib.Path = RAW) -> dict:
@@ -330,12 +341,12 @@ def print_machine(raw: pathlib.Path) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--raw", type=pathlib.Path, action="append",
+    parser = Parser(description=__doc__.splitlines()[0])
+    parser.add_argument("--raw", type=raw_folder, action="append",
                         help="one machine's raw folder (default: every machine's)")
     for raw in parser.parse_args().raw or MACHINES:
         print_machine(raw.resolve())
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run(main))

@@ -27,12 +27,13 @@ and the chain's CUDA calls.
 
   scripts/gpusap_chain_model.py [--raw docs/results/gpu/h100/raw]
 """
-import argparse
 import math
 import pathlib
+import sys
 
 import gpu_cost_model as model
 import gpu_results
+from script_cli import Parser, run
 
 
 def radix_steps(items: int, key_bytes: int, value_bytes: int, bits: int) -> tuple:
@@ -130,8 +131,9 @@ GPUBF_US = {3500: 70, 10**4: 215, 3 * 10**4: 2550}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--raw", type=pathlib.Path, default=gpu_results.MACHINES[0])
+    parser = Parser(description=__doc__.splitlines()[0])
+    parser.add_argument("--raw", type=gpu_results.raw_folder, default=gpu_results.MACHINES[0],
+                        help="one machine's raw folder (default: the newest machine's)")
     raw = parser.parse_args().raw
     rows = measured_rows(raw)
     coef = {fit: model.solve(rows, terms) for fit, terms in FITS.items()}
@@ -168,4 +170,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run(main))

@@ -15,13 +15,14 @@ and nothing written; the PNG is written to a temporary beside it and
 renamed into place.  Needs matplotlib (Debian's python3-matplotlib, which
 scripts/setup.sh installs, lives with /usr/bin/python3).
 """
-import argparse
 import csv
 import json
 import os
 import pathlib
 import sys
 import tempfile
+
+from script_cli import Parser
 
 STAGES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms",
           "ccd_query_ms"]
@@ -128,9 +129,9 @@ def title_of(out: pathlib.Path) -> str:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         description="Draw an `overlap run`'s frames.csv (stages per frame, pairs, substeps) "
-                    "as OUT/run.png.", allow_abbrev=False)
+                    "as OUT/run.png.")
     parser.add_argument("out", type=pathlib.Path, metavar="OUT",
                         help="the run's --out folder (holding frames.csv)")
     args = parser.parse_args()

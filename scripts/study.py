@@ -41,13 +41,10 @@ also fills the generated blocks of the hand-written docs/REPORT.md.
 matplotlib: run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
 import argparse
-import json
 import os
 import pathlib
-import subprocess
+import re
 import sys
-import shutil
-import tarfile
 import tempfile
 import time
 
@@ -56,6 +53,8 @@ from overlap_runs import run_summary
 import study_plan
 import study_profiles
 import study_report
+import study_archive
+from script_cli import BadInput, Parser, one_line, run as run_script
 from study_out_folder import InvocationLog, locked, write_atomically
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -178,13 +177,79 @@ def run_jobs(jobs: list, args, on_start, on_job) -> tuple:
 
 
 def parse_shard(text: str) -> tuple:
-    try:
-        shard, shards = (int(x) for x in text.split("/"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--shard {text}: expected i/k, e.g. 1/4")
+    """i/k, 1 <= i <= k; k may exceed the jobs (shards past them get none), and costs
+    nothing per shard."""
+    match = re.fullmatch(r"([0-9]{1,12})/([0-9]{1,12})", text)
+    if not match:
+        raise argparse.ArgumentTypeError(f"{one_line(text)}: expected i/k, e.g. 1/4")
+    shard, shards = int(match[1]), int(match[2])
     if not 1 <= shard <= shards:
-        raise argparse.ArgumentTypeError(f"--shard {text}: i must be in 1..k")
+        raise argparse.ArgumentTypeError(f"{text}: i must be in 1..k")
     return shard, shards
+
+
+def listed(text: str, item, low: float, high: float = None, empty: bool = False,
+           also: tuple = ()) -> bool:
+    """Whether `text` is comma-separated `item`s (int or float) in [low, high], or words
+    of `also`; empty only when allowed."""
+    words = [w for w in text.split(",") if w]
+    if not words and not empty or len(words) != text.count(",") + 1 and words:
+        return False
+    for word in words:
+        if word in also:
+            continue
+        if not re.fullmatch(r"[0-9]{1,9}" if item is int else r"[0-9]{1,9}(\.[0-9]{1,9})?", word):
+            return False
+        if not low <= item(word) <= (high if high is not None else float("inf")):
+            return False
+    return True
+
+
+# What each run option must hold (the algorithms are checked against overlap's catalogue
+# once it is read): bad values are refused here, before anything runs or is written.
+SCENES = (lambda t: listed(t, int, 1, 4), "scene numbers 1-4, comma-separated")
+COUNTS = (lambda t: listed(t, int, 1), "whole numbers from 1, comma-separated")
+VALUE_CHECKS = {
+    "scenes": SCENES, "physics_scenes": SCENES, "latency_scenes": SCENES,
+    "overlap_scenes": SCENES, "objects": COUNTS, "overlap_objects": COUNTS,
+    "physics_compare_objects": (lambda t: listed(t, int, 1, empty=True),
+                                "whole numbers from 1, comma-separated, or nothing"),
+    "physics_seeds": (lambda t: listed(t, int, 0, empty=True),
+                      "whole numbers, comma-separated, or nothing"),
+    "physics_substeps": (lambda t: listed(t, int, 1, also=("auto",)),
+                         "substep counts from 1 and/or auto, comma-separated"),
+    "physics_ccd": (lambda t: all(w in ("off", "auto", "all") for w in t.split(",")),
+                    "off, auto and/or all, comma-separated"),
+    "latency_growths": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
+    "overlap_loads": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
+    "capture_keyframes": (lambda t: listed(t, int, 0), "frame numbers, comma-separated"),
+    "threads": (lambda n: 0 <= n <= 4096, "0 (every hardware thread) to 4096"),
+    "seed": (lambda n: n >= 0, "a whole number from 0"),
+    "capture_objects": (lambda n: n >= 1, "a whole number from 1"),
+}
+ALGO_LISTS = ("algos", "pairs_algos", "latency_algos", "physics_algo", "overlap_algo")
+
+
+def check_values(args, parser: argparse.ArgumentParser) -> None:
+    full = study_profiles.options(PROFILES, "full")
+    for key in [*VALUE_CHECKS, *(k for k, v in full.items() if type(v) is int)]:
+        holds, must = VALUE_CHECKS.get(key, (lambda n: n >= 1, "a whole number from 1"))
+        if not holds(getattr(args, key)):
+            parser.error(f"--{key.replace('_', '-')} {getattr(args, key)}: expected {must}")
+    if args.report and not args.report_doc.is_file():
+        parser.error(f"--report-doc {args.report_doc}: no such file (--report fills its "
+                     "generated blocks)")
+
+
+def check_algorithms(args) -> None:
+    """Every algorithm named is one of overlap's (after broadphases.load)."""
+    known = broadphases.names()
+    for key in ALGO_LISTS:
+        value = getattr(args, key)
+        unknown = [a for a in value.split(",") if a not in known] if value else [""]
+        if unknown:
+            raise BadInput(f"--{key.replace('_', '-')} {value}: {','.join(unknown) or 'none'} "
+                           f"is not a broadphase of {args.overlap} ({', '.join(known)})")
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
@@ -211,7 +276,7 @@ def apply_profile(args, parser: argparse.ArgumentParser) -> None:
 
 
 def parse_args(argv: list) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--overlap", default=str(REPO / "build" / "overlap"),
                         help="the overlap binary (default: build/overlap)")
     parser.add_argument("--emulation", default=str(REPO / "build-emulation" / "overlap"),
@@ -240,8 +305,9 @@ def parse_args(argv: list) -> argparse.Namespace:
     parser.add_argument("--from-archive", type=pathlib.Path, metavar="TAR",
                         help="make the report from the runs in TAR (a .tar.xz holding a study "
                         "--out folder as ./study, as scripts/gpu_check.sh --study returns "
-                        "it): unpacked into --out, with the options those runs were made "
-                        "with; implies --no-runs")
+                        "it): unpacked as --out (which must be absent, empty or an earlier "
+                        "unpack: docs/STUDY.md), with the run options those runs were made "
+                        "with (never a path, a program or --report); implies --no-runs")
     parser.add_argument("--no-runs", action="store_true",
                         help="run nothing; tables, figures and report from existing results")
     parser.add_argument("--report", action="store_true",
@@ -261,71 +327,101 @@ def parse_args(argv: list) -> argparse.Namespace:
     add_run_options(parser)
     args = parser.parse_args(argv)
     apply_profile(args, parser)
+    check_values(args, parser)
     args.experiments = study_plan.names(args.experiments)
     unknown = set(args.experiments) - set(study_plan.EXPERIMENTS)
     if unknown:
         parser.error(f"--experiments: unknown {','.join(sorted(unknown))}")
     args.overlap = str(pathlib.Path(args.overlap).resolve())
     args.emulation = str(pathlib.Path(args.emulation).resolve())
-    if not (args.no_runs or args.from_archive) and not os.access(args.overlap, os.X_OK):
+    blocked = next((p for p in [args.out, *args.out.parents] if os.path.exists(p)), None)
+    if blocked is not None and not blocked.is_dir():
+        parser.error(f"--out {args.out}: {blocked} is not a folder")
+    if not os.access(args.overlap, os.X_OK):  # the report too asks it for its broadphases
         parser.error(f"--overlap {args.overlap}: not an executable (build it first)")
     return args
 
 
-# What an invocation's argv names that belongs to its machine or shapes only the report:
-# options followed by a value, then flags.  The rest are the runs' options.
-PLACE_OPTIONS = ("--overlap", "--emulation", "--out", "--notes", "--shard", "--from-archive",
-                 "--report-doc")
-REPORT_FLAGS = ("--runs-only", "--no-runs", "--report")
+# The options an archive's recorded invocation gives the report made from its runs: those
+# that shape the runs, by their full names, each value checked (`True`: a flag).  Nothing
+# else it names is taken: no path, no program, no flag that writes (--overlap, --out,
+# --report, --report-doc, --runs-only...), no abbreviation.
+def archive_options() -> dict:
+    full = study_profiles.options(PROFILES, "full")
+    return {**{"--" + key.replace("_", "-"): type(value) for key, value in full.items()},
+            "--profile": str, "--quick": True, "--full": True, "--experiments": str,
+            "--seed": int, "--threads": int, "--capture": True, "--capture-objects": int,
+            "--capture-keyframes": str}
 
 
-def options_of_runs(out: pathlib.Path) -> list:
-    """The options the runs kept in `out` were made with: its first invocation's, less
-    its paths, its shard and the flags that shape only the report."""
-    log = out / "study_invocations.json"
-    if not log.exists():
-        raise SystemExit(f"study: {out} has no study_invocations.json: not a study's --out")
-    words, kept = list(json.loads(log.read_text())[0]["argv"][1:]), []
+# A recorded value of a list-like option: names and numbers, never a path or an option.
+RUN_VALUE = re.compile(r"[A-Za-z0-9_.,+-]{0,1000}")
+# What a recorded invocation names that is not the runs': left out without a word.
+NOT_THE_RUNS = ("--overlap", "--emulation", "--out", "--shard", "--from-archive", "--notes",
+                "--report-doc", "--runs-only", "--no-runs", "--report")
+
+
+def recorded_options(argv: list) -> list:
+    """The run-shaping options of a recorded argv (its first word the script), as
+    `--name=value` words; raises BadArchive for a value that is not the option's."""
+    allowed, kept, left = archive_options(), [], []
+    words = list(argv[1:])
     while words:
         word = words.pop(0)
-        if word in PLACE_OPTIONS:
-            words.pop(0)
-        elif word not in REPORT_FLAGS:
-            kept.append(word)
+        name, has_value, value = word.partition("=")
+        kind = allowed.get(name)
+        if kind is None:
+            if name in NOT_THE_RUNS or not name.startswith("--"):
+                continue
+            left.append(name)
+            continue
+        if kind is True:
+            if has_value:
+                raise study_archive.BadArchive(f"its recorded flag {word!r} takes no value")
+            kept.append(name)
+            continue
+        if not has_value:
+            if not words:
+                raise study_archive.BadArchive(f"its recorded option {name} has no value")
+            value = words.pop(0)
+        if kind is int and not re.fullmatch(r"-?[0-9]{1,9}", value) or \
+                kind is str and not RUN_VALUE.fullmatch(value):
+            raise study_archive.BadArchive(
+                f"its recorded {name} {value[:60]!r} is not a value of that option")
+        kept.append(f"{name}={value}")
+    if left:
+        print(f"study: --from-archive: the recorded options {', '.join(left)} are not the "
+              "runs' own; left out", file=sys.stderr)
     return kept
 
 
-def unpack_study(archive: pathlib.Path, out: pathlib.Path) -> None:
-    """The archive's ./study folder as `out`, replacing it whole; on a bad archive, a clear
-    error (exit 2) and `out` as it was."""
-    def refuse(problem: str):
-        print(f"study: --from-archive {archive}: {problem}", file=sys.stderr)
-        sys.exit(2)
-    if not archive.is_file():
-        refuse("no such file")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{out.name}.unpack-", dir=out.parent))
+def options_from_archive(argv: list) -> list:
+    """study.py's argv for the report from --from-archive's runs: the archive's run
+    options, then this command's own (which win), then --no-runs.  The archive is
+    unpacked into --out only when they parse."""
+    args = parse_args(argv)
+
+    def options_of(log: list) -> list:
+        combined = recorded_options(log[0]["argv"]) + without_archive(argv) + ["--no-runs"]
+        parse_args(combined)  # a bad combination exits 2 here, --out untouched
+        return combined
     try:
-        try:
-            with tarfile.open(archive) as tar:
-                members = [m for m in tar.getmembers()
-                           if pathlib.PurePosixPath(m.name).parts[:1] in (("study",), (".", "study"))
-                           or m.name in ("study", "./study")]
-                if not members:
-                    refuse("holds no ./study folder (a study's --out)")
-                if any(".." in pathlib.PurePosixPath(m.name).parts or m.name.startswith("/")
-                       or not (m.isfile() or m.isdir()) for m in members):
-                    refuse("names a path outside ./study, or a link")
-                tar.extractall(scratch, members)
-        except (tarfile.TarError, OSError, EOFError) as error:
-            refuse(f"cannot be read ({error})")
-        if not (scratch / "study" / "study_invocations.json").exists():
-            refuse("its ./study has no study_invocations.json: no study ran into it")
-        if out.exists():
-            shutil.rmtree(out)
-        (scratch / "study").rename(out)
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
+        return study_archive.unpack(args.from_archive, args.out, options_of)
+    except study_archive.BadArchive as problem:
+        raise BadInput(f"--from-archive {args.from_archive}: {problem}")
+    except study_archive.BadOut as problem:
+        raise BadInput(f"--out {problem}")
+
+
+def without_archive(argv: list) -> list:
+    words, kept = list(argv), []
+    while words:
+        word = words.pop(0)
+        if word == "--from-archive":
+            words[:1] = []
+        elif not word.startswith("--from-archive="):
+            kept.append(word)
+    return kept
 
 
 def run_and_log(jobs: list, args, argv: list) -> None:
@@ -369,13 +465,10 @@ def report(args, jobs: list) -> int:
 def main(argv: list) -> int:
     args = parse_args(argv)
     if args.from_archive:
-        unpack_study(args.from_archive, args.out)
-        at = argv.index("--from-archive") if "--from-archive" in argv else None
-        given = argv[:at] + argv[at + 2:] if at is not None else [
-            w for w in argv if not w.startswith("--from-archive=")]
-        argv = options_of_runs(args.out) + given + ["--no-runs"]
+        argv = options_from_archive(argv)
         args = parse_args(argv)
     broadphases.load(args.overlap)
+    check_algorithms(args)
     args.argv = argv
     jobs = study_plan.plan(args)
     if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing
@@ -390,4 +483,4 @@ def main(argv: list) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(run_script(lambda: main(sys.argv[1:]), "study"))

@@ -421,14 +421,19 @@ def shard_share(jobs: list, shard: int, shards: int) -> list:
     """Shard `shard`'s jobs (1-based, of `shards`), in plan order: whole groups (the jobs
     compared with each other run in one shard, one after another), the heaviest group first
     to the lightest-loaded shard.  It depends on the plan alone, so every shard, on every
-    machine and after any resumption, computes the same split."""
+    machine and after any resumption, computes the same split.  Only the shards given a
+    group are kept (the rest are empty, the lowest first to take one): a k far above the
+    number of groups costs nothing, and shards past them get no job."""
     groups = {}
     for job in jobs:
         groups.setdefault(job.group, []).append(job)
-    load = [0.0] * shards
+    load = []  # of shards 1..len(load); every later shard is empty
     owner = {}
     for group, members in sorted(groups.items(), key=lambda g: -sum(j.weight for j in g[1])):
-        lightest = load.index(min(load))
+        lightest = min(range(len(load)), key=load.__getitem__) if load else None
+        if lightest is None or (len(load) < shards and load[lightest] > 0):
+            load.append(0.0)
+            lightest = len(load) - 1
         owner[group] = lightest + 1
         load[lightest] += sum(job.weight for job in members)
     return [job for job in jobs if owner[job.group] == shard]

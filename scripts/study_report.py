@@ -30,7 +30,7 @@ import study_plots
 import study_results
 import study_sweep
 from overlap_runs import portable
-from study_tables import fmt, table
+from study_tables import fmt, plain, table
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 # The folders whose code the study measures: a commit since the runs' that changes one of
@@ -52,12 +52,16 @@ CSV_TABLES = ("pairs", "physics", "latency", "overlap")
 # --- the machine, the commit and the runs ---------------------------------------
 
 def machines_of(jobs: list) -> list:
+    """The machines the runs name, each field as plain text (study_tables.plain): the
+    summaries may be another machine's."""
     found = {}
     for job in jobs:
         folder = getattr(job, "folder", None)
         if folder is not None and (folder / "summary.json").exists():
             m = json.loads((folder / "summary.json").read_text())["machine"]
-            found.setdefault(json.dumps(m, sort_keys=True), m)
+            found.setdefault(json.dumps(m, sort_keys=True), {
+                key: plain(value) if isinstance(value, str) else value
+                for key, value in m.items()})
     return list(found.values())
 
 
@@ -148,7 +152,7 @@ def run_argv(argv: list) -> list:
 
 def invocation_line(args, run: dict) -> str:
     load = run["load_average_at_start"]
-    return (f"- `{shown_command(args, run_argv(run['argv']))}`, started {run['started']}, " + (
+    return (f"- `{shown_command(args, run_argv(run['argv']))}`, started {plain(run['started'])}, " + (
         f"its jobs took {run['seconds']:.0f} s" if run.get("finished", True) else
         "stopped before its end (its finished runs are used)") +
         f"; load average at its start {load}" +

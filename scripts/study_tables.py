@@ -3,10 +3,28 @@
 Rules, each with its reason:
   * fmt() writes milliseconds and counts at a precision the measurements support,
     and "—" for a figure that was not measured (NaN), never 0.
+  * Text that comes from a run rather than from the study (the machine's names, read
+    from summary.json, perhaps an archive's from another machine) goes in as plain()
+    makes it: one line of printable characters, at most 200 of them, every Markdown
+    and HTML special character escaped, so it can never shape the page.
   * Algorithms are listed in the broadphase catalogue's order (overlap --list-algos),
     so every table and figure reads the same way.
 """
 import broadphases
+
+
+MARKDOWN_SPECIAL = set("\\`*_[]<>|~$")  # the rest are special only after these
+PLAIN_LIMIT = 200
+
+
+def plain(text: str) -> str:
+    """`text` as literal Markdown: control characters dropped, at most PLAIN_LIMIT
+    characters (the rest shown as "…"), '&' as an entity, every special escaped."""
+    text = "".join(c for c in str(text) if c.isprintable())
+    if len(text) > PLAIN_LIMIT:
+        text = text[:PLAIN_LIMIT - 1] + "…"
+    return "".join("&amp;" if c == "&" else "\\" + c if c in MARKDOWN_SPECIAL else c
+                   for c in text)
 
 
 def fmt(x: float) -> str:

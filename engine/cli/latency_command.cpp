@@ -23,7 +23,6 @@
 //
 // Invariant: an on-time search never misses an exact pair (every broadphase
 // here is exact or conservative); if one does, the command fails.
-#include <oneapi/tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -197,19 +196,22 @@ void measureLatency(const LatencyOptions& options) {
   for (const std::string& requested : algorithms) {
     checkBroadphaseCapacity("--algo", requested, config.objects);
   }
-  const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
-  const std::unique_ptr<physics::PhysicsWorld> scene =
-      makeWorld(config, options.physics.resolve("bvh", config));
+  const RunThreads threads = runThreads(options.threads);
+  physics::WorldOptions world_options = options.physics.resolve("bvh", config);
+  world_options.tasks = threads.tasks.get();
+  const std::unique_ptr<physics::PhysicsWorld> scene = makeWorld(config, world_options);
   physics::PhysicsWorld& world = *scene;
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
 
-  physics::BroadphaseReplay oracle("bf", bounds, config.objects);
+  TaskSystem& tasks = *threads.tasks;
+  physics::BroadphaseReplay oracle("bf", bounds, config.objects, tasks);
   std::vector<Studied> studied;
   std::vector<std::string> names;
   for (const std::string& requested : algorithms) {
     Studied entry;
-    entry.on_time = std::make_unique<physics::BroadphaseReplay>(requested, bounds, config.objects);
+    entry.on_time =
+        std::make_unique<physics::BroadphaseReplay>(requested, bounds, config.objects, tasks);
     const std::string& name = entry.on_time->algorithm();
     if (!entry.on_time->notice().empty()) {
       std::fprintf(stderr, "overlap: %s\n", entry.on_time->notice().c_str());
@@ -221,7 +223,7 @@ void measureLatency(const LatencyOptions& options) {
     }
     for (std::size_t g = 0; g < options.growths.size(); ++g) {
       entry.late.push_back(
-          std::make_unique<physics::BroadphaseReplay>(requested, bounds, config.objects));
+          std::make_unique<physics::BroadphaseReplay>(requested, bounds, config.objects, tasks));
     }
     names.push_back(name);
     studied.push_back(std::move(entry));

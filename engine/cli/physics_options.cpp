@@ -56,6 +56,11 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
                   "every thread; the same state for any --threads) or serial (Bullet's own, in "
                   "manifold order)")
       ->check(parsedBy(physics::parseSolverOrder, "coloured|serial"))
+      .add_option("--narrowphase", narrowphase_,
+                  "how contacts are found, the same ones in every mode: beside-search (on every "
+                  "thread, the cached pairs' while our finder searches), parallel (on every "
+                  "thread, after the search) or bullet (Bullet's serial dispatch)")
+      ->check(parsedBy(physics::parseNarrowphaseMode, "beside-search|parallel|bullet"))
       ->capture_default_str();
 }
 
@@ -65,6 +70,7 @@ physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
                                 physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
                                 physics::parseSolverMode(solver_)};
   options.solver_order = physics::parseSolverOrder(solver_order_);
+  options.narrowphase = physics::parseNarrowphaseMode(narrowphase_);
   try {
     physics::sleepAllowed(config, options.sleep);
   } catch (const std::invalid_argument& error) {
@@ -80,7 +86,8 @@ nlohmann::json toJson(const physics::WorldOptions& options) {
       {"ccd", physics::ccdModeName(options.ccd)},
       {"sleep", physics::sleepModeName(options.sleep)},
       {"solver", physics::solverModeName(options.solver)},
-      {"solver_order", physics::solverOrderName(options.solver_order)}};
+      {"solver_order", physics::solverOrderName(options.solver_order)},
+      {"narrowphase", physics::narrowphaseModeName(options.narrowphase)}};
 }
 
 }  // namespace overlap::engine

@@ -8,7 +8,6 @@
 //   step     the plan's world(s) stepped frame by frame into RunResults;
 //   write    the results and the plan into the output folder, published
 //            together; then the summary on stderr (engine/runtime/run_summary.h).
-#include <oneapi/tbb/global_control.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -146,8 +145,10 @@ const std::vector<Column>& columns() {
       {"solver_ms", [](R r) { return r.frame.physics.timings.solver_ms; }, true},
       {"integrate_ms", [](R r) { return r.frame.physics.timings.integrate_ms; }, true},
       {"ccd_query_ms", [](R r) { return r.frame.physics.timings.ccd_query_ms; }, true},
+      {"search_hidden_ms", [](R r) { return r.frame.physics.timings.search_hidden_ms; }, true},
       {"physics_ms", [](R r) { return r.frame.physics.timings.total_ms; }, true},
       {"total_ms", [](R r) { return toMilliseconds(r.frame.whole.length()); }, true},
+      {"cpu_ms", [](R r) { return r.frame.cpu_ms; }, true},
       {"sound_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kSoundTask)); }, true},
       {"ai_ms", [](R r) { return toMilliseconds(r.frame.taskTime(kAiTask)); }, true},
       {"tasks_wait_ms", [](R r) { return toMilliseconds(r.frame.waitTime()); }, true},
@@ -581,8 +582,8 @@ void printRunSummary(const RunPlan& plan, const SteppedRuns& runs) {
 
 void run(const RunArguments& arguments, const RunOptionHandles& given) {
   RunPlan plan = resolvePlan(arguments, given);
-  // Caps every oneTBB pool of the run: the tasks' and cpubf's alike.
-  const std::optional<tbb::global_control> thread_cap = capThreads(plan.threads);
+  const RunThreads threads = runThreads(plan.threads);
+  plan.world.tasks = threads.tasks.get();
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(plan.out);
   declareOutputs(outputs, plan);

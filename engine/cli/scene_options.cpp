@@ -182,11 +182,14 @@ void addThreadsOption(CLI::App& command, int& threads) {
       ->capture_default_str();
 }
 
-std::optional<tbb::global_control> capThreads(int threads) {
-  if (threads <= 0) return std::nullopt;
-  return std::optional<tbb::global_control>(std::in_place,
-                                            tbb::global_control::max_allowed_parallelism,
-                                            static_cast<std::size_t>(threads));
+RunThreads runThreads(int threads) {
+  RunThreads run;
+  if (threads > 0) {
+    run.cap.emplace(tbb::global_control::max_allowed_parallelism,
+                    static_cast<std::size_t>(threads));
+  }
+  run.tasks = makeTaskSystem(threadsInUse());
+  return run;
 }
 
 int threadsInUse() {

@@ -10,11 +10,13 @@
 #include <oneapi/tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "gpu/task_system.h"
 #include "physics/scene.h"
 
 namespace overlap::engine {
@@ -81,9 +83,15 @@ CLI::Validator broadphaseNameCheck();
 // "bf, sap, ..., gpubf-paper": every name --algo takes.
 std::string broadphaseNameList();
 
-// Caps every oneTBB pool of the process (cpubf's search, the tasks) at
-// `threads` for as long as the result lives; 0 leaves oneTBB's default.
-std::optional<tbb::global_control> capThreads(int threads);
+// A run's threads, for as long as it lives: oneTBB capped at `threads`
+// (0: oneTBB's default), and the one task system of threadsInUse() threads
+// that the run hands to everything parallel (the step, the finders, the
+// tasks), so --threads N caps the whole run.
+struct RunThreads {
+  std::optional<tbb::global_control> cap;
+  std::unique_ptr<TaskSystem> tasks;
+};
+RunThreads runThreads(int threads);
 
 // The threads a run uses under the cap in force, the main thread included:
 // the smaller of the cap and oneTBB's default concurrency (the hardware

@@ -1,11 +1,19 @@
 #include "engine/runtime/frame_scheduler.h"
 
+#include <ctime>
 #include <stdexcept>
 
 #include "gpu/base/interrupt.h"
 
 namespace overlap::engine {
 namespace {
+
+// The CPU time of every thread of the process so far, ms.
+double processCpuMs() {
+  timespec now{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) * 1e-6;
+}
 
 // The frame's jobs on the timeline, each substep's pair search and
 // narrowphase among them.
@@ -21,7 +29,14 @@ void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
     const physics::SubstepReport& substep = substeps[k];
     const int at = static_cast<int>(k);
     add("substep", "main", {substep.start, substep.end}, at);
-    add("broadphase", "main", {substep.broadphase_start, substep.narrowphase_start}, at);
+    if (substep.search_beside) {
+      // The search on a lane of its own (a CPU finder's job, or the device),
+      // the main thread's wait for it inside the narrowphase.
+      add("broadphase", "search", {substep.broadphase_start, substep.search_end}, at);
+      add("wait for search", "main", {substep.search_wait, substep.search_end}, at);
+    } else {
+      add("broadphase", "main", {substep.broadphase_start, substep.narrowphase_start}, at);
+    }
     add("narrowphase", "main", {substep.narrowphase_start, substep.narrowphase_end}, at);
   }
   if (frame.tasks) add("tasks", "tasks", *frame.tasks);
@@ -33,7 +48,7 @@ void drawFrame(const ScheduledFrame& frame, int index, Timeline& timeline) {
 
 FrameScheduler::FrameScheduler(physics::PhysicsWorld& world, const SchedulerOptions& options,
                                Timeline& timeline)
-    : world_(world), options_(options), timeline_(timeline) {}
+    : world_(world), options_(options), timeline_(timeline), jobs_(world.tasks()) {}
 
 FrameScheduler::~FrameScheduler() = default;
 
@@ -68,7 +83,9 @@ ScheduledFrame FrameScheduler::runFrame() {
   }
   ScheduledFrame frame;
   frame.whole.start = Clock::now();
+  const double cpu_start = processCpuMs();
   jobs_.run(options_.sync);  // a step that throws leaves here, the tasks joined
+  frame.cpu_ms = processCpuMs() - cpu_start;
   frame.physics = std::move(step_report_);
   frame.step = jobs_.lastRun(*step_);
   frame.tasks = jobs_.lastWorkers();

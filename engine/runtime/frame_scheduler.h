@@ -26,12 +26,12 @@
 // - Jobs are registered before the first frame: the step is added then,
 //   after every job registered before it.
 //
-// Threads: the main thread runs Bullet; oneTBB's workers run the tasks
-// (first: their arena has the higher priority) and a CPU search.  A
-// oneTBB thread cap of N (`overlap run --threads N`, tbb::global_control)
-// leaves N - 1 workers, so the run uses N threads in all.  A main thread
-// that waits (for a CPU search's threads, or for the tasks at the join) runs
-// what nobody has taken yet, so no core idles while work is queued.
+// Threads: the world's task system (gpu/task_system.h; `overlap run
+// --threads N` makes one of N threads, the main thread among them) runs the
+// tasks, the step's parallel parts and a CPU search, each on whichever
+// thread is free.  A main thread that waits (for the step's pieces, or for
+// the tasks at the join) runs what nobody has taken yet, so no core idles
+// while work is queued.
 //
 // A task that throws does not stop the frame: the step finishes, every task
 // is joined, then runFrame() throws one error naming the task, the frame
@@ -76,6 +76,7 @@ struct ScheduledFrame {
   std::optional<Interval> wait;    // the main thread waiting for the tasks (not with `sync`)
   std::vector<TaskRun> task_runs;  // in the order the tasks were added
   double tasks_hidden = 0;         // share of the tasks' time that ran beside the step
+  double cpu_ms = 0;  // CPU time of every thread over the frame (the step's and the tasks')
 
   // The named task's run; zero when it did not run.
   Clock::duration taskTime(std::string_view name) const;

@@ -19,7 +19,7 @@ class JobGraph::Join {
     waited_ = true;
     if (!graph_.first_launch_) return;  // nothing started beside the main chain
     const Clock::time_point start = Clock::now();
-    graph_.arena_.execute([this] { graph_.group_.wait(); });  // runCaught never throws
+    graph_.group_->wait();  // runCaught never throws
     graph_.join_ = Interval{start, Clock::now()};
     graph_.workers_ = Interval{*graph_.first_launch_, graph_.join_->end};
   }
@@ -29,7 +29,7 @@ class JobGraph::Join {
   bool waited_ = false;
 };
 
-JobGraph::JobGraph() = default;
+JobGraph::JobGraph(TaskSystem& tasks) : group_(tasks.makeGroup()) {}
 
 JobGraph::~JobGraph() = default;
 
@@ -81,11 +81,9 @@ void JobGraph::runOnMain(Job& job) {
 // starts; a worker launches only after it.
 void JobGraph::launch(JobId id, bool from_main) {
   if (from_main && !first_launch_) first_launch_ = Clock::now();
-  arena_.execute([this, id] {
-    group_.run([this, id] {
-      runCaught(*jobs_[id]);
-      ended(id, false);
-    });
+  group_->run([this, id] {
+    runCaught(*jobs_[id]);
+    ended(id, false);
   });
 }
 

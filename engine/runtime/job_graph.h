@@ -7,14 +7,15 @@
 // Rules, each with its reason:
 // - A job depends only on jobs added before it: the graph can have no cycle,
 //   and the order of adding is an order that keeps every dependency.
-// - A job runs on the main thread (the one calling run()) or on oneTBB's
-//   workers.  Main jobs run one after another in the order added.  A main
-//   job depends only on main jobs (add() refuses a worker): the main thread
-//   never waits for a worker before the join, so no worker stalls its chain.
+// - A job runs on the main thread (the one calling run()) or on the task
+//   system's threads (gpu/task_system.h), the one set of threads that the
+//   physics step's parallel parts and a CPU search use too.  Main jobs run
+//   one after another in the order added.  A main job depends only on main
+//   jobs (add() refuses a worker): the main thread never waits for a worker
+//   before the join, so no worker stalls its chain.
 // - A worker job starts once its last dependency has ended (at the start of
-//   run() if it has none), from whichever thread ended that dependency, in a
-//   high-priority arena: the workers serve these jobs before anything else,
-//   such as a search that a main job runs with oneTBB.
+//   run() if it has none), from whichever thread ended that dependency; a
+//   thread free of the step's pieces takes it.
 // - run() returns only once every started worker job has ended (the join),
 //   on every path out of it.  A main thread waiting at the join runs worker
 //   jobs that no worker has taken yet, so no core idles while work is queued.
@@ -28,9 +29,6 @@
 //   ends happen before its start (oneTBB's task hand-off orders them).
 #pragma once
 
-#include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
-
 #include <atomic>
 #include <cstddef>
 #include <functional>
@@ -40,6 +38,7 @@
 #include <vector>
 
 #include "engine/runtime/timeline.h"
+#include "gpu/task_system.h"
 
 namespace overlap::engine {
 
@@ -47,12 +46,13 @@ using JobId = std::size_t;
 
 enum class JobThread {
   kMain,     // the thread that calls run(), in the order added
-  kWorkers,  // oneTBB's workers, as soon as its dependencies have ended
+  kWorkers,  // the task system's threads, as soon as its dependencies have ended
 };
 
 class JobGraph {
  public:
-  JobGraph();
+  // Worker jobs run on `tasks`, which must outlive the graph.
+  explicit JobGraph(TaskSystem& tasks);
   ~JobGraph();
   JobGraph(const JobGraph&) = delete;
   JobGraph& operator=(const JobGraph&) = delete;
@@ -97,8 +97,7 @@ class JobGraph {
   std::vector<std::unique_ptr<Job>> jobs_;
   std::optional<Clock::time_point> first_launch_;  // written by the main thread only
   std::optional<Interval> workers_, join_;
-  tbb::task_arena arena_{tbb::task_arena::automatic, 1, tbb::task_arena::priority::high};
-  tbb::task_group group_;
+  std::unique_ptr<TaskGroup> group_;
 };
 
 }  // namespace overlap::engine

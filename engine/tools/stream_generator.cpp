@@ -1,8 +1,5 @@
 #include "engine/tools/stream_generator.h"
 
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
@@ -49,6 +46,9 @@ constexpr double kSleepSeconds = 2.0;
 // Volumes and momenta are summed as integers (exact in any order): this many
 // units per m^3, and per m^3 m/s.
 constexpr double kVolumeUnits = 1 << 20;
+// Loops over boxes or cells: pieces a thread, and the least a piece takes.
+constexpr std::size_t kPiecesPerThread = 4;
+constexpr std::size_t kMinPerPiece = 1024;
 constexpr double kMomentumUnits = 1 << 10;
 
 struct Box {
@@ -67,8 +67,9 @@ struct Box {
 // The model itself (see the header).
 class GranularModel {
  public:
-  explicit GranularModel(const physics::SceneConfig& config)
-      : config_(config),
+  GranularModel(const physics::SceneConfig& config, TaskSystem& tasks)
+      : tasks_(tasks),
+        config_(config),
         layout_(physics::generateScene(config)),
         gravity_rotation_(config.g * config.gravity_scale, config.rotation_per_frame),
         kicks_(config.seed ^ 0x6b69636b73ull) {  // "kicks": apart from the start's draws
@@ -139,7 +140,7 @@ class GranularModel {
   void appendBoxes(std::vector<physics::Aabb>& out) const {
     const std::size_t first = out.size();
     out.resize(first + boxes_.size());
-    tbb::parallel_for(std::size_t{0}, boxes_.size(), [&](std::size_t i) {
+    parallelFor(boxes_.size(), [&](std::size_t i) {
       const Box& box = boxes_[i];
       const Eigen::Matrix3d turn = box.orientation.toRotationMatrix();
       physics::Aabb& aabb = out[first + i];
@@ -154,10 +155,17 @@ class GranularModel {
  private:
   template <typename Body>
   void forBoxes(const Body& body) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes_.size(), 4096),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i) body(boxes_[i]);
-                      });
+    parallelFor(boxes_.size(), [&](std::size_t i) { body(boxes_[i]); });
+  }
+
+  // body(i) for every i < count on the task system's threads; each i writes
+  // only its own element, so the pieces do not change the result.
+  template <typename Body>
+  void parallelFor(std::size_t count, const Body& body) const {
+    tasks_.forEachPiece(count, grainFor(count, tasks_.threads(), kPiecesPerThread, kMinPerPiece),
+                        [&](std::size_t first, std::size_t end) {
+                          for (std::size_t i = first; i != end; ++i) body(i);
+                        });
   }
 
   int cellCoordinate(double x) const {
@@ -221,7 +229,7 @@ class GranularModel {
     for (int pass = 0; pass < 3 * kSmoothingRounds; ++pass) {
       const int axis = pass % 3;
       smoothed_.resize(momentum_.size());
-      tbb::parallel_for(std::size_t{0}, cells * cells, [&](std::size_t line) {
+      parallelFor(cells * cells, [&](std::size_t line) {
         const int a = static_cast<int>(line / cells), b = static_cast<int>(line % cells);
         for (int k = 0; k < cells_; ++k) {
           const auto at = [&](int step) {
@@ -254,12 +262,12 @@ class GranularModel {
   void pushApart() {
     const double cell_volume = cell_ * cell_ * cell_;
     const auto cells = static_cast<std::size_t>(cells_);
-    tbb::parallel_for(std::size_t{0}, volume_.size(), [&](std::size_t c) {
+    parallelFor(volume_.size(), [&](std::size_t c) {
       const double density = static_cast<double>(volume_[c]) / kVolumeUnits / cell_volume;
       pressure_[c] = static_cast<float>(stiffness_ * std::max(0.0, density - kPileDensity));
     });
     // Central differences; beyond a wall the pressure is the wall cell's.
-    tbb::parallel_for(std::size_t{0}, cells * cells, [&](std::size_t zy) {
+    parallelFor(cells * cells, [&](std::size_t zy) {
       const int z = static_cast<int>(zy / cells), y = static_cast<int>(zy % cells);
       for (int x = 0; x < cells_; ++x) {
         const auto at = [&](int dx, int dy, int dz) {
@@ -314,6 +322,7 @@ class GranularModel {
     }
   }
 
+  TaskSystem& tasks_;
   physics::SceneConfig config_;
   physics::SceneLayout layout_;
   physics::GravityRotation gravity_rotation_;
@@ -336,14 +345,14 @@ std::string generatedSceneName(const physics::SceneConfig& config) {
 }
 
 StreamGenerator::StreamGenerator(const physics::SceneConfig& config, int frames, int skip,
-                                 double moving_share)
+                                 double moving_share, TaskSystem& tasks)
     : frames_(frames), skip_(skip) {
   if (frames < 1) throw std::invalid_argument("frames: must be at least 1");
   if (skip < 0) throw std::invalid_argument("skip: must not be negative");
   if (!(moving_share >= 0 && moving_share <= 1)) {
     throw std::invalid_argument("moving: must be in [0, 1]");
   }
-  model_ = std::make_unique<GranularModel>(config);
+  model_ = std::make_unique<GranularModel>(config, tasks);
   header_.scene_name = generatedSceneName(config);
   header_.object_type = "box";
   header_.objects = config.objects;
@@ -386,8 +395,8 @@ void StreamGenerator::frame(std::vector<physics::Aabb>& boxes) {
 }
 
 physics::AabbStream generateStream(const physics::SceneConfig& config, int frames, int skip,
-                                   double moving_share) {
-  StreamGenerator generator(config, frames, skip, moving_share);
+                                   double moving_share, TaskSystem& tasks) {
+  StreamGenerator generator(config, frames, skip, moving_share, tasks);
   physics::AabbStream stream;
   static_cast<physics::AabbStreamHeader&>(stream) = generator.header();
   stream.boxes.reserve(static_cast<std::size_t>(stream.objects) * stream.stored_frames);

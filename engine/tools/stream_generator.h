@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/task_system.h"
 #include "physics/aabb_stream.h"
 #include "physics/scene.h"
 
@@ -57,8 +58,9 @@ class GranularModel;  // engine/tools/stream_generator.cpp
 
 class StreamGenerator {
  public:
+  // The model's loops run on `tasks`, which must outlive the generator.
   StreamGenerator(const physics::SceneConfig& config, int frames, int skip = 0,
-                  double moving_share = 1.0);
+                  double moving_share = 1.0, TaskSystem& tasks = defaultTaskSystem());
   ~StreamGenerator();
   StreamGenerator(const StreamGenerator&) = delete;
   StreamGenerator& operator=(const StreamGenerator&) = delete;
@@ -87,6 +89,7 @@ class StreamGenerator {
 
 // The whole stream in memory, through StreamGenerator.
 physics::AabbStream generateStream(const physics::SceneConfig& config, int frames, int skip = 0,
-                                   double moving_share = 1.0);
+                                   double moving_share = 1.0,
+                                   TaskSystem& tasks = defaultTaskSystem());
 
 }  // namespace overlap::engine

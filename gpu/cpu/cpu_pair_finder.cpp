@@ -1,8 +1,5 @@
 #include "gpu/cpu/cpu_pair_finder.h"
 
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -20,6 +17,9 @@ using pair_logic::kBitsPerWord;
 // Words per parallel task: large enough to amortize the task and the decoding
 // of its first pair, small enough to balance two to a few dozen threads.
 constexpr std::uint64_t kBlockWords = 256;
+// Pieces of blocks a thread: enough that a thread slowed by another job
+// leaves its share to the others.
+constexpr std::size_t kPiecesPerThread = 8;
 
 // On x86-64 the search is built twice, for the baseline and for AVX2, and the
 // loader picks one: the box tests are vectorized, so eight float lanes do in
@@ -90,13 +90,8 @@ inline std::uint32_t chunkBits(const Columns& columns, const Slot& b, std::uint3
 
 }  // namespace
 
-CpuPairFinder::CpuPairFinder(int threads)
-    : arena_(threads > 0 ? threads : tbb::task_arena::automatic) {
-  if (threads < 0) {
-    throw std::runtime_error("CpuPairFinder: thread count " + std::to_string(threads) +
-                             " is negative (0 means all hardware threads)");
-  }
-}
+CpuPairFinder::CpuPairFinder(TaskSystem& tasks)
+    : tasks_(tasks), thread_changes_(static_cast<std::size_t>(tasks.threads())) {}
 
 void CpuPairFinder::storeObjects(std::span<const ObjectBounds> objects) {
   const std::size_t padded = objects.size() + kBitsPerWord;
@@ -170,21 +165,18 @@ void CpuPairFinder::startSearch(std::span<const ObjectBounds> objects,
   }
   const std::uint64_t word_count = words_.size();
   const std::uint64_t block_count = (word_count + kBlockWords - 1) / kBlockWords;
-  const auto search = [&] {
-    tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, block_count),
-                      [&](const tbb::blocked_range<std::uint64_t>& blocks) {
-                        Changes& changes = thread_changes_.local();
-                        for (std::uint64_t block = blocks.begin(); block != blocks.end(); ++block) {
-                          // A signal cuts a long search short (the caller stops:
-                          // gpu/base/interrupt.h); the words left are not searched.
-                          if (pendingInterrupt() != 0) return;
-                          const std::uint64_t first_word = block * kBlockWords;
-                          searchWords(first_word, std::min(first_word + kBlockWords, word_count),
-                                      changes);
-                        }
-                      });
-  };
-  arena_.execute(search);
+  // The pieces' bounds do not matter to the result (it is sorted below).
+  const std::size_t grain = grainFor(block_count, tasks_.threads(), kPiecesPerThread, 1);
+  tasks_.forEachPiece(block_count, grain, [&](std::size_t first_block, std::size_t end_block) {
+    Changes& changes = thread_changes_[static_cast<std::size_t>(tasks_.threadIndex())];
+    for (std::size_t block = first_block; block != end_block; ++block) {
+      // A signal cuts a long search short (the caller stops:
+      // gpu/base/interrupt.h); the words left are not searched.
+      if (pendingInterrupt() != 0) return;
+      const std::uint64_t first_word = block * kBlockWords;
+      searchWords(first_word, std::min(first_word + kBlockWords, word_count), changes);
+    }
+  });
 
   result_.added.clear();
   result_.removed.clear();

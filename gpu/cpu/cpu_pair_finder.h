@@ -4,32 +4,29 @@
 // each frame, recomputes every word, XORs it with last frame's and turns the
 // changed bits into pairs.  The boxes are stored structure-of-arrays so that
 // the test of one object against 32 others compiles to vector code, and the
-// words are split into blocks that oneTBB spreads over the threads; a block
-// owns its words, so no two threads write the same word.  The whole search
-// runs inside launch(); finish() only hands the result over.  It searches in
-// an arena of its own, of that many threads or of as many as oneTBB allows,
-// so that its demand for workers ends with it (a oneTBB thread cap lifted
-// after the finder is gone starts no worker for it), as cpusap's does.
+// words are split into blocks that the caller's task system (gpu/task_system.h)
+// spreads over its threads; a block owns its words, so no two threads write
+// the same word, and each thread gathers its changes in a list of its own,
+// sorted once merged, so the result does not depend on which thread took
+// which block.  The whole search runs inside launch(); finish() only hands
+// the result over.
 // A signal (gpu/base/interrupt.h's flag) cuts a search short between blocks:
 // its result is then partial and the finder's words are not last frame's;
 // the caller stops (the world and the replay throw Interrupted) and only
 // destroys the finder after it.
 #pragma once
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <cstdint>
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "gpu/task_system.h"
 
 namespace overlap::finders {
 
 class CpuPairFinder final : public PairFinder {
  public:
-  // threads = 0: every thread oneTBB allows.
-  explicit CpuPairFinder(int threads = 0);
+  explicit CpuPairFinder(TaskSystem& tasks = defaultTaskSystem());
 
   std::string_view name() const override { return "cpubf"; }
 
@@ -48,8 +45,8 @@ class CpuPairFinder final : public PairFinder {
   // Recomputes words [first_word, end_word) and records the pairs that changed.
   void searchWords(std::uint64_t first_word, std::uint64_t end_word, Changes& changes);
 
-  tbb::task_arena arena_;
-  tbb::enumerable_thread_specific<Changes> thread_changes_;
+  TaskSystem& tasks_;
+  std::vector<Changes> thread_changes_;  // one a thread of tasks_, by threadIndex()
 
   std::uint32_t slot_count_ = 0;
   // One entry per slot, then padding so that 32 entries may be read from any

@@ -8,7 +8,6 @@
 #include <string>
 
 #include "gpu/base/stopwatch.h"
-#include "gpu/cpu/for_pieces.h"
 #include "gpu/pairs/pair_logic.h"
 
 namespace overlap::finders {
@@ -123,8 +122,8 @@ void SapMovedBoxes::queryMovedBoxes(std::span<const ObjectBounds> objects, const
     pairs.added.clear();
     pairs.removed.clear();
   }
-  forPieces(arena_, moved_.size(), kMovedPerPiece, [&](std::size_t first, std::size_t end) {
-    MovedPairs& pairs = moved_pairs_.local();
+  tasks_.forEachPiece(moved_.size(), kMovedPerPiece, [&](std::size_t first, std::size_t end) {
+    MovedPairs& pairs = moved_pairs_[static_cast<std::size_t>(tasks_.threadIndex())];
     for (std::size_t k = first; k < end; ++k) {
       const std::uint32_t slot = moved_[k];
       partners(slot, kept_[slot], dirty_before_, pairs.before);

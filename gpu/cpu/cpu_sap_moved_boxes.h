@@ -26,9 +26,6 @@
 //   query()), so the delta is exact.
 #pragma once
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -36,6 +33,7 @@
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/pair_set.h"
 #include "gpu/pairs/sap_sweep.h"
+#include "gpu/task_system.h"
 
 namespace overlap::finders {
 
@@ -50,8 +48,9 @@ class SapMovedBoxes {
     int slab_axis;
   };
 
-  // Queries run on `arena`'s threads; it must outlive this.
-  explicit SapMovedBoxes(tbb::task_arena& arena) : arena_(arena) {}
+  // Queries run on `tasks`' threads; it must outlive this.
+  explicit SapMovedBoxes(TaskSystem& tasks)
+      : tasks_(tasks), moved_pairs_(static_cast<std::size_t>(tasks.threads())) {}
 
   // This frame's delta, sorted, into `added` and `removed`, and the phases'
   // times, when few enough boxes moved since the full frame; false, with
@@ -85,7 +84,7 @@ class SapMovedBoxes {
   // The queries' pairs, sorted, into `added` and `removed`, and into the pending changes.
   void collectDelta(std::vector<IndexPair>& added, std::vector<IndexPair>& removed);
 
-  tbb::task_arena& arena_;
+  TaskSystem& tasks_;
   bool have_full_frame_ = false;
   // Every slot's bounds as last searched: the last launch's boxes when it
   // finished (kept_current_), so its caller's changed slots are all that differ.
@@ -97,7 +96,7 @@ class SapMovedBoxes {
   std::vector<std::uint32_t> moved_;           // those slots
   sap::SweepLayout dirty_before_, dirty_now_;  // the dirty boxes at kept_ and now
   std::vector<std::uint64_t> dirty_entries_;
-  tbb::enumerable_thread_specific<MovedPairs> moved_pairs_;
+  std::vector<MovedPairs> moved_pairs_;  // one a thread of tasks_, by threadIndex()
   std::vector<std::uint64_t> pending_added_, pending_removed_;  // since the full set was built
 };
 

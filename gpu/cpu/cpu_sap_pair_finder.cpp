@@ -1,9 +1,5 @@
 #include "gpu/cpu/cpu_sap_pair_finder.h"
 
-#include <oneapi/tbb/blocked_range.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/partitioner.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -13,7 +9,6 @@
 #include <string>
 #include <utility>
 
-#include "gpu/cpu/for_pieces.h"
 #include "gpu/pairs/pair_logic.h"
 
 namespace overlap::finders {
@@ -55,13 +50,11 @@ sap::SweepKernel resolveKernel(sap::SweepKernel kernel) {
 
 }  // namespace
 
-CpuSapPairFinder::CpuSapPairFinder(int threads, sap::SweepKernel kernel)
-    : arena_(threads > 0 ? threads : tbb::task_arena::automatic), kernel_(resolveKernel(kernel)) {
-  if (threads < 0) {
-    throw std::runtime_error("CpuSapPairFinder: thread count " + std::to_string(threads) +
-                             " is negative (0 means all hardware threads)");
-  }
-}
+CpuSapPairFinder::CpuSapPairFinder(TaskSystem& tasks, sap::SweepKernel kernel)
+    : tasks_(tasks),
+      kernel_(resolveKernel(kernel)),
+      thread_pairs_(static_cast<std::size_t>(tasks.threads())),
+      moved_boxes_(tasks) {}
 
 CpuSapPairFinder::Spread CpuSapPairFinder::sortOutBoxes(std::span<const ObjectBounds> objects) {
   regular_.clear();
@@ -225,31 +218,26 @@ void CpuSapPairFinder::radixSort() {
 
 void CpuSapPairFinder::layOut(std::span<const ObjectBounds> objects) {
   layout_.plan(objects, entries_, sweep_axis_, slab_axis_, grid_);
-  forPieces(arena_, layout_.size(), kMinEntriesPerGather, [&](std::size_t first, std::size_t end) {
+  const std::size_t grain =
+      grainFor(layout_.size(), tasks_.threads(), kChunksPerThread, kMinEntriesPerGather);
+  tasks_.forEachPiece(layout_.size(), grain, [&](std::size_t first, std::size_t end) {
     layout_.gather(static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(end));
   });
 }
 
 void CpuSapPairFinder::sweep() {
   for (PairKeys& pairs : thread_pairs_) pairs.clear();
-  const auto threads = static_cast<std::size_t>(arena_.max_concurrency());
+  const auto threads = static_cast<std::size_t>(tasks_.threads());
   const std::size_t chunks =
       std::clamp<std::size_t>(layout_.size() / kMinEntriesPerChunk, 1, threads * kChunksPerThread);
   if (threads <= 1 || chunks == 1) {
-    layout_.sweep(kernel_, 0, layout_.size(), thread_pairs_.local());
+    layout_.sweep(kernel_, 0, layout_.size(), thread_pairs_[0]);
     return;
   }
   layout_.cutChunks(chunks, chunk_starts_);
-  arena_.execute([&] {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, chunk_starts_.size() - 1, 1),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-          PairKeys& pairs = thread_pairs_.local();
-          for (std::size_t chunk = range.begin(); chunk != range.end(); ++chunk) {
-            layout_.sweep(kernel_, chunk_starts_[chunk], chunk_starts_[chunk + 1], pairs);
-          }
-        },
-        tbb::simple_partitioner());
+  tasks_.forEachPiece(chunk_starts_.size() - 1, 1, [&](std::size_t chunk, std::size_t /*end*/) {
+    layout_.sweep(kernel_, chunk_starts_[chunk], chunk_starts_[chunk + 1],
+                  thread_pairs_[static_cast<std::size_t>(tasks_.threadIndex())]);
   });
 }
 
@@ -302,25 +290,26 @@ void CpuSapPairFinder::computeDelta() {
   batches_.clear();
   std::size_t smallest_batch = std::numeric_limits<std::size_t>::max();
   for (const PairKeys& pairs : thread_pairs_) {
+    if (pairs.size() == 0) continue;  // a thread that swept nothing
     batches_.push_back(pairs.keys());
     smallest_batch = std::min(smallest_batch, pairs.size());
   }
   const bool parallel = batches_.size() > 1 && smallest_batch >= kMinPairsPerParallelBatch;
   batches_.push_back(inverted_pairs_.keys());
   if (parallel) {
-    arena_.execute([&] { current_.assign(slot_count_, batches_, true); });
+    current_.assign(slot_count_, batches_, &tasks_);
   } else {
     current_.assign(slot_count_, batches_);
   }
   // Rows in parts, compared in parallel, then joined in order.
-  const auto threads = static_cast<std::size_t>(arena_.max_concurrency());
+  const auto threads = static_cast<std::size_t>(tasks_.threads());
   const std::size_t parts =
       std::clamp<std::size_t>(slot_count_ / kMinSlotsPerDeltaPart, 1, threads * kChunksPerThread);
   delta_parts_.resize(std::max(delta_parts_.size(), parts));
   const auto bound = [&](std::size_t part) {
     return static_cast<std::uint32_t>(std::uint64_t{slot_count_} * part / parts);
   };
-  forPieces(arena_, parts, 1, [&](std::size_t first, std::size_t end) {
+  tasks_.forEachPiece(parts, 1, [&](std::size_t first, std::size_t end) {
     for (std::size_t part = first; part < end; ++part) {
       delta_parts_[part].added.clear();
       delta_parts_[part].removed.clear();

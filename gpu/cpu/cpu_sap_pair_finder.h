@@ -14,7 +14,7 @@
 //   4. lay them out slab by slab, structure-of-arrays (gpu/pairs/sap_sweep.h);
 //   5. sweep: each box against the boxes of its slab that start inside its
 //      extent, eight at a time with AVX2; the layout is cut into chunks of
-//      about equal work (the boxes' extents on the sweep axis) that oneTBB
+//      about equal work (the boxes' extents on the sweep axis) that the task system
 //      hands to the threads as they come free;
 //   6. test the inverted boxes against every box, one by one;
 //   7. group the pairs by lower slot (gpu/pairs/pair_set.h) and merge them with
@@ -33,9 +33,6 @@
 // never the answer.  A launch() that throws keeps last frame's pairs.
 #pragma once
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/task_arena.h>
-
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -44,14 +41,16 @@
 #include "gpu/pair_finder.h"
 #include "gpu/pairs/pair_set.h"
 #include "gpu/pairs/sap_sweep.h"
+#include "gpu/task_system.h"
 
 namespace overlap::finders {
 
 class CpuSapPairFinder final : public PairFinder {
  public:
-  // threads = 0 uses every hardware thread.  Throws std::runtime_error for a
-  // negative thread count or kAvx2 on a CPU without AVX2.
-  explicit CpuSapPairFinder(int threads = 0, sap::SweepKernel kernel = sap::SweepKernel::kFastest);
+  // Searches on `tasks`' threads.  Throws std::runtime_error for kAvx2 on a
+  // CPU without AVX2.
+  explicit CpuSapPairFinder(TaskSystem& tasks = defaultTaskSystem(),
+                            sap::SweepKernel kernel = sap::SweepKernel::kFastest);
 
   std::string_view name() const override { return "cpusap"; }
 
@@ -95,9 +94,9 @@ class CpuSapPairFinder final : public PairFinder {
   // Steps 1 to 7, after which the moved-box path queries this frame's layout.
   void searchAll(std::span<const ObjectBounds> objects);
 
-  tbb::task_arena arena_;
+  TaskSystem& tasks_;
   sap::SweepKernel kernel_;
-  tbb::enumerable_thread_specific<PairKeys> thread_pairs_;
+  std::vector<PairKeys> thread_pairs_;  // one a thread of tasks_, by threadIndex()
   PairKeys inverted_pairs_;
 
   std::uint32_t slot_count_ = 0;
@@ -124,7 +123,7 @@ class CpuSapPairFinder final : public PairFinder {
   SearchStats stats_;  // its search_ms and phases
 
   bool moved_only_ = false;
-  SapMovedBoxes moved_boxes_{arena_};
+  SapMovedBoxes moved_boxes_;
 };
 
 }  // namespace overlap::finders

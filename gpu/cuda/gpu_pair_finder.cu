@@ -480,7 +480,7 @@ class GpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuPairFinder(int /*cpu_threads*/) {
+std::unique_ptr<PairFinder> makeGpuPairFinder(TaskSystem& /*tasks*/) {
   return std::make_unique<GpuPairFinder>();
 }
 

@@ -156,7 +156,7 @@ class PaperGpuPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makePaperGpuPairFinder(int /*cpu_threads*/) {
+std::unique_ptr<PairFinder> makePaperGpuPairFinder(TaskSystem& /*tasks*/) {
   return std::make_unique<PaperGpuPairFinder>();
 }
 

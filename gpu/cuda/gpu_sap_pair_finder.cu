@@ -374,7 +374,7 @@ class GpuSapPairFinder final : public PairFinder {
 
 }  // namespace
 
-std::unique_ptr<PairFinder> makeGpuSapPairFinder(int /*cpu_threads*/) {
+std::unique_ptr<PairFinder> makeGpuSapPairFinder(TaskSystem& /*tasks*/) {
   return std::make_unique<GpuSapPairFinder>();
 }
 

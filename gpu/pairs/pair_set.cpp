@@ -1,7 +1,5 @@
 #include "gpu/pairs/pair_set.h"
 
-#include <oneapi/tbb/parallel_for.h>
-
 #include <algorithm>
 #include <limits>
 #include <numeric>
@@ -16,15 +14,16 @@ namespace {
 // One counting pass of a stable radix sort over `parts` (in order), whose
 // digit is digit(key) < digits: each part counts its digits, the counts
 // become each (digit, part)'s first place, and each part places its keys.
-// The parts count and place in parallel when `parallel` is set; row_starts
+// The parts count and place on `tasks`' threads when it is given; row_starts
 // (if not empty) receives where each digit's keys start, and the total.
 template <typename Digit, typename Place>
 void countingPass(std::span<const std::span<const std::uint64_t>> parts, std::uint32_t digits,
-                  bool parallel, std::vector<std::vector<std::uint32_t>>& counts,
+                  TaskSystem* tasks, std::vector<std::vector<std::uint32_t>>& counts,
                   std::vector<std::uint32_t>* row_starts, const Digit& digit, const Place& place) {
   const auto forEachPart = [&](const auto& body) {
-    if (parallel) {
-      tbb::parallel_for(std::size_t{0}, parts.size(), body);
+    if (tasks != nullptr) {
+      tasks->forEachPiece(parts.size(), 1,
+                          [&](std::size_t part, std::size_t /*end*/) { body(part); });
     } else {
       for (std::size_t part = 0; part < parts.size(); ++part) body(part);
     }
@@ -51,7 +50,7 @@ void countingPass(std::span<const std::span<const std::uint64_t>> parts, std::ui
 }  // namespace
 
 void PairSet::assign(std::uint32_t slot_count,
-                     std::span<const std::span<const std::uint64_t>> batches, bool parallel) {
+                     std::span<const std::span<const std::uint64_t>> batches, TaskSystem* tasks) {
   std::size_t total = 0;
   for (const std::span<const std::uint64_t> batch : batches) total += batch.size();
   if (total > std::numeric_limits<std::uint32_t>::max()) {
@@ -65,7 +64,7 @@ void PairSet::assign(std::uint32_t slot_count,
   }
   by_partner_.resize(total);
   countingPass(
-      parts_, slot_count, parallel, counts_, nullptr,
+      parts_, slot_count, tasks, counts_, nullptr,
       [](std::uint64_t key) { return static_cast<std::uint32_t>(key); },
       [&](std::uint32_t at, std::uint64_t key) { by_partner_[at] = key; });
   // Pass 2, by a, stable, over as many equal pieces of pass 1's output: each
@@ -79,7 +78,7 @@ void PairSet::assign(std::uint32_t slot_count,
   }
   partners_.resize(total);
   countingPass(
-      parts_, slot_count, parallel, counts_, &offsets_,
+      parts_, slot_count, tasks, counts_, &offsets_,
       [](std::uint64_t key) { return static_cast<std::uint32_t>(key >> 32); },
       [&](std::uint32_t at, std::uint64_t key) {
         partners_[at] = static_cast<std::uint32_t>(key);

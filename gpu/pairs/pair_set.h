@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "gpu/task_system.h"
 
 namespace overlap::finders {
 
@@ -56,10 +57,10 @@ class PairSet {
  public:
   // Replaces the set with the pairs in `batches`: pairKey()s over slots
   // [0, slot_count), each pair in at most one batch, at most once.  With
-  // `parallel`, the batches are counted and placed on oneTBB's threads (of
-  // the caller's arena); the set is the same either way.
+  // `tasks`, the batches are counted and placed on its threads, a batch a
+  // piece; the set is the same either way.
   void assign(std::uint32_t slot_count, std::span<const std::span<const std::uint64_t>> batches,
-              bool parallel = false);
+              TaskSystem* tasks = nullptr);
 
   std::uint32_t slotCount() const { return static_cast<std::uint32_t>(offsets_.size() - 1); }
   std::size_t size() const { return partners_.size(); }

@@ -14,14 +14,17 @@ Example (from the repository's top, after scripts/peers/build_broadmark.sh):
   scripts/peers/check_broadmark_pairs.py --driver BM_BUILD/broadmark_driver \\
       --overlap build/overlap --input s4_n500_f16.aabbs --out docs/results/peers_pairs_n500
 """
-import argparse
 import collections
 import csv
 import json
+import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from script_cli import BadInput, Parser, run  # noqa: E402  (scripts/, one folder up)
 
 
 def frame_pairs(path):
@@ -37,7 +40,7 @@ def frame_pairs(path):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--driver", required=True, help="broadmark_driver")
     parser.add_argument("--overlap", required=True, help="our overlap executable")
     parser.add_argument("--input", required=True, help="a .aabbs stream (small n: cpubf is exact and O(n^2))")
@@ -46,8 +49,10 @@ def main():
     parser.add_argument("--out", help="also write OUT.csv")
     args = parser.parse_args()
     if not Path(args.input).is_file():
-        print(f"check_broadmark_pairs: --input {args.input}: no such file", file=sys.stderr)
-        return 2
+        raise BadInput(f"--input {args.input}: no such file")
+    for option, program in (("--driver", args.driver), ("--overlap", args.overlap)):
+        if not os.access(program, os.X_OK):
+            raise BadInput(f"{option} {program}: not an executable")
 
     algos = (args.algos.split(",") if args.algos else
              subprocess.run([args.driver, "--list"], check=True, capture_output=True,
@@ -100,4 +105,4 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run(main, "check_broadmark_pairs"))

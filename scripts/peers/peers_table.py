@@ -15,12 +15,14 @@ also writes PREFIX.csv and PREFIX.json (one row per n and algorithm).
 
 Example: scripts/peers/peers_table.py OUT --out docs/results/peers_broadmark
 """
-import argparse
 import csv
 import json
 import re
 import sys
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from script_cli import Parser, existing_folder, run  # noqa: E402  (scripts/, one folder up)
 
 
 def load(out_dir):
@@ -54,8 +56,8 @@ def fmt(value, digits=3):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out_dir")
+    parser = Parser(description=__doc__.splitlines()[0])
+    parser.add_argument("out_dir", type=existing_folder)
     parser.add_argument("--out", help="also write OUT.csv and OUT.json")
     args = parser.parse_args()
     runs = load(args.out_dir)
@@ -135,4 +137,4 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run(main, "peers_table"))

@@ -60,20 +60,15 @@ TEST_F(CliTest, CliMdsOpeningNamesEverySubcommand) {
 
 // docs/OUTPUTS.md, "timeline.json": the frame, the step, each substep's
 // spans and the wait for the tasks on the main lane; the tasks job and each
-// task on lanes of their own.
-TEST_F(CliTest, TimelineSpansAreOnTheLanesOutputsMdNames) {
-  const Result result =
-      runOverlap("run --objects 40 --frames 3 --capture-every 0 --no-wav --out " + out_.string());
-  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
-  const nlohmann::json trace = nlohmann::json::parse(fileText(out_ / "timeline.json"));
+// task on lanes of their own; with the search beside the narrowphase, the
+// broadphase on the search lane and the wait for it on the main lane.
+void expectSpansOnLanes(const std::filesystem::path& timeline,
+                        const std::map<std::string, std::string>& expected) {
+  const nlohmann::json trace = nlohmann::json::parse(fileText(timeline));
   std::map<int, std::string> lanes;
   for (const nlohmann::json& event : trace["traceEvents"]) {
     if (event["ph"] == "M") lanes[event["tid"].get<int>()] = event["args"]["name"];
   }
-  const std::map<std::string, std::string> expected = {
-      {"frame", "main"},      {"physics", "main"},     {"substep", "main"},
-      {"broadphase", "main"}, {"narrowphase", "main"}, {"wait for tasks", "main"},
-      {"tasks", "tasks"},     {"sound", "sound"},      {"ai", "ai"}};
   std::map<std::string, int> seen;
   for (const nlohmann::json& event : trace["traceEvents"]) {
     if (event["ph"] != "X") continue;
@@ -83,6 +78,41 @@ TEST_F(CliTest, TimelineSpansAreOnTheLanesOutputsMdNames) {
     EXPECT_EQ(lanes[event["tid"].get<int>()], expected.at(name)) << name;
   }
   for (const auto& [name, lane] : expected) EXPECT_GT(seen[name], 0) << name;
+}
+
+TEST_F(CliTest, TimelineSpansAreOnTheLanesOutputsMdNames) {
+  const Result result = runOverlap(
+      "run --objects 40 --frames 3 --capture-every 0 --no-wav --narrowphase parallel --out " +
+      out_.string());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  expectSpansOnLanes(out_ / "timeline.json", {{"frame", "main"},
+                                              {"physics", "main"},
+                                              {"substep", "main"},
+                                              {"broadphase", "main"},
+                                              {"narrowphase", "main"},
+                                              {"wait for tasks", "main"},
+                                              {"tasks", "tasks"},
+                                              {"sound", "sound"},
+                                              {"ai", "ai"}});
+}
+
+TEST_F(CliTest, TheSearchBesideTheNarrowphaseIsOnALaneOfItsOwn) {
+  const Result result = runOverlap(
+      "run --objects 40 --frames 3 --capture-every 0 --no-wav --algo cpusap --threads 2 --out " +
+      out_.string());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  const nlohmann::json summary = nlohmann::json::parse(fileText(out_ / "summary.json"));
+  if (summary["parameters"]["threads"].get<int>() < 2) GTEST_SKIP() << "one thread: nothing beside";
+  expectSpansOnLanes(out_ / "timeline.json", {{"frame", "main"},
+                                              {"physics", "main"},
+                                              {"substep", "main"},
+                                              {"broadphase", "search"},
+                                              {"wait for search", "main"},
+                                              {"narrowphase", "main"},
+                                              {"wait for tasks", "main"},
+                                              {"tasks", "tasks"},
+                                              {"sound", "sound"},
+                                              {"ai", "ai"}});
 }
 
 }  // namespace

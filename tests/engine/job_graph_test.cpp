@@ -38,7 +38,7 @@ TEST(JobGraph, EveryJobRunsOnceAfterItsDependenciesInBothOrders) {
   for (const bool sync : {false, true}) {
     SCOPED_TRACE(sync ? "sync" : "async");
     Log log;
-    JobGraph graph;
+    JobGraph graph(defaultTaskSystem());
     const JobId first = graph.add("first", JobThread::kMain, log.job("first"));
     const JobId a = graph.add("a", JobThread::kWorkers, log.job("a"), {first});
     graph.add("b", JobThread::kWorkers, log.job("b"), {a});
@@ -66,7 +66,7 @@ TEST(JobGraph, EveryJobRunsOnceAfterItsDependenciesInBothOrders) {
 }
 
 TEST(JobGraph, RefusesADependencyNotYetAddedAndAMainJobAfterAWorker) {
-  JobGraph graph;
+  JobGraph graph(defaultTaskSystem());
   EXPECT_THROW(graph.add("ahead", JobThread::kWorkers, [] {}, {0}), std::invalid_argument);
   const JobId worker = graph.add("worker", JobThread::kWorkers, [] {});
   EXPECT_THROW(graph.add("main", JobThread::kMain, [] {}, {worker}), std::invalid_argument);
@@ -79,7 +79,7 @@ TEST(JobGraph, ErrorsLeaveNothingInFlight) {
   for (const bool sync : {false, true}) {
     SCOPED_TRACE(sync ? "sync" : "async");
     std::atomic<int> ran{0};
-    JobGraph graph;
+    JobGraph graph(defaultTaskSystem());
     const JobId failing =
         graph.add("failing", JobThread::kWorkers, [] { throw std::runtime_error("out of tune"); });
     const JobId after = graph.add("after", JobThread::kWorkers, [&ran] { ++ran; }, {failing});

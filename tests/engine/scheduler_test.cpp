@@ -3,7 +3,6 @@
 // thread cap that holds, and the same answers as running everything in
 // sequence, under every broadphase.
 #include <gtest/gtest.h>
-#include <oneapi/tbb/global_control.h>
 
 #include <atomic>
 #include <chrono>
@@ -184,15 +183,12 @@ TEST(FrameScheduler, ATaskThatThrowsIsReportedAfterEverythingIsJoined) {
   }
 }
 
-// A oneTBB cap of N threads (what `overlap run --threads N`
-// sets) bounds every thread of the run, cpubf's search included: the main
-// thread and N - 1 workers.  Counted in /proc/self/task from inside a task,
-// while the tasks and the search run; nothing here asks for a CUDA device,
-// so no thread of the driver's is counted.  Caps grow, as a worker that
-// exists stays, and each is set before the last one goes: between two caps
-// the limit never returns to every hardware thread, when oneTBB could start
-// workers the next cap does not allow (as `overlap run` holds its one cap
-// for the whole run).
+// A task system of N threads (what `overlap run --threads N` makes) bounds
+// every thread of the run, cpubf's search included: the main thread and
+// N - 1 workers.  Counted in /proc/self/task from inside a task, while the
+// tasks and the search run; nothing here asks for a CUDA device, so no
+// thread of the driver's is counted.  Systems grow, as a worker that exists
+// stays.
 std::size_t threadsNow() {
   return static_cast<std::size_t>(
       std::distance(std::filesystem::directory_iterator("/proc/self/task"),
@@ -204,13 +200,13 @@ TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
     GTEST_SKIP() << threadsNow() << " threads before the test: earlier tests of this process left "
                  << "oneTBB workers; ctest runs each test in a process of its own";
   }
-  std::unique_ptr<tbb::global_control> limit;
   for (const std::size_t cap : {1u, 2u, 3u}) {
-    limit =
-        std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, cap);
+    const std::unique_ptr<TaskSystem> tasks = makeTaskSystem(static_cast<int>(cap));
     physics::SceneConfig config = smallScene();
     config.objects = 400;
-    physics::PhysicsWorld world(config, physics::WorldOptions{"cpubf"});
+    physics::WorldOptions options{"cpubf"};
+    options.tasks = tasks.get();
+    physics::PhysicsWorld world(config, options);
     testing::DemoFrame demo(world, false);
     FrameScheduler& scheduler = demo.scheduler;
     std::atomic<std::size_t> most{0};

@@ -4,7 +4,6 @@
 #include "engine/tools/stream_generator.h"
 
 #include <gtest/gtest.h>
-#include <oneapi/tbb/global_control.h>
 
 #include <cmath>
 #include <cstring>
@@ -30,13 +29,10 @@ bool sameBoxes(const physics::AabbStream& a, const physics::AabbStream& b) {
 }
 
 TEST(StreamGeneratorTest, TheSameSeedGivesTheSameStreamOnAnyThreadCount) {
-  const physics::AabbStream many = generateStream(scene(4, 3000), 4);
-  physics::AabbStream one;
-  {
-    const tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
-    one = generateStream(scene(4, 3000), 4);
-  }
-  EXPECT_TRUE(sameBoxes(many, one));
+  const auto four = makeTaskSystem(4, TaskBackEnd::kPlainThreads);
+  const physics::AabbStream many = generateStream(scene(4, 3000), 4, 0, 1.0, *four);
+  const auto single = makeTaskSystem(1);
+  EXPECT_TRUE(sameBoxes(many, generateStream(scene(4, 3000), 4, 0, 1.0, *single)));
   physics::SceneConfig other = scene(4, 3000);
   other.seed = 43;
   EXPECT_FALSE(sameBoxes(many, generateStream(other, 4)));

@@ -110,7 +110,7 @@ TEST(CpuSapPairFinderTest, TheFastestKernelIsAvx2WhereTheCpuHasIt) {
   EXPECT_EQ(CpuSapPairFinder().kernel(),
             sap::avx2Available() ? SweepKernel::kAvx2 : SweepKernel::kScalar);
   if (!sap::avx2Available()) {
-    EXPECT_THROW(CpuSapPairFinder(1, SweepKernel::kAvx2), std::runtime_error);
+    EXPECT_THROW(CpuSapPairFinder(defaultTaskSystem(), SweepKernel::kAvx2), std::runtime_error);
   }
 }
 
@@ -310,8 +310,7 @@ TEST(CpuSapPairFinderTest, AnInvertedMovedBoxTakesTheFullSearch) {
   EXPECT_FALSE(sap.lastSearchWasMovedOnly()) << "an inverted box is swept by the full search only";
 }
 
-TEST(CpuSapPairFinderTest, RejectsANegativeThreadCountAndMisuse) {
-  EXPECT_THROW(CpuSapPairFinder(-1), std::runtime_error);
+TEST(CpuSapPairFinderTest, RejectsASecondLaunchBeforeTheFirstFinished) {
   CpuSapPairFinder finder;
   const std::vector<ObjectBounds> boxes(3, box(0, 0, 0, 1, 1, 1));
   finder.launch(boxes);

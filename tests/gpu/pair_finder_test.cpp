@@ -240,10 +240,6 @@ TEST(CheckedSlotCountTest, AcceptsGrowthAndRejectsShrinkingOrOversizedCountsByNa
   }
 }
 
-TEST(CpuPairFinderTest, RejectsANegativeThreadCount) {
-  EXPECT_THROW(CpuPairFinder(-1), std::runtime_error);
-}
-
 TEST(MakePairFinderTest, MakesEachRowsFinderByNameAndDeviceOnesOnlyWithADevice) {
   std::string why;
   const bool device = cudaDeviceAvailable(&why);

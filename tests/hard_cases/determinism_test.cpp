@@ -10,7 +10,6 @@
 // own ctest, so `ctest -j` spreads them over the cores.
 #include <btBulletCollisionCommon.h>
 #include <gtest/gtest.h>
-#include <oneapi/tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
@@ -49,9 +48,11 @@ void noteChoices(Choices* choices, const physics::FrameReport& report) {
 }
 
 std::uint64_t hashAfterRun(const std::string& algorithm, Choices* choices = nullptr,
-                           physics::CcdMode ccd = physics::CcdMode::kAuto) {
-  physics::PhysicsWorld world(scene4(kRunBoxes),
-                              physics::WorldOptions{algorithm, physics::kAutoSubsteps, ccd});
+                           physics::CcdMode ccd = physics::CcdMode::kAuto,
+                           TaskSystem* tasks = nullptr) {
+  physics::WorldOptions options{algorithm, physics::kAutoSubsteps, ccd};
+  options.tasks = tasks;
+  physics::PhysicsWorld world(scene4(kRunBoxes), options);
   for (int frame = 0; frame < kRunFrames; ++frame) noteChoices(choices, world.stepFrame());
   return world.stateHash();
 }
@@ -77,9 +78,8 @@ TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
   }
 }
 
-// PhysicsWorld names a broadphase and nothing more, so cpubf's threads are
-// capped as `overlap run --threads` caps them, for the whole process (a cap
-// above the core count leaves cpubf at one thread per core).  Both bf and
+// The world's task system sets cpubf's threads, as `overlap run --threads`
+// does (plain threads: as many as asked, whatever the core count).  Both bf and
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
 // cpubf must also end where Bullet's own brute force ends.  Without CCD: with
 // it the two part after a few frames of scene 4 although every broadphase's
@@ -88,9 +88,8 @@ TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
 TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
   const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2, 4}) {
-    const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
-                                  static_cast<std::size_t>(threads));
-    EXPECT_EQ(hashAfterRun("cpubf", nullptr, physics::CcdMode::kOff), bullet_bf)
+    const auto tasks = makeTaskSystem(threads, TaskBackEnd::kPlainThreads);
+    EXPECT_EQ(hashAfterRun("cpubf", nullptr, physics::CcdMode::kOff, tasks.get()), bullet_bf)
         << threads << " thread(s)";
   }
 }
@@ -100,9 +99,8 @@ TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBrut
 TEST(Determinism, CpusapEndsInTheSameStateWithOneOrTwoThreadsAsBulletsBruteForce) {
   const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);
   for (const int threads : {1, 2}) {
-    const tbb::global_control cap(tbb::global_control::max_allowed_parallelism,
-                                  static_cast<std::size_t>(threads));
-    EXPECT_EQ(hashAfterRun("cpusap", nullptr, physics::CcdMode::kOff), bullet_bf)
+    const auto tasks = makeTaskSystem(threads);
+    EXPECT_EQ(hashAfterRun("cpusap", nullptr, physics::CcdMode::kOff, tasks.get()), bullet_bf)
         << threads << " thread(s)";
   }
 }
@@ -172,7 +170,8 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
                                         std::string_view finder) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);
-  physics::PairFinderBroadphase broadphase(finders::makePairFinder(finder, threads));
+  const auto tasks = makeTaskSystem(threads, TaskBackEnd::kPlainThreads);
+  physics::PairFinderBroadphase broadphase(finders::makePairFinder(finder, *tasks));
   auto corner = [](const float(&xyz)[3]) { return btVector3(xyz[0], xyz[1], xyz[2]); };
   std::vector<btBroadphaseProxy*> proxies;
   for (const physics::Aabb& b : frames.front()) {
@@ -203,7 +202,6 @@ std::vector<PairList> replayWithThreads(const RecordedFrames& frames, int thread
 class FinderThreads : public ::testing::TestWithParam<std::string_view> {};
 
 TEST_P(FinderThreads, SamePairsWithOneTwoOrFourThreads) {
-  const tbb::global_control allow_four(tbb::global_control::max_allowed_parallelism, 4);
   const RecordedFrames frames = recordScene4(300, 60);
   const std::vector<PairList> one = replayWithThreads(frames, 1, GetParam());
   std::size_t total = 0;

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "physics/world.h"
+#include "tests/physics/thread_count_states.h"
 
 namespace overlap::physics {
 namespace {
@@ -133,6 +134,21 @@ TEST(ColouredSolver, WithoutColoursIsBulletsSerialSolverBitForBit) {
     }
   }
 }
+
+// One state for every thread count: the coloured solver (and the rest of the
+// step) reach the same state on 1, 2, 3, 8 and 16 threads, in every scene,
+// with CCD on every box and with the default CCD.
+class SameStateForEveryThreadCount : public ::testing::TestWithParam<int> {};
+
+TEST_P(SameStateForEveryThreadCount, WithCcdOnEveryBoxAndWithTheDefault) {
+  const int scene = GetParam();
+  for (const CcdMode ccd : {CcdMode::kAll, CcdMode::kAuto}) {
+    EXPECT_EQ(testing::threadCountsThatDiffer(scene, 250, 60, ccd), "")
+        << "scene " << scene << ", ccd " << ccdModeName(ccd);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, SameStateForEveryThreadCount, ::testing::Values(1, 2, 3, 4));
 
 TEST(ColouredSolver, SolverOrderNamesParseBothWays) {
   for (const SolverOrder order : {SolverOrder::kColoured, SolverOrder::kSerial}) {

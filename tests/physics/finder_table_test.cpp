@@ -51,7 +51,7 @@ std::vector<finders::PairFinderRow> tableWithNaive() {
   std::vector<finders::PairFinderRow> table(finders::pairFinderTable().begin(),
                                             finders::pairFinderTable().end());
   table.push_back({"naive", false, "every pair tested, one by one",
-                   [](int) -> std::unique_ptr<finders::PairFinder> {
+                   [](TaskSystem&) -> std::unique_ptr<finders::PairFinder> {
                      return std::make_unique<NaiveFinder>();
                    }});
   return table;

@@ -55,7 +55,7 @@ def check(condition: bool, message: str) -> None:
 def arguments_or_skip():
     """--overlap and --out (emptied), or None after saying why the test skips: this
     interpreter has no matplotlib, which the study's figures need."""
-    parser = argparse.ArgumentParser()
+    parser = argparse.ArgumentParser(allow_abbrev=False)
     parser.add_argument("--overlap", required=True)
     parser.add_argument("--out", type=pathlib.Path, required=True)
     args = parser.parse_args()

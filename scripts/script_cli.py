@@ -1,0 +1,78 @@
+"""How every script of scripts/ reads its command line and answers bad input.
+
+Rules, each with its reason:
+  * No option is ever abbreviated (allow_abbrev=False): a prefix of an option is an
+    unknown option, refused, never another option taken silently (`--repo` is not
+    `--report`, and a recorded command line means what it says on every version).
+  * Bad input (an option's value, a missing or unreadable file, a file that does
+    not hold what the script reads) is one line naming the input and the problem,
+    exit 2, and nothing written: argparse's errors are that line too, and main()
+    raises BadInput, which run() turns into it.  A traceback is a defect of the
+    script, never an answer to its input.
+"""
+import argparse
+import errno
+import pathlib
+import sys
+
+# An OSError with one of these is about the input named (a path that is not there, or
+# not readable); any other (a full disk, an I/O error) is the machine's: exit 1.
+INPUT_ERRORS = (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR,
+                errno.ELOOP, errno.ENAMETOOLONG)
+
+
+class BadInput(Exception):
+    """An input the script cannot use; the message names it and says why."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse without abbreviations, whose errors are one line: `PROG: PROBLEM`."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs["allow_abbrev"] = False
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: {message} (--help lists the options)\n")
+
+
+def one_line(text: str) -> str:
+    """`text` printable on one line: newlines and other control characters escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+def existing_file(text: str) -> pathlib.Path:
+    """argparse type: a regular file that can be read."""
+    path = pathlib.Path(text)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"{one_line(text)}: no such file")
+    try:
+        with open(path, "rb"):
+            pass
+    except OSError as error:
+        raise argparse.ArgumentTypeError(f"{one_line(text)}: {error.strerror}")
+    return path
+
+
+def existing_folder(text: str) -> pathlib.Path:
+    """argparse type: a folder that exists."""
+    path = pathlib.Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{one_line(text)}: not a folder")
+    return path
+
+
+def run(main, prog: str = None) -> int:
+    """main()'s exit status; BadInput and an OSError on an input path are one line naming
+    the input and the problem, exit 2 (another OSError: exit 1)."""
+    prog = prog or pathlib.Path(sys.argv[0]).name
+    try:
+        return main() or 0
+    except BadInput as problem:
+        print(f"{prog}: {one_line(problem)}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        where = error.filename if error.filename is not None else "?"
+        print(f"{prog}: {one_line(where)}: {one_line(error.strerror or error)}",
+              file=sys.stderr)
+        return 2 if error.errno in INPUT_ERRORS else 1

@@ -1,0 +1,337 @@
+"""A study archive unpacked as a --out folder (`study.py --from-archive TAR --out D`).
+
+An archive is a tar file (.tar.xz as scripts/gpu_check.sh --study returns it)
+holding a study's --out folder as ./study.  It comes from another machine, so
+nothing in it is trusted: not its names, its modes, its sizes, nor its text.
+
+Rules, each with its reason:
+  * D is replaced only when it is an earlier unpack (a folder holding MARKER,
+    which every unpack writes), an empty folder, or absent.  Any other D is
+    refused, and so is the current folder or one above it, through any link:
+    an unpack never removes what an unpack did not make.
+  * Everything is checked before D is touched.  The members: only files and
+    folders under ./study, none absolute, none through '..', no link, no
+    device, at most MAX_MEMBERS members and MAX_BYTES bytes unpacked (a sparse
+    member counts its full size).  Then the unpacked text: every .json, .csv,
+    .md and .txt file is UTF-8, every .json file parses, the invocation log and
+    the runs' machine fields have the shapes the report reads.  A member that is
+    not under ./study is never written, yet an absolute or '..' name, a link or a
+    device anywhere refuses the archive.  A bad archive is
+    one line naming it and the problem, exit 2, and D as it was.
+  * Members are written as tarfile's `data` filter writes them (as_data(), and the
+    filter itself where the Python has it): no setuid, setgid or sticky bit, no
+    write for group or others, no owner taken from the archive.
+  * The new folder is unpacked beside D (PARENT/.D.unpack-XXXXXXXX), D is renamed
+    into that scratch folder and the new one renamed to D with SIGINT, SIGTERM
+    and SIGHUP held off, and only then is the old one removed: a signal at any
+    moment leaves D whole, old or new.  A signal removes the scratch folder, then
+    ends the process as that signal does.  A scratch folder whose unpack was
+    killed (no process holds its lock) is removed by the next unpack beside it.
+"""
+import codecs
+import contextlib
+import copy
+import fcntl
+import glob
+import json
+import lzma
+import os
+import pathlib
+import shutil
+import signal
+import tarfile
+import tempfile
+import zlib
+
+MARKER = ".study-archive"  # in D: D is an unpack, which the next unpack may replace
+SCRATCH_MARKER = ".study-unpack"  # in a scratch folder: made by an unpack
+MAX_BYTES = 2 * 1024 ** 3
+MAX_MEMBERS = 50_000  # a full study (1112 jobs) unpacks to about 6000
+TEXT_SUFFIXES = (".json", ".csv", ".md", ".txt")
+HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+MACHINE_TEXT = ("cpu", "gpu", "compiler", "build_type", "git_commit")
+
+
+class BadArchive(Exception):
+    """The archive cannot be unpacked as a study; the message says why."""
+
+
+class BadOut(Exception):
+    """--out cannot be replaced by an unpack; the message says why."""
+
+
+class Interrupted(BaseException):
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def ends_cleanly_on_signals():
+    """Inside, SIGINT, SIGTERM and SIGHUP raise Interrupted (so every `finally` runs);
+    leaving by one, the process then ends as that signal ends it."""
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+    previous = {s: signal.signal(s, interrupt) for s in HELD}
+    try:
+        yield
+    except Interrupted as stop:
+        for s in HELD:
+            signal.signal(s, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, [stop.signum])
+        os.kill(os.getpid(), stop.signum)
+        raise SystemExit(128 + stop.signum)  # where the signal does not end it
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+@contextlib.contextmanager
+def signals_held():
+    """SIGINT, SIGTERM and SIGHUP wait until the block is done."""
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+@contextlib.contextmanager
+def folder_locked(folder: pathlib.Path, blocking: bool = True):
+    """An exclusive flock on the folder itself (no file made); None when not blocking
+    and another process holds it."""
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
+        except BlockingIOError:
+            yield None
+            return
+        yield fd
+    finally:
+        os.close(fd)
+
+
+def replaceable(target: pathlib.Path, out: pathlib.Path) -> None:
+    """Raises BadOut unless `target` (--out `out`, resolved) may be replaced."""
+    here = pathlib.Path.cwd().resolve()
+    if target == here or target in here.parents:
+        raise BadOut(f"{out}: is the current folder or one above it, which an unpack "
+                     "never replaces; give a folder of its own")
+    if not os.path.lexists(target):
+        return
+    if target.is_symlink() or not target.is_dir():
+        raise BadOut(f"{out}: exists and is not a folder")
+    marker = target / MARKER
+    if marker.is_symlink() or not marker.is_file():
+        if any(target.iterdir()):
+            raise BadOut(f"{out}: exists and is not an earlier unpack of a study archive "
+                         f"(it has no {MARKER}); give a new folder, or empty it yourself")
+
+
+def clear_stale(parent: pathlib.Path, name: str) -> None:
+    """Removes the scratch folders of unpacks into PARENT/NAME that were killed."""
+    for folder in parent.glob(f".{glob.escape(name)}.unpack-*"):
+        if folder.is_symlink() or not folder.is_dir() or folder.stat().st_uid != os.getuid():
+            continue
+        if not ((folder / SCRATCH_MARKER).is_file() or not any(folder.iterdir())):
+            continue
+        with folder_locked(folder, blocking=False) as free:
+            if free is not None:
+                shutil.rmtree(folder, ignore_errors=True)
+
+
+def study_members(tar: tarfile.TarFile) -> list:
+    """The members under ./study, checked one by one as they are read (bounded)."""
+    members, count, total = [], 0, 0
+    for member in tar:
+        count += 1
+        if count > MAX_MEMBERS:
+            raise BadArchive(f"holds over {MAX_MEMBERS} members: more than a study unpacks to")
+        path = pathlib.PurePosixPath(member.name)
+        if path.is_absolute() or ".." in path.parts:
+            raise BadArchive(f"member {member.name!r} names a path outside the archive")
+        if not (member.isfile() or member.isdir()):
+            raise BadArchive(f"member {member.name!r} is a link or a device, not a file "
+                             "or a folder")
+        if path.parts[:1] != ("study",):  # "./study/x" reads as study/x
+            continue
+        total += member.size
+        if total > MAX_BYTES:
+            raise BadArchive(f"unpacks to over {MAX_BYTES // 1024 ** 2} MiB: more than a "
+                             f"study holds (member {member.name!r} passes the bound)")
+        members.append(member)
+    if not members:
+        raise BadArchive("holds no ./study folder (a study's --out)")
+    return members
+
+
+def as_data(member: tarfile.TarInfo) -> tarfile.TarInfo:
+    """The member as tarfile's `data` filter writes it, on every Python (Debian's 3.11.2
+    has no filters): no setuid, setgid or sticky bit, no write for group or others, read
+    and write for the owner, execute only where the owner has it, and this process's
+    owner, not the archive's."""
+    safe = copy.copy(member)
+    mode = member.mode & 0o755
+    if member.isdir():
+        mode |= 0o700
+    else:
+        mode = (mode if mode & 0o100 else mode & ~0o111) | 0o600
+    safe.mode, safe.uid, safe.gid, safe.uname, safe.gname = \
+        mode, os.getuid(), os.getgid(), "", ""
+    return safe
+
+
+def extract(archive: pathlib.Path, scratch: pathlib.Path) -> pathlib.Path:
+    filtered = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
+    try:
+        with tarfile.open(archive) as tar:
+            tar.extractall(scratch, [as_data(m) for m in study_members(tar)], **filtered)
+    except (tarfile.TarError, EOFError, lzma.LZMAError, zlib.error) as error:
+        first = str(error).splitlines()[0].rstrip(":") if str(error) else type(error).__name__
+        raise BadArchive(f"cannot be read as a tar file ({first})")
+    except OSError as error:
+        raise BadArchive(f"cannot be unpacked ({error.strerror or error})")
+    study = scratch / "study"
+    if study.is_symlink() or not study.is_dir():
+        raise BadArchive("its ./study is not a folder")
+    return study
+
+
+def check_shape(value, shape, where: str) -> None:
+    """`value` against `shape`: a type, a tuple of types, [shape] or {key: shape} (a key
+    ending in '?' may be absent)."""
+    if isinstance(shape, list):
+        if not isinstance(value, list):
+            raise BadArchive(f"{where}: not a list")
+        for index, item in enumerate(value):
+            check_shape(item, shape[0], f"{where}[{index}]")
+        return
+    if isinstance(shape, dict):
+        if not isinstance(value, dict):
+            raise BadArchive(f"{where}: not an object")
+        for key, inner in shape.items():
+            name = key.rstrip("?")
+            if name in value:
+                check_shape(value[name], inner, f"{where}.{name}")
+            elif not key.endswith("?"):
+                raise BadArchive(f"{where}: has no {name!r}")
+        return
+    types = shape if isinstance(shape, tuple) else (shape,)
+    if not isinstance(value, types) or (isinstance(value, bool) and bool not in types):
+        raise BadArchive(f"{where}: {json.dumps(value)[:60]} is not of the type the "
+                         "report reads")
+
+
+NUMBER = (int, float)
+INVOCATION = {"argv": [str], "started": str, "load_average_at_start": NUMBER,
+              "finished?": bool, "seconds?": (int, float, type(None)),
+              "jobs?": [{"group": str, "experiment": str, "key": str, "start": NUMBER,
+                         "end": NUMBER}]}
+SUMMARY = {"machine": {**{key: str for key in MACHINE_TEXT}, "hardware_threads": int}}
+MAX_JSON_BYTES = 64 * 1024 ** 2
+
+
+def check_utf8(path: pathlib.Path, name: str) -> None:
+    decoder = codecs.getincrementaldecoder("utf-8")("strict")
+    done = 0
+    try:
+        with open(path, "rb") as f:
+            while chunk := f.read(1 << 20):
+                decoder.decode(chunk)
+                done += len(chunk)
+            decoder.decode(b"", final=True)
+    except UnicodeDecodeError as error:
+        raise BadArchive(f"{name}: not UTF-8 text (at byte {done + error.start})")
+
+
+def read_text(study: pathlib.Path) -> dict:
+    """Checks every text file's UTF-8; returns every .json file parsed, keyed by its
+    path in the archive."""
+    parsed = {}
+    for path in sorted(study.rglob("*")):
+        if path.suffix not in TEXT_SUFFIXES or path.is_symlink() or not path.is_file():
+            continue
+        name = "study/" + path.relative_to(study).as_posix()
+        check_utf8(path, name)
+        if path.suffix == ".json":
+            if path.stat().st_size > MAX_JSON_BYTES:
+                raise BadArchive(f"{name}: over {MAX_JSON_BYTES // 1024 ** 2} MiB of JSON")
+            try:
+                parsed[name] = json.loads(path.read_text(encoding="utf-8"))
+            except ValueError as error:
+                raise BadArchive(f"{name}: not JSON ({error})")
+    return parsed
+
+
+def check_study(study: pathlib.Path) -> list:
+    """The unpacked ./study checked as the report reads it; returns its invocation log."""
+    if not (study / "study_invocations.json").is_file():
+        raise BadArchive("its ./study has no study_invocations.json: no study ran into it")
+    parsed = read_text(study)
+    log = parsed["study/study_invocations.json"]
+    check_shape(log, [INVOCATION], "study/study_invocations.json")
+    if not log or not log[0]["argv"]:
+        raise BadArchive("study/study_invocations.json: names no invocation")
+    for index, run in enumerate(log):
+        if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
+            raise BadArchive(f"study/study_invocations.json[{index}]: finished, yet no "
+                             "seconds of its jobs")
+        for word in run["argv"] + [run["started"]]:
+            if "`" in word or not word.isprintable() or len(word) > 4096:
+                raise BadArchive(f"study/study_invocations.json[{index}]: the word "
+                                 f"{word[:60]!r} is not one a command line of the study holds")
+    for name, data in parsed.items():
+        if name.endswith("/summary.json"):
+            check_shape(data, SUMMARY, name)
+    return log
+
+
+def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
+    """Unpacks the archive's ./study as `out` (see the rules above) and returns
+    options_of(its invocation log), called before `out` is touched: it raises
+    BadArchive to refuse the archive.  Raises BadOut when `out` may not be replaced."""
+    target = out.resolve()
+    replaceable(target, out)
+    if not archive.is_file():
+        raise BadArchive("no such file")
+    if archive.resolve().is_relative_to(target):
+        raise BadOut(f"{out}: holds the archive, which replacing it would remove")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with ends_cleanly_on_signals(), contextlib.ExitStack() as held:
+        # Made and locked at once, signals held: no other unpack takes it for a stale one,
+        # and no signal leaves it behind before the `finally` that removes it.
+        with signals_held(), folder_locked(target.parent):
+            clear_stale(target.parent, target.name)
+            scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{target.name}.unpack-",
+                                                    dir=target.parent))
+            held.enter_context(folder_locked(scratch))
+        try:
+            (scratch / SCRATCH_MARKER).touch()
+            study = extract(archive, scratch)
+            options = options_of(check_study(study))
+            (study / MARKER).write_text(
+                f"An unpack of the study archive {archive.name} (scripts/study.py "
+                "--from-archive): the next unpack into this folder replaces it.\n")
+            with folder_locked(target.parent):
+                replaceable(target, out)
+                swap(study, target, scratch / "old")
+            return options
+        finally:
+            with signals_held():
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+def swap(new: pathlib.Path, target: pathlib.Path, aside: pathlib.Path) -> None:
+    """`new` renamed to `target`, a non-empty `target` renamed to `aside` first; no
+    signal between the two renames, and `target` back as it was if the second fails."""
+    with signals_held():
+        moved = target.is_dir() and any(target.iterdir())
+        if moved:
+            os.rename(target, aside)
+        try:
+            os.rename(new, target)  # over an empty folder, atomically
+        except OSError:
+            if moved:
+                os.rename(aside, target)
+            raise

@@ -1,0 +1,549 @@
+"""The study's scripts against hostile input: archives built here to break them, --out
+folders that are not theirs to replace, signals while unpacking, shard counts past the
+jobs, abbreviated options and bad arguments.  One behaviour per --case (each a ctest test
+study.CASE, tests/study/CMakeLists.txt):
+
+  unpack_replaces_only_unpacks    --from-archive refuses an --out that is ., .., a link to
+                                  a parent, a file or a folder with files in it; it replaces
+                                  an earlier unpack (and an empty folder) whole
+  archive_gives_only_run_options  an archive's recorded argv gives no program (--overlap=
+                                  its own script), no path (--report-doc), no flag that
+                                  writes (--report, its abbreviation --repo); a bad value of
+                                  a run option refuses the archive
+  hostile_archives_refused        links out, absolute and '..' names, devices, a huge sparse
+                                  member, too many members, bad JSON, non-UTF-8 text, empty
+                                  lists, wrong types: one line, exit 2, --out as it was and
+                                  nothing left beside it; setuid bits and group/other write
+                                  bits never reach the disk
+  unpack_signals_leave_whole_out  SIGINT and SIGTERM at every phase of an unpack, and
+                                  SIGKILL: --out is the old unpack or the new one, whole,
+                                  and no scratch folder is left behind (a killed run's is
+                                  removed by the next unpack)
+  archive_machine_text_plain      an archive's machine fields and start times (Markdown,
+                                  HTML, newlines, a long name) reach the report as plain
+                                  text, on one line
+  shard_count_costs_nothing       --shard 1/1000000000 runs in a small address space; shards
+                                  past the jobs get none
+  no_abbreviated_options          every script of scripts/ and tests/ refuses a prefix of
+                                  each of its options as an unknown option
+  bad_arguments_one_line          every script answers a missing file, a bad folder and a
+                                  bad value with one line naming it, exit 2, no traceback
+
+Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
+"""
+import argparse
+import importlib.util
+import io
+import json
+import os
+import pathlib
+import re
+import resource
+import shutil
+import signal
+import stat
+import subprocess
+import sys
+import tarfile
+import time
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+STUDY = REPO / "scripts" / "study.py"
+PYTHON = sys.executable
+MARKER = ".study-archive"
+
+
+def check(condition: bool, message: str) -> None:
+    if not condition:
+        sys.exit("FAIL: " + message)
+
+
+def study(*words, cwd=None, **popen) -> subprocess.CompletedProcess:
+    return subprocess.run([PYTHON, str(STUDY), *map(str, words)], capture_output=True,
+                          text=True, cwd=cwd, **popen)
+
+
+def one_line_refusal(result, *words) -> None:
+    check(result.returncode == 2, f"exit {result.returncode}, expected 2:\n{result.stderr}")
+    check(result.stderr.count("\n") == 1 and "Traceback" not in result.stderr,
+          f"not one line:\n{result.stderr}")
+    for word in words:
+        check(word in result.stderr, f"{word!r} not in {result.stderr!r}")
+
+
+def invocation(argv: list) -> dict:
+    return {"argv": ["scripts/study.py", *argv], "started": "2026-01-01 00:00:00",
+            "load_average_at_start": 0.1, "finished": True, "seconds": 1.0, "jobs": []}
+
+
+# A study of no run: the report says so; enough for the unpack and the options.
+NO_RUNS = ["--quick", "--threads", "1", "--experiments", "sweep", "--scenes", "1",
+           "--objects", "40", "--algos", "bf", "--frames", "2", "--figure-objects", "40"]
+
+
+def add(tar: tarfile.TarFile, name: str, data: bytes = b"", **fields) -> None:
+    info = tarfile.TarInfo(name)
+    info.size, info.mtime = len(data), time.time()
+    for key, value in fields.items():
+        setattr(info, key, value)
+    tar.addfile(info, io.BytesIO(data) if info.isfile() else None)
+
+
+def archive(path: pathlib.Path, files: dict, log=None, extra=(), mode="w:xz") -> pathlib.Path:
+    """A study archive: ./study with its invocation log (or `log`, bytes or a value) and
+    `files` (name under study/ -> bytes), then `extra` (callables adding members)."""
+    log = [invocation(NO_RUNS)] if log is None else log
+    with tarfile.open(path, mode) as tar:
+        add(tar, "./study", type=tarfile.DIRTYPE, mode=0o755)
+        add(tar, "./study/study_invocations.json",
+            log if isinstance(log, bytes) else json.dumps(log).encode())
+        for name, data in files.items():
+            add(tar, f"./study/{name}", data)
+        for adding in extra:
+            adding(tar)
+    return path
+
+
+def snapshot(folder: pathlib.Path) -> dict:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() if p.is_file() else None
+            for p in sorted(folder.rglob("*"))} if folder.exists() else None
+
+
+def scratch_left(parent: pathlib.Path) -> list:
+    return [p.name for p in parent.iterdir() if ".unpack-" in p.name]
+
+
+def earlier_unpack(out: pathlib.Path, which: bytes, files: int = 0) -> None:
+    out.mkdir(parents=True)
+    (out / MARKER).write_text("an earlier unpack\n")
+    (out / "study_invocations.json").write_text(json.dumps([invocation(NO_RUNS)]))
+    (out / "which").write_bytes(which)
+    for i in range(files):
+        (out / f"old_{i}.csv").write_text("a\n")
+
+
+def case_unpack_replaces_only_unpacks(args) -> None:
+    work = args.out
+    tar = archive(work / "new.tar.xz", {"which": b"new"})
+    home = work / "home"
+    (home / "thesis").mkdir(parents=True)
+    (home / "thesis" / "chapter1.tex").write_text("years of work\n")
+    (home / "notes.txt").write_text("keep me\n")
+    os.symlink("..", home / "up")
+    os.symlink(home, home / "thesis" / "home_link")
+    before = snapshot(home)
+    for out, problem in [(".", "current folder"), ("..", "current folder"),
+                         ("up", "current folder"), ("thesis/home_link", "current folder"),
+                         ("thesis", "not an earlier unpack"), ("notes.txt", "not a folder"),
+                         (str(home), "current folder")]:
+        cwd = home / "thesis" if out == "thesis/home_link" else home
+        out = "home_link" if out == "thesis/home_link" else out
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out, cwd=cwd)
+        one_line_refusal(result, f"--out {out}", problem)
+        check(snapshot(home) == before, f"--out {out} changed the folder:\n{result.stderr}")
+        check(not scratch_left(home) and not scratch_left(work), f"--out {out} left scratch")
+    inside = work / "holds_archive"
+    earlier_unpack(inside, b"old")
+    shutil.copy(tar, inside / "a.tar.xz")
+    result = study("--from-archive", inside / "a.tar.xz", "--overlap", args.overlap, "--out",
+                   inside)
+    one_line_refusal(result, "holds the archive")
+
+    if importlib.util.find_spec("matplotlib") is None:
+        return
+    for name, prepare in [("earlier", lambda p: earlier_unpack(p, b"old", files=3)),
+                          ("empty", lambda p: p.mkdir()), ("absent", lambda p: None)]:
+        out = work / name
+        prepare(out)
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        check(result.returncode == 0, f"--out {name}: exit {result.returncode}:\n{result.stderr}")
+        check((out / "which").read_bytes() == b"new" and (out / MARKER).is_file()
+              and not list(out.glob("old_*")), f"--out {name} is not the new unpack, whole")
+        check(not scratch_left(work), f"--out {name}: scratch left: {scratch_left(work)}")
+
+
+def case_archive_gives_only_run_options(args) -> None:
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    out = work / "out" / "gpu-study"
+    ran = work / "tool_ran"
+    doc = work / "REPORT_not_asked.md"
+    tool = f"#!/bin/sh\ntouch {ran}\nexec {args.overlap} \"$@\"\n".encode()
+    hostile = NO_RUNS + [f"--overlap={out}/tool.sh", "--repo", "--report", "--report-doc", doc,
+                         f"--report-doc={doc}", "--emulation", f"{out}/tool.sh", "--runs-only"]
+
+    def executable_tool(tar):
+        add(tar, "./study/tool.sh", tool, mode=0o755)
+    tar = archive(work / "hostile.tar.xz", {}, log=[invocation(list(map(str, hostile)))],
+                  extra=[executable_tool])
+    checkout_report = (REPO / "docs" / "REPORT.md").read_bytes()
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+    check(result.returncode == 0, f"exit {result.returncode}:\n{result.stderr}")
+    check(not ran.exists(), "the archive's own program ran")
+    check(not doc.exists(), "the archive's --report-doc was written")
+    check((REPO / "docs" / "REPORT.md").read_bytes() == checkout_report,
+          "the archive's --report (or --repo) rewrote docs/REPORT.md")
+    check("docs/REPORT.md" not in result.stderr, "the report names docs/REPORT.md: --report "
+          f"came from the archive:\n{result.stderr}")
+    check("--repo" in result.stderr and "left out" in result.stderr,
+          "the recorded abbreviation is not named as left out")
+    check((out / "REPORT.md").exists(), "no report from the archive's runs")
+    for bad, problem in [("--threads=abc", "--threads"), ("--scenes=../../x", "--scenes"),
+                         ("--quick=yes", "--quick"), ("--profile=nosuch", "--profile")]:
+        before = snapshot(out)
+        tar = archive(work / "bad.tar.xz", {}, log=[invocation(NO_RUNS + [bad])])
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        check(result.returncode == 2 and problem in result.stderr and "Traceback" not in
+              result.stderr, f"recorded {bad}: exit {result.returncode}:\n{result.stderr}")
+        check(snapshot(out) == before and not scratch_left(out.parent),
+              f"recorded {bad}: --out was touched")
+
+
+def hostile_archives(work: pathlib.Path) -> list:
+    """(name, archive, words its refusal names)."""
+    made = []
+
+    def member(name: str, **fields):
+        return lambda tar: add(tar, name, b"x" if "type" not in fields else b"", **fields)
+
+    for name, adding, words in [
+            ("symlink_out", member("./study/link", type=tarfile.SYMTYPE, linkname="/etc"), "link"),
+            ("symlink_up", member("./study/up", type=tarfile.SYMTYPE, linkname="../../.."), "link"),
+            ("hardlink_out", member("./study/hard", type=tarfile.LNKTYPE, linkname="/etc/passwd"),
+             "link"),
+            ("absolute", member("/tmp/study_hostile_absolute"), "outside"),
+            ("absolute_study", member("/study/x"), "outside"),
+            ("dotdot", member("./study/../../study_hostile_dotdot"), "outside"),
+            ("device", member("./study/null", type=tarfile.CHRTYPE, devmajor=1, devminor=3),
+             "device"),
+            ("fifo", member("./study/pipe", type=tarfile.FIFOTYPE), "device")]:
+        made.append((name, archive(work / f"{name}.tar.xz", {}, extra=[adding]), words))
+    for name, log, files, words in [
+            ("bad_json_log", b"[{\"argv\": [", {}, "not JSON"),
+            ("empty_log", [], {}, "names no invocation"),
+            ("empty_argv", [dict(invocation([]), argv=[])], {}, "names no invocation"),
+            ("log_not_list", {"argv": []}, {}, "not a list"),
+            ("log_wrong_type", [dict(invocation(NO_RUNS), load_average_at_start="high")], {},
+             "study_invocations.json"),
+            ("log_finished_no_seconds", [dict(invocation(NO_RUNS), seconds=None)], {},
+             "seconds"),
+            ("log_newline", [invocation(NO_RUNS + ["--seed\n`rm -rf ~`"])], {}, "word"),
+            ("non_utf8_log", b"[\xff\xfe]", {}, "not UTF-8"),
+            ("non_utf8_csv", None, {"sweep/s1_n40_bf_r0/frames.csv": b"frame\n\xff\n"},
+             "not UTF-8"),
+            ("bad_json_summary", None, {"sweep/s1_n40_bf_r0/summary.json": b"{"}, "not JSON"),
+            ("summary_no_machine", None, {"sweep/s1_n40_bf_r0/summary.json": b"{}"}, "machine"),
+            ("machine_not_text", None, {"sweep/s1_n40_bf_r0/summary.json": json.dumps(
+                {"machine": {"cpu": 5, "gpu": "", "compiler": "", "build_type": "",
+                             "git_commit": "", "hardware_threads": 2}}).encode()}, "machine")]:
+        made.append((name, archive(work / f"{name}.tar.xz", files, log=log), words))
+    sparse = work / "sparse_src" / "study"
+    sparse.mkdir(parents=True)
+    (sparse / "study_invocations.json").write_text(json.dumps([invocation(NO_RUNS)]))
+    with open(sparse / "huge.csv", "wb") as f:
+        f.truncate(3 * 1024 ** 3)
+    subprocess.run(["tar", "-C", str(sparse.parent), "-cSJf", str(work / "sparse.tar.xz"),
+                    "./study"], check=True)
+    shutil.rmtree(sparse.parent)
+    check((work / "sparse.tar.xz").stat().st_size < 1024 ** 2, "the sparse archive is not small")
+    made.append(("huge_sparse", work / "sparse.tar.xz", "MiB"))
+
+    def many(tar):
+        for i in range(50_001):
+            add(tar, f"./study/m/{i}")
+    made.append(("too_many_members", archive(work / "many.tar.gz", {}, extra=[many],
+                                             mode="w:gz"), "members"))
+    (work / "not_tar.tar.xz").write_bytes(b"not a tar file at all")
+    made.append(("not_tar", work / "not_tar.tar.xz", "cannot be read"))
+    with tarfile.open(work / "nostudy.tar.xz", "w:xz") as tar:
+        add(tar, "./other/file", b"x")
+    made.append(("no_study", work / "nostudy.tar.xz", "no ./study"))
+    return made
+
+
+def case_hostile_archives_refused(args) -> None:
+    work = args.out
+    out = work / "out"
+    earlier_unpack(out, b"old", files=2)
+    before = snapshot(out)
+    for name, tar, words in hostile_archives(work):
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        one_line_refusal(result, f"--from-archive {tar}", words)
+        check(snapshot(out) == before, f"{name}: --out changed")
+        check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+        check(not pathlib.Path("/tmp/study_hostile_absolute").exists()
+              and not (work.parent / "study_hostile_dotdot").exists(),
+              f"{name}: a member was written outside")
+    # Modes: setuid, setgid, sticky and group/other write never reach the disk, nor the
+    # archive's owner (a uid of no one here: as root, tarfile alone would take it).
+    if importlib.util.find_spec("matplotlib") is None:
+        return
+    modes = {"suid": 0o6755, "world": 0o777, "plain": 0o600, "sticky_dir/f": 0o1777}
+    tar = archive(work / "modes.tar.xz", {}, extra=[
+        lambda t: add(t, "./study/sticky_dir", type=tarfile.DIRTYPE, mode=0o1777, uid=4321,
+                      gid=4321, uname="", gname="")] + [
+        (lambda n, m: lambda t: add(t, f"./study/{n}", b"#!/bin/sh\n", mode=m, uid=4321,
+                                    gid=4321, uname="", gname=""))(n, m)
+        for n, m in modes.items()])
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+    check(result.returncode == 0, f"the modes archive: exit {result.returncode}:\n{result.stderr}")
+    for name in list(modes) + ["sticky_dir"]:
+        st = (out / name).stat()
+        check(not st.st_mode & (stat.S_ISUID | stat.S_ISGID | stat.S_ISVTX | 0o022),
+              f"{name}: mode {oct(st.st_mode)} kept a setuid, setgid, sticky or write bit")
+        check(st.st_uid == os.getuid(), f"{name}: owned by {st.st_uid}, not by this user")
+
+
+def big_archive(path: pathlib.Path, which: bytes, files: int) -> pathlib.Path:
+    return archive(path, {"which": which, **{f"{which.decode()}_{i}.csv": b"x,y\n" * 64
+                                               for i in range(files)}})
+
+
+def whole(out: pathlib.Path, counts: dict) -> str:
+    """'old' or 'new' when --out is that unpack, whole (counts: its number of files);
+    otherwise what is wrong."""
+    which = (out / "which").read_bytes().decode() if (out / "which").is_file() else None
+    if which not in counts:
+        return f"no which file ({sorted(p.name for p in out.iterdir()) if out.exists() else 'no --out'})"
+    found = {side: len(list(out.glob(f"{side}_*.csv"))) for side in counts}
+    if found != {side: counts[side] if side == which else 0 for side in counts} or \
+            not (out / MARKER).is_file():
+        return f"{which} with {found} files"
+    return which
+
+
+def replaced(out: pathlib.Path) -> bool:
+    try:
+        return (out / "which").read_bytes() == b"new"
+    except OSError:
+        return False
+
+
+def phase_seen(parent: pathlib.Path, phase: str) -> bool:
+    scratch = [p for p in parent.iterdir() if ".unpack-" in p.name]
+    if phase == "extracting":
+        return any((p / "study").exists() for p in scratch)
+    if phase == "checked":
+        return any((p / "study" / MARKER).exists() for p in scratch)
+    if phase == "swapped":
+        return any((p / "old").exists() for p in scratch)
+    return True
+
+
+def case_unpack_signals_leave_whole_out(args) -> None:
+    work = args.out
+    files = 300
+    new = big_archive(work / "new.tar.xz", b"new", files)
+    old_files = files // 2
+    seen = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        for phase in ("start", "extracting", "checked", "swapped", "0.3", "0.8"):
+            out = work / f"out_{signum}_{phase}"
+            earlier_unpack(out, b"old", files=old_files)
+            process = subprocess.Popen([PYTHON, str(STUDY), "--from-archive", str(new),
+                                        "--overlap", args.overlap, "--out", str(out)],
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            give_up = time.monotonic() + 60
+            if phase[0].isdigit():
+                time.sleep(float(phase))
+            else:
+                while (process.poll() is None and not phase_seen(work, phase)
+                       and not replaced(out) and time.monotonic() < give_up):
+                    time.sleep(0.001)
+            process.send_signal(signum)
+            _, stderr = process.communicate()
+            state = whole(out, {"old": old_files, "new": files})
+            check(state in ("old", "new"), f"{signal.Signals(signum).name} at {phase}: --out is "
+                  f"{state}:\n{stderr.decode()}")
+            check(not scratch_left(work), f"{signal.Signals(signum).name} at {phase}: left "
+                  f"{scratch_left(work)}")
+            seen[state] = seen.get(state, 0) + 1
+            shutil.rmtree(out)
+    check(set(seen) == {"old", "new"}, f"the signals never met both sides of the swap: {seen}")
+    # SIGKILL while unpacking leaves its scratch folder; the next unpack beside it removes it.
+    out = work / "out_killed"
+    earlier_unpack(out, b"old")
+    process = subprocess.Popen([PYTHON, str(STUDY), "--from-archive", str(new), "--overlap",
+                                args.overlap, "--out", str(out)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    while process.poll() is None and not phase_seen(work, "extracting"):
+        time.sleep(0.001)
+    process.kill()
+    process.wait()
+    check(whole(out, {"old": 0, "new": files}) == "old", "SIGKILL while unpacking changed --out")
+    check(scratch_left(work), "SIGKILL left no scratch folder: the next check proves nothing")
+    small = archive(work / "small.tar.xz", {"which": b"new"})
+    result = study("--from-archive", small, "--overlap", args.overlap, "--out", out)
+    check(not scratch_left(work), f"the next unpack left {scratch_left(work)}:\n{result.stderr}")
+
+
+def case_archive_machine_text_plain(args) -> None:
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = work / "runs"
+    made = study("--overlap", args.overlap, "--emulation", work / "none", "--out", runs,
+                 "--runs-only", *NO_RUNS)
+    check(made.returncode == 0, f"the runs: exit {made.returncode}:\n{made.stderr}")
+    hostile = {"cpu": "<script>alert(1)</script> **bold** [link](http://x) | cell",
+               "gpu": "none\n# A heading\n<img src=x onerror=alert(1)>",
+               "compiler": "`code` $math$ & co", "build_type": "Release" + "x" * 5000,
+               "git_commit": "abc1234"}
+    for summary in runs.rglob("summary.json"):
+        data = json.loads(summary.read_text())
+        data["machine"].update(hostile)
+        summary.write_text(json.dumps(data))
+    log = json.loads((runs / "study_invocations.json").read_text())
+    log[0]["started"] = "<b>2026</b> *soon*"
+    (runs / "study_invocations.json").write_text(json.dumps(log))
+    tar = work / "machine.tar.xz"
+    with tarfile.open(tar, "w:xz") as t:
+        t.add(runs, arcname="./study")
+    out = work / "here"
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+    check(result.returncode == 0, f"exit {result.returncode}:\n{result.stderr}")
+    report = (out / "REPORT.md").read_text()
+    unescaped = re.sub(r"\\.", "", report)  # what Markdown reads as markup
+    for raw in ("<script>", "**bold**", "[link](", "<img", "`code`", "$math$", " & co",
+                "x" * 300, "<b>", "*soon*"):
+        check(raw not in unescaped, f"the report holds {raw!r} raw")
+    check("\n# A heading" not in report, "the machine's newline reached the report")
+    check(any("\\<script\\>" in line and "A heading" in line for line in report.splitlines()),
+          "the machine's text is not in the report, escaped, on one line")
+
+
+def case_shard_count_costs_nothing(args) -> None:
+    work = args.out
+
+    def small_address_space():
+        resource.setrlimit(resource.RLIMIT_AS, (1024 ** 3, 1024 ** 3))
+    for shards in ("100000000", "1000000000"):
+        result = subprocess.run(
+            [PYTHON, str(STUDY), "--overlap", args.overlap, "--emulation", str(work / "none"),
+             "--out", str(work / "out"), "--runs-only", *NO_RUNS, "--shard", f"{shards}/{shards}"],
+            capture_output=True, text=True, preexec_fn=small_address_space)
+        check(result.returncode == 0 and f"shard {shards}/{shards}: 0 of" in result.stderr,
+              f"--shard {shards}/{shards} under 1 GiB: exit {result.returncode}:\n{result.stderr}")
+    for bad in ("0/3", "4/3", "1/0", "1/x", " 1/2", "1/2/3", "1" * 5000 + "/2"):
+        result = study("--overlap", args.overlap, "--out", work / "out", "--shard", bad)
+        one_line_refusal(result, "--shard")
+
+
+def scripts_with_parsers() -> list:
+    found = []
+    for path in sorted([*REPO.glob("scripts/**/*.py"), *REPO.glob("tests/**/*.py")]):
+        text = path.read_text()
+        if "__main__" in text and re.search(r"\bParser\(|ArgumentParser\(|arguments_or_skip\(",
+                                            text) and path.name != "script_cli.py":
+            found.append(path)
+    return found
+
+
+def required_values(help_text: str, options: set) -> list:
+    """Values for the options a test script requires, so that argparse reaches the
+    unknown one (a required option missing is reported first)."""
+    values = {"--overlap": "/bin/true", "--driver": "/bin/true", "--input": "x",
+              "--out": "/nonexistent/abbreviation-check"}
+    given = [word for option, value in values.items() if option in options
+             for word in (option, value)]
+    cases = re.search(r"--case \{([^}]*)\}", help_text)
+    return given + (["--case", cases[1].split(",")[0]] if cases else [])
+
+
+def case_no_abbreviated_options(args) -> None:
+    scripts = scripts_with_parsers()
+    check(len(scripts) >= 10, f"found only {len(scripts)} scripts with options")
+    for script in scripts:
+        text = script.read_text()
+        for match in re.finditer(r"ArgumentParser\(([^)]*)\)", text):
+            check("allow_abbrev=False" in match[1], f"{script}: an ArgumentParser abbreviates")
+        shown = subprocess.run([PYTHON, str(script), "--help"], capture_output=True, text=True)
+        if shown.returncode == 77:  # skips before it reads an option (check_slurm without
+            continue                # Slurm); its parser is check_quick's, checked with it
+        check(shown.returncode == 0, f"{script} --help: exit {shown.returncode}:\n{shown.stderr}")
+        options = set(re.findall(r"^ {2}(?:-\w, )?(--[a-z][a-z0-9-]+)", shown.stdout,
+                                 re.MULTILINE)) - {"--help"}
+        given = required_values(shown.stdout, options)
+        for option in sorted(options | {"--help"}):
+            prefix = option[:-1]
+            if prefix in options or len(prefix) < 3:
+                continue
+            result = subprocess.run([PYTHON, str(script), *given, prefix, "/"],
+                                    capture_output=True, text=True, timeout=60)
+            check(result.returncode == 2 and f"unrecognized arguments: {prefix}" in result.stderr,
+                  f"{script.name} {prefix}: exit {result.returncode}, taken as {option}?\n"
+                  f"{result.stderr}")
+
+
+def case_bad_arguments_one_line(args) -> None:
+    work = args.out
+    missing = work / "missing"
+    a_file = work / "a_file"
+    a_file.write_text("x\n")
+    unreadable = work / "unreadable.tar.xz"
+    unreadable.write_text("x")
+    unreadable.chmod(0)
+    scripts = REPO / "scripts"
+    cases = [
+        (["study.py", "--overlap", missing], "--overlap"),
+        (["study.py", "--overlap", args.overlap, "--threads", "x"], "--threads"),
+        (["study.py", "--overlap", args.overlap, "--experiments", "nope"], "--experiments"),
+        (["study.py", "--overlap", args.overlap, "--profile", "nope"], "--profile"),
+        (["study.py", "--overlap", args.overlap, "--from-archive", missing, "--out", work / "o"],
+         "no such file"),
+        (["study.py", "--overlap", args.overlap, "--from-archive", a_file, "--out", work / "o"],
+         "cannot be read"),
+        (["study.py", "--overlap", args.overlap, "--from-archive", unreadable, "--out",
+          work / "o"], "unreadable"),
+        (["study.py", "--overlap", args.overlap, "--out", a_file / "sub", "--runs-only",
+          *NO_RUNS], "a_file"),
+        *[(["study.py", "--overlap", args.overlap, "--out", work / "o", "--runs-only",
+            *NO_RUNS, option, value], option)
+          for option, value in [("--objects", "x"), ("--objects", "-5"), ("--scenes", "9"),
+                                ("--algos", "nope"), ("--frames", "0"), ("--threads", "-1"),
+                                ("--physics-ccd", "x"), ("--overlap-loads", "1,,2"),
+                                ("--physics-substeps", "auto,0"), ("--shard", "2/1")]],
+        (["study.py", "--overlap", args.overlap, "--out", work / "o", "--no-runs", "--report",
+          "--report-doc", missing], "--report-doc"),
+        (["gpu_results.py", "--raw", missing], "--raw"),
+        (["gpu_results.py", "--raw", work], "raw folder"),
+        (["gpu_cost_model.py", "--raw", missing], "--raw"),
+        (["gpusap_chain_model.py", "--raw", a_file], "--raw"),
+        (["cpusap_table.py", "--bench", missing], "--bench"),
+        (["cpusap_table.py", "--repeats", "0"], "--repeats"),
+        (["plot_run.py", missing], "missing"),
+        (["peers/peers_table.py", missing], "missing"),
+        (["peers/check_broadmark_pairs.py", "--driver", missing, "--overlap", args.overlap,
+          "--input", missing], "--input"),
+        (["peers/check_broadmark_pairs.py", "--driver", missing, "--overlap", args.overlap,
+          "--input", a_file], "--driver")]
+    for words, named in cases:
+        before = sorted(p.name for p in work.iterdir())
+        result = subprocess.run([PYTHON, str(scripts / words[0]), *map(str, words[1:])],
+                                capture_output=True, text=True, timeout=120)
+        check(result.returncode == 2 and result.stderr.count("\n") == 1 and
+              "Traceback" not in result.stderr and named in result.stderr,
+              f"{' '.join(map(str, words))}: exit {result.returncode}:\n{result.stderr}")
+        check(sorted(p.name for p in work.iterdir()) == before,
+              f"{' '.join(map(str, words))}: wrote into {work}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(allow_abbrev=False)
+    parser.add_argument("--overlap", required=True)
+    parser.add_argument("--out", type=pathlib.Path, required=True)
+    parser.add_argument("--case", required=True,
+                        choices=[n[len("case_"):] for n in globals() if n.startswith("case_")])
+    args = parser.parse_args()
+    args.overlap = str(pathlib.Path(args.overlap).resolve())
+    shutil.rmtree(args.out, ignore_errors=True)
+    args.out.mkdir(parents=True)
+    args.out = args.out.resolve()
+    globals()["case_" + args.case](args)
+    print(f"study.{args.case}: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
