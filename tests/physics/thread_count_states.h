@@ -46,4 +46,15 @@ inline std::string threadCountsThatDiffer(int scene, int objects, int frames, Cc
   return differ;
 }
 
+// threadCountsThatDiffer() with CCD on every box and with the default CCD:
+// "" when both reach one state for every thread count, else where not.
+inline std::string whereThreadCountsDiffer(int scene, int objects, int frames) {
+  std::string differ;
+  for (const CcdMode ccd : {CcdMode::kAll, CcdMode::kAuto}) {
+    const std::string counts = threadCountsThatDiffer(scene, objects, frames, ccd);
+    if (!counts.empty()) differ += "ccd " + ccdModeName(ccd) + ": " + counts + "; ";
+  }
+  return differ;
+}
+
 }  // namespace overlap::physics::testing
