@@ -4,17 +4,24 @@
 #                                            checksums, random numbers, the stopwatch)
 #   gpu             all of gpu/             (the pair finders, free of Bullet: pair_finder.h
 #                                            their interface and factory)
-#   gpu/pairs       gpu/pairs, gpu, gpu/base (the pair logic CPU and CUDA finders share)
+#   gpu/pairs       gpu/pairs, gpu/base     (the pair logic CPU and CUDA finders share,
+#                                            and the pair value types: never the finder
+#                                            interface)
 #   gpu/cpu         gpu/cpu, gpu/pairs, gpu, gpu/base   (never a CUDA finder's header)
 #   gpu/cuda        gpu/cuda, gpu/pairs, gpu, gpu/base  (never a CPU finder's header)
-#   physics         physics, gpu, gpu/pairs, gpu/base   (knows nothing of the engine)
+#   physics/broadphase  physics/broadphase, gpu, gpu/pairs, gpu/base
+#                   (the installed broadphase package: never the world, scenes or
+#                    streams of physics/)
+#   physics         physics, physics/broadphase, gpu, gpu/pairs, gpu/base
+#                   (the world: knows nothing of the engine)
 #   render          render, gpu/base
 #   audio_ai_stubs  audio_ai_stubs, gpu/base (free of Bullet)
 #   engine/runtime  engine/runtime, physics, gpu, gpu/pairs, gpu/base, audio_ai_stubs
 #                   (the frame runtime: no command line, tool or renderer)
 #   engine          everything
-# A module in a folder of another (gpu/base in gpu) is its own: an include of
-# "gpu/base/..." counts as gpu/base, never as gpu.
+# A module in a folder of another (gpu/base in gpu, physics/broadphase in
+# physics) is its own: an include of "gpu/base/..." counts as gpu/base, never
+# as gpu.
 # Run with
 #   cmake -DMODULE=<name> [-DDIR=<folder>] [-DSTAMP=<file>] -P cmake/CheckModuleIncludes.cmake
 # (DIR defaults to the module's folder).  It fails naming every offending
@@ -22,21 +29,22 @@
 cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...) in script mode
 set(allowed_gpu/base gpu/base)
 set(allowed_gpu gpu gpu/pairs gpu/cpu gpu/cuda gpu/base)
-set(allowed_gpu/pairs gpu/pairs gpu gpu/base)
+set(allowed_gpu/pairs gpu/pairs gpu/base)
 set(allowed_gpu/cpu gpu/cpu gpu/pairs gpu gpu/base)
 set(allowed_gpu/cuda gpu/cuda gpu/pairs gpu gpu/base)
-set(allowed_physics physics gpu gpu/pairs gpu/base)
+set(allowed_physics/broadphase physics/broadphase gpu gpu/pairs gpu/base)
+set(allowed_physics physics physics/broadphase gpu gpu/pairs gpu/base)
 set(allowed_render render gpu/base)
 set(allowed_audio_ai_stubs audio_ai_stubs gpu/base)
 set(allowed_engine/runtime engine/runtime physics gpu gpu/pairs gpu/base audio_ai_stubs)
 # Nested modules first: the include pattern tries them in this order.
-set(modules gpu/base gpu/pairs gpu/cpu gpu/cuda gpu physics render audio_ai_stubs engine/runtime
-            engine)
+set(modules gpu/base gpu/pairs gpu/cpu gpu/cuda gpu physics/broadphase physics render
+            audio_ai_stubs engine/runtime engine)
 
 if(NOT DEFINED MODULE OR NOT DEFINED allowed_${MODULE})
   message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu/base, gpu/pairs, gpu/cpu, "
-                      "gpu/cuda, gpu, physics, render, audio_ai_stubs, engine/runtime "
-                      "(got '${MODULE}')")
+                      "gpu/cuda, gpu, physics/broadphase, physics, render, audio_ai_stubs, "
+                      "engine/runtime (got '${MODULE}')")
 endif()
 if(NOT DEFINED DIR)
   get_filename_component(DIR "${CMAKE_CURRENT_LIST_DIR}/../${MODULE}" ABSOLUTE)

@@ -1,7 +1,8 @@
 # `cmake --install BUILD --prefix P`: the broadphase package any Bullet program
 # can link (docs/PACKAGE.md).  It installs
-#   P/include/overlap/{physics,gpu}/*.h   the public headers, included under the
-#                                         project's name: <overlap/physics/...>
+#   P/include/overlap/{physics/broadphase,gpu}/*.h   the public headers, included
+#                                         under the project's name, at their paths
+#                                         in the tree: <overlap/physics/broadphase/...>
 #   P/lib/liboverlap_{broadphase,gpu}.a   the libraries (and liboverlap_gpu_cpu.a)
 #   P/lib/cmake/Overlap/                  find_package(Overlap): Overlap::broadphase
 #                                         (catalogue, factory, Bullet adapter) and
@@ -35,11 +36,12 @@ install(TARGETS ${OVERLAP_INSTALLED_TARGETS}
 set(OVERLAP_PUBLIC_HEADERS
   gpu/pair_finder.h
   gpu/task_system.h
-  physics/broadphase_factory.h
-  physics/default_broadphase.h
-  physics/bulk_pair_cache.h
-  physics/pair_finder_broadphase.h
-  physics/ccd_query_broadphase.h)
+  gpu/pairs/pair_types.h
+  physics/broadphase/broadphase_factory.h
+  physics/broadphase/default_broadphase.h
+  physics/broadphase/bulk_pair_cache.h
+  physics/broadphase/pair_finder_broadphase.h
+  physics/broadphase/ccd_query_broadphase.h)
 foreach(header IN LISTS OVERLAP_PUBLIC_HEADERS)
   set(source ${PROJECT_SOURCE_DIR}/${header})
   set_property(DIRECTORY ${PROJECT_SOURCE_DIR} APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${source})

@@ -15,11 +15,14 @@
 // what it needs, so the caller may change its boxes as soon as launch()
 // returns.  The split lets a caller put work between the two or time the
 // whole (the benchmark times launch to finish); the Bullet adapter,
-// physics/pair_finder_broadphase.h, calls them back to back.  The base class
+// physics/broadphase/pair_finder_broadphase.h, calls them back to back.  The base class
 // PairFinder enforces that order and keeps the launch-to-finish clock for
 // every finder; a finder implements its hooks and reports its search in one
 // record, SearchStats.  Every finder has a row in the table of finders
 // (PairFinderRow, pairFinderTable()), by which it is made by name.
+//
+// The boxes and pairs it speaks in (ObjectBounds, IndexPair) are plain values
+// of gpu/pairs/pair_types.h.
 //
 // Invariants: added and removed are sorted by (a, b), hold no duplicates, and
 // are disjoint; the slot count may grow between frames (new slots start with
@@ -28,7 +31,6 @@
 #pragma once
 
 #include <chrono>
-#include <compare>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -36,36 +38,10 @@
 #include <string>
 #include <string_view>
 
+#include "gpu/pairs/pair_types.h"
 #include "gpu/task_system.h"
 
 namespace overlap::finders {
-
-// One slot's box and collision filter, as the caller hands it over.  32 bytes
-// and 16-byte aligned so the GPU reads one object with two vector loads.
-struct alignas(16) ObjectBounds {
-  float min[3];
-  float max[3];
-  std::int32_t group;
-  std::int32_t mask;
-};
-
-// Two slots (or objects, or bodies) that overlap: the project's one pair
-// type.  Lists of them are sorted by (a, b).
-struct IndexPair {
-  std::uint32_t a;  // a < b
-  std::uint32_t b;
-  friend bool operator==(const IndexPair&, const IndexPair&) = default;
-  friend auto operator<=>(const IndexPair&, const IndexPair&) = default;
-};
-
-// The IndexPair of slots x and y (in either order) as one 64-bit key, lower
-// slot in the high half, so keys sort as the pairs do: the form a sweep
-// collects pairs in (gpu/pairs/pair_set.h).
-constexpr std::uint64_t pairKey(std::uint32_t x, std::uint32_t y) {
-  const std::uint32_t a = x < y ? x : y;
-  const std::uint32_t b = x < y ? y : x;
-  return (std::uint64_t{a} << 32) | b;
-}
 
 // What changed since the previous frame; valid until the next launch().
 struct PairDelta {

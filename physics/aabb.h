@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "gpu/pair_finder.h"
+#include "gpu/pairs/pair_types.h"
 
 namespace overlap::physics {
 

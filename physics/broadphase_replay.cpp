@@ -7,10 +7,10 @@
 #include <stdexcept>
 
 #include "gpu/base/interrupt.h"
-#include "physics/broadphase_factory.h"
-#include "physics/bulk_pair_cache.h"
-#include "physics/growing_sweep_and_prune.h"
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/broadphase_factory.h"
+#include "physics/broadphase/bulk_pair_cache.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 

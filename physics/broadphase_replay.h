@@ -39,7 +39,8 @@ inline std::size_t countMissing(const PairList& wanted, const PairList& held) {
   return missing;
 }
 
-// Where one findPairs() of one of our broadphases (physics/pair_finder_broadphase.h) went.
+// Where one findPairs() of one of our broadphases (physics/broadphase/pair_finder_broadphase.h)
+// went.
 struct ReplayPhases {
   finders::SearchStats search;  // the finder's record of its search
   double cache_update_ms = 0;   // applying the changes to Bullet's pair cache
@@ -74,7 +75,7 @@ class BroadphaseReplay {
   // update.
   void updateChanged(std::span<const Aabb> boxes, std::span<const std::uint32_t> changed);
   // The most bytes the pair cache (and our finders' own pair lists) may
-  // hold; findPairs() throws PairMemoryError (physics/bulk_pair_cache.h)
+  // hold; findPairs() throws PairMemoryError (physics/broadphase/bulk_pair_cache.h)
   // instead of growing past it.  0: no limit.
   void setPairMemoryLimit(std::uint64_t bytes);
   // Finds the pairs and updates the persistent pair cache.  A signal may cut

@@ -6,8 +6,8 @@
 
 #include "gpu/base/interrupt.h"
 #include "gpu/base/stopwatch.h"
-#include "physics/ccd_query_broadphase.h"
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 #include "physics/parallel_dispatcher.h"
 
 namespace overlap::physics {

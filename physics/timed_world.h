@@ -57,8 +57,8 @@
 #include <utility>
 #include <vector>
 
+#include "physics/frame_report.h"
 #include "physics/step_policy.h"
-#include "physics/world.h"
 
 namespace overlap::physics {
 

@@ -18,11 +18,11 @@
 #include "gpu/base/interrupt.h"
 #include "gpu/base/random.h"
 #include "gpu/base/stopwatch.h"
-#include "physics/broadphase_factory.h"
-#include "physics/ccd_query_broadphase.h"
+#include "physics/broadphase/broadphase_factory.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 #include "physics/coloured_solver.h"
-#include "physics/growing_sweep_and_prune.h"
-#include "physics/pair_finder_broadphase.h"
 #include "physics/parallel_dispatcher.h"
 #include "physics/timed_world.h"
 
@@ -153,11 +153,12 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
       !problem.empty()) {
     throw std::invalid_argument("algo " + options.algorithm + ": " + problem);
   }
-  BroadphaseChoice choice =
-      makeBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects, tasks_);
-  // Every broadphase answers CCD's sweeps through one shared tree: the same
-  // queries for all (physics/ccd_query_broadphase.h), as makeWorldBroadphase() builds it.
-  b.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
+  // The catalogue's world broadphase: the pair search asked for, whose CCD
+  // sweeps go through one tree shared by every broadphase, the same queries
+  // for all (physics/broadphase/ccd_query_broadphase.h).
+  WorldBroadphaseChoice choice = makeWorldBroadphase(options.algorithm, -bound, bound,
+                                                     n + kWallCount + kUserObjects, tasks_);
+  b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
 

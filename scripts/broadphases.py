@@ -1,5 +1,5 @@
 """The broadphase catalogue as the study's scripts read it: `overlap --list-algos --json`,
-the one table of names, exactness and device needs (physics/broadphase_factory.h).
+the one table of names, exactness and device needs (physics/broadphase/broadphase_factory.h).
 
 load() runs the binary once; the other functions answer from what it printed, in the
 catalogue's order, so a broadphase added to the code reaches the study with no edit here.

@@ -398,8 +398,9 @@ else
   export GC_BUILD=build-emulation GC_CTEST_JOBS="${CTEST_JOBS:-2}" GC_CTEST_TIMEOUT="${CTEST_TIMEOUT:-1500}"
   export GC_SMALL="50 90" GC_BIG="200" GC_HUGE="400" GC_MILLION=800
   export GC_SMALL_FRAMES=6 GC_BIG_FRAMES=4 GC_HUGE_FRAMES=4 GC_MILLION_FRAMES=3
-  # The demo keeps enough boxes that the default rule (physics/default_broadphase.h)
-  # still picks gpubf, as it does for the demo's 1000 on a GPU.
+  # The demo keeps enough boxes that the default rule
+  # (physics/broadphase/default_broadphase.h) still picks gpubf, as it does
+  # for the demo's 1000 on a GPU.
   export GC_FRAME_OPTIONS="--scene 4 --objects 60 --frames 4" GC_DEMO_OPTIONS="--objects 600 --frames 6"
   deadline_s="${DEADLINE_S:-7200}" paper=(1 1) big=(1 1) scale=10 GC_STUDY_SHARDS="${STUDY_SHARDS:-2}"
 fi

@@ -5,7 +5,7 @@
 #include <string_view>
 #include <vector>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 namespace overlap::engine {
 

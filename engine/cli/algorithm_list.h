@@ -1,5 +1,5 @@
 // `overlap --list-algos [--json]`: the broadphase catalogue
-// (physics/broadphase_factory.h) as a table for people or as JSON for
+// (physics/broadphase/broadphase_factory.h) as a table for people or as JSON for
 // scripts.  Nothing here describes a broadphase: every word comes from the
 // catalogue.
 #pragma once

@@ -11,7 +11,7 @@
 //     frame of N boxes (N x 32 bytes, a header's N on a pipe included) and
 //     cpubf's bit matrix of every pair of slots (n^2 / 16 bytes).
 //   * What grows with the pairs found is bounded by what is left: the pair
-//     cache (physics/bulk_pair_cache.h, with our finders' own pair lists)
+//     cache (physics/broadphase/bulk_pair_cache.h, with our finders' own pair lists)
 //     refuses to grow past it, and the command exits 2 with the pair count
 //     and the memory they need.
 //   * Whatever allocation still fails throws std::bad_alloc (Bullet's
@@ -24,7 +24,7 @@
 #include <string_view>
 
 #include "engine/cli/cli_errors.h"
-#include "physics/bulk_pair_cache.h"
+#include "physics/broadphase/bulk_pair_cache.h"
 
 namespace overlap::engine {
 

@@ -9,8 +9,8 @@
 
 #include "engine/cli/cli_errors.h"
 #include "engine/cli/number_options.h"
-#include "physics/broadphase_factory.h"
-#include "physics/default_broadphase.h"
+#include "physics/broadphase/broadphase_factory.h"
+#include "physics/broadphase/default_broadphase.h"
 
 namespace overlap::engine {
 namespace {

@@ -53,7 +53,7 @@ class SceneOptions {
 nlohmann::json toJson(const physics::SceneConfig& config);
 
 // Every subcommand's --algo default, as --help shows it: the box-count rule
-// of physics/default_broadphase.h ("the box-count rule: cpubf below 500
+// of physics/broadphase/default_broadphase.h ("the box-count rule: cpubf below 500
 // boxes, ...").
 std::string defaultAlgorithmRule();
 

@@ -13,7 +13,7 @@
 // the slowest repeat, and the ratio to bvh (btDbvtBroadphase) at that n.
 //
 // Every frame's pair cache is checked against the exact set, taken from the
-// first exact algorithm (in the catalogue's order, physics/broadphase_factory.h)
+// first exact algorithm (in the catalogue's order, physics/broadphase/broadphase_factory.h)
 // run at that n: an exact algorithm must match it, one that is not must hold
 // all of it and may hold extra pairs.  A mismatch or a missed pair makes
 // the run fail (exit 1) after it has written its results.
@@ -66,7 +66,7 @@
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/pair_finder.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 
 namespace overlap::engine {

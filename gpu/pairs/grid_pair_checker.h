@@ -16,7 +16,7 @@
 #include <span>
 #include <vector>
 
-#include "gpu/pair_finder.h"
+#include "gpu/pairs/pair_types.h"
 
 namespace overlap::finders {
 

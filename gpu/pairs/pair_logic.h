@@ -26,7 +26,7 @@
 
 #include <cstdint>
 
-#include "gpu/pair_finder.h"
+#include "gpu/pairs/pair_types.h"
 
 #if defined(__CUDACC__)
 #define OVERLAP_HD __host__ __device__
@@ -103,7 +103,7 @@ OVERLAP_HD constexpr bool objectsPair(const ObjectBounds& x, const ObjectBounds&
 
 // Whether a box can be placed by a sweep: min <= max on every axis (a NaN
 // coordinate fails the test).  Bullet's AABBs always are; a box that is not
-// is an error where it comes from Bullet (physics/pair_finder_broadphase.h).
+// is an error where it comes from Bullet (physics/broadphase/pair_finder_broadphase.h).
 OVERLAP_HD constexpr bool boundsOrdered(const ObjectBounds& box) {
   return (box.min[0] <= box.max[0]) & (box.min[1] <= box.max[1]) & (box.min[2] <= box.max[2]);
 }

@@ -22,7 +22,7 @@
 #include <span>
 #include <vector>
 
-#include "gpu/pair_finder.h"
+#include "gpu/pairs/pair_types.h"
 #include "gpu/task_system.h"
 
 namespace overlap::finders {

@@ -31,9 +31,9 @@
 #include <span>
 #include <vector>
 
-#include "gpu/pair_finder.h"
 #include "gpu/pairs/pair_logic.h"
 #include "gpu/pairs/pair_set.h"
+#include "gpu/pairs/pair_types.h"
 
 namespace overlap::finders::sap {
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "engine/cli/algorithm_list.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 namespace overlap::engine {
 namespace {

@@ -19,7 +19,7 @@ class OptionsTest : public ::testing::Test {
 };
 
 // The default --help shows is the one that runs: the box-count rule
-// (physics/default_broadphase.h), in every subcommand that takes --algo.
+// (physics/broadphase/default_broadphase.h), in every subcommand that takes --algo.
 TEST_F(OptionsTest, EverySubcommandShowsTheBoxCountRuleAsItsAlgorithmDefault) {
   int with_algo = 0;
   for (const CLI::App* command : app_.get_subcommands({})) {

@@ -12,7 +12,7 @@
 #include <tuple>
 #include <vector>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
 #include "tests/hard_cases/hard_case_support.h"

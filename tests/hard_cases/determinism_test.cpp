@@ -22,7 +22,7 @@
 
 #include "gpu/base/checksum.h"
 #include "gpu/pair_finder.h"
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 #include "physics/world.h"
 #include "tests/engine/scheduler_test_support.h"
 #include "tests/gpu/pair_test_support.h"
@@ -83,7 +83,7 @@ TEST(Determinism, ThreeRunsOfScene4MakeTheSameChoicesAndEndInTheSameState) {
 // cpubf are exact and Bullet processes the pairs sorted by proxy id, so
 // cpubf must also end where Bullet's own brute force ends.  Without CCD: with
 // it the two part after a few frames of scene 4 although every broadphase's
-// sweeps go through the same query tree (physics/ccd_query_broadphase.h);
+// sweeps go through the same query tree (physics/broadphase/ccd_query_broadphase.h);
 // what else CCD's contacts make order-dependent is not pinned down.
 TEST(Determinism, CpubfEndsInTheSameStateWithOneTwoOrFourThreadsAndAsBulletsBruteForce) {
   const std::uint64_t bullet_bf = hashAfterRun("bf", nullptr, physics::CcdMode::kOff);

@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/world.h"
 #include "tests/physics/aabb_oracle.h"
 

@@ -4,7 +4,7 @@
 // from the origin; long thin boxes crossing many.  Each case runs over several
 // frames, so pairs also leave and re-enter the cache.
 //
-// The catalogue's exact broadphases (physics/broadphase_factory.h: bf and
+// The catalogue's exact broadphases (physics/broadphase/broadphase_factory.h: bf and
 // ours) must match the oracle; the others (sap, sap32 quantized, bvh
 // fattened) must miss nothing; their extra pairs are printed, not asserted.
 // So these cases also check the catalogue's word "exact".
@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "tests/hard_cases/hard_case_support.h"
 

@@ -6,7 +6,7 @@
 // `gpubf` runs here, then the check's result) and exits 0, or names the
 // first step that differs and exits 1.
 #include <btBulletDynamicsCommon.h>
-#include <overlap/physics/broadphase_factory.h>
+#include <overlap/physics/broadphase/broadphase_factory.h>
 
 #include <cstdio>
 #include <memory>

@@ -1,4 +1,4 @@
-// The broadphase catalogue (physics/broadphase_factory.h) is the one list of
+// The broadphase catalogue (physics/broadphase/broadphase_factory.h) is the one list of
 // broadphases: every name in it makes its broadphase, and README's table
 // lists the same names with the same exactness.  Whether an "exact" entry
 // really is exact is checked on the hard cases (tests/hard_cases/).
@@ -13,7 +13,7 @@
 #include <string_view>
 
 #include "gpu/pair_finder.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 namespace overlap::physics {
 namespace {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 
 namespace overlap::physics {

@@ -6,7 +6,7 @@
 // without a device), with boxes moving, proxies leaving and coming back, and
 // proxy filters that refuse some of the finder's pairs.  The rest of the
 // btOverlappingPairCache interface is checked against Bullet's cache too.
-#include "physics/bulk_pair_cache.h"
+#include "physics/broadphase/bulk_pair_cache.h"
 
 #include <gtest/gtest.h>
 

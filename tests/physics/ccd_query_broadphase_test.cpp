@@ -1,6 +1,6 @@
 // CcdQueryBroadphase: pairs from the wrapped broadphase, queries from the
 // shared tree, answered with the wrapped broadphase's own proxies.
-#include "physics/ccd_query_broadphase.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
 
 #include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
 #include <gtest/gtest.h>

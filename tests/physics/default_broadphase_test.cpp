@@ -1,13 +1,13 @@
-// The default broadphase's rule (physics/default_broadphase.h): cpubf, gpubf
+// The default broadphase's rule (physics/broadphase/default_broadphase.h): cpubf, gpubf
 // and gpusap by box count with a device, cpusap without, each exact, each
 // with a one-line reason that names it and the box count.
-#include "physics/default_broadphase.h"
+#include "physics/broadphase/default_broadphase.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 namespace overlap::physics {
 namespace {

@@ -15,7 +15,7 @@
 
 #include "gpu/pair_finder.h"
 #include "physics/aabb.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "tests/gpu/pair_test_support.h"
 
 namespace overlap::physics {

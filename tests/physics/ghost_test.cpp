@@ -9,7 +9,7 @@
 #include <set>
 #include <string>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/world.h"
 
 namespace overlap::physics {

@@ -7,7 +7,7 @@
 
 #include <vector>
 
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase_replay.h"
 #include "tests/physics/aabb_oracle.h"
 

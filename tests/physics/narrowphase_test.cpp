@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "gpu/base/checksum.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 #include "physics/parallel_dispatcher.h"
 #include "tests/physics/narrowphase_support.h"
 

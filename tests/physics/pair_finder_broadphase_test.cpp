@@ -2,7 +2,7 @@
 // while proxies move, come and go (also between launch and finish); a pair
 // that stays keeps its cache entry and narrowphase state; unusable AABBs and
 // the queries behave.  Runs for every finder; GPU ones skip without a device.
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 
 #include <gtest/gtest.h>
 

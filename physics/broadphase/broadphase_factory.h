@@ -13,7 +13,7 @@
 //
 // Exact: the pair cache holds exactly the pairs whose AABBs overlap (touching
 // counts).  Not exact: it holds all of them and may hold more.
-// Every broadphase keeps its pairs in a BulkPairCache (physics/bulk_pair_cache.h:
+// Every broadphase keeps its pairs in a BulkPairCache (physics/broadphase/bulk_pair_cache.h:
 // the same pairs in the same order as Bullet's own cache), which checks its
 // allocations and can be bounded; and from the first broadphase made on,
 // Bullet's allocations throw std::bad_alloc when memory runs out instead of
@@ -25,13 +25,16 @@
 
 #include <btBulletCollisionCommon.h>
 
+#include <concepts>
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "gpu/pair_finder.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
 
 namespace overlap::physics {
 
@@ -51,11 +54,24 @@ std::string broadphaseCapacityProblem(std::string_view name, int objects, int re
 // What a device name runs where there is no CUDA device.
 inline constexpr std::string_view kDeviceFallback = "cpusap";
 
-struct BroadphaseChoice {
-  std::unique_ptr<btBroadphaseInterface> broadphase;
+// A broadphase by name, and what runs.  make() gives the pair search alone
+// (BroadphaseChoice); makeWorld() that search inside the shared query tree
+// (WorldBroadphaseChoice), whose query time its owner may read apart; it
+// converts to a BroadphaseChoice.
+template <typename Broadphase>
+struct BasicBroadphaseChoice {
+  std::unique_ptr<Broadphase> broadphase;
   std::string name;    // the algorithm that runs
   std::string notice;  // empty, or why it is not the one asked for
+
+  template <typename Base>
+  requires(std::derived_from<Broadphase, Base> && !std::same_as<Broadphase, Base>)
+  operator BasicBroadphaseChoice<Base>() && {
+    return {std::move(broadphase), std::move(name), std::move(notice)};
+  }
 };
+using BroadphaseChoice = BasicBroadphaseChoice<btBroadphaseInterface>;
+using WorldBroadphaseChoice = BasicBroadphaseChoice<CcdQueryBroadphase>;
 
 // Every broadphase, Bullet's first, then one per pair finder of a table.
 class BroadphaseCatalogue {
@@ -73,7 +89,7 @@ class BroadphaseCatalogue {
 
   // The pair search alone (what the benchmark times).  `world_min`/`world_max`
   // are where objects are expected (SAP quantizes inside them first and grows
-  // them around any box outside: physics/growing_sweep_and_prune.h);
+  // them around any box outside: physics/broadphase/growing_sweep_and_prune.h);
   // `max_objects` is the most proxies the run will create.  Throws
   // std::invalid_argument for an unknown name or a count the algorithm can't
   // hold.  Our CPU finders search on `tasks`' threads, which must outlive
@@ -82,14 +98,14 @@ class BroadphaseCatalogue {
                         const btVector3& world_max, int max_objects,
                         TaskSystem& tasks = defaultTaskSystem()) const;
   // What a btCollisionWorld should get: make()'s pair search, with its ray
-  // and sweep queries (raycasts, CCD) answered by one shared tree (the
-  // broadphase returned is a CcdQueryBroadphase,
-  // physics/ccd_query_broadphase.h).  Our finders and bf answer a query by
-  // visiting every proxy; through the tree it costs O(log n) under every
-  // name, and a program that never queries never builds it.
-  BroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
-                             const btVector3& world_max, int max_objects,
-                             TaskSystem& tasks = defaultTaskSystem()) const;
+  // and sweep queries (raycasts, CCD) answered by one shared tree (a
+  // CcdQueryBroadphase, physics/broadphase/ccd_query_broadphase.h).  Our
+  // finders and bf answer a query by visiting every proxy; through the tree
+  // it costs O(log n) under every name, and a program that never queries
+  // never builds it.
+  WorldBroadphaseChoice makeWorld(std::string_view name, const btVector3& world_min,
+                                  const btVector3& world_max, int max_objects,
+                                  TaskSystem& tasks = defaultTaskSystem()) const;
 
  private:
   std::vector<finders::PairFinderRow> finders_;
@@ -109,8 +125,8 @@ const BroadphaseInfo& broadphaseInfo(std::string_view name);
 BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_min,
                                 const btVector3& world_max, int max_objects,
                                 TaskSystem& tasks = defaultTaskSystem());
-BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects,
-                                     TaskSystem& tasks = defaultTaskSystem());
+WorldBroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                          const btVector3& world_max, int max_objects,
+                                          TaskSystem& tasks = defaultTaskSystem());
 
 }  // namespace overlap::physics

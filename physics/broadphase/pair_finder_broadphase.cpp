@@ -1,4 +1,4 @@
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 
 #include <algorithm>
 #include <cstdio>

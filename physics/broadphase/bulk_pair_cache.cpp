@@ -1,4 +1,4 @@
-#include "physics/bulk_pair_cache.h"
+#include "physics/broadphase/bulk_pair_cache.h"
 
 #include <sys/mman.h>
 

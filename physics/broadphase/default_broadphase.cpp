@@ -1,7 +1,7 @@
-#include "physics/default_broadphase.h"
+#include "physics/broadphase/default_broadphase.h"
 
 #include "gpu/pair_finder.h"
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 namespace overlap::physics {
 

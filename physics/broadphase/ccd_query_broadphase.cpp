@@ -1,4 +1,4 @@
-#include "physics/ccd_query_broadphase.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
 
 #include <algorithm>
 #include <stdexcept>

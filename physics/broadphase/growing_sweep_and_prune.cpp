@@ -1,4 +1,4 @@
-#include "physics/growing_sweep_and_prune.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
 
 #include <algorithm>
 #include <cmath>

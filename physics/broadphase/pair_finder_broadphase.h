@@ -6,7 +6,7 @@
 // the same sequence of calls numbers proxies the same way on every run.
 // calculateOverlappingPairs() is one search: it hands the current boxes to
 // the finder, waits for its answer and applies what changed to the owned
-// pair cache in bulk (physics/bulk_pair_cache.h: Bullet's hashed cache call
+// pair cache in bulk (physics/broadphase/bulk_pair_cache.h: Bullet's hashed cache call
 // for call, so the same pairs in the same order; removals through the
 // dispatcher, which frees the pair's algorithm; a pair that stays keeps its
 // cache entry untouched).
@@ -48,7 +48,7 @@
 #include <vector>
 
 #include "gpu/pair_finder.h"
-#include "physics/bulk_pair_cache.h"
+#include "physics/broadphase/bulk_pair_cache.h"
 
 namespace overlap::physics {
 

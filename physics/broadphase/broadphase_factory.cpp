@@ -1,4 +1,4 @@
-#include "physics/broadphase_factory.h"
+#include "physics/broadphase/broadphase_factory.h"
 
 #include <BulletCollision/BroadphaseCollision/btAxisSweep3.h>
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
@@ -9,10 +9,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "physics/bulk_pair_cache.h"
-#include "physics/ccd_query_broadphase.h"
-#include "physics/growing_sweep_and_prune.h"
-#include "physics/pair_finder_broadphase.h"
+#include "physics/broadphase/bulk_pair_cache.h"
+#include "physics/broadphase/ccd_query_broadphase.h"
+#include "physics/broadphase/growing_sweep_and_prune.h"
+#include "physics/broadphase/pair_finder_broadphase.h"
 
 namespace overlap::physics {
 namespace {
@@ -21,7 +21,7 @@ namespace {
 constexpr int kMaxSap16Objects = 32766;
 
 // Bullet's own broadphases with our pair cache, which holds the same pairs in
-// the same order as theirs (physics/bulk_pair_cache.h) but checks its
+// the same order as theirs (physics/broadphase/bulk_pair_cache.h) but checks its
 // allocations and can be bounded.  The cache is the first base, so it is
 // built before the broadphase that keeps a pointer to it and outlives it.
 struct PairCacheOwner {
@@ -154,12 +154,13 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
   return choice;
 }
 
-BroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name, const btVector3& world_min,
-                                                const btVector3& world_max, int max_objects,
-                                                TaskSystem& tasks) const {
+WorldBroadphaseChoice BroadphaseCatalogue::makeWorld(std::string_view name,
+                                                     const btVector3& world_min,
+                                                     const btVector3& world_max, int max_objects,
+                                                     TaskSystem& tasks) const {
   BroadphaseChoice choice = make(name, world_min, world_max, max_objects, tasks);
-  choice.broadphase = std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase));
-  return choice;
+  return {std::make_unique<CcdQueryBroadphase>(std::move(choice.broadphase)),
+          std::move(choice.name), std::move(choice.notice)};
 }
 
 const BroadphaseCatalogue& productCatalogue() {
@@ -184,9 +185,9 @@ BroadphaseChoice makeBroadphase(std::string_view name, const btVector3& world_mi
   return productCatalogue().make(name, world_min, world_max, max_objects, tasks);
 }
 
-BroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
-                                     const btVector3& world_max, int max_objects,
-                                     TaskSystem& tasks) {
+WorldBroadphaseChoice makeWorldBroadphase(std::string_view name, const btVector3& world_min,
+                                          const btVector3& world_max, int max_objects,
+                                          TaskSystem& tasks) {
   return productCatalogue().makeWorld(name, world_min, world_max, max_objects, tasks);
 }
 
