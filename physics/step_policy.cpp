@@ -28,6 +28,8 @@ constexpr NamedMode<SleepMode> kSleepModes[] = {
     {SleepMode::kScene, "scene"}, {SleepMode::kOn, "on"}, {SleepMode::kOff, "off"}};
 constexpr NamedMode<SolverMode> kSolverModes[] = {{SolverMode::kPile, "pile"},
                                                   {SolverMode::kBullet, "bullet"}};
+constexpr NamedMode<SolverOrder> kSolverOrders[] = {{SolverOrder::kColoured, "coloured"},
+                                                    {SolverOrder::kSerial, "serial"}};
 constexpr NamedMode<NarrowphaseMode> kNarrowphaseModes[] = {
     {NarrowphaseMode::kBullet, "bullet"},
     {NarrowphaseMode::kParallel, "parallel"},
@@ -78,6 +80,9 @@ SleepMode parseSleepMode(const std::string& text) {
 SolverMode parseSolverMode(const std::string& text) {
   return parseMode(kSolverModes, text);
 }
+SolverOrder parseSolverOrder(const std::string& text) {
+  return parseMode(kSolverOrders, text);
+}
 NarrowphaseMode parseNarrowphaseMode(const std::string& text) {
   return parseMode(kNarrowphaseModes, text);
 }
@@ -92,6 +97,9 @@ std::string sleepModeName(SleepMode mode) {
 }
 std::string solverModeName(SolverMode mode) {
   return modeName(kSolverModes, mode);
+}
+std::string solverOrderName(SolverOrder order) {
+  return modeName(kSolverOrders, order);
 }
 
 double typicalEdge(std::span<const double> edges) {

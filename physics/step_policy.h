@@ -32,6 +32,11 @@ inline constexpr int kMostSubsteps = 1000;
 enum class CcdMode { kOff, kAuto, kAll };
 enum class SleepMode { kScene, kOn, kOff };  // kScene: sleepAllowed()'s default
 enum class SolverMode { kPile, kBullet };    // solverSettings()
+// The order the contact solver sweeps its rows in: kColoured, colour after
+// colour with each colour's manifolds in parallel, the same result for every
+// thread count (physics/coloured_solver.h); kSerial, Bullet's stock
+// btSequentialImpulseConstraintSolver, in manifold order on one thread.
+enum class SolverOrder { kColoured, kSerial };
 // How the narrowphase runs (physics/parallel_dispatcher.h); every mode gives
 // the same contacts in the same order, so the same state.
 enum class NarrowphaseMode {
@@ -40,10 +45,12 @@ enum class NarrowphaseMode {
   kBesideSearch,  // kParallel, and the cached pairs' contacts while our finder searches
 };
 
-// Parses "off|auto|all", "scene|on|off" and "pile|bullet"; throws std::invalid_argument.
+// Parses "off|auto|all", "scene|on|off", "pile|bullet" and "coloured|serial";
+// throws std::invalid_argument.
 CcdMode parseCcdMode(const std::string& text);
 SleepMode parseSleepMode(const std::string& text);
 SolverMode parseSolverMode(const std::string& text);
+SolverOrder parseSolverOrder(const std::string& text);
 // Parses "bullet|parallel|beside-search"; throws std::invalid_argument.
 NarrowphaseMode parseNarrowphaseMode(const std::string& text);
 // Parses "auto" (kAutoSubsteps) or an integer K >= 1; throws std::invalid_argument.
@@ -51,6 +58,7 @@ int parseSubsteps(const std::string& text);
 std::string ccdModeName(CcdMode mode);
 std::string sleepModeName(SleepMode mode);
 std::string solverModeName(SolverMode mode);
+std::string solverOrderName(SolverOrder order);
 std::string narrowphaseModeName(NarrowphaseMode mode);
 
 // The numbers of the automatic rule.  Each bound is a share of a length a box

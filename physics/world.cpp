@@ -22,6 +22,7 @@
 #include "physics/broadphase/ccd_query_broadphase.h"
 #include "physics/broadphase/growing_sweep_and_prune.h"
 #include "physics/broadphase/pair_finder_broadphase.h"
+#include "physics/coloured_solver.h"
 #include "physics/parallel_dispatcher.h"
 #include "physics/timed_world.h"
 
@@ -61,7 +62,7 @@ struct PhysicsWorld::Bullet {
   btDefaultCollisionConfiguration collision_config;
   ParallelDispatcher dispatcher;                   // the narrowphase on the world's task system
   std::unique_ptr<CcdQueryBroadphase> broadphase;  // the pair search, CCD's queries apart
-  btSequentialImpulseConstraintSolver solver;
+  std::unique_ptr<btConstraintSolver> solver;      // WorldOptions::solver_order's
   std::unique_ptr<TimedDynamicsWorld> world;
   std::vector<std::unique_ptr<btBoxShape>> shapes;
   std::vector<std::unique_ptr<btRigidBody>> bodies;  // boxes, then walls
@@ -171,7 +172,8 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
   }
   setup.after_aabb_update = [this] { removeBrokenBoxes(); };
   setup.after_narrowphase = [this] { noteContactsStarted(); };
-  b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), &b.solver,
+  b.solver = makeConstraintSolver(options.solver_order, tasks_);
+  b.world = std::make_unique<TimedDynamicsWorld>(&b.dispatcher, b.broadphase.get(), b.solver.get(),
                                                  &b.collision_config, std::move(setup));
   b.world->getDispatchInfo().m_deterministicOverlappingPairs = true;
   applySolverSettings(b.world->getSolverInfo(), options.solver);

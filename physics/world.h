@@ -7,10 +7,10 @@
 // reports what the frame cost and what it got wrong.  Each substep runs its
 // phases in the order physics/timed_world.h lists them; each phase's time is
 // summed over the substeps, and each substep reports when it ran, when its
-// pair search ran and when its narrowphase ran.  Bullet is not
-// thread-safe here: one PhysicsWorld is used from one thread; it starts no
-// task of its own (a CPU finder's search may use oneTBB's workers inside
-// the call).
+// pair search ran and when its narrowphase ran.  One PhysicsWorld is used
+// from one thread; inside stepFrame its parallel parts (the CPU search, the
+// narrowphase, the contact solver's coloured batches, the per-body phases)
+// run on WorldOptions::tasks, and nothing runs after it returns.
 //
 // A box whose state breaks (not finite, an AABB too large for Bullet, too
 // far away) leaves the simulation where it is found, with one message:
@@ -44,6 +44,9 @@ struct WorldOptions {
   CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
   SleepMode sleep = SleepMode::kScene;    // Bullet's deactivation, sleepAllowed()
   SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
+  // The contact solver's sweep: coloured batches on the task system, or
+  // Bullet's serial solver (physics/coloured_solver.h).
+  SolverOrder solver_order = SolverOrder::kColoured;
   // The threads the step's parallel parts and a CPU search run on; it must
   // outlive the world.  Null: defaultTaskSystem().
   TaskSystem* tasks = nullptr;

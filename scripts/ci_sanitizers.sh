@@ -33,7 +33,7 @@ readonly SANITIZER_FLAGS="-O1 -g1 -DNDEBUG"
 readonly UNITY=(-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16)
 # The test executables labelled threads (tests/*/CMakeLists.txt).
 readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests
-  overlap_narrowphase_tests)
+  overlap_narrowphase_tests overlap_solver_tests)
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 

@@ -58,6 +58,11 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
       ->check(parsedBy(physics::parseSolverMode, "pile|bullet"))
       ->capture_default_str();
   command
+      .add_option("--solver-order", solver_order_,
+                  "the contact solver's sweep: coloured (colour after colour, each colour on "
+                  "every thread; the same state for any --threads) or serial (Bullet's own, in "
+                  "manifold order)")
+      ->check(parsedBy(physics::parseSolverOrder, "coloured|serial"))
       .add_option("--narrowphase", narrowphase_,
                   "how contacts are found, the same ones in every mode: beside-search (on every "
                   "thread, the cached pairs' while our finder searches), parallel (on every "
@@ -71,6 +76,7 @@ physics::WorldOptions PhysicsOptions::resolve(const std::string& algorithm,
   physics::WorldOptions options{algorithm, physics::parseSubsteps(substeps_),
                                 physics::parseCcdMode(ccd_), physics::parseSleepMode(sleep_),
                                 physics::parseSolverMode(solver_)};
+  options.solver_order = physics::parseSolverOrder(solver_order_);
   options.narrowphase = physics::parseNarrowphaseMode(narrowphase_);
   try {
     physics::sleepAllowed(config, options.sleep);
@@ -87,6 +93,7 @@ nlohmann::json toJson(const physics::WorldOptions& options) {
       {"ccd", physics::ccdModeName(options.ccd)},
       {"sleep", physics::sleepModeName(options.sleep)},
       {"solver", physics::solverModeName(options.solver)},
+      {"solver_order", physics::solverOrderName(options.solver_order)},
       {"narrowphase", physics::narrowphaseModeName(options.narrowphase)}};
 }
 

@@ -4,6 +4,8 @@
 //                         it this frame, every box
 //   --sleep scene|on|off  Bullet's deactivation (scene: on for scenes 1-2)
 //   --solver pile|bullet  Bullet's contact solver settings (physics/step_policy.h)
+//   --solver-order coloured|serial  its sweep: coloured batches on every
+//                         thread (physics/coloured_solver.h) or Bullet's serial one
 //   --narrowphase beside-search|parallel|bullet
 //                         how the narrowphase runs (physics/parallel_dispatcher.h);
 //                         the same contacts in every mode
@@ -22,7 +24,7 @@ namespace overlap::engine {
 class PhysicsOptions {
  public:
   // Registers --substeps, and unless `substeps_only` also --ccd, --sleep,
-  // --solver and --narrowphase.
+  // --solver, --solver-order and --narrowphase.
   void addTo(CLI::App& command, bool substeps_only = false);
   // The world options the parsed text describes; throws UsageError when the
   // scene does not allow them (--sleep on where gravity turns).
@@ -34,6 +36,7 @@ class PhysicsOptions {
   std::string ccd_ = "auto";
   std::string sleep_ = "scene";
   std::string solver_ = "pile";
+  std::string solver_order_ = "coloured";
   std::string narrowphase_ = "beside-search";
 };
 

@@ -1,0 +1,157 @@
+// The coloured contact solver (physics/coloured_solver.h): its batches keep
+// the moving bodies apart and never write the shared fixed body, the world
+// uses it by default, and its state is the same for every thread count.
+#include "physics/coloured_solver.h"
+
+#include <btBulletDynamicsCommon.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "physics/world.h"
+#include "tests/physics/thread_count_states.h"
+
+namespace overlap::physics {
+namespace {
+
+SceneConfig smallScene(int scene, int objects) {
+  SceneConfig config = SceneConfig::forScene(scene);
+  config.objects = objects;
+  config.seed = 42;
+  return config;
+}
+
+const ColouredConstraintSolver* colouredSolverOf(PhysicsWorld& world) {
+  return dynamic_cast<const ColouredConstraintSolver*>(world.bulletWorld().getConstraintSolver());
+}
+
+// Every frame's last batches, in every scene: no coloured batch holds two
+// manifolds on one moving body, no row names the shared fixed body, and each
+// fixed-body copy is written from one piece of a batch.
+TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) {
+  for (int scene = 1; scene <= 4; ++scene) {
+    PhysicsWorld world(smallScene(scene, 400), WorldOptions{"cpusap"});
+    const ColouredConstraintSolver* solver = colouredSolverOf(world);
+    ASSERT_NE(solver, nullptr);
+    int wall_rows = 0;
+    int shared_pieces = 0;  // batches of more than one piece: the check has pieces to tell apart
+    for (int frame = 0; frame < 40; ++frame) {
+      world.stepFrame();
+      const ContactColouring& colouring = solver->lastColouring();
+      ASSERT_EQ(colouringProblem(colouring), "") << "scene " << scene << ", frame " << frame;
+      for (const ContactColouring::Manifold& manifold : colouring.manifolds) {
+        wall_rows +=
+            manifold.body_a >= colouring.first_copy || manifold.body_b >= colouring.first_copy;
+      }
+      for (int batch = 0; batch < colouring.batches(); ++batch) {
+        shared_pieces += colouring.batch_begin[static_cast<std::size_t>(batch) + 1] -
+                             colouring.batch_begin[static_cast<std::size_t>(batch)] >
+                         colouring.manifolds_per_piece;
+      }
+    }
+    EXPECT_GT(wall_rows, 0) << "scene " << scene << ": no box met a wall";
+    EXPECT_GT(shared_pieces, 0) << "scene " << scene << ": no batch had two pieces";
+  }
+}
+
+// The check itself finds each breach.
+TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
+  ContactColouring colouring;
+  colouring.manifolds_per_piece = 2;
+  colouring.moving_bodies = 10;
+  colouring.fixed_body = 10;
+  colouring.first_kinematic = 11;
+  colouring.first_copy = 11;
+  colouring.copies = 2;
+  // Batch 0: pieces {0, 1} and {2}; batch 1: {3}.
+  colouring.manifolds = {{0, 1}, {2, 11}, {3, 12}, {4, 5}};
+  colouring.batch_begin = {0, 3, 4};
+  ASSERT_EQ(colouringProblem(colouring), "");
+
+  ContactColouring shared_body = colouring;
+  shared_body.manifolds[2] = {1, 12};
+  EXPECT_NE(colouringProblem(shared_body).find("both hold moving body 1"), std::string::npos);
+
+  ContactColouring fixed_body = colouring;
+  fixed_body.manifolds[3] = {4, 10};
+  EXPECT_NE(colouringProblem(fixed_body).find("shared fixed body"), std::string::npos);
+
+  ContactColouring copy_of_another_piece = colouring;
+  copy_of_another_piece.manifolds[2] = {3, 11};
+  EXPECT_NE(colouringProblem(copy_of_another_piece).find("another piece's"), std::string::npos);
+
+  ContactColouring overflow = colouring;
+  overflow.overflow = true;
+  overflow.manifolds[3] = {4, 12};
+  EXPECT_NE(colouringProblem(overflow).find("overflow"), std::string::npos);
+}
+
+// The world solves with the coloured solver unless told otherwise, and with
+// Bullet's serial one when told: the two sweep in different orders, so
+// their piles differ, both finite and contained.
+TEST(ColouredSolver, IsTheWorldsSolverAndSerialStaysSelectable) {
+  const SceneConfig config = smallScene(4, 300);
+  PhysicsWorld coloured(config, WorldOptions{"cpusap"});
+  WorldOptions serial_options{"cpusap"};
+  serial_options.solver_order = SolverOrder::kSerial;
+  PhysicsWorld serial(config, serial_options);
+  ASSERT_NE(colouredSolverOf(coloured), nullptr);
+  EXPECT_EQ(colouredSolverOf(serial), nullptr);
+  for (int frame = 0; frame < 30; ++frame) {
+    for (PhysicsWorld* world : {&coloured, &serial}) {
+      const FrameReport report = world->stepFrame();
+      ASSERT_TRUE(std::isfinite(report.kinetic_energy)) << "frame " << frame;
+      ASSERT_EQ(report.escaped, 0) << "frame " << frame;
+    }
+  }
+  EXPECT_GT(colouredSolverOf(coloured)->batchesMade(), 0);
+  EXPECT_NE(coloured.stateHash(), serial.stateHash());
+}
+
+// The colours only reorder Bullet's sweep: with none (every manifold in the
+// overflow batch, in manifold order) the coloured solver's setup, rows and
+// write-back give Bullet's serial solver's state bit for bit.
+TEST(ColouredSolver, WithoutColoursIsBulletsSerialSolverBitForBit) {
+  for (const SolverMode mode : {SolverMode::kPile, SolverMode::kBullet}) {
+    for (int scene = 1; scene <= 4; ++scene) {
+      WorldOptions options{"cpusap"};
+      options.solver = mode;
+      options.solver_order = SolverOrder::kSerial;
+      PhysicsWorld serial(smallScene(scene, 200), options);
+      PhysicsWorld uncoloured(smallScene(scene, 200), options);
+      ColouredConstraintSolver overflow_only(defaultTaskSystem(), 0);
+      uncoloured.bulletWorld().setConstraintSolver(&overflow_only);
+      for (int frame = 0; frame < 30; ++frame) {
+        serial.stepFrame();
+        uncoloured.stepFrame();
+        ASSERT_EQ(serial.stateHash(), uncoloured.stateHash())
+            << "scene " << scene << ", solver " << solverModeName(mode) << ", frame " << frame;
+      }
+      EXPECT_GT(overflow_only.batchesMade(), 0);
+      EXPECT_TRUE(overflow_only.lastColouring().overflow ||
+                  overflow_only.lastColouring().batches() == 0);
+    }
+  }
+}
+
+// One state for every thread count: the coloured solver (and the rest of the
+// step) reach the same state on 1, 2, 3, 8 and 16 threads, in every scene,
+// with CCD on every box and with the default CCD.
+class SameStateForEveryThreadCount : public ::testing::TestWithParam<int> {};
+
+TEST_P(SameStateForEveryThreadCount, WithCcdOnEveryBoxAndWithTheDefault) {
+  EXPECT_EQ(testing::whereThreadCountsDiffer(GetParam(), 250, 60), "") << "scene " << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, SameStateForEveryThreadCount, ::testing::Values(1, 2, 3, 4));
+
+TEST(ColouredSolver, SolverOrderNamesParseBothWays) {
+  for (const SolverOrder order : {SolverOrder::kColoured, SolverOrder::kSerial}) {
+    EXPECT_EQ(parseSolverOrder(solverOrderName(order)), order);
+  }
+  EXPECT_THROW(parseSolverOrder("parallel"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace overlap::physics
