@@ -46,9 +46,9 @@
 #include "engine/cli/summary_output.h"
 #include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/runtime/game_session.h"
 #include "engine/runtime/run_summary.h"
 #include "engine/runtime/statistics.h"
-#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/aabb_stream.h"
@@ -198,9 +198,8 @@ void measureLatency(const LatencyOptions& options) {
     checkBroadphaseCapacity("--algo", requested, config.objects);
   }
   const std::optional<tbb::global_control> thread_cap = capThreads(options.threads);
-  const std::unique_ptr<physics::PhysicsWorld> scene =
-      makeWorld(config, options.physics.resolve("bvh", config));
-  physics::PhysicsWorld& world = *scene;
+  GameSession session(makeWorld(config, options.physics.resolve("bvh", config)), {});
+  const physics::PhysicsWorld& world = session.world();
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
 
@@ -236,10 +235,8 @@ void measureLatency(const LatencyOptions& options) {
   FrameSummary frames(config.frame_time);
   std::vector<LateTotals> totals(studied.size() * options.growths.size());
   Progress progress("overlap latency", options.frames);
-  for (int frame = 0; frame < options.frames; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
-    const physics::FrameReport report = world.stepFrame();
-    frames.add(report.timings.total_ms, report.timings);
+  session.runFrames(options.frames, [&](int frame, const ScheduledFrame& scheduled) {
+    frames.add(scheduled.physics.timings.total_ms, scheduled.physics.timings);
     const std::vector<physics::Aabb> now = boxAabbs(world, bounds);
     const Pairs exact = search(oracle, now).pairs;
     std::vector<std::vector<physics::Aabb>> late_boxes;  // one per growth
@@ -268,7 +265,7 @@ void measureLatency(const LatencyOptions& options) {
     last = now;
     last_speeds = world.boxSpeeds();
     progress.update(frame + 1);
-  }
+  });
   progress.finish();
   writeStandardOutput(csv.str());
   printLatencySummary(options, config, frames, names, totals);
