@@ -5,17 +5,18 @@
 #include <optional>
 #include <string>
 
-#include "engine/cli/cli_errors.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
-#include "engine/cli/list_options.h"
-#include "engine/cli/number_options.h"
 #include "engine/cli/physics_options.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/program/list_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/option_conflicts.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/wording.h"
 #include "engine/runtime/game_session.h"
 #include "engine/runtime/run_summary.h"
 

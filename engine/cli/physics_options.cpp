@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "engine/cli/cli_errors.h"
+#include "engine/program/usage_error.h"
 
 namespace overlap::engine {
 namespace {

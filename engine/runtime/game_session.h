@@ -1,7 +1,7 @@
 // The game loop: one session of the game, the world with its frame scheduler
 // and its sound and AI tasks, stepped frame by frame.  This is the one place
 // a frame is stepped: `overlap run`, `capture`, `latency` and `record` (and
-// the benchmark's recordings, engine/tools/recorded_streams.h) each build a
+// the benchmark's recordings, engine/streams/recorded_streams.h) each build a
 // session and step it, adding only what they keep of each frame.
 //
 // A session's frame, frame after frame in runFrames():

@@ -1,4 +1,4 @@
-#include "engine/tools/recorded_streams.h"
+#include "engine/streams/recorded_streams.h"
 
 #include <chrono>
 #include <memory>
@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/progress.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/progress.h"
 #include "engine/runtime/game_session.h"
 #include "physics/world.h"
 

@@ -1,30 +1,20 @@
-// How the `overlap` subcommands fail (docs/CLI.md, "Exit codes").
-//
-// A UsageError is the user's input being wrong (an option, a value, a file):
-// main() prints it as one line and exits with code 2, before any work starts.
-// Anything else thrown is a failure while working and exits with code 1
-// (OutputError: an output that could not be written, named).
-// gpu/base/interrupt.h's Interrupted exits 128 + the signal.  Either way
-// nothing half-written is left behind: outputs go through
-// gpu/base/output_file.h.
+// The checks of a program's outputs before any work (docs/CLI.md,
+// "Outputs"): a folder or file that cannot be written, two outputs that are
+// one file, a disk without room for a stream, each a UsageError naming the
+// option and the path.  None creates anything: outputs are written through
+// gpu/base/output_file.h, which publishes them whole or not at all.
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "engine/program/usage_error.h"
 #include "gpu/base/output_file.h"
 
 namespace overlap::engine {
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 // Checks that `dir` can hold outputs (outputFolderProblem; it is created
 // when the first output opens); throws UsageError naming the option and the
@@ -56,24 +46,5 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
 // UsageError when another output of the run is that file.
 void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
                    std::string_view option);
-
-// "--size": an option's name as the user typed it, hidden options included.
-std::string optionName(const CLI::Option* option);
-
-// Throws UsageError naming both options when both were given: they
-// conflict, or the first would be ignored (`why` says which).
-void refuseTogether(const CLI::Option* first, const CLI::Option* second, std::string_view why);
-
-// The whole of a program's main() once its options are added, shared by
-// `overlap` and the benchmark: runs `body` (parsing included) and turns what
-// it throws into the exit code and one line on stderr, "PROGRAM: ...":
-// --help and --version print and exit 0; a ParseError or UsageError exits
-// 2 (an option given twice says so in plain words); Interrupted exits 128 +
-// the signal; running out of memory (std::bad_alloc) exits 1 saying so;
-// anything else exits 1.  Control characters in a message are
-// escaped (a value holding a newline stays on the one line).  Standard
-// output is flushed last: a failed write there (`> /dev/full`) exits 1
-// naming it, whatever printed it.
-int runProgram(const char* program, CLI::App& app, const std::function<int()>& body);
 
 }  // namespace overlap::engine

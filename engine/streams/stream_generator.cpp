@@ -1,4 +1,4 @@
-#include "engine/tools/stream_generator.h"
+#include "engine/streams/stream_generator.h"
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
