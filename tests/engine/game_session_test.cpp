@@ -19,11 +19,7 @@
 namespace overlap::engine {
 namespace {
 
-physics::SceneConfig smallScene() {
-  physics::SceneConfig config = physics::SceneConfig::forScene(4);
-  config.objects = 100;
-  return config;
-}
+using testing::smallScene;
 
 std::unique_ptr<physics::PhysicsWorld> smallWorld() {
   return std::make_unique<physics::PhysicsWorld>(smallScene(), physics::WorldOptions{"cpusap"});
