@@ -18,7 +18,18 @@
 #   audio_ai_stubs  audio_ai_stubs, gpu/base (free of Bullet)
 #   engine/runtime  engine/runtime, physics, gpu, gpu/pairs, gpu/base, audio_ai_stubs
 #                   (the frame runtime: no command line, tool or renderer)
-#   engine          everything
+#   engine/program  engine/program, physics, physics/broadphase, gpu, gpu/pairs, gpu/base
+#                   (what the command line and the benchmark share: no frame,
+#                   subcommand or tool)
+#   engine/streams  engine/streams, engine/program, engine/runtime, physics,
+#                   physics/broadphase, gpu, gpu/pairs, gpu/cpu, gpu/base
+#                   (the stream model and recorder)
+#   engine/cli      engine/cli, engine/streams, engine/program, engine/runtime, physics,
+#                   physics/broadphase, gpu, gpu/pairs, gpu/base, render, audio_ai_stubs
+#                   (reaches the tools only through the stream library)
+#   engine/tools    engine/tools, engine/streams, engine/program, engine/runtime, physics,
+#                   physics/broadphase, gpu, gpu/pairs, gpu/base
+#                   (the benchmark: never the command line)
 # A module in a folder of another (gpu/base in gpu, physics/broadphase in
 # physics) is its own: an include of "gpu/base/..." counts as gpu/base, never
 # as gpu.
@@ -37,14 +48,20 @@ set(allowed_physics physics physics/broadphase gpu gpu/pairs gpu/base)
 set(allowed_render render gpu/base)
 set(allowed_audio_ai_stubs audio_ai_stubs gpu/base)
 set(allowed_engine/runtime engine/runtime physics gpu gpu/pairs gpu/base audio_ai_stubs)
+set(allowed_engine/program engine/program physics physics/broadphase gpu gpu/pairs gpu/base)
+set(allowed_engine/streams engine/streams engine/program engine/runtime physics physics/broadphase
+                           gpu gpu/pairs gpu/cpu gpu/base)
+set(allowed_engine/cli engine/cli engine/streams engine/program engine/runtime physics
+                       physics/broadphase gpu gpu/pairs gpu/base render audio_ai_stubs)
+set(allowed_engine/tools engine/tools engine/streams engine/program engine/runtime physics
+                         physics/broadphase gpu gpu/pairs gpu/base)
 # Nested modules first: the include pattern tries them in this order.
 set(modules gpu/base gpu/pairs gpu/cpu gpu/cuda gpu physics/broadphase physics render
-            audio_ai_stubs engine/runtime engine)
+            audio_ai_stubs engine/runtime engine/program engine/streams engine/cli engine/tools)
 
 if(NOT DEFINED MODULE OR NOT DEFINED allowed_${MODULE})
-  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of gpu/base, gpu/pairs, gpu/cpu, "
-                      "gpu/cuda, gpu, physics/broadphase, physics, render, audio_ai_stubs, "
-                      "engine/runtime (got '${MODULE}')")
+  list(JOIN modules ", " known)
+  message(FATAL_ERROR "CheckModuleIncludes: MODULE must be one of ${known} (got '${MODULE}')")
 endif()
 if(NOT DEFINED DIR)
   get_filename_component(DIR "${CMAKE_CURRENT_LIST_DIR}/../${MODULE}" ABSOLUTE)

@@ -1,5 +1,5 @@
 // The parser of the image size a command line takes, such as "800x600"
-// (the frame lists are engine/cli/list_options.h's).
+// (the frame lists are engine/program/list_options.h's).
 //
 // It accepts exactly that form (decimal digits, no leading zero, no sign)
 // and throws std::runtime_error quoting the whole text and the bad part, so

@@ -6,8 +6,9 @@
 #include <vector>
 
 #include "engine/cli/algorithm_list.h"
-#include "engine/cli/cli_errors.h"
 #include "engine/cli/commands.h"
+#include "engine/program/program_runner.h"
+#include "engine/program/usage_error.h"
 #include "gpu/base/interrupt.h"
 #include "overlap_build_info.h"
 

@@ -1,7 +1,7 @@
 // The `overlap` command line as a library: addCommands() registers every
 // subcommand on an app, runCommandLine() is the whole of main(): it parses,
 // runs the chosen subcommand and maps what went wrong to an exit code
-// (engine/cli/cli_errors.h): 0 done, 1 failed while working, 2 bad input.
+// (engine/program/program_runner.h): 0 done, 1 failed while working, 2 bad input.
 // Tests and the option-parser fuzz target build the same app main() runs.
 #pragma once
 

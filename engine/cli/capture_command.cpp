@@ -5,19 +5,20 @@
 #include <optional>
 #include <string>
 
-#include "engine/cli/cli_errors.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
-#include "engine/cli/list_options.h"
-#include "engine/cli/number_options.h"
 #include "engine/cli/physics_options.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/program/list_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/option_conflicts.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/wording.h"
+#include "engine/runtime/game_session.h"
 #include "engine/runtime/run_summary.h"
-#include "gpu/base/interrupt.h"
 
 namespace overlap::engine {
 namespace {
@@ -51,8 +52,7 @@ void capture(const CaptureOptions& options) {
   const std::unique_ptr<FrameCapture> camera =
       openCapture(outputs, options.out, options.size, parseColourMode(options.colour));
   const ChosenAlgorithm algorithm = chooseAlgorithm(options.algorithm, config.objects);
-  const std::unique_ptr<physics::PhysicsWorld> world =
-      makeWorld(config, options.physics.resolve(algorithm.name, config));
+  GameSession session(makeWorld(config, options.physics.resolve(algorithm.name, config)), {});
   if (!algorithm.default_reason.empty()) {
     std::fprintf(stderr, "overlap: %s\n", algorithm.default_reason.c_str());
   }
@@ -60,16 +60,14 @@ void capture(const CaptureOptions& options) {
   const int last = keyframes.back();
   Progress progress("overlap capture", last + 1);
   auto next = keyframes.begin();
-  for (int frame = 0; frame <= last; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(last + 1));
-    const physics::FrameReport report = world->stepFrame();
-    frames.add(report.timings.total_ms, report.timings);
+  session.runFrames(last + 1, [&](int frame, const ScheduledFrame& scheduled) {
+    frames.add(scheduled.physics.timings.total_ms, scheduled.physics.timings);
     if (frame == *next) {
-      camera->capture(*world, frame);
+      camera->capture(session.world(), frame);
       ++next;
     }
     progress.update(frame + 1);
-  }
+  });
   progress.finish();
   const std::vector<std::string> removed = outputs.commit();
   const std::string wrote = "overlap capture: wrote " +
@@ -79,7 +77,7 @@ void capture(const CaptureOptions& options) {
   printSummary(options.quiet,
                "overlap capture: " + counted(frames.frames(), "frame") + " of scene " +
                    std::to_string(config.scene) + ", " + std::to_string(config.objects) +
-                   " boxes, " + world->algorithm() + " (a frame: its physics step)",
+                   " boxes, " + session.world().algorithm() + " (a frame: its physics step)",
                frames.lines());
 }
 

@@ -1,6 +1,6 @@
 // The `overlap` subcommands.  Each add*Command registers one subcommand on the
 // app with its options and the callback that runs it; runCommandLine() (engine/cli/app.h) only
-// parses and maps errors to exit codes (engine/cli/cli_errors.h).
+// parses and maps errors to exit codes (engine/program/program_runner.h).
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
+#include "engine/program/usage_error.h"
 #include "render/capture_options.h"
 
 namespace overlap::engine {

@@ -1,4 +1,4 @@
-// `overlap generate`: a scene's AABB stream from engine/tools/stream_generator.h's
+// `overlap generate`: a scene's AABB stream from engine/streams/stream_generator.h's
 // model, without Bullet, in the .aabbs layout `overlap pairs` and
 // overlap_bench_broadphase --input read.
 #include <chrono>
@@ -8,16 +8,16 @@
 #include <string>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
 #include "engine/cli/commands.h"
-#include "engine/cli/number_options.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
+#include "engine/program/number_options.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/usage_error.h"
+#include "engine/program/wording.h"
 #include "engine/runtime/run_summary.h"
-#include "engine/tools/recorded_streams.h"
-#include "engine/tools/stream_generator.h"
+#include "engine/streams/recorded_streams.h"
+#include "engine/streams/stream_generator.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/aabb_stream.h"
@@ -109,7 +109,7 @@ void addGenerateCommand(CLI::App& app) {
   command->add_option("--out", options->out, "the .aabbs file to write")->required();
   addQuietFlag(*command, options->quiet);
   command->footer(
-      "The model (engine/tools/stream_generator.h) moves the scene's boxes like the simulation, "
+      "The model (engine/streams/stream_generator.h) moves the scene's boxes like the simulation, "
       "without collisions between them.\nExample:\n"
       "  overlap generate --scene 4 --objects 1000000 --frames 16 --out scene4_1M.aabbs");
   command->callback([options] { generate(*options); });

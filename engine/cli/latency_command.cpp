@@ -36,18 +36,18 @@
 #include <vector>
 
 #include "engine/cli/commands.h"
-#include "engine/cli/csv.h"
-#include "engine/cli/list_options.h"
-#include "engine/cli/number_options.h"
 #include "engine/cli/physics_options.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/program/csv.h"
+#include "engine/program/list_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/wording.h"
+#include "engine/runtime/game_session.h"
 #include "engine/runtime/run_summary.h"
 #include "engine/runtime/statistics.h"
-#include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
 #include "physics/aabb_stream.h"
@@ -199,8 +199,8 @@ void measureLatency(const LatencyOptions& options) {
   const RunThreads threads = runThreads(options.threads);
   physics::WorldOptions world_options = options.physics.resolve("bvh", config);
   world_options.tasks = threads.tasks.get();
-  const std::unique_ptr<physics::PhysicsWorld> scene = makeWorld(config, world_options);
-  physics::PhysicsWorld& world = *scene;
+  GameSession session(makeWorld(config, world_options), {});
+  const physics::PhysicsWorld& world = session.world();
   const auto outer = static_cast<float>(world.layout().outerHalfExtent());
   const physics::Aabb bounds{{-outer, -outer, -outer}, {outer, outer, outer}};
 
@@ -238,10 +238,8 @@ void measureLatency(const LatencyOptions& options) {
   FrameSummary frames(config.frame_time);
   std::vector<LateTotals> totals(studied.size() * options.growths.size());
   Progress progress("overlap latency", options.frames);
-  for (int frame = 0; frame < options.frames; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(options.frames));
-    const physics::FrameReport report = world.stepFrame();
-    frames.add(report.timings.total_ms, report.timings);
+  session.runFrames(options.frames, [&](int frame, const ScheduledFrame& scheduled) {
+    frames.add(scheduled.physics.timings.total_ms, scheduled.physics.timings);
     const std::vector<physics::Aabb> now = boxAabbs(world, bounds);
     const Pairs exact = search(oracle, now).pairs;
     std::vector<std::vector<physics::Aabb>> late_boxes;  // one per growth
@@ -270,7 +268,7 @@ void measureLatency(const LatencyOptions& options) {
     last = now;
     last_speeds = world.boxSpeeds();
     progress.update(frame + 1);
-  }
+  });
   progress.finish();
   writeStandardOutput(csv.str());
   printLatencySummary(options, config, frames, names, totals);

@@ -2,8 +2,8 @@
 
 #include <stdexcept>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/number_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/usage_error.h"
 
 namespace overlap::engine {
 namespace {

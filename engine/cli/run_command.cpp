@@ -21,23 +21,24 @@
 #include <thread>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
-#include "engine/cli/machine_info.h"
-#include "engine/cli/number_options.h"
 #include "engine/cli/physics_options.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
 #include "engine/cli/world_setup.h"
+#include "engine/program/machine_info.h"
+#include "engine/program/number_options.h"
+#include "engine/program/option_conflicts.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/wording.h"
 #include "engine/runtime/frame_scheduler.h"
+#include "engine/runtime/game_session.h"
 #include "engine/runtime/run_summary.h"
 #include "engine/runtime/sound_and_ai.h"
 #include "engine/runtime/statistics.h"
 #include "engine/runtime/task_load.h"
-#include "gpu/base/checksum.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/stopwatch.h"
@@ -348,42 +349,37 @@ struct RunResult {
   physics::SceneLayout layout;
 };
 
-// A run in progress: one world, its scheduler and its tasks, stepped a frame
-// at a time.  --compare-sync steps a sync and an async run in turn, frame by
-// frame, so a change in the machine's load or clock during the run reaches
-// both alike.
+// A run in progress: its game session (engine/runtime/game_session.h) and
+// the frames.csv rows it keeps.  --compare-sync steps a sync and an async
+// run in turn, frame by frame, so a change in the machine's load or clock
+// during the run reaches both alike.
 class SteppedRun {
  public:
-  SteppedRun(const RunPlan& plan, bool sync, OutputFile* wav, Timeline& timeline)
-      : world_(makeWorld(plan.config, plan.world)), scheduler_(*world_, {sync}, timeline) {
-    if (plan.tasks) {
-      tasks_ = std::make_unique<SoundAndAi>(*world_, SoundAndAiOptions{plan.sound, plan.ai, wav},
-                                            scheduler_);
-    }
-  }
+  SteppedRun(const RunPlan& plan, bool sync, OutputFile* wav)
+      : session_(makeWorld(plan.config, plan.world), sessionOptions(plan, sync, wav)) {}
 
-  const physics::PhysicsWorld& world() const { return *world_; }
+  GameSession& session() { return session_; }
 
-  FrameRow& step() {
-    rows_.push_back(FrameRow{scheduler_.runFrame()});
+  FrameRow& keep(const ScheduledFrame& frame) {
+    rows_.push_back(FrameRow{frame});
     return rows_.back();
   }
 
   RunResult finish(double seconds) {
-    if (tasks_) tasks_->close();
-    return {std::move(rows_),
-            world_->algorithm(),
-            world_->stateHash(),
-            tasks_ ? tasks_->soundChecksum() : kFnv1aOffsetBasis,
-            tasks_ ? tasks_->aiChecksum() : 0,
-            seconds,
-            world_->layout()};
+    session_.finish();
+    const physics::PhysicsWorld& world = session_.world();
+    return {std::move(rows_),      world.algorithm(), world.stateHash(), session_.soundChecksum(),
+            session_.aiChecksum(), seconds,           world.layout()};
   }
 
  private:
-  std::unique_ptr<physics::PhysicsWorld> world_;
-  FrameScheduler scheduler_;
-  std::unique_ptr<SoundAndAi> tasks_;
+  static GameSessionOptions sessionOptions(const RunPlan& plan, bool sync, OutputFile* wav) {
+    GameSessionOptions options{sync, std::nullopt};
+    if (plan.tasks) options.tasks = SoundAndAiOptions{plan.sound, plan.ai, wav};
+    return options;
+  }
+
+  GameSession session_;
   std::vector<FrameRow> rows_;
 };
 
@@ -402,15 +398,14 @@ struct SteppedRuns {
   RunResult async_run;                // or the --sync run, with --sync
   std::optional<RunResult> sync_run;  // --compare-sync's
   double load_at_start = 0;           // the load average before the first frame
+  Timeline timeline;                  // the async run's (timeline.json)
 };
 
-SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
-                     Timeline& timeline) {
+SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera) {
   std::optional<SteppedRun> sync_stepper;
-  Timeline sync_timeline;  // not written: timeline.json is the async run's
-  if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr, sync_timeline);
+  if (plan.compare_sync) sync_stepper.emplace(plan, true, nullptr);
   std::optional<SteppedRun> stepper;
-  stepper.emplace(plan, plan.sync, wav, timeline);
+  stepper.emplace(plan, plan.sync, wav);
   // Once the scene is built: a scene that cannot be placed says only that.
   if (!plan.default_algorithm_reason.empty()) {
     std::fprintf(stderr, "overlap: %s\n", plan.default_algorithm_reason.c_str());
@@ -418,19 +413,24 @@ SteppedRuns stepRuns(const RunPlan& plan, OutputFile* wav, FrameCapture* camera,
   const double load_at_start = loadAverage();
   Progress progress(plan.compare_sync ? "overlap run (sync and async)" : "overlap run",
                     plan.frames);
-  for (int frame = 0; frame < plan.frames; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(plan.frames));
-    if (sync_stepper) sync_stepper->step();
-    FrameRow& row = stepper->step();
-    if (camera != nullptr && isKeyframe(plan, frame)) {
-      row.render_ms = camera->capture(stepper->world(), frame);
-    }
-    progress.update(frame + 1);
-  }
+  GameSession& session = stepper->session();
+  session.runFrames(
+      plan.frames,
+      [&](int frame, const ScheduledFrame& scheduled) {
+        FrameRow& row = stepper->keep(scheduled);
+        if (camera != nullptr && isKeyframe(plan, frame)) {
+          row.render_ms = camera->capture(session.world(), frame);
+        }
+        progress.update(frame + 1);
+      },
+      [&](int) {
+        if (sync_stepper) sync_stepper->keep(sync_stepper->session().step());
+      });
   progress.finish();
   std::optional<RunResult> sync_run;
   if (sync_stepper) sync_run = sync_stepper->finish(progress.seconds());
-  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run), load_at_start};
+  SteppedRuns runs{stepper->finish(progress.seconds()), std::move(sync_run), load_at_start,
+                   session.timeline()};
   // Millions of boxes take seconds to release: said past a second, and a
   // signal meanwhile still stops the run before anything is published.
   Progress releasing("overlap: releasing " + std::to_string(plan.config.objects) + " boxes", 0);
@@ -550,13 +550,13 @@ std::string writtenLine(const std::filesystem::path& out,
 
 // Returns the last run's files it removed (OutputFolder::commit).
 std::vector<std::string> writeOutputs(const RunPlan& plan, const SteppedRuns& runs,
-                                      const Timeline& timeline, OutputFolder& outputs) {
+                                      OutputFolder& outputs) {
   nlohmann::json summary = summarize(plan, runs.async_run);
   if (runs.sync_run) {
     summary["compare_sync"] = compareSyncJson(*runs.sync_run, runs.async_run, runs.load_at_start);
   }
   outputs.open(plan.out / "frames.csv").write(framesCsv(runs.async_run.rows));
-  outputs.open(plan.out / "timeline.json").write(timeline.json());
+  outputs.open(plan.out / "timeline.json").write(runs.timeline.json());
   outputs.open(plan.out / "summary.json").write(summary.dump(2) + "\n");
   return outputs.commit();
 }
@@ -596,9 +596,8 @@ void run(const RunArguments& arguments, const RunOptionHandles& given) {
   calibrateTasks(plan);
   OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
   const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
-  Timeline timeline;
-  const SteppedRuns runs = stepRuns(plan, wav, camera.get(), timeline);
-  const std::vector<std::string> removed = writeOutputs(plan, runs, timeline, outputs);
+  const SteppedRuns runs = stepRuns(plan, wav, camera.get());
+  const std::vector<std::string> removed = writeOutputs(plan, runs, outputs);
   std::fprintf(stderr, "%s\n",
                oneLine(writtenLine(plan.out, plan.wav_file, camera.get(), removed)).c_str());
   printRunSummary(plan, runs);

@@ -4,8 +4,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/progress.h"
+#include "engine/program/progress.h"
+#include "engine/program/usage_error.h"
 
 namespace overlap::engine {
 

@@ -1,4 +1,5 @@
-// The asynchronous frame: the game loop this project is named for.
+// The asynchronous frame: one frame of the game loop this project is named
+// for (engine/runtime/game_session.h steps it, frame after frame).
 //
 // A frame is a graph of named jobs (engine/runtime/job_graph.h) that the scheduler
 // runs once per runFrame(): the physics step, which the scheduler adds

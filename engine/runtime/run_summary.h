@@ -1,7 +1,7 @@
 // The summary a run ends with (docs/CLI.md, "The summary"): a few lines a
 // reader takes in at a glance, drawn from the frames the run kept.  Every
 // subcommand and the benchmark build theirs here; the command line prints
-// them (engine/cli/summary_output.h), so --quiet drops the summary and only it.
+// them (engine/program/summary_output.h), so --quiet drops the summary and only it.
 // Rules, each with its reason:
 // - A frame is read as a game developer reads it: median, p95 and max, and
 //   the frames over the frame time (the scene's --frame-time, 1/30 s by

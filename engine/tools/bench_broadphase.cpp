@@ -1,7 +1,7 @@
 // overlap_bench_broadphase: the broadphase benchmark.
 //
 // Every broadphase replays the same recorded scene-4 AABB streams
-// (engine/tools/recorded_streams.h) through physics::BroadphaseReplay, in one process,
+// (engine/streams/recorded_streams.h) through physics::BroadphaseReplay, in one process,
 // so all algorithms see the same boxes on the same machine under the same
 // load.  A frame's time is "upload to pair cache updated": update() (every
 // box's setAabb) plus findPairs() (the search and the persistent pair-cache
@@ -28,7 +28,7 @@
 // is checked (fit for 10^5-10^6 boxes, where cpubf is too slow); --churn
 // adds, for each share s, rows in which about s of the boxes are destroyed
 // and s created every frame (engine/tools/bench_replay.h); --stream-stats prints
-// what each input asks of a broadphase (engine/tools/stream_statistics.h) and stops.
+// what each input asks of a broadphase (engine/streams/stream_statistics.h) and stops.
 // Before any work, every input (header, size, boxes, frames against
 // --warmup, boxes against the algorithms and --churn) and both outputs are
 // checked: a bad one exits 2 naming it (docs/CLI.md).  The command line
@@ -49,20 +49,21 @@
 #include <string>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/csv.h"
-#include "engine/cli/machine_info.h"
-#include "engine/cli/memory_bound.h"
-#include "engine/cli/progress.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
-#include "engine/cli/wording.h"
+#include "engine/program/csv.h"
+#include "engine/program/machine_info.h"
+#include "engine/program/memory_bound.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/program_runner.h"
+#include "engine/program/progress.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
+#include "engine/program/wording.h"
 #include "engine/runtime/run_summary.h"
 #include "engine/runtime/statistics.h"
+#include "engine/streams/recorded_streams.h"
+#include "engine/streams/stream_statistics.h"
 #include "engine/tools/bench_options.h"
 #include "engine/tools/bench_replay.h"
-#include "engine/tools/recorded_streams.h"
-#include "engine/tools/stream_statistics.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/base/output_file.h"
 #include "gpu/base/standard_streams.h"

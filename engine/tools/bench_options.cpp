@@ -7,12 +7,12 @@
 #include <string>
 #include <string_view>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/list_options.h"
-#include "engine/cli/memory_bound.h"
-#include "engine/cli/number_options.h"
-#include "engine/cli/scene_options.h"
-#include "engine/cli/summary_output.h"
+#include "engine/program/list_options.h"
+#include "engine/program/memory_bound.h"
+#include "engine/program/number_options.h"
+#include "engine/program/option_conflicts.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/summary_output.h"
 
 namespace overlap::engine {
 namespace {

@@ -1,6 +1,6 @@
 // overlap_bench_broadphase's command line: its options, the ones a run
 // would ignore (refused naming both, docs/CLI.md), and the command as the
-// results record it.  The lists go through engine/cli/list_options.h.
+// results record it.  The lists go through engine/program/list_options.h.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -30,7 +30,7 @@ struct BenchOptions {
   bool grid_check = false;
   std::vector<double> churn;
   bool stream_stats = false;
-  std::uint64_t max_memory_mb = 0;  // 0: engine/cli/memory_bound.h's default
+  std::uint64_t max_memory_mb = 0;  // 0: engine/program/memory_bound.h's default
   bool quiet = false;               // no summary table at the end
 };
 

@@ -4,9 +4,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/memory_bound.h"
-#include "engine/tools/stream_statistics.h"
+#include "engine/program/memory_bound.h"
+#include "engine/program/usage_error.h"
+#include "engine/streams/stream_statistics.h"
 #include "gpu/base/interrupt.h"
 #include "gpu/pairs/grid_pair_checker.h"
 

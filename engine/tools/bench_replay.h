@@ -77,7 +77,7 @@ std::vector<physics::PairList> gridCheckerReference(const physics::AabbStream& s
 // `row`.  With `has_reference` and `reference` empty it fills it (this
 // algorithm is the reference; only without churn); otherwise every frame is
 // checked against it.  Throws UsageError for a count the algorithm cannot hold
-// or pairs that --max-memory (`max_memory_mb`, engine/cli/memory_bound.h) cannot,
+// or pairs that --max-memory (`max_memory_mb`, engine/program/memory_bound.h) cannot,
 // Interrupted (gpu/base/interrupt.h) for a signal, checked before each frame.
 void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t seed,
                 std::uint64_t max_memory_mb, std::vector<physics::PairList>& reference,

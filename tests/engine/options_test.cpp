@@ -7,7 +7,7 @@
 #include <string>
 
 #include "engine/cli/app.h"
-#include "engine/cli/scene_options.h"
+#include "engine/program/scene_options.h"
 
 namespace overlap::engine {
 namespace {

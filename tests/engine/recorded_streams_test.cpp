@@ -1,6 +1,6 @@
 // The benchmark's stream cache: a cached stream is replayed only when its
 // header says it was simulated as a fresh recording would be.
-#include "engine/tools/recorded_streams.h"
+#include "engine/streams/recorded_streams.h"
 
 #include <gtest/gtest.h>
 

@@ -18,11 +18,7 @@
 namespace overlap::engine {
 namespace {
 
-physics::SceneConfig smallScene() {
-  physics::SceneConfig config = physics::SceneConfig::forScene(4);
-  config.objects = 120;
-  return config;
-}
+using testing::smallScene;
 
 struct Outcome {
   std::vector<physics::PairList> pairs;  // per frame

@@ -1,7 +1,7 @@
 // `overlap generate`'s model: seeded and deterministic whatever the thread
 // count, valid for the .aabbs reader, and each scene moving as it should
 // (the bands are those docs/results/generated_streams.md measured, widened).
-#include "engine/tools/stream_generator.h"
+#include "engine/streams/stream_generator.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "engine/tools/stream_statistics.h"
+#include "engine/streams/stream_statistics.h"
 #include "physics/aabb_stream.h"
 #include "physics/step_policy.h"
 #include "tests/scratch_path.h"

@@ -16,8 +16,8 @@
 #include "audio_ai_stubs/ai.h"
 #include "audio_ai_stubs/sound.h"
 #include "engine/cli/app.h"
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/scene_options.h"
+#include "engine/program/scene_options.h"
+#include "engine/program/usage_error.h"
 #include "render/capture_options.h"
 
 namespace {

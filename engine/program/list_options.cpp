@@ -1,4 +1,4 @@
-#include "engine/cli/list_options.h"
+#include "engine/program/list_options.h"
 
 #include <algorithm>
 #include <cstdint>

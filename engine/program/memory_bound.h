@@ -23,7 +23,7 @@
 #include <string>
 #include <string_view>
 
-#include "engine/cli/cli_errors.h"
+#include "engine/program/usage_error.h"
 #include "physics/broadphase/bulk_pair_cache.h"
 
 namespace overlap::engine {

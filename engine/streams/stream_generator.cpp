@@ -1,4 +1,4 @@
-#include "engine/tools/stream_generator.h"
+#include "engine/streams/stream_generator.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "engine/cli/memory_bound.h"
+#include "engine/program/memory_bound.h"
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/number_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/output_checks.h"
 
 namespace overlap::engine {
 namespace {

@@ -1,13 +1,14 @@
-#include "engine/tools/recorded_streams.h"
+#include "engine/streams/recorded_streams.h"
 
 #include <chrono>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/progress.h"
-#include "gpu/base/interrupt.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/progress.h"
+#include "engine/runtime/game_session.h"
 #include "physics/world.h"
 
 namespace overlap::engine {
@@ -70,8 +71,9 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
                                  const std::string& label, const physics::WorldOptions& options,
                                  FrameSummary* summary) {
   Progress placing("overlap: placing " + std::to_string(config.objects) + " boxes", 0);
-  physics::PhysicsWorld world(config, options);
+  GameSession session(std::make_unique<physics::PhysicsWorld>(config, options), {});
   placing.finish();
+  const physics::PhysicsWorld& world = session.world();
 
   physics::AabbStream stream;
   stream.scene_name = streamSceneName(config, options);
@@ -94,13 +96,12 @@ physics::AabbStream recordStream(const physics::SceneConfig& config, int frames,
 
   Progress progress(label, frames);
   keepBoxes();
-  for (int frame = 0; frame < frames; ++frame) {
-    stopIfInterrupted("frame " + std::to_string(frame) + " of " + std::to_string(frames));
-    const physics::FrameReport report = world.stepFrame();
-    if (summary != nullptr) summary->add(report.timings.total_ms, report.timings);
+  session.runFrames(frames, [&](int frame, const ScheduledFrame& scheduled) {
+    if (summary != nullptr)
+      summary->add(scheduled.physics.timings.total_ms, scheduled.physics.timings);
     keepBoxes();
     progress.update(frame + 1);
-  }
+  });
   progress.finish();
   return stream;
 }

@@ -1,4 +1,4 @@
-#include "engine/cli/summary_output.h"
+#include "engine/program/summary_output.h"
 
 #include <cstdio>
 

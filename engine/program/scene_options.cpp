@@ -1,4 +1,4 @@
-#include "engine/cli/scene_options.h"
+#include "engine/program/scene_options.h"
 
 #include <oneapi/tbb/info.h>
 
@@ -7,8 +7,8 @@
 #include <string_view>
 #include <tuple>
 
-#include "engine/cli/cli_errors.h"
-#include "engine/cli/number_options.h"
+#include "engine/program/number_options.h"
+#include "engine/program/usage_error.h"
 #include "physics/broadphase/broadphase_factory.h"
 #include "physics/broadphase/default_broadphase.h"
 

@@ -1,4 +1,4 @@
-#include "engine/cli/machine_info.h"
+#include "engine/program/machine_info.h"
 
 #include <cstdlib>
 #include <fstream>

@@ -54,7 +54,7 @@ std::string generatedSceneName(const physics::SceneConfig& config);
 // checks for signals and shows progress between them.  A signal
 // (gpu/base/interrupt.h) also stops a step between its substeps, with
 // Interrupted.
-class GranularModel;  // engine/tools/stream_generator.cpp
+class GranularModel;  // engine/streams/stream_generator.cpp
 
 class StreamGenerator {
  public:

@@ -4,7 +4,7 @@
 //
 //   * Items are separated by commas (a list may also be given as several
 //     values or repeated options); spaces around an item are dropped.
-//   * Every item passes the item's check (engine/cli/number_options.h for
+//   * Every item passes the item's check (engine/program/number_options.h for
 //     numbers: no leading zeros, no hex; the broadphase names for --algo):
 //     the whole list is the user's, nothing is guessed.
 //   * An empty item ("1,,2", "bvh,", "") or an item given twice ("0,0",

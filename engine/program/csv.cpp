@@ -1,4 +1,4 @@
-#include "engine/cli/csv.h"
+#include "engine/program/csv.h"
 
 #include <cstdio>
 #include <cstdlib>

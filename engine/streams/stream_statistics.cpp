@@ -1,4 +1,4 @@
-#include "engine/tools/stream_statistics.h"
+#include "engine/streams/stream_statistics.h"
 
 #include <cstring>
 #include <stdexcept>

@@ -1,5 +1,5 @@
 // What a stream asks of a broadphase, to compare generated streams
-// (engine/tools/stream_generator.h) with recorded ones: per frame, the exact pairs
+// (engine/streams/stream_generator.h) with recorded ones: per frame, the exact pairs
 // per box, the share of them that changed since the frame before (added plus
 // removed over this frame's pairs; none for a frame without pairs), and the
 // share of boxes whose AABB moved.

@@ -1,4 +1,4 @@
-#include "engine/cli/progress.h"
+#include "engine/program/progress.h"
 
 #include <sys/time.h>
 #include <unistd.h>
@@ -7,7 +7,7 @@
 #include <csignal>
 #include <cstdio>
 
-#include "engine/cli/wording.h"
+#include "engine/program/wording.h"
 
 namespace overlap::engine {
 namespace {

@@ -1,4 +1,4 @@
-#include "engine/cli/number_options.h"
+#include "engine/program/number_options.h"
 
 #include <algorithm>
 #include <cerrno>

@@ -1,0 +1,91 @@
+#include "engine/program/output_checks.h"
+
+#include <cstdio>
+#include <iterator>
+
+#include "gpu/base/output_file.h"
+
+namespace overlap::engine {
+namespace {
+
+std::string shownPath(const std::filesystem::path& path) {
+  return path.empty() ? std::string("\"\"") : path.string();
+}
+
+}  // namespace
+
+void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view option) {
+  if (const std::string problem = outputFolderProblem(dir); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(dir) + ": " + problem);
+  }
+}
+
+void prepareOutputFile(const std::filesystem::path& file, std::string_view option) {
+  if (const std::string problem = outputFileProblem(file); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
+  }
+}
+
+void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
+                      std::string_view option) {
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(file, error);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
+  // The folder it goes to, or the nearest one that exists (made by the run).
+  const std::filesystem::path folder =
+      nearestExisting(std::filesystem::absolute(file, error).parent_path());
+  const std::filesystem::space_info space = std::filesystem::space(folder, error);
+  if (error) return;  // unknown here: a full disk is then reported by the write
+  if (bytes > space.available) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": needs " +
+                     readableBytes(bytes) + ", and its folder has " +
+                     readableBytes(space.available) + " free");
+  }
+}
+
+std::string readableBytes(std::uint64_t bytes) {
+  static constexpr const char* kUnits[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+  auto value = static_cast<double>(bytes);
+  std::size_t unit = 0;
+  while (value >= 1000 && unit + 1 < std::size(kUnits)) {
+    value /= 1000;
+    ++unit;
+  }
+  char text[32];
+  std::snprintf(text, sizeof(text), unit == 0 ? "%.0f %s" : "%.1f %s", value, kUnits[unit]);
+  return text;
+}
+
+std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
+                                                      const std::vector<std::string>& suffixes,
+                                                      std::string_view option) {
+  if (const std::string problem = outputNameProblem(prefix); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) + ": " + problem);
+  }
+  // The prefix itself is never written: its files go beside it, so a
+  // device, FIFO or socket there (/dev/null) is a name mistaken for a file.
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(prefix, error);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
+      !std::filesystem::is_directory(status)) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) +
+                     ": is a device, FIFO or socket, not a prefix of files (its files would be "
+                     "made beside it)");
+  }
+  std::vector<std::filesystem::path> files;
+  for (const std::string& suffix : suffixes) {
+    files.push_back(prefix);
+    files.back() += suffix;
+    prepareOutputFile(files.back(), option);
+  }
+  return files;
+}
+
+void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,
+                   std::string_view option) {
+  if (const std::string problem = outputs.declare(file); !problem.empty()) {
+    throw UsageError(std::string(option) + " " + shownPath(file) + ": " + problem);
+  }
+}
+
+}  // namespace overlap::engine

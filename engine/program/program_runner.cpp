@@ -1,0 +1,122 @@
+#include "engine/program/program_runner.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <new>
+#include <regex>
+#include <string>
+#include <string_view>
+
+#include "engine/program/usage_error.h"
+#include "gpu/base/interrupt.h"
+
+namespace overlap::engine {
+std::string oneLine(std::string_view message) {
+  std::string line;
+  for (const char c : message) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '\n') {
+      line += "\\n";
+    } else if (c == '\r') {
+      line += "\\r";
+    } else if (byte < 0x20 || byte == 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02x", byte);
+      line += escaped;
+    } else {
+      line += c;
+    }
+  }
+  return line;
+}
+
+namespace {
+
+// CLI11's words for a parse error, in the project's where they are its
+// own jargon: "--objects: At Most 1 required but received 2".
+std::string parseErrorText(const CLI::ParseError& error) {
+  static const std::regex kRepeated("^(.*): At Most 1 required but received ([0-9]+)$");
+  std::smatch match;
+  const std::string text = error.what();
+  if (std::regex_match(text, match, kRepeated)) {
+    return match[1].str() + " is given " + match[2].str() + " times; give it once";
+  }
+  return text;
+}
+
+void printError(const char* program, std::string_view message) {
+  std::fprintf(stderr, "%s: %s\n", program, oneLine(message).c_str());
+}
+
+// 0 when everything written to standard output reached it, else 1 with the
+// message naming it.
+int flushStandardOutput(const char* program) {
+  std::cout.flush();
+  errno = 0;
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0 && std::cout.good()) return 0;
+  // errno is the flush's; a write that failed earlier left no reason.
+  printError(program, std::string("error: standard output: cannot write") +
+                          (errno != 0 ? std::string(": ") + std::strerror(errno) : ""));
+  return 1;
+}
+
+// "out of memory: WHAT (ulimit -v or the machine's memory)", advising
+// --max-memory only to a command that has it and was not given it.
+std::string outOfMemoryText(const CLI::App& app, const std::bad_alloc& error) {
+  const std::string what = error.what();
+  std::string text =
+      "out of memory: " +
+      (what == std::bad_alloc().what() ? std::string("an allocation failed") : what) +
+      " (ulimit -v or the machine's memory)";
+  const CLI::App* command = &app;
+  for (const CLI::App* chosen = &app; chosen != nullptr;) {
+    command = chosen;
+    const std::vector<CLI::App*> parsed = chosen->get_subcommands();  // those given
+    chosen = parsed.empty() ? nullptr : parsed.front();
+  }
+  const CLI::Option* limit = nullptr;
+  try {
+    limit = command->get_option("--max-memory");
+  } catch (const CLI::OptionNotFound&) {
+  }
+  if (limit != nullptr && limit->count() == 0) {
+    text += "; a --max-memory below what it can allocate refuses such a run before it allocates";
+  }
+  return text;
+}
+
+}  // namespace
+
+int runProgram(const char* program, CLI::App& app, const std::function<int()>& body) {
+  int code = 0;
+  try {
+    code = body();
+  } catch (const CLI::Success& help_or_version) {
+    code = app.exit(help_or_version);
+  } catch (const CLI::ParseError& error) {
+    printError(program, parseErrorText(error) + " (see --help)");
+    code = 2;
+  } catch (const UsageError& error) {
+    printError(program, error.what());
+    code = 2;
+  } catch (const Interrupted& stop) {
+    code = reportInterrupted(program, stop);
+  } catch (const std::bad_alloc& error) {
+    printError(program, outOfMemoryText(app, error));
+    code = 1;
+  } catch (const std::exception& error) {
+    // A thread whose stack cannot be mapped (ulimit -v) is memory run out.
+    const bool no_thread = std::string_view(error.what()).starts_with("pthread_create has failed");
+    printError(program, no_thread ? "out of memory: a thread could not be started (" +
+                                        std::string(error.what()) +
+                                        "; ulimit -v, the machine's memory or its threads)"
+                                  : std::string("error: ") + error.what());
+    code = 1;
+  }
+  const int flushed = flushStandardOutput(program);
+  return code == 0 ? flushed : code;
+}
+
+}  // namespace overlap::engine
