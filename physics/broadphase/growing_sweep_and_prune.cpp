@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -136,16 +137,19 @@ void GrowingSweepAndPrune<Sweep>::refuseCoarseGrid(const btVector3& lo, const bt
                                                    btScalar smallest) const {
   if (!coarserThanTheBoxes(smallest)) return;
   const bool sixteen = std::is_same_v<Sweep, btAxisSweep3>;
-  const auto point = [](const btVector3& v) {
-    return "(" + std::to_string(v.x()) + ", " + std::to_string(v.y()) + ", " +
-           std::to_string(v.z()) + ")";
+  const auto number = [](btScalar value) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.4g", static_cast<double>(value));
+    return std::string(text);
+  };
+  const auto point = [&](const btVector3& v) {
+    return "(" + number(v.x()) + ", " + number(v.y()) + ", " + number(v.z()) + ")";
   };
   throw std::invalid_argument(
       std::string("algo ") + (sixteen ? "sap" : "sap32") + ": boxes from " + point(lo) + " to " +
-      point(hi) + " leave its " + (sixteen ? "16" : "32") + "-bit grid cells of " +
-      std::to_string(cell()) + " m, coarser than 1/" + std::to_string(kCellsPerSmallestBox) +
-      " of the smallest box (" + std::to_string(smallest) +
-      " m): it would pair boxes that do not touch; " +
+      point(hi) + " leave its " + (sixteen ? "16" : "32") + "-bit grid cells of " + number(cell()) +
+      " m, coarser than 1/" + std::to_string(kCellsPerSmallestBox) + " of the smallest box (" +
+      number(smallest) + " m): it would pair boxes that do not touch; " +
       (sixteen ? "use sap32 or an exact one (cpusap)" : "use an exact one (cpusap)"));
 }
 

@@ -4,10 +4,8 @@
 // temporary behind and, failing, publishes nothing.
 #include <sys/wait.h>
 
-#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -145,35 +143,6 @@ TEST_F(MemoryCliTest, TheBenchmarkUnderAShrinkingAddressSpaceExitsOutOfMemoryNev
 }
 
 #endif
-
-// The benchmark holds a stream whole: a pipe whose header claims 320 GB
-// (a million boxes, ten thousand frames) followed by endless zero boxes is
-// refused, exit 2, before a box is read, under either limit.
-TEST_F(MemoryCliTest, TheBenchmarkRefusesAPipeWhoseHeaderClaimsMoreThanTheLimit) {
-  const fs::path header = out_ / "header.bin";
-  {
-    std::ofstream out(header, std::ios::binary);
-    std::string names(256, '\0');
-    names.replace(0, 5, "claim");
-    out.write(names.data(), static_cast<std::streamsize>(names.size()));
-    const std::int32_t counts[4] = {1000000, 9999, 0, 0};
-    out.write(reinterpret_cast<const char*>(counts), sizeof(counts));
-    const float world[8] = {-1, -1, -1, 0, 1, 1, 1, 0};
-    out.write(reinterpret_cast<const char*>(world), sizeof(world));
-  }
-  for (const std::string limit : {" --max-memory 500", ""}) {
-    const Result result =
-        runCommand("(cat " + header.string() + " /dev/zero | " + OVERLAP_BENCH_BINARY +
-                   " --algos cpusap --warmup 0 --repeats 1 --input /dev/stdin --out " +
-                   (out_ / "b").string() + limit + ")");
-    EXPECT_EQ(result.exit_code, 2) << result.stderr_text;
-    EXPECT_NE(result.stderr_text.find("--input /dev/stdin: 10000 frames of 1000000 boxes, held "
-                                      "whole, needs 320.0 GB, above the memory limit"),
-              std::string::npos)
-        << result.stderr_text;
-    EXPECT_FALSE(fs::exists(out_ / "b.csv"));
-  }
-}
 
 }  // namespace
 }  // namespace overlap::testing

@@ -108,7 +108,7 @@ TEST(GrowingSweepAndPrune, AFarBoxThatWouldMakeTheGridCoarserThanTheBoxesIsRefus
       const std::string text = error.what();
       EXPECT_NE(text.find(std::string("algo ") + algo + ": boxes from"), std::string::npos) << text;
       EXPECT_NE(text.find("grid cells of"), std::string::npos) << text;
-      EXPECT_NE(text.find("smallest box (3.0"), std::string::npos) << text;
+      EXPECT_NE(text.find("smallest box (3 m)"), std::string::npos) << text;
     }
   }
 }
