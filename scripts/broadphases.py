@@ -35,5 +35,11 @@ def needs_device() -> tuple:
     return tuple(entry["name"] for entry in _TABLE if entry["needs_device"])
 
 
+def ours() -> tuple:
+    """The project's own finders (their catalogue descriptions open with "ours"): those
+    whose search can run beside the narrowphase (--narrowphase beside-search)."""
+    return tuple(entry["name"] for entry in _TABLE if entry["description"].startswith("ours"))
+
+
 def exact() -> tuple:
     return tuple(entry["name"] for entry in _TABLE if entry["exact"])

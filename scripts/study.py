@@ -83,6 +83,12 @@ HELP = {
     "overlap_frames": "overlap: frames per run (each run is a sync and an async run)",
     "overlap_algo": "overlap: broadphase (gpubf runs cpusap without a GPU, and says so)",
     "overlap_repetitions": "overlap: processes per point (the speed-up's spread between them)",
+    "ideal_scenes": "overlap, the frame against the ideal for its cores: scenes",
+    "ideal_objects": "overlap, against the ideal: box counts",
+    "ideal_loads": "overlap, against the ideal: --task-load values",
+    "ideal_threads": "overlap, against the ideal: --threads values, one run each",
+    "ideal_frames": "overlap, against the ideal: frames per run (an async run alone)",
+    "ideal_repetitions": "overlap, against the ideal: processes per point",
 }
 
 
@@ -212,6 +218,9 @@ COUNTS = (lambda t: listed(t, int, 1), "whole numbers from 1, comma-separated")
 VALUE_CHECKS = {
     "scenes": SCENES, "physics_scenes": SCENES, "latency_scenes": SCENES,
     "overlap_scenes": SCENES, "objects": COUNTS, "overlap_objects": COUNTS,
+    "ideal_scenes": SCENES, "ideal_objects": COUNTS,
+    "ideal_threads": (lambda t: listed(t, int, 1, 4096), "thread counts 1-4096, comma-separated"),
+    "ideal_loads": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
     "physics_compare_objects": (lambda t: listed(t, int, 1, empty=True),
                                 "whole numbers from 1, comma-separated, or nothing"),
     "physics_seeds": (lambda t: listed(t, int, 0, empty=True),

@@ -18,9 +18,19 @@ range between them):
   ideal         what this machine allows: max(P, T) when the physics (main
                 thread) and the tasks (a worker) each have a core, P + T when
                 there is one thread; async / ideal says how close it comes
+
+The frame against the ideal for the cores it had (ideal_rows): at each
+(scene, n, load, threads) of the --ideal-* options, one async run at --threads N
+(no --compare-sync).  Its ideal frame is the CPU time of all the run's threads
+over the frame (physics and tasks: frames.csv's cpu_ms) / N, what the frame
+would take if no core ever idled; frame / ideal says how much of the cores the
+frame left idle.  Medians are over frames 1 onward (frame 0 pays for warming
+up), then over the point's processes.
 """
+import math
 import statistics
 
+import broadphases
 import study_plots
 import study_results
 from study_targets import Target, not_run
@@ -107,6 +117,83 @@ def targets(rows: list) -> list:
     return [at_load_one(rows), near_ideal(rows), no_slower_at_zero(rows)]
 
 
+# --- the frame against the ideal for its cores ---------------------------------
+
+IDEAL_LOAD, IDEAL_THREADS, IDEAL_LIMIT = 1.0, 2, 1.15  # the target's point and its bound
+
+
+def ideal_process(job, s: dict) -> dict:
+    """One run's medians over frames 1 onward: the frame, and its ideal cpu_ms / threads
+    (NaN where frames.csv has no cpu_ms: a run older than that column)."""
+    frames = study_results.read_frames(job.folder)
+    threads = s["parameters"]["threads"] or s["machine"]["hardware_threads"]
+    totals = frames.get("total_ms", [])[1:] or frames.get("total_ms", [])
+    cpu = frames.get("cpu_ms", [])[1:] or frames.get("cpu_ms", [])
+    ideal = [c / threads for c in cpu if c == c]
+    return {"frame_ms": statistics.median(totals) if totals else float("nan"),
+            "ideal_ms": statistics.median(ideal) if ideal else float("nan"),
+            "threads": threads, "algorithm": s["parameters"]["algorithm"],
+            "frames": s["parameters"]["frames"]}
+
+
+def ideal_rows(jobs: list) -> list:
+    """One row per (scene, n, load, threads): the frame's and the ideal's medians over the
+    point's processes, and frame / ideal."""
+    points = {}
+    for job, s in study_results.summaries(jobs, "overlap_ideal"):
+        l = job.labels
+        points.setdefault((l["scene"], l["objects"], l["load"], l["threads"]), []).append(
+            ideal_process(job, s))
+    rows = []
+    for (scene, n, load, threads), runs in sorted(points.items()):
+        frame = statistics.median(r["frame_ms"] for r in runs)
+        ideal = statistics.median(r["ideal_ms"] for r in runs)
+        rows.append({"scene": scene, "objects": n, "load": load, "threads": threads,
+                     "threads_used": runs[0]["threads"], "algorithm": runs[0]["algorithm"],
+                     "frames": runs[0]["frames"], "repetitions": len(runs),
+                     "frame_ms": frame, "ideal_ms": ideal,
+                     "frame_over_ideal": frame / ideal if ideal > 0 else float("nan")})
+    return rows
+
+
+def within_ideal(rows: list) -> Target:
+    """At task load 1 on 2 threads: the frame within 1.15x of the ideal, at every (scene,
+    n) that ran there."""
+    name = (f"at task load {IDEAL_LOAD:g} on {IDEAL_THREADS} threads: the frame within "
+            f"x{IDEAL_LIMIT} of the ideal (cpu_ms / threads)")
+    mine = [r for r in rows if r["load"] == IDEAL_LOAD and r["threads_used"] == IDEAL_THREADS
+            and not math.isnan(r["frame_over_ideal"])]
+    if not mine:
+        return not_run(name)
+    return Target(name, ", ".join(f"scene {r['scene']}, n {r['objects']}: "
+                                  f"x{r['frame_over_ideal']:.2f}" for r in mine),
+                  all(r["frame_over_ideal"] <= IDEAL_LIMIT for r in mine))
+
+
+def ideal_targets(rows: list) -> list:
+    """The ideal table's targets (the findings' verdict for the frame on its cores)."""
+    return [within_ideal(rows)]
+
+
+def ideal_section(rows: list, fmt, table) -> list:
+    if not rows:
+        return ["No runs against the ideal yet.", ""]
+    lines = [f"Broadphase {', '.join(sorted({r['algorithm'] for r in rows}))}; "
+             f"{rows[0]['frames']} frames per run, medians over frames 1 onward, then over "
+             "the point's processes. One async run at `--threads N` each; ideal: the CPU "
+             "time of all its threads over the frame (physics and tasks, frames.csv's "
+             "`cpu_ms`) / N, the frame if no core idled.", ""]
+    if any(math.isnan(r["ideal_ms"]) for r in rows):
+        lines += ["Some runs' frames.csv has no `cpu_ms` column (runs older than it): their "
+                  "ideal is not measured (—).", ""]
+    lines += table(["scene", "n", "load X", "threads", "runs", "frame ms", "ideal ms",
+                    "frame / ideal"],
+                   [[r["scene"], r["objects"], f"{r['load']:g}", r["threads_used"],
+                     r["repetitions"], fmt(r["frame_ms"]), fmt(r["ideal_ms"]),
+                     fmt(r["frame_over_ideal"])] for r in rows])
+    return lines + study_targets.lines(ideal_targets(rows), table)
+
+
 def overlap_section(rows: list, figures: dict, fmt, table) -> list:
     if not rows:
         return ["No overlap runs yet.", ""]
@@ -130,3 +217,43 @@ def overlap_section(rows: list, figures: dict, fmt, table) -> list:
         lines += ["**Sync and async runs did not end identical at some points** (state or "
                   "task checksums): see overlap.csv's `identical`.", ""]
     return lines
+
+
+# --- the search beside the narrowphase -------------------------------------------
+
+def hidden_rows(cells: list) -> list:
+    """Our finders' sweep cells at each scene's largest n: of the pair search, what ran
+    beside the narrowphase (search_hidden_ms) against what the main thread spent in the
+    broadphase (broadphase_ms: the cache update and its wait for the search), per frame,
+    means over the repetitions; hidden share: hidden / (hidden + broadphase)."""
+    ours = [c for c in cells if not c["fallback"]
+            and c["algo"].split(" ")[0] in broadphases.ours()]
+    rows = []
+    for scene in sorted({c["scene"] for c in ours}):
+        n = max(c["objects"] for c in ours if c["scene"] == scene)
+        for c in (c for c in ours if (c["scene"], c["objects"]) == (scene, n)):
+            hidden, main = c["search_hidden_mean"], c["broadphase_mean"]
+            rows.append({"scene": scene, "objects": n, "algo": c["algo"],
+                         "search_hidden_ms": hidden, "broadphase_ms": main,
+                         "hidden_share": hidden / (hidden + main) if hidden + main > 0
+                         else float("nan")})
+    return rows
+
+
+def hidden_section(rows: list, fmt, table) -> list:
+    if not rows:
+        return ["No sweep runs of our finders yet.", ""]
+    lines = ["Our finders in the sweep (`--narrowphase beside-search`, the default), each "
+             "scene's largest n, ms per frame (means over repetitions). Hidden: of the pair "
+             "search, what ran beside the narrowphase (frames.csv's `search_hidden_ms`); "
+             "broadphase: the main thread's part (the pair cache's update and its wait for "
+             "the search); share: hidden / (hidden + broadphase).", ""]
+    if any(math.isnan(r["search_hidden_ms"]) for r in rows):
+        lines += ["Some runs' frames.csv has no `search_hidden_ms` column (runs older than "
+                  "it): not measured (—).", ""]
+    return lines + table(["scene", "n", "algo", "search hidden ms", "broadphase ms",
+                          "hidden share"],
+                         [[r["scene"], r["objects"], r["algo"], fmt(r["search_hidden_ms"]),
+                           fmt(r["broadphase_ms"]),
+                           "—" if math.isnan(r["hidden_share"]) else
+                           f"{100 * r['hidden_share']:.0f}%"] for r in rows])

@@ -6,10 +6,13 @@ Rows come from study_results.physics_runs.  The main table is one size and seed;
 comparison cells (the automatic setting and the old fixed K, both solvers) also run at
 more seeds and sizes, so that a target met on one seed is not taken for a rule.
 """
+import csv
 import statistics
 
+import results_files
 import study_plots
 import study_targets
+from study_tables import plain
 from study_targets import Target
 
 
@@ -206,3 +209,105 @@ def physics_section(rows: list, figures: dict, fmt, table, objects: int, seed: i
     study_plots.physics(main, figures["folder"])
     lines += ["![physics: each error against the cost per frame](report/fig_physics.png)", ""]
     return lines + robustness_lines(rows, fmt, table)
+
+
+# --- the coloured solver against Bullet's serial solver ------------------------------
+
+# (what is compared, the column stem after serial_ / coloured_, how a row reads it)
+SOLVER_ORDER_METRICS = (("escaped", "escaped_max", "max"), ("sunk", "sunk_max", "max"),
+                        ("removed", "removed_max", "max"),
+                        ("deepest pen.", "penetration_max", "max"),
+                        ("energy drift", "energy_drift", "median"))
+PENETRATION_FACTOR = 1.1  # the coloured solver's deepest overlap at most this x serial's
+
+
+def solver_order_worse(stem: str, serial: float, coloured: float) -> bool:
+    """Whether a cell's coloured figure misses its target against the serial one: counts
+    no higher, penetration at most x1.1, energy drift no larger in size."""
+    if stem == "penetration_max":
+        return coloured > PENETRATION_FACTOR * serial
+    if stem == "energy_drift":
+        return abs(coloured) > abs(serial)
+    return coloured > serial
+
+
+def solver_order_rows(cells: list, present: list) -> list:
+    """One row per scene of the comparison's cells: each present metric's serial and
+    coloured figure over the scene's cells (max, or the energy drift's median) and the
+    cells where the coloured one misses its target."""
+    rows = []
+    for scene in sorted({c["scene"] for c in cells}):
+        mine = [c for c in cells if c["scene"] == scene]
+        row = {"scene": scene, "cells": len(mine)}
+        for _, stem, statistic in SOLVER_ORDER_METRICS:
+            if stem not in present:
+                continue
+            both = [(c[f"serial_{stem}"], c[f"coloured_{stem}"]) for c in mine
+                    if c[f"serial_{stem}"] == c[f"serial_{stem}"]
+                    and c[f"coloured_{stem}"] == c[f"coloured_{stem}"]]
+            pick = max if statistic == "max" else statistics.median
+            nan = float("nan")
+            row[f"serial_{stem}"] = pick(s for s, _ in both) if both else nan
+            row[f"coloured_{stem}"] = pick(c for _, c in both) if both else nan
+            row[f"worse_{stem}"] = sum(solver_order_worse(stem, s, c) for s, c in both)
+        rows.append(row)
+    return rows
+
+
+def number(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def solver_order_section(path, fmt, table, shown_path: str) -> tuple:
+    """(the block's lines, its summary rows for report/solver_order.csv) from the coloured
+    solver's comparison file (one row per physics cell, serial_X and coloured_X columns):
+    "not measured" when the file is absent; a metric whose columns are missing is left
+    out, named in one line; a file without a scene column is named and not read."""
+    if not path.exists():
+        return ([f"Not measured: {shown_path} is absent (the coloured solver against "
+                 "Bullet's serial solver, over the study's physics cells).", ""], [])
+    try:
+        raw = results_files.read_csv(path)
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        return ([f"Not measured: {shown_path} cannot be read ({error.__class__.__name__})."
+                 , ""], [])
+    columns = set(raw[0]) if raw else set()
+    if "scene" not in columns:
+        return ([f"Not measured: {shown_path} has no `scene` column"
+                 + ("" if raw else " (no rows)") + ".", ""], [])
+    present = [stem for _, stem, _ in SOLVER_ORDER_METRICS
+               if {f"serial_{stem}", f"coloured_{stem}"} <= columns]
+    missing = [f"{side}_{stem}" for _, stem, _ in SOLVER_ORDER_METRICS if stem not in present
+               for side in ("serial", "coloured") if f"{side}_{stem}" not in columns]
+    cells = [{"scene": row["scene"], **{f"{side}_{stem}": number(row[f"{side}_{stem}"])
+                                        for stem in present for side in ("serial", "coloured")}}
+             for row in raw]
+    rows = solver_order_rows(cells, present)
+    notes = [line[1:].strip() for line in path.read_text().splitlines()
+             if line.startswith("#")][:4]
+    lines = [f"From {shown_path}: {len(cells)} physics cells, each run with Bullet's serial "
+             "solver and the coloured one at the same K"
+             + (f" ({'; '.join(plain(n) for n in notes)})" if notes else "") + ". Each "
+             "figure serial / coloured over a scene's cells: the largest (counts, deepest "
+             "penetration / edge) or the median (energy drift, relative); worse: the cells "
+             f"where the coloured solver has more escaped, sunk or removed boxes, over "
+             f"x{PENETRATION_FACTOR} the penetration, or a larger drift.", ""]
+    if missing:
+        lines += [f"{shown_path} has no column {', '.join(missing)}: "
+                  + ", ".join(label for label, stem, _ in SOLVER_ORDER_METRICS
+                              if stem not in present) + " not compared.", ""]
+    shown = [(label, stem) for label, stem, _ in SOLVER_ORDER_METRICS if stem in present]
+
+    def figure(stem: str, value: float) -> str:  # counts as counts
+        counted = stem in ("escaped_max", "sunk_max", "removed_max") and value == value
+        return f"{value:g}" if counted else fmt(value)
+    body = [[r["scene"], r["cells"]]
+            + [f"{figure(stem, r[f'serial_{stem}'])} / {figure(stem, r[f'coloured_{stem}'])}"
+               for _, stem in shown]
+            + [" / ".join(str(r[f"worse_{stem}"]) for _, stem in shown) or "—"] for r in rows]
+    headers = (["scene", "cells"] + [label for label, _ in shown]
+               + ["cells worse (" + ", ".join(label for label, _ in shown) + ")"])
+    return lines + table(headers, body), rows

@@ -392,11 +392,34 @@ def overlap_job(p: Plan, scene: int, n: int, load: str, rep: int) -> "RunJob":
                   p.overlap, p.out / "overlap" / key, options).in_group(f"overlap s{scene} n{n}")
 
 
-def overlap_jobs(p: Plan) -> list:
+def ideal_job(p: Plan, scene: int, n: int, load: str, threads: int, rep: int) -> "RunJob":
+    """One async run (no --compare-sync) at --threads `threads`: its frame against the
+    ideal for the cores it had, the CPU time of all its threads over the frame / threads
+    (frames.csv's cpu_ms; study_overlap.ideal_rows)."""
     a = p.args
-    return [overlap_job(p, scene, n, load, rep) for scene in ints(a.overlap_scenes)
-            for n in ints(a.overlap_objects) for load in names(a.overlap_loads)
-            for rep in range(a.overlap_repetitions)]
+    frames = a.ideal_frames
+    key = f"s{scene}_n{n}_load{load}_t{threads}_r{rep}"
+    # The run's frames and the calibration's.
+    weight = (frames + 6) * default_substeps(scene) * n * (1 + float(load))
+    options = ["--scene", str(scene), "--objects", str(n), "--algo", a.overlap_algo,
+               "--frames", str(frames), "--seed", p.seed, "--task-load", load,
+               "--threads", str(threads)]
+    return RunJob("overlap_ideal", key, weight,
+                  {"scene": scene, "objects": n, "load": float(load), "threads": threads,
+                   "rep": rep}, p.overlap, p.out / "overlap_ideal" / key,
+                  options).in_group(f"overlap_ideal s{scene} n{n}")
+
+
+def overlap_jobs(p: Plan) -> list:
+    """The async frame against --sync at each point, then the frame against the ideal for
+    its cores at each (scene, n, load, threads) of the --ideal-* options."""
+    a = p.args
+    return ([overlap_job(p, scene, n, load, rep) for scene in ints(a.overlap_scenes)
+             for n in ints(a.overlap_objects) for load in names(a.overlap_loads)
+             for rep in range(a.overlap_repetitions)]
+            + [ideal_job(p, scene, n, load, threads, rep) for scene in ints(a.ideal_scenes)
+               for n in ints(a.ideal_objects) for load in names(a.ideal_loads)
+               for threads in ints(a.ideal_threads) for rep in range(a.ideal_repetitions)])
 
 
 def capture_jobs(p: Plan) -> list:

@@ -44,9 +44,16 @@ TITLES = {
     "pairs": "3.1 Broadphase: pairs against the exact oracle (bf)",
     "physics": "3.2 Physics: substeps, CCD, sleep and the solver",
     "latency": "3.3 A broadphase one frame late",
+    "solver_order": "3.2.1 The coloured solver against Bullet's serial solver",
     "overlap": "4. The asynchronous frame: where overlap pays",
+    "overlap_ideal": "4.1 The frame against the ideal for its cores",
+    "search_hidden": "4.2 The search beside the narrowphase",
     "runs": "Machine and runs"}
-CSV_TABLES = ("pairs", "physics", "latency", "overlap")
+CSV_TABLES = ("pairs", "physics", "latency", "overlap", "overlap_ideal", "search_hidden",
+              "solver_order")
+# The coloured solver's comparison with Bullet's serial solver, over the study's physics
+# cells: a measurement kept in docs/results/, read when it is there.
+SOLVER_ORDER = REPO / "docs" / "results" / "solver_order_error.csv"
 
 
 # --- the machine, the commit and the runs ---------------------------------------
@@ -243,7 +250,9 @@ def collect(jobs: list) -> dict:
             "pairs": study_results.pair_errors(jobs),
             "physics": study_results.physics_runs(jobs),
             "latency": study_results.latency_rows(jobs),
-            "overlap": study_overlap.overlap_rows(jobs)}
+            "overlap": study_overlap.overlap_rows(jobs),
+            "overlap_ideal": study_overlap.ideal_rows(jobs),
+            "search_hidden": study_overlap.hidden_rows(cells)}
 
 
 def run_seconds(args) -> float:
@@ -254,7 +263,7 @@ def blocks_of(args, jobs: list, data: dict, machine: dict, figures: dict) -> tup
     """({block name: lines}, failures): every generated block, figures drawn as it goes."""
     d = data
     targets = study_claims.sections_targets(d["cells"], d["stages"], d["pairs"], d["physics"],
-                                            d["overlap"], fmt)
+                                            d["overlap"], d["overlap_ideal"], fmt)
     commit = short_machine_text(machine) if machine else "no run yet"
     pairs, failures = study_errors.pairs_block(d["pairs"], d["cells"], args.pairs_objects,
                                                figures)
@@ -270,8 +279,11 @@ def blocks_of(args, jobs: list, data: dict, machine: dict, figures: dict) -> tup
         "pairs": pairs,
         "physics": study_physics.physics_section(d["physics"], figures, fmt, table,
                                                  args.physics_objects, args.seed),
+        "solver_order": d["solver_order_lines"],
         "latency": study_errors.latency_block(d["latency"], figures, d["cells"]),
-        "overlap": study_overlap.overlap_section(d["overlap"], figures, fmt, table)}
+        "overlap": study_overlap.overlap_section(d["overlap"], figures, fmt, table),
+        "overlap_ideal": study_overlap.ideal_section(d["overlap_ideal"], fmt, table),
+        "search_hidden": study_overlap.hidden_section(d["search_hidden"], fmt, table)}
     blocks["runs"] = runs_block(args, jobs, machines_of(jobs))
     return blocks, failures
 
@@ -310,6 +322,8 @@ def write_everything(args, jobs: list) -> list:
     figures = {"folder": args.out / "report"}
     figures["folder"].mkdir(parents=True, exist_ok=True)
     data = collect(jobs)
+    data["solver_order_lines"], data["solver_order"] = study_physics.solver_order_section(
+        SOLVER_ORDER, fmt, table, str(SOLVER_ORDER.relative_to(REPO)))
     machines = machines_of(jobs)
     blocking = ([] if len(machines) <= 1 else
                 [f"the runs come from {len(machines)} machines, builds or commits; a report "
