@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
 #include "engine/cli/physics_options.h"

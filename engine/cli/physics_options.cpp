@@ -63,6 +63,8 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
                   "every thread; the same state for any --threads) or serial (Bullet's own, in "
                   "manifold order)")
       ->check(parsedBy(physics::parseSolverOrder, "coloured|serial"))
+      ->capture_default_str();
+  command
       .add_option("--narrowphase", narrowphase_,
                   "how contacts are found, the same ones in every mode: beside-search (on every "
                   "thread, the cached pairs' while our finder searches), parallel (on every "

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
 #include "engine/cli/physics_options.h"

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/physics_options.h"
 #include "engine/program/memory_bound.h"
