@@ -395,34 +395,14 @@ void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
   forEachIndex(count, kSweepsPerPiece, [&](int i) {
     moves_[static_cast<std::size_t>(i)] = integratedTransform(*m_nonStaticRigidBodies[i], dt);
   });
-  forEachIndex(count, kBodiesPerPiece, [&](int i) {
+  for (int i = 0; i < count; ++i) {
     btRigidBody& body = *m_nonStaticRigidBodies[i];
     if (body.isActive() && !body.isStaticOrKinematicObject()) {
       body.proceedToTransform(moves_[static_cast<std::size_t>(i)]);
     }
-  });
+  }
   // Bullet's speculative restitution pass is left out with the rest of its
   // integrateTransforms: it is off unless asked for, and nothing asks.
-}
-
-void TimedDynamicsWorld::updateActivationState(btScalar dt) {
-  forEachIndex(m_nonStaticRigidBodies.size(), kBodiesPerPiece, [&](int i) {
-    btRigidBody& body = *m_nonStaticRigidBodies[i];
-    body.updateDeactivation(dt);
-    if (!body.wantsSleeping()) {
-      if (body.getActivationState() != DISABLE_DEACTIVATION) body.setActivationState(ACTIVE_TAG);
-      return;
-    }
-    if (body.isStaticOrKinematicObject()) {
-      body.setActivationState(ISLAND_SLEEPING);
-      return;
-    }
-    if (body.getActivationState() == ACTIVE_TAG) body.setActivationState(WANTS_DEACTIVATION);
-    if (body.getActivationState() == ISLAND_SLEEPING) {
-      body.setAngularVelocity(btVector3(0, 0, 0));
-      body.setLinearVelocity(btVector3(0, 0, 0));
-    }
-  });
 }
 
 double TimedDynamicsWorld::ccdQueryMs() const {

@@ -122,8 +122,6 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   // motion: every body's move found on the task system from the substep's
   // transforms, then applied, so no sweep reads a body moved this substep.
   void integrateTransforms(btScalar dt) override;
-  // Phase 8, per body on the task system: Bullet's sleep bookkeeping.
-  void updateActivationState(btScalar dt) override;
 
  private:
   // Runs `phase`, adding its time to `column`; CCD's sweep queries made

@@ -31,7 +31,9 @@ const ColouredConstraintSolver* colouredSolverOf(PhysicsWorld& world) {
 // fixed-body copy is written from one piece of a batch.
 TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) {
   for (int scene = 1; scene <= 4; ++scene) {
-    PhysicsWorld world(smallScene(scene, 400), WorldOptions{"cpusap"});
+    WorldOptions options{"cpusap"};
+    options.solver_order = SolverOrder::kColoured;
+    PhysicsWorld world(smallScene(scene, 400), options);
     const ColouredConstraintSolver* solver = colouredSolverOf(world);
     ASSERT_NE(solver, nullptr);
     int wall_rows = 0;
@@ -90,9 +92,11 @@ TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
 // The world solves with the coloured solver unless told otherwise, and with
 // Bullet's serial one when told: the two sweep in different orders, so
 // their piles differ, both finite and contained.
-TEST(ColouredSolver, IsTheWorldsSolverAndSerialStaysSelectable) {
+TEST(ColouredSolver, IsSelectableBesideTheSerialDefault) {
   const SceneConfig config = smallScene(4, 300);
-  PhysicsWorld coloured(config, WorldOptions{"cpusap"});
+  WorldOptions coloured_options{"cpusap"};
+  coloured_options.solver_order = SolverOrder::kColoured;
+  PhysicsWorld coloured(config, coloured_options);
   WorldOptions serial_options{"cpusap"};
   serial_options.solver_order = SolverOrder::kSerial;
   PhysicsWorld serial(config, serial_options);

@@ -26,6 +26,7 @@ inline std::uint64_t stateAfter(int scene, int objects, int frames, CcdMode ccd,
   config.seed = 42;
   const std::unique_ptr<TaskSystem> tasks = makeTaskSystem(threads, TaskBackEnd::kPlainThreads);
   WorldOptions options{"cpusap"};
+  options.solver_order = SolverOrder::kColoured;
   options.ccd = ccd;
   options.tasks = tasks.get();
   PhysicsWorld world(config, options);
