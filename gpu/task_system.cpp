@@ -203,22 +203,11 @@ class PlainThreadSystem final : public TaskSystem {
     std::exception_ptr error;  // guarded by mutex
   };
 
+  // A worker runs queued jobs until the system stops and the queue is empty.
   void work(int index) {
     tl_system = this;
     tl_index = index;
-    std::unique_lock lock(mutex_);
-    for (;;) {
-      if (jobs_.empty()) {
-        if (stopping_) return;
-        changed_.wait(lock);
-        continue;
-      }
-      std::function<void()> job = std::move(jobs_.front());
-      jobs_.pop_front();
-      lock.unlock();
-      job();
-      lock.lock();
-    }
+    helpUntil([this] { return stopping_ && jobs_.empty(); });  // under mutex_
   }
 
   int threads_;
