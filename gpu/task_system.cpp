@@ -62,7 +62,12 @@ class OneTbbGroup final : public TaskGroup {
 
 class OneTbbTaskSystem final : public TaskSystem {
  public:
-  explicit OneTbbTaskSystem(int threads) : threads_(threads), arena_(threads, 1) {}
+  // The arena is made here, not at its first use: oneTBB's lazy initialisation
+  // cannot fail, and when it does (out of memory) every later use of the arena
+  // spins forever on the half-made one, a group's destructor among them.
+  explicit OneTbbTaskSystem(int threads) : threads_(threads), arena_(threads, 1) {
+    arena_.initialize();
+  }
 
   int threads() const override { return threads_; }
   int threadIndex() const override {
