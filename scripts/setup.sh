@@ -22,8 +22,8 @@ readonly PACKAGES=(
 )
 
 case "${1:-}" in
-  "") target=overlap what="the demo: overlap and the libraries it links, 16 of the build's 32 compiles (the CUDA ones among them), under the whole build's 2 minutes cold on 2 cores" ;;
-  --all) target=all what="everything: the demo, every test and the benchmark, 32 compiles, about 2 minutes cold on 2 cores" ;;
+  "") target=overlap what="the demo: overlap and the libraries it links, 16 of the build's 32 compiles (the CUDA ones among them), about 3 minutes cold on 2 cores (docs/results/readme_first_command.csv)" ;;
+  --all) target=all what="everything: the demo, every test and the benchmark, 32 compiles (docs/results/ci_stages.csv)" ;;
   *) echo "setup: unknown argument '$1' (none: the demo; --all: everything)" >&2 && exit 2 ;;
 esac
 
