@@ -15,6 +15,8 @@
 // RenderError naming the problem), raised in the program; a child that
 // dies throws RendererOutOfMemory, and every later call throws it too; the
 // destructor waits for the child, so none outlives its RendererProcess.
+// Rule: make it before anything in the process calls OSMesa: the child is a
+// fork, with OSMesa's state but none of its threads, and would wait on them.
 #pragma once
 
 #include <sys/types.h>
