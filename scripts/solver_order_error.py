@@ -28,6 +28,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import study_plan  # noqa: E402
 import study_profiles  # noqa: E402
 import study_results  # noqa: E402
+from script_cli import Parser  # noqa: E402
 from overlap_runs import run_summary  # noqa: E402
 
 ORDERS = ("serial", "coloured")
@@ -75,7 +76,7 @@ def git_commit() -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--overlap", default="build/overlap", help="the overlap binary")
     parser.add_argument("--profile", default="quick", help="the study profile whose cells run")
     parser.add_argument("--seed", type=int, default=42, help="the study's main seed")

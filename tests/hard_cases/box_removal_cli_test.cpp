@@ -2,7 +2,9 @@
 // that steps a scene (run, record, latency, capture): at 1e6 m/s^2 times 100
 // over 1 s frames, every value within its documented bounds, boxes reach
 // AABBs too large for Bullet and leave after CCD made contacts for them.
-// Each command must say so, finish with exit 0 and leave no temporary file.
+// Each command must say so, finish with exit 0 and leave no temporary file;
+// Bullet's 16-bit sap alone stops instead, naming its grid (boxes 10^5 m
+// away leave cells coarser than the boxes), exit 1, nothing half-written.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -19,10 +21,11 @@ const std::string kLeavingScene =
     "--scene 1 --objects 50 --gravity 1e6 --gravity-scale 100 --frame-time 1";
 const std::string kFrames = " --frames 3";  // capture runs to its last keyframe instead
 
-// The broadphases a run steps with; gpubf and gpubf-paper run cpusap
-// without a device, and run emulated in the CUDA emulation build.
-const char* const kAlgorithms[] = {"bf",    "sap",    "sap32", "bvh",
-                                   "cpubf", "cpusap", "gpubf", "gpubf-paper"};
+// The broadphases that step the leaving scene to its end; gpubf and
+// gpubf-paper run cpusap without a device, and run emulated in the CUDA
+// emulation build.
+const char* const kAlgorithms[] = {"bf",     "sap32", "bvh",   "cpubf",
+                                   "cpusap", "gpubf", "gpubf-paper"};
 
 class BoxRemovalCliTest : public CliTest {
  protected:
@@ -35,6 +38,17 @@ class BoxRemovalCliTest : public CliTest {
         << result.stderr_text;
     EXPECT_NE(result.stderr_text.find("AABB too large for Bullet"), std::string::npos)
         << result.stderr_text;
+    expectNoTemporaries();
+  }
+
+  // Runs `overlap ARGS` with 16-bit sap: exit 1, its grid named with the
+  // broadphases to use instead, no temporary left.
+  void expectSapStopsNamingItsGrid(const std::string& args) {
+    SCOPED_TRACE(args);
+    const Result result = runOverlap(args);
+    EXPECT_EQ(result.exit_code, 1) << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("16-bit grid"), std::string::npos) << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("use sap32"), std::string::npos) << result.stderr_text;
     expectNoTemporaries();
   }
 
@@ -67,6 +81,8 @@ TEST_F(BoxRemovalCliTest, RunWithEveryBroadphase) {
                                   " --no-tasks --capture-every 0 --out " + out_.string());
     EXPECT_TRUE(fs::exists(out_ / "summary.json")) << algorithm;
   }
+  expectSapStopsNamingItsGrid("run " + kLeavingScene + kFrames +
+                              " --algo sap --no-tasks --capture-every 0 --out " + out_.string());
 }
 
 TEST_F(BoxRemovalCliTest, RunWithTheTasksTheBulletSolverAndCcdOnEveryBox) {
@@ -96,6 +112,7 @@ TEST_F(BoxRemovalCliTest, LatencyWithEveryBroadphase) {
   expectBoxesLeaveAndTheRunEnds("latency " + kLeavingScene + kFrames + " --algo " + algorithms);
   expectBoxesLeaveAndTheRunEnds("latency " + kLeavingScene + kFrames +
                                 " --algo cpusap --ccd all --solver bullet");
+  expectSapStopsNamingItsGrid("latency " + kLeavingScene + kFrames + " --algo sap");
 }
 
 TEST_F(BoxRemovalCliTest, Capture) {
