@@ -24,8 +24,7 @@ const std::string kFrames = " --frames 3";  // capture runs to its last keyframe
 // The broadphases that step the leaving scene to its end; gpubf and
 // gpubf-paper run cpusap without a device, and run emulated in the CUDA
 // emulation build.
-const char* const kAlgorithms[] = {"bf",     "sap32", "bvh",   "cpubf",
-                                   "cpusap", "gpubf", "gpubf-paper"};
+const char* const kAlgorithms[] = {"bf", "sap32", "bvh", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 
 class BoxRemovalCliTest : public CliTest {
  protected:
