@@ -16,7 +16,8 @@
 // dies throws RendererOutOfMemory, and every later call throws it too; the
 // destructor waits for the child, so none outlives its RendererProcess.
 // Rule: make it before anything in the process calls OSMesa: the child is a
-// fork, with OSMesa's state but none of its threads, and would wait on them.
+// fork without exec, and one forked after the process made an OSMesa context
+// hung (tests/render/renderer_process_test.cpp).
 #pragma once
 
 #include <sys/types.h>
