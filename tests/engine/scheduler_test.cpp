@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <stdexcept>
+#include <thread>
 
 #include "gpu/base/stopwatch.h"
 #include "tests/engine/scheduler_test_support.h"
@@ -197,11 +198,20 @@ std::size_t threadsNow() {
                     std::filesystem::directory_iterator{}));
 }
 
+// The threads the runtime itself keeps once a first thread was made: none,
+// or ThreadSanitizer's background thread, which its runtime starts at the
+// process's first thread.  One thread made and joined here starts it.
+std::size_t runtimeThreads() {
+  std::thread([] {}).join();
+  return threadsNow() - 1;
+}
+
 TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
   if (threadsNow() != 1) {
     GTEST_SKIP() << threadsNow() << " threads before the test: earlier tests of this process left "
                  << "oneTBB workers; ctest runs each test in a process of its own";
   }
+  const std::size_t runtime = runtimeThreads();
   for (const std::size_t cap : {1u, 2u, 3u}) {
     const std::unique_ptr<TaskSystem> tasks = makeTaskSystem(static_cast<int>(cap));
     physics::SceneConfig config = smallScene();
@@ -224,7 +234,8 @@ TEST(FrameScheduler, AThreadCapBoundsEveryThreadOfTheRun) {
       scheduler.runFrame();
       most = std::max(most.load(), threadsNow());
     }
-    EXPECT_LE(most.load(), cap) << "threads with a cap of " << cap;
+    EXPECT_LE(most.load(), cap + runtime)
+        << "threads with a cap of " << cap << " (" << runtime << " of the runtime's own)";
   }
 }
 
