@@ -46,8 +46,11 @@ struct WorldOptions {
   SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
   // The contact solver's sweep: coloured batches on the task system, or
   // Bullet's serial solver (physics/coloured_solver.h).
-  // Serial by default: the coloured sweep never lets a pile sleep yet (a
-  // scene-1 pile of 150 boxes: 0 asleep after 240 frames, against 150).
+  // Serial by default: on this project's 2-core machine it is the faster on
+  // one thread and level with the coloured sweep on two
+  // (docs/results/thread_scaling.csv); the coloured sweep is for more cores,
+  // not measured yet.  A pile sleeps with either order
+  // (docs/results/solver_order_sleep.csv).
   SolverOrder solver_order = SolverOrder::kSerial;
   // The threads the step's parallel parts and a CPU search run on; it must
   // outlive the world.  Null: defaultTaskSystem().

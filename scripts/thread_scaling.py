@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""The physics step's time for each of several configurations, interleaved.
+
+Each --config LABEL=BINARY[:OPTIONS] is one `overlap run` (BINARY, e.g. this
+build's and an older commit's) with the options common to all (--common) and
+its own (OPTIONS, e.g. "--threads 2"). The configurations run one after
+another, round after round (--rounds), so a change of load hits them alike.
+Each run's figure is the median physics_ms of its frames from --skip on; a
+configuration's is the median over its rounds. One CSV row per run, then the
+ratio of each configuration to the first, on the terminal and in the CSV's
+'#' lines; the load is recorded before and after.
+
+  scripts/thread_scaling.py --out docs/results/thread_scaling.csv \\
+      --config "t1=build/overlap:--threads 1" --config "t2=build/overlap:--threads 2"
+"""
+import csv
+import os
+import pathlib
+import platform
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from results_files import read_csv  # noqa: E402
+from script_cli import BadInput, Parser, one_line  # noqa: E402
+
+COMMON = ("--scene 4 --objects 3500 --frames 24 --no-tasks --capture-every 0 --no-wav "
+          "--algo cpusap")
+
+
+def parse_config(text: str) -> tuple:
+    label, sep, rest = text.partition("=")
+    binary, _, options = rest.partition(":")
+    if not sep or not label or not binary:
+        raise BadInput(f"--config {one_line(text)}: expected LABEL=BINARY[:OPTIONS]")
+    if not os.access(binary, os.X_OK):
+        raise BadInput(f"--config {one_line(text)}: {one_line(binary)} is not an executable")
+    return label, binary, shlex.split(options)
+
+
+def run_once(binary: str, options: list, skip: int) -> float:
+    with tempfile.TemporaryDirectory() as work:
+        out = pathlib.Path(work) / "run"
+        subprocess.run([binary, "run", *options, "--out", str(out)], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        frames = read_csv(out / "frames.csv")[skip:]
+        if not frames:
+            raise BadInput(f"--skip {skip}: the run has no frame after it")
+        return statistics.median(float(row["physics_ms"]) for row in frames)
+
+
+def main() -> None:
+    parser = Parser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", action="append", required=True,
+                        help="LABEL=BINARY[:OPTIONS], in the order run; the first is the base")
+    parser.add_argument("--common", default=COMMON, help="options every run gets")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--skip", type=int, default=8, help="frames left out at the start")
+    parser.add_argument("--out", type=pathlib.Path, required=True, help="the CSV to write")
+    args = parser.parse_args()
+    try:
+        configs = [parse_config(text) for text in args.config]
+        if args.rounds < 1:
+            raise BadInput(f"--rounds {args.rounds}: at least 1")
+        if args.out.is_dir():
+            raise BadInput(f"--out {one_line(args.out)}: a folder, not a file")
+        common = shlex.split(args.common)
+        load_before = os.getloadavg()[0]
+        rows = []
+        for round_ in range(args.rounds):
+            for label, binary, options in configs:
+                ms = run_once(binary, common + options, args.skip)
+                rows.append({"round": round_, "config": label, "physics_ms": f"{ms:.2f}"})
+                print(f"round {round_ + 1}/{args.rounds} {label}: {ms:.1f} ms", flush=True)
+        load_after = os.getloadavg()[0]
+    except BadInput as error:
+        print(f"{parser.prog}: {error}", file=sys.stderr)
+        sys.exit(2)
+    except subprocess.CalledProcessError as error:
+        print(f"{parser.prog}: {one_line(' '.join(error.cmd))} exited {error.returncode}; "
+              "nothing written", file=sys.stderr)
+        sys.exit(2 if error.returncode == 2 else 1)  # 2: overlap refused an option
+    medians = {label: statistics.median(float(r["physics_ms"]) for r in rows
+                                        if r["config"] == label) for label, _, _ in configs}
+    base = configs[0][0]
+    summary = [f"{label} {ms:.1f} ms ({ms / medians[base]:.2f}x {base})"
+               for label, ms in medians.items()]
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    lines = [f"# what: median physics_ms of frames {args.skip}+ per run, configurations "
+             "interleaved round by round",
+             f"# machine: {platform.node()}, {os.cpu_count()} hardware threads, {platform.processor() or platform.machine()}",
+             f"# commit: {commit}",
+             f"# date: {time.strftime('%Y-%m-%d %H:%M %Z')}",
+             f"# load: {load_before:.2f} before, {load_after:.2f} after",
+             f"# common options: {' '.join(common)}",
+             "# configs: " + "; ".join(f"{label}={pathlib.Path(binary).name} {' '.join(o)}"
+                                       for label, binary, o in configs),
+             "# medians: " + "; ".join(summary)]
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    temporary = args.out.with_name(args.out.name + ".partial")
+    with open(temporary, "w", newline="") as file:
+        file.write("\n".join(lines) + "\n")
+        writer = csv.DictWriter(file, fieldnames=["round", "config", "physics_ms"])
+        writer.writeheader()
+        writer.writerows(rows)
+    temporary.replace(args.out)
+    print(f"load {load_before:.2f} -> {load_after:.2f}; " + "; ".join(summary))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
