@@ -1,22 +1,20 @@
 #!/usr/bin/env bash
-# CI under sanitizers, after scripts/setup.sh: the ctest suite under
-# AddressSanitizer + UBSan (preset "asan", a CUDA emulation build: the .cu
-# files run on the CPU, so every GPU test runs, none may skip (it fails under
-# OVERLAP_REQUIRE_DEVICE=1), and ASan
-# stands in for compute-sanitizer's memcheck; the fuzz corpora replayed,
-# label fuzz) but the whole runs of hundreds to thousands of frames (label
-# long: determinism, the 50 g scenes), which go through the code the
-# shorter tests run under ASan, for more frames, and run in the Release
-# stage; then the unit tests of the threaded code (label threads:
-# cpubf's and cpusap's oneTBB search jobs, the frame scheduler and job
-# graph, the sound and AI tasks, the stream generator) under
-# ThreadSanitizer (preset "tsan", CPU code only: TSan cannot follow the
-# emulation's fibers); the end-to-end CLI tests (label e2e) would run the
-# same threaded code again, on one CPU, so they run under ASan alone.
-# tests/lsan.supp holds OSMesa's known
-# leak (the `overlap` binary that the CLI tests run captures frames with it);
-# tests/tsan.supp and the TSan section below deal with oneTBB, which is not
-# TSan-instrumented.  Both builds go through ccache where it is installed.
+# CI under sanitizers, after scripts/setup.sh and the Release suite: what only
+# a sanitizer build can show.  First AddressSanitizer + UBSan (preset "asan",
+# a CUDA emulation build: the .cu files run on the CPU, so every GPU test
+# runs, none may skip (it fails under OVERLAP_REQUIRE_DEVICE=1), and ASan
+# stands in for compute-sanitizer's memcheck) over ASAN_TARGETS: the GPU
+# finders, physics, the hard cases, the renderer and the fuzz corpora's
+# replays (label fuzz), but the whole runs of hundreds to thousands of
+# frames (label long), the studies and the end-to-end CLI tests, which run in
+# the Release suite.  Then the unit tests of the threaded code (label
+# threads: cpubf's and cpusap's search jobs, the frame scheduler and job
+# graph, the sound and AI tasks, the stream generator, the parallel
+# narrowphase and solver) under ThreadSanitizer (preset "tsan", CPU code
+# only: TSan cannot follow the emulation's fibers).
+# tests/lsan.supp holds OSMesa's known leak, for a program that draws (the
+# renderer's tests carry the same rule compiled in); tests/tsan.supp and the TSan section below deal with oneTBB, which is
+# not TSan-instrumented.  Both builds go through ccache where it is installed.
 # Usage: [SANITIZERS="asan tsan"] scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
 # (default: both, in the presets' build-asan and build-tsan).
 set -euo pipefail

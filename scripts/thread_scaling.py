@@ -55,7 +55,7 @@ def run_once(binary: str, options: list, skip: int) -> float:
 
 def main() -> None:
     parser = Parser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", action="append", required=True,
+    parser.add_argument("--config", action="append", default=[],
                         help="LABEL=BINARY[:OPTIONS], in the order run; the first is the base")
     parser.add_argument("--common", default=COMMON, help="options every run gets")
     parser.add_argument("--rounds", type=int, default=3)
@@ -63,6 +63,8 @@ def main() -> None:
     parser.add_argument("--out", type=pathlib.Path, required=True, help="the CSV to write")
     args = parser.parse_args()
     try:
+        if not args.config:
+            raise BadInput("--config: at least one LABEL=BINARY[:OPTIONS]")
         configs = [parse_config(text) for text in args.config]
         if args.rounds < 1:
             raise BadInput(f"--rounds {args.rounds}: at least 1")
