@@ -102,7 +102,8 @@ def staleness_lines(machine: dict) -> list:
     if behind < 0:
         return [f"**The runs are of commit {commit}, which is not in this checkout's "
                 "history**: the figures may not hold for its code.", ""]
-    return [f"**The runs are behind the code**: {behind} commits since {commit} changed "
+    commits = "1 commit" if behind == 1 else f"{behind} commits"
+    return [f"**The runs are behind the code**: {commits} since {commit} changed "
             f"the folders they measure (`git log --oneline {commit}..HEAD -- "
             f"{' '.join(MEASURED)}`); the figures are of {commit}, not of HEAD.", ""]
 
@@ -117,8 +118,8 @@ def profile_lines(args, cells: list) -> list:
     hours = sum(c["total_mean"] for c in cells) * full["frames"] * full["repetitions"] / 3.6e6
     return [f"Profile {args.profile}: smaller than the full study in {len(reduced)} options "
             "(scripts/study_profiles.json; every option is in the command below)." +
-            (f" The full sweep of these {len(cells)} cells alone would run {hours:.0f} hours "
-             "here." if cells else ""), ""]
+            (f" The full sweep of these {len(cells)} cells alone would run "
+             f"{hours:.1f} hours here." if cells else ""), ""]
 
 
 def header_block(args, machine: dict, cells: list, seconds: float) -> list:
