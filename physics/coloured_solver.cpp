@@ -127,6 +127,20 @@ void ColouredConstraintSolver::collectManifolds(btPersistentManifold** manifolds
   if (unconverted) piece_unconverted_[first / kItemsPerPiece] = 1;
 }
 
+namespace {
+
+// Bullet's rolling-friction rows of a manifold: three per touching point
+// with rolling friction (internalAllocContactConstraints's count).
+int rollingRows(const btSequentialImpulseConstraintSolverMt::btContactManifoldCachedInfo& cached) {
+  int rows = 0;
+  for (int p = 0; p < cached.numTouchingContacts; ++p) {
+    if (cached.contactHasRollingFriction[p]) rows += 3;
+  }
+  return rows;
+}
+
+}  // namespace
+
 void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds, int numManifolds,
                                                const btContactSolverInfo& info) {
   const auto count = static_cast<std::size_t>(numManifolds);
@@ -154,6 +168,8 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
   // Each manifold's rows and colour, in manifold order.
   body_colours_.assign(static_cast<std::size_t>(bodies), 0);
   batch_fill_.assign(kColours + 1, 0);
+  colour_rows_.assign(kColours + 1, 0);
+  colour_rolling_rows_.assign(kColours + 1, 0);
   colour_.resize(count);
   int contacts = 0;
   int rolling_rows = 0;
@@ -180,8 +196,10 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
     }
     colour_[static_cast<std::size_t>(m)] = colour;
     ++batch_fill_[static_cast<std::size_t>(colour)];
+    colour_rows_[static_cast<std::size_t>(colour)] += cached.numTouchingContacts;
+    colour_rolling_rows_[static_cast<std::size_t>(colour)] += rollingRows(cached);
   };
-  // Pass 1: the rows and the manifolds between two moving bodies; pass 2:
+  // Pass 1: the row counts and the manifolds between two moving bodies; pass 2:
   // the manifolds on a static body, in colours after those (so each sweep
   // ends on the walls: physics/coloured_solver.h).
   for (int m = 0; m < numManifolds; ++m) {
@@ -193,12 +211,11 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
         m_tmpSolverBodyPool[b].internalGetInvMass().fuzzyZero()) {
       cached.numTouchingContacts = 0;
     }
-    cached.contactIndex = contacts;
-    cached.rollingFrictionIndex = rolling_rows;
+    // No rows: any index will do (the rows are laid out below, batch by batch).
+    cached.contactIndex = 0;
+    cached.rollingFrictionIndex = 0;
     contacts += cached.numTouchingContacts;
-    for (int p = 0; p < cached.numTouchingContacts; ++p) {
-      if (cached.contactHasRollingFriction[p]) rolling_rows += 3;
-    }
+    rolling_rows += rollingRows(cached);
     colour_[static_cast<std::size_t>(m)] = -1;
     if (cached.numTouchingContacts > 0 && !touchesStatic(cached)) colourFrom(m, 0);
   }
@@ -217,11 +234,21 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
   colouring_.batch_begin.resize(static_cast<std::size_t>(batches) + 1);
   int copies = 0;
   int begin = 0;
+  int row_begin = 0;
+  int rolling_begin = 0;
   for (int batch = 0; batch < batches; ++batch) {
     const int colour = batch < used_colours ? batch : kColours;
     const int size = batch_fill_[static_cast<std::size_t>(colour)];
     colouring_.batch_begin[static_cast<std::size_t>(batch)] = begin;
     batch_fill_[static_cast<std::size_t>(colour)] = begin;  // now the scatter cursor
+    // The batch's rows follow the last batch's, so that a sweep walks the
+    // row pools from front to back.
+    const int batch_rows = colour_rows_[static_cast<std::size_t>(colour)];
+    const int batch_rolling_rows = colour_rolling_rows_[static_cast<std::size_t>(colour)];
+    colour_rows_[static_cast<std::size_t>(colour)] = row_begin;
+    colour_rolling_rows_[static_cast<std::size_t>(colour)] = rolling_begin;
+    row_begin += batch_rows;
+    rolling_begin += batch_rolling_rows;
     copies = std::max(copies, colour == kColours
                                   ? 1
                                   : static_cast<int>(pieceCount(static_cast<std::size_t>(size),
@@ -241,6 +268,10 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
     if (colour < 0) continue;
     const int position = batch_fill_[static_cast<std::size_t>(colour)]++;
     btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+    cached.contactIndex = colour_rows_[static_cast<std::size_t>(colour)];
+    colour_rows_[static_cast<std::size_t>(colour)] += cached.numTouchingContacts;
+    cached.rollingFrictionIndex = colour_rolling_rows_[static_cast<std::size_t>(colour)];
+    colour_rolling_rows_[static_cast<std::size_t>(colour)] += rollingRows(cached);
     const int batch = colour == kColours ? batches - 1 : colour;
     const int piece = colour == kColours
                           ? 0
