@@ -13,8 +13,9 @@
 # narrowphase and solver) under ThreadSanitizer (preset "tsan", CPU code
 # only: TSan cannot follow the emulation's fibers).
 # tests/lsan.supp holds OSMesa's known leak, for a program that draws (the
-# renderer's tests carry the same rule compiled in); tests/tsan.supp and the TSan section below deal with oneTBB, which is
-# not TSan-instrumented.  Both builds go through ccache where it is installed.
+# renderer's tests carry the same rule compiled in); tests/tsan.supp and the
+# TSan section below deal with oneTBB, which is not TSan-instrumented.  Both
+# builds go through ccache where it is installed.
 # Usage: [SANITIZERS="asan tsan"] scripts/ci_sanitizers.sh [ASAN_BUILD_DIR] [TSAN_BUILD_DIR]
 # (default: both, in the presets' build-asan and build-tsan).
 set -euo pipefail

@@ -16,7 +16,6 @@ ratio of each configuration to the first, on the terminal and in the CSV's
 import csv
 import os
 import pathlib
-import platform
 import shlex
 import statistics
 import subprocess
@@ -25,11 +24,12 @@ import tempfile
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from overlap_runs import run_summary  # noqa: E402
 from results_files import read_csv  # noqa: E402
 from script_cli import BadInput, Parser, one_line  # noqa: E402
 
-COMMON = ("--scene 4 --objects 3500 --frames 24 --no-tasks --capture-every 0 --no-wav "
-          "--algo cpusap")
+# run_summary() adds --capture-every 0 --no-wav.
+COMMON = "--scene 4 --objects 3500 --frames 24 --no-tasks --algo cpusap"
 
 
 def parse_config(text: str) -> tuple:
@@ -42,15 +42,16 @@ def parse_config(text: str) -> tuple:
     return label, binary, shlex.split(options)
 
 
-def run_once(binary: str, options: list, skip: int) -> float:
+def run_once(binary: str, options: list, skip: int) -> tuple:
+    """(the median physics_ms of the run's frames from `skip` on, the machine and commit
+    its summary names)."""
     with tempfile.TemporaryDirectory() as work:
         out = pathlib.Path(work) / "run"
-        subprocess.run([binary, "run", *options, "--out", str(out)], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        machine = run_summary(binary, out, options)["machine"]
         frames = read_csv(out / "frames.csv")[skip:]
         if not frames:
             raise BadInput(f"--skip {skip}: the run has no frame after it")
-        return statistics.median(float(row["physics_ms"]) for row in frames)
+        return statistics.median(float(row["physics_ms"]) for row in frames), machine
 
 
 def main() -> None:
@@ -73,9 +74,10 @@ def main() -> None:
         common = shlex.split(args.common)
         load_before = os.getloadavg()[0]
         rows = []
+        machines = {}
         for round_ in range(args.rounds):
             for label, binary, options in configs:
-                ms = run_once(binary, common + options, args.skip)
+                ms, machines[label] = run_once(binary, common + options, args.skip)
                 rows.append({"round": round_, "config": label, "physics_ms": f"{ms:.2f}"})
                 print(f"round {round_ + 1}/{args.rounds} {label}: {ms:.1f} ms", flush=True)
         load_after = os.getloadavg()[0]
@@ -91,12 +93,12 @@ def main() -> None:
     base = configs[0][0]
     summary = [f"{label} {ms:.1f} ms ({ms / medians[base]:.2f}x {base})"
                for label, ms in medians.items()]
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
+    machine = machines[base]
     lines = [f"# what: median physics_ms of frames {args.skip}+ per run, configurations "
              "interleaved round by round",
-             f"# machine: {platform.node()}, {os.cpu_count()} hardware threads, {platform.processor() or platform.machine()}",
-             f"# commit: {commit}",
+             f"# machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
+             f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}",
+             "# commits: " + "; ".join(f"{label} {m['git_commit']}" for label, m in machines.items()),
              f"# date: {time.strftime('%Y-%m-%d %H:%M %Z')}",
              f"# load: {load_before:.2f} before, {load_after:.2f} after",
              f"# common options: {' '.join(common)}",
