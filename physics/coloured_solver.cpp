@@ -171,8 +171,6 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
   colour_rows_.assign(kColours + 1, 0);
   colour_rolling_rows_.assign(kColours + 1, 0);
   colour_.resize(count);
-  int contacts = 0;
-  int rolling_rows = 0;
   int used_colours = 0;
   const auto touchesStatic = [&](const btContactManifoldCachedInfo& cached) {
     return cached.solverBodyIds[0] == m_fixedBodyId || cached.solverBodyIds[1] == m_fixedBodyId;
@@ -214,8 +212,6 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
     // No rows: any index will do (the rows are laid out below, batch by batch).
     cached.contactIndex = 0;
     cached.rollingFrictionIndex = 0;
-    contacts += cached.numTouchingContacts;
-    rolling_rows += rollingRows(cached);
     colour_[static_cast<std::size_t>(m)] = -1;
     if (cached.numTouchingContacts > 0 && !touchesStatic(cached)) colourFrom(m, 0);
   }
@@ -288,7 +284,8 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
     initSolverBody(&m_tmpSolverBodyPool.expand(), nullptr, info.m_timeStep);
   }
   piece_residual_.resize(static_cast<std::size_t>(std::max(copies, 1)));
-  sizeRowPools(contacts, rolling_rows);
+  // Every manifold with rows has a colour, so the batches hold them all.
+  sizeRowPools(row_begin, rolling_begin);
 }
 
 void ColouredConstraintSolver::sizeRowPools(int contacts, int rolling_rows) {
