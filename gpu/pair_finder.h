@@ -152,6 +152,22 @@ bool cudaDeviceAvailable(std::string* why);
 // empty when cudaDeviceAvailable() is false.
 std::string cudaDeviceName();
 
+// What a finder holds, host and device together, at its peak in a frame,
+// as three rates: the memory bounds (engine/program/memory_bound.h) count a
+// run from them before it allocates, so they are upper bounds, growth room
+// included.  tests/gpu/finder_memory_test.cpp holds every finder to its own.
+struct MemoryCost {
+  std::uint32_t per_slot = 0;  // for each object slot
+  double per_slot_pair = 0;    // for each pair of slots, overlapping or not (bit matrices)
+  std::uint32_t per_pair = 0;  // for each overlapping pair, counting this frame's or the last's
+  // The bytes for `slots` slots holding `pairs` pairs.
+  std::uint64_t bytesFor(std::uint64_t slots, std::uint64_t pairs) const {
+    const double slot_pairs = static_cast<double>(slots) * static_cast<double>(slots) / 2;
+    return slots * per_slot + static_cast<std::uint64_t>(slot_pairs * per_slot_pair) +
+           pairs * per_pair;
+  }
+};
+
 // One row of the table of finders: all the program knows of a finder
 // besides its own file.  Adding a finder is adding its row to the table
 // (gpu/pair_finder_table.cpp); the broadphase catalogue, the CLI's names and
@@ -163,6 +179,7 @@ struct PairFinderRow {
   // Makes one.  A CPU finder searches on `tasks`' threads, which must
   // outlive it; the GPU finders run their host work on the caller.
   std::unique_ptr<PairFinder> (*make)(TaskSystem& tasks);
+  MemoryCost memory;  // what one holds
 };
 
 // The product's finders, CPU ones first: cpubf, cpusap, gpubf, gpubf-paper,

@@ -50,6 +50,8 @@ struct BroadphaseReplay::Bullet {
 namespace {
 
 constexpr std::size_t kProxiesBetweenChecks = 256;
+// The replay's own per box: its proxy's pointer, index and last written box.
+constexpr std::uint32_t kBytesPerBox = sizeof(btBroadphaseProxy*) + sizeof(int) + sizeof(Aabb);
 
 btVector3 corner(const float (&xyz)[3]) {
   return {xyz[0], xyz[1], xyz[2]};
@@ -164,13 +166,19 @@ std::optional<ReplayPhases> BroadphaseReplay::lastPhases() const {
   return ReplayPhases{ours->lastSearchStats(), ours->lastCacheUpdateMs()};
 }
 
+finders::MemoryCost BroadphaseReplay::memoryCost(std::string_view algorithm) {
+  const bool falls_back =
+      broadphaseInfo(algorithm).needs_device && !finders::cudaDeviceAvailable(nullptr);
+  finders::MemoryCost cost = broadphaseInfo(falls_back ? kDeviceFallback : algorithm).memory;
+  cost.per_slot += kBytesPerBox;
+  cost.per_pair += sizeof(PairList::value_type);
+  return cost;
+}
+
 void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes, std::uint64_t caller_per_pair) {
   auto* cache = dynamic_cast<BulkPairCache*>(bullet_->broadphase->getOverlappingPairCache());
   if (cache == nullptr) throw std::logic_error("replay: the broadphase has no bulk pair cache");
-  // Our finders keep this and the last search's pairs, 8 bytes each; pairs()
-  // copies them out, 8 more.
-  const bool ours = dynamic_cast<const PairFinderBroadphase*>(bullet_->broadphase.get()) != nullptr;
-  cache->setMemoryLimit(bytes, (ours ? 16 : 0) + sizeof(PairList::value_type) + caller_per_pair);
+  cache->setMemoryLimit(bytes, memoryCost(algorithm_).per_pair + caller_per_pair);
   bullet_->bounded = bytes != 0 ? cache : nullptr;
 }
 

@@ -56,6 +56,12 @@ class BroadphaseReplay {
   BroadphaseReplay(const BroadphaseReplay&) = delete;
   BroadphaseReplay& operator=(const BroadphaseReplay&) = delete;
 
+  // What a replay of `algorithm` holds besides its pair cache, at most: the
+  // broadphase that runs here (a device name's fallback where there is no
+  // device; its catalogue entry's memory), the replay's own per box, and
+  // pairs()' copy per pair.  What the memory bounds count before a replay.
+  static finders::MemoryCost memoryCost(std::string_view algorithm);
+
   const std::string& algorithm() const { return algorithm_; }
   const std::string& notice() const { return notice_; }
 
@@ -74,10 +80,9 @@ class BroadphaseReplay {
   // outside its timing) spares the comparison of every box.  Not the first
   // update.
   void updateChanged(std::span<const Aabb> boxes, std::span<const std::uint32_t> changed);
-  // The most bytes the pair cache (with our finders' own pair lists,
-  // pairs()' copy and `caller_per_pair` bytes a pair the caller keeps) may
-  // hold; findPairs() throws PairMemoryError (physics/broadphase/bulk_pair_cache.h)
-  // instead of growing past it.  0: no limit.
+  // The most bytes the pair cache (with memoryCost()'s bytes per pair and
+  // `caller_per_pair` bytes a pair the caller keeps) may hold; findPairs() throws PairMemoryError
+  // (physics/broadphase/bulk_pair_cache.h) instead of growing past it.  0: no limit.
   void setPairMemoryLimit(std::uint64_t bytes, std::uint64_t caller_per_pair = 0);
   // Finds the pairs and updates the persistent pair cache.  A signal may cut
   // a finder's search short (cpubf): the pairs are then not whole, and the

@@ -38,7 +38,7 @@ readonly UNITY=(-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16)
 # the whole suite under ASan took 596 s, build included, of CI's 900.
 readonly ASAN_TARGETS=(overlap_gpu_tests overlap_cuda_emulation_tests overlap_physics_tests
   overlap_solver_tests overlap_narrowphase_tests overlap_hard_cases_tests render_tests
-  replay_aabb_stream replay_command_line)
+  replay_aabb_stream replay_command_line overlap_finder_memory_tests overlap_broadphase_memory_tests)
 readonly ASAN_LABELS='gpu|emulation|physics|hard_cases|render|fuzz'
 # The test executables labelled threads (tests/*/CMakeLists.txt).
 readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests

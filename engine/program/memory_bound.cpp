@@ -8,14 +8,13 @@
 
 #include "engine/program/number_options.h"
 #include "engine/program/output_checks.h"
+#include "physics/broadphase_replay.h"
 
 namespace overlap::engine {
 namespace {
 
 constexpr std::uint64_t kMegabyte = 1000 * 1000;
 constexpr std::uint64_t kBoxBytes = 32;  // a stored AABB
-// cpubf keeps a bit for every pair of slots: n (n - 1) / 2 bits.
-constexpr std::uint64_t kPairsPerByte = 8;
 // The largest --max-memory: a petabyte, far beyond any machine's memory.
 constexpr std::int64_t kMostMegabytes = 1'000'000'000;
 
@@ -44,20 +43,18 @@ std::uint64_t defaultMemoryLimit() {
 
 void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb) {
   command
-      .add_option("--max-memory", limit_mb,
-                  "MB the run may allocate for its boxes, cpubf's pair bits and the pairs found, "
-                  "checked before it does (default: the machine's memory, or ulimit -v if lower)")
+      .add_option(
+          "--max-memory", limit_mb,
+          "MB the run may allocate for its boxes, its broadphase's structures and the pairs "
+          "found, "
+          "checked before it does (default: the machine's memory, or ulimit -v if lower)")
       ->check(wholeNumberIn(1, kMostMegabytes))
       ->default_str(std::to_string(defaultMemoryLimit() / kMegabyte));
 }
 
 std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects) {
-  std::uint64_t bytes = objects * kBoxBytes;
-  // gpubf's bits live on the device, or in cpubf where there is none.
-  if (algorithm == "cpubf" || algorithm.starts_with("gpubf")) {
-    bytes += objects * (objects - 1) / 2 / kPairsPerByte;
-  }
-  return bytes;
+  return objects * kBoxBytes +
+         physics::BroadphaseReplay::memoryCost(algorithm).bytesFor(objects, 0);
 }
 
 namespace {

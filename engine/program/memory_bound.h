@@ -9,7 +9,9 @@
 //     memory, not after minutes with std::bad_alloc or the OOM killer.
 //   * What is counted first is what a count in the input decides alone: a
 //     frame of N boxes (N x 32 bytes, a header's N on a pipe included) and
-//     cpubf's bit matrix of every pair of slots (n^2 / 16 bytes).
+//     what the broadphase holds for N boxes before its first pair, by the
+//     rates each one states (finders::MemoryCost, BroadphaseInfo::memory;
+//     cpubf's and gpubf's bit matrices of every pair of slots among them).
 //   * What grows with the pairs found is bounded by what is left: the pair
 //     cache (physics/broadphase/bulk_pair_cache.h, with our finders' own pair lists)
 //     refuses to grow past it, and the command exits 2 with the pair count
@@ -35,8 +37,9 @@ std::uint64_t defaultMemoryLimit();
 void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb);
 
 // Bytes a replay of `objects` boxes with `algorithm` allocates before its
-// first pair: one frame of boxes, and the pair bits of cpubf and gpubf
-// (on the device, or in cpubf where there is none).
+// first pair: one frame of boxes and BroadphaseReplay::memoryCost()'s
+// bytes for that many slots (a device finder without a device: its
+// fallback's).
 std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects);
 
 // Throws UsageError "WHAT needs X, above the memory limit Y (--max-memory)"

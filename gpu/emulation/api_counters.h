@@ -41,6 +41,8 @@ ApiCounters apiCounters();
 // The bytes of device memory allocated and not yet freed, now: what a finder
 // holds on the device (tests of its memory budget).
 std::uint64_t liveDeviceBytes();
+// The same for pinned host memory (cudaMallocHost).
+std::uint64_t livePinnedBytes();
 
 // The streams, events, graphs and graph executables created and not yet
 // destroyed, now: what a program would leak (tests of the owning handles).

@@ -205,10 +205,10 @@ class Runtime {
     }
   }
 
-  std::uint64_t liveDeviceBytes() const {
+  std::uint64_t liveBytes(Space space) const {
     std::uint64_t bytes = 0;
     for (const auto& [base, allocation] : allocations_) {
-      if (allocation.space == Space::kDevice) bytes += allocation.bytes;
+      if (allocation.space == space) bytes += allocation.bytes;
     }
     return bytes;
   }
@@ -824,7 +824,13 @@ ApiCounters apiCounters() {
 std::uint64_t liveDeviceBytes() {
   detail::Runtime& rt = detail::runtime();
   const std::lock_guard lock(rt.mutex);
-  return rt.liveDeviceBytes();
+  return rt.liveBytes(detail::Space::kDevice);
+}
+
+std::uint64_t livePinnedBytes() {
+  detail::Runtime& rt = detail::runtime();
+  const std::lock_guard lock(rt.mutex);
+  return rt.liveBytes(detail::Space::kPinned);
 }
 
 LiveHandles liveHandles() {

@@ -43,6 +43,10 @@ struct BroadphaseInfo {
   bool exact;
   bool needs_device;             // runs on a CUDA device
   std::string_view description;  // one line
+  // What it holds besides its pair cache, at most: Bullet's proxies and
+  // trees, or our adapter's proxies plus the finder's own (gpu/pair_finder.h)
+  // (tests/physics/broadphase_memory_test.cpp).
+  finders::MemoryCost memory;
 };
 
 // Empty when broadphase `name` can hold `objects` proxies and `reserved`

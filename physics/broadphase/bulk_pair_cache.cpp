@@ -35,19 +35,24 @@ constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
 }  // namespace
 
+namespace {
+
+std::align_val_t lookupAlignment(std::size_t bytes) {
+  return std::align_val_t{bytes >= kHugePage ? kHugePage : 64};
+}
+
+}  // namespace
+
 void* allocateLookupMemory(std::size_t bytes) {
-  const bool huge = bytes >= kHugePage;
-  void* memory = nullptr;
-  if (::posix_memalign(&memory, huge ? kHugePage : 64, std::max<std::size_t>(bytes, 1)) != 0) {
-    throw std::bad_alloc();
-  }
+  bytes = std::max<std::size_t>(bytes, 1);
+  void* memory = ::operator new(bytes, lookupAlignment(bytes));
   // A hint: without huge pages the lookups only run slower.
-  if (huge) ::madvise(memory, bytes, MADV_HUGEPAGE);
+  if (bytes >= kHugePage) ::madvise(memory, bytes, MADV_HUGEPAGE);
   return memory;
 }
 
-void freeLookupMemory(void* memory) noexcept {
-  std::free(memory);
+void freeLookupMemory(void* memory, std::size_t bytes) noexcept {
+  ::operator delete(memory, lookupAlignment(std::max<std::size_t>(bytes, 1)));
 }
 
 PairMemoryError::PairMemoryError(std::uint64_t pair_count, std::uint64_t needed, std::uint64_t most)
@@ -65,7 +70,7 @@ BulkPairCache::BulkPairCache() {
 
 BulkPairCache::~BulkPairCache() {
   pairs_.initializeFromBuffer(nullptr, 0, 0);
-  freeLookupMemory(owned_);
+  freeLookupMemory(owned_, owned_capacity_ * sizeof(btBroadphasePair));
 }
 
 std::uint64_t BulkPairCache::bytesFor(std::size_t capacity, std::size_t index_slots) const {
@@ -81,7 +86,8 @@ std::uint64_t BulkPairCache::bytesHeld() const {
 
 // Doubles the array as Bullet's does where the limit allows, else takes all
 // the limit leaves (so that growing one pair at a time stays linear);
-// refuses what the limit cannot hold.
+// refuses what the limit cannot hold, the old arrays held while growing
+// counted.
 void BulkPairCache::reserve(std::size_t pairs) {
   const auto held = static_cast<std::size_t>(pairs_.capacity());
   if (pairs <= held && index_.size() >= 2 * pairs) return;
@@ -90,16 +96,21 @@ void BulkPairCache::reserve(std::size_t pairs) {
                                       : std::bit_ceil(std::max(2 * pairs, kSmallestIndex));
   // Powers of two, as Bullet's array grows from 2 by doubling.
   std::size_t capacity = pairs <= held ? held : std::max(std::bit_ceil(pairs), 2 * held);
-  if (memory_limit_ != 0 && bytesFor(capacity, index_slots) > memory_limit_) {
-    const std::uint64_t index_bytes = std::uint64_t{index_slots} * sizeof(IndexSlot);
+  // While an array grows its old one is held beside it: the pair array's
+  // while the pairs are copied, then the index's while it is rebuilt.
+  const std::uint64_t old_arrays =
+      (pairs > held ? std::uint64_t{held} * sizeof(btBroadphasePair) : 0) +
+      (index_slots > index_.size() ? index_.size() * sizeof(IndexSlot) : 0);
+  if (memory_limit_ != 0 && bytesFor(capacity, index_slots) + old_arrays > memory_limit_) {
+    const std::uint64_t besides_pairs = std::uint64_t{index_slots} * sizeof(IndexSlot) + old_arrays;
     const std::uint64_t per_pair =
         sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_;
     const std::uint64_t fits =
-        memory_limit_ > index_bytes ? (memory_limit_ - index_bytes) / per_pair : 0;
+        memory_limit_ > besides_pairs ? (memory_limit_ - besides_pairs) / per_pair : 0;
     if (fits < pairs) {
-      throw PairMemoryError(pairs,
-                            bytesFor(pairs, std::bit_ceil(std::max(2 * pairs, kSmallestIndex))),
-                            memory_limit_);
+      throw PairMemoryError(
+          pairs, bytesFor(pairs, std::bit_ceil(std::max(2 * pairs, kSmallestIndex))) + old_arrays,
+          memory_limit_);
     }
     capacity = std::max(held, static_cast<std::size_t>(std::min<std::uint64_t>(fits, capacity)));
   }
@@ -111,16 +122,17 @@ void BulkPairCache::reserve(std::size_t pairs) {
 // failed allocation.
 void BulkPairCache::growPairs(std::size_t capacity) {
   if (capacity > static_cast<std::size_t>(std::numeric_limits<int>::max())) throw std::bad_alloc();
-  std::unique_ptr<void, void (*)(void*) noexcept> fresh(
-      allocateLookupMemory(capacity * sizeof(btBroadphasePair)), freeLookupMemory);
-  keys_.reserve(capacity);
+  keys_.reserve(capacity);  // first: nothing after it throws
+  auto* fresh =
+      static_cast<btBroadphasePair*>(allocateLookupMemory(capacity * sizeof(btBroadphasePair)));
   const int size = pairs_.size();
   if (size > 0) {
-    std::memcpy(fresh.get(), &pairs_[0], sizeof(btBroadphasePair) * static_cast<std::size_t>(size));
+    std::memcpy(fresh, &pairs_[0], sizeof(btBroadphasePair) * static_cast<std::size_t>(size));
   }
-  pairs_.initializeFromBuffer(fresh.get(), size, static_cast<int>(capacity));
-  freeLookupMemory(owned_);
-  owned_ = static_cast<btBroadphasePair*>(fresh.release());
+  pairs_.initializeFromBuffer(fresh, size, static_cast<int>(capacity));
+  freeLookupMemory(owned_, owned_capacity_ * sizeof(btBroadphasePair));
+  owned_ = fresh;
+  owned_capacity_ = capacity;
 }
 
 std::size_t BulkPairCache::home(std::uint64_t key) const {

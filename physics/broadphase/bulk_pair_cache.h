@@ -60,8 +60,10 @@ class PairMemoryError : public std::runtime_error {
 
 // Memory for the cache's big arrays: 2 MiB aligned and marked for huge pages
 // above 2 MiB, as their lookups land anywhere in them (fewer TLB misses).
+// Through the aligned operator new, so that a replaced one counts it; freed
+// with the size it was allocated with (which chose its alignment).
 void* allocateLookupMemory(std::size_t bytes);
-void freeLookupMemory(void* memory) noexcept;
+void freeLookupMemory(void* memory, std::size_t bytes) noexcept;
 
 template <class T>
 struct LookupAllocator {
@@ -72,7 +74,9 @@ struct LookupAllocator {
   T* allocate(std::size_t count) {
     return static_cast<T*>(allocateLookupMemory(count * sizeof(T)));
   }
-  void deallocate(T* memory, std::size_t /*count*/) noexcept { freeLookupMemory(memory); }
+  void deallocate(T* memory, std::size_t count) noexcept {
+    freeLookupMemory(memory, count * sizeof(T));
+  }
   friend bool operator==(const LookupAllocator&, const LookupAllocator&) = default;
 };
 
@@ -162,6 +166,7 @@ class BulkPairCache final : public btOverlappingPairCache {
 
   btBroadphasePairArray pairs_;  // on owned_'s memory
   btBroadphasePair* owned_ = nullptr;
+  std::size_t owned_capacity_ = 0;  // pairs owned_ holds room for
   std::vector<std::uint64_t, LookupAllocator<std::uint64_t>> keys_;
   std::vector<IndexSlot, LookupAllocator<IndexSlot>> index_;
   int index_shift_ = 64;  // 64 - log2(index_.size())

@@ -167,8 +167,9 @@ TEST_F(SignalsCliTest, SighupStopsARunAndStaleTemporariesAreCleared) {
   for (const std::string& name : kept) EXPECT_EQ(fileText(folder / name), "mine") << name;
 }
 
-// Memory bounds checked before allocating, exit 2 naming the input
-// or option and the memory it needs; generate writes as it goes (frame 0
+// Memory bounds checked before allocating (the boxes and what the
+// broadphase holds for them), exit 2 naming the input or option and the
+// memory it needs; generate writes as it goes (frame 0
 // arrives while later frames are still being made) and refuses a file its
 // disk cannot hold.
 TEST_F(SignalsCliTest, MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
@@ -177,18 +178,24 @@ TEST_F(SignalsCliTest, MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
   std::memcpy(huge.data() + 256, &most, sizeof(most));
   const fs::path header = write("huge.bin", huge);
   const fs::path line = write("line5k.aabbs", lineStream(5000, 1));
+  const fs::path sparse = write("line100k.aabbs", lineStream(100000, 1));
   const std::vector<std::pair<std::string, std::string>> refused = {
       {"cat " + header.string() + " | " + OVERLAP_BINARY +
            " pairs --algo bf --max-memory 1000 --input /dev/stdin",
-       "--input /dev/stdin: a frame of 2147483647 boxes with --algo bf needs 68.7 GB, above the "
+       "--input /dev/stdin: a frame of 2147483647 boxes with --algo bf needs 352.2 GB, above the "
        "memory limit 1.0 GB (--max-memory)"},
       {std::string(OVERLAP_BINARY) + " pairs --algo cpubf --max-memory 1 --input " + line.string(),
-       "a frame of 5000 boxes with --algo cpubf needs 1.7 MB"},
+       "a frame of 5000 boxes with --algo cpubf needs 3.5 MB"},
       {std::string(OVERLAP_BENCH_BINARY) +
            " --algos cpubf --warmup 0 --repeats 1 --max-memory 1 "
            "--input " +
            line.string() + " --out " + (out_ / "b").string(),
-       "n=5000 with --algos cpubf needs 1.7 MB"},
+       "n=5000 with --algos cpubf needs 3.5 MB"},
+      // What the broadphase holds for each box counts, not only the box
+      // (100000 boxes are 3.2 MB).
+      {std::string(OVERLAP_BINARY) + " pairs --algo cpusap --max-memory 20 --input " +
+           sparse.string(),
+       "a frame of 100000 boxes with --algo cpusap needs 48.4 MB"},
       {std::string(OVERLAP_BINARY) + " generate --objects 10000000 --frames 1000000 --out " +
            (out_ / "g.aabbs").string(),
        "g.aabbs: needs 320.0 TB, and its folder has"},

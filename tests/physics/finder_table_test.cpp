@@ -50,10 +50,13 @@ class NaiveFinder final : public finders::PairFinder {
 std::vector<finders::PairFinderRow> tableWithNaive() {
   std::vector<finders::PairFinderRow> table(finders::pairFinderTable().begin(),
                                             finders::pairFinderTable().end());
-  table.push_back({"naive", false, "every pair tested, one by one",
+  table.push_back({"naive",
+                   false,
+                   "every pair tested, one by one",
                    [](TaskSystem&) -> std::unique_ptr<finders::PairFinder> {
                      return std::make_unique<NaiveFinder>();
-                   }});
+                   },
+                   {.per_pair = 3 * sizeof(finders::IndexPair)}});
   return table;
 }
 
