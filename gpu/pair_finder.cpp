@@ -17,11 +17,25 @@ void PairFinder::launchWithChanges(std::span<const ObjectBounds> objects,
   start(objects, &changed);
 }
 
+PairLimitError::PairLimitError(std::string_view finder, std::uint64_t most)
+    : std::runtime_error(std::string(finder) + ": a frame has more than the pair limit's " +
+                         std::to_string(most) + " pairs"),
+      most_pairs(most) {}
+
+void PairFinder::setPairLimit(std::uint64_t most_pairs) {
+  if (in_flight_) {
+    throw std::runtime_error(std::string(name()) +
+                             ": setPairLimit() called between launch() and finish()");
+  }
+  pair_limit_ = most_pairs == 0 ? UINT64_MAX : most_pairs;
+}
+
 void PairFinder::start(std::span<const ObjectBounds> objects,
                        const std::span<const std::uint32_t>* changed) {
   if (in_flight_) {
     throw std::runtime_error(std::string(name()) + ": launch() called twice without finish()");
   }
+  if (spent_) throw *spent_;
   launched_at_ = SteadyClock::now();
   startSearch(objects, changed);
   in_flight_ = true;
@@ -32,7 +46,13 @@ PairDelta PairFinder::finish() {
     throw std::runtime_error(std::string(name()) + ": finish() called without launch()");
   }
   in_flight_ = false;
-  const PairDelta delta = finishSearch();
+  PairDelta delta;
+  try {
+    delta = finishSearch();
+  } catch (const PairLimitError& refusal) {
+    spent_ = refusal;
+    throw;
+  }
   launch_to_finish_ms_ = msSinceLaunch();
   return delta;
 }

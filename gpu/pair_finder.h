@@ -34,7 +34,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -87,6 +89,15 @@ struct SearchStats {
   DeviceWork device;
 };
 
+// A frame with more pairs than the finder's pair limit (setPairLimit()):
+// finish() throws it.  The finder stopped collecting them when the limit was
+// passed, so it held lists for about that many pairs, not for the frame's.
+class PairLimitError : public std::runtime_error {
+ public:
+  PairLimitError(std::string_view finder, std::uint64_t most_pairs);
+  std::uint64_t most_pairs;  // the limit; the frame had more
+};
+
 // The interface every finder implements.  The base class keeps the calls'
 // order and the launch-to-finish clock, once for every finder: launch()
 // (or launchWithChanges()) and finish() strictly alternate, stagingFor()
@@ -120,6 +131,11 @@ class PairFinder {
   std::span<ObjectBounds> stagingFor(std::size_t count);
   // The last finished search's record (zeros before the first).
   SearchStats lastStats() const;
+  // The most pairs a frame may have, 0 for no limit (the default), set
+  // between frames: a frame with more is refused (PairLimitError), and the
+  // finder is then spent: every later launch() throws the same error, since
+  // it dropped the pairs it would compare the next frame with.
+  void setPairLimit(std::uint64_t most_pairs);
 
  protected:
   // launch()'s work, called between frames only.  `changed` is null for
@@ -135,10 +151,17 @@ class PairFinder {
   virtual SearchStats searchStats() const = 0;
   // Milliseconds since the current (or last) launch() began.
   double msSinceLaunch() const;
+  // The pair limit, UINT64_MAX where there is none.  A hook that finds a
+  // frame's pairs (or its added ones, which are no more) passing it stops
+  // collecting them and has finishSearch() throw pairLimitError().
+  std::uint64_t pairLimit() const { return pair_limit_; }
+  PairLimitError pairLimitError() const { return PairLimitError(name(), pair_limit_); }
 
  private:
   void start(std::span<const ObjectBounds> objects, const std::span<const std::uint32_t>* changed);
 
+  std::uint64_t pair_limit_ = UINT64_MAX;
+  std::optional<PairLimitError> spent_;  // the refusal that spent the finder
   bool in_flight_ = false;
   std::chrono::steady_clock::time_point launched_at_{};
   double launch_to_finish_ms_ = 0;

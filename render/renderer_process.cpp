@@ -9,6 +9,8 @@
 #include <csignal>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -136,8 +138,28 @@ bool replying(int fd, Work&& work) {
 
 }  // namespace
 
+namespace {
+
+// The threads of this process, as the kernel lists them.
+int threadsRunning() {
+  int count = 0;
+  std::error_code error;
+  for (std::filesystem::directory_iterator entry("/proc/self/task", error), end;
+       !error && entry != end; entry.increment(error)) {
+    ++count;
+  }
+  return count;
+}
+
+}  // namespace
+
 RendererProcess::RendererProcess(int width, int height, ColourMode mode)
     : width_(width), height_(height) {
+  if (const int threads = threadsRunning(); threads > 1) {
+    throw std::logic_error("RendererProcess: made with " + std::to_string(threads) +
+                           " threads running; make it before the first (its child is a fork "
+                           "without exec)");
+  }
   int ends[2];
   if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, ends) != 0) throw std::bad_alloc();
   const pid_t program = ::getpid();

@@ -15,9 +15,12 @@
 // RenderError naming the problem), raised in the program; a child that
 // dies throws RendererOutOfMemory, and every later call throws it too; the
 // destructor waits for the child, so none outlives its RendererProcess.
-// Rule: make it before anything in the process calls OSMesa: the child is a
-// fork without exec, and one forked after the process made an OSMesa context
-// hung (tests/render/renderer_process_test.cpp).
+// Rule: make it before the process starts a thread or calls OSMesa: the
+// child is a fork without exec, which may use only what no other thread held
+// at the fork (one forked after the process made an OSMesa context hung,
+// tests/render/renderer_process_test.cpp); made with a second thread
+// running it throws std::logic_error.  `overlap run` and `capture` make it
+// before their task system's first thread.
 #pragma once
 
 #include <sys/types.h>

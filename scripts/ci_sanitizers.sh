@@ -43,8 +43,6 @@ readonly ASAN_LABELS='gpu|emulation|physics|hard_cases|render|fuzz'
 # The test executables labelled threads (tests/*/CMakeLists.txt).
 readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests
   overlap_narrowphase_tests overlap_solver_tests)
-launcher=()
-if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
 section() { printf '\n== %s: %s\n' "$(date +%T)" "$*"; }
 
@@ -52,7 +50,7 @@ readonly SANITIZERS="${SANITIZERS:-asan tsan}"
 
 tsan_build() {
   cmake --preset tsan -B "$TSAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
-    "${UNITY[@]}" "${launcher[@]}" >/dev/null
+    "${UNITY[@]}" >/dev/null
   cmake --build "$TSAN_DIR" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
 }
 # With both, the TSan build runs at low priority beside the ASan suite, which
@@ -67,7 +65,7 @@ fi
 if [[ " $SANITIZERS " == *" asan "* ]]; then
 section "ASan + UBSan: configure and build ($ASAN_DIR)"
 cmake --preset asan -B "$ASAN_DIR" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$SANITIZER_FLAGS" \
-  "${UNITY[@]}" "${launcher[@]}" >/dev/null
+  "${UNITY[@]}" >/dev/null
 cmake --build "$ASAN_DIR" -j "$JOBS" --target "${ASAN_TARGETS[@]}"
 if [[ -n "$tsan_log" ]]; then
   section "TSan: configure and build ($TSAN_DIR) beside the ASan suite"

@@ -1,5 +1,5 @@
-"""The findings: one line per claim (the claim, its verdict, the figure, the machine,
-the section), the report's first table.
+"""The findings: one line per claim (the claim, its verdict, the figure, the runs a
+timed cell stands on, the machine, the section), the report's first table.
 
 Rules, each with its reason:
   * A claim's verdict is study_targets.verdict() of its section's own targets, the
@@ -162,33 +162,49 @@ def summary_figure(targets: list) -> str:
         f" ({len(targets) - len(ran)} not run)" if len(ran) < len(targets) else "")
 
 
-def row(claim: str, targets: list, machine: str, section: str, figure: str = None) -> list:
-    return [claim, study_targets.verdict(targets) or "—",
-            figure or summary_figure(targets), machine, section]
+def row(claim: str, targets: list, machine: str, section: str, runs: str = "—") -> list:
+    return [claim, study_targets.verdict(targets) or "—", summary_figure(targets), runs,
+            machine, section]
 
 
-def per_finder_rows(claim: str, targets: list, machine: str) -> list:
+def runs_a_cell(rows: list) -> str:
+    """The runs behind each timed cell of `rows` (their `repetitions`), "1" or "2-3";
+    "—" when none ran."""
+    counts = sorted({r["repetitions"] for r in rows})
+    if not counts:
+        return "—"
+    return str(counts[0]) if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+
+
+def per_finder_rows(claim: str, targets: list, machine: str, runs: str) -> list:
     """A paper claim for each GPU finder: one row per finder that ran, one row (with no
     verdict) when none did."""
     ran = [(algo, t) for algo, t in zip(PAPER_GPU, targets) if t.met is not None]
     if not ran:
         return [row(claim, targets[:1], machine, "§1")]
-    return [row(f"{claim} ({algo})", [t], machine, "§1") for algo, t in ran]
+    return [row(f"{claim} ({algo})", [t], machine, "§1", runs) for algo, t in ran]
 
 
-def this_machine_rows(s: dict, machine: str) -> list:
+def this_machine_rows(s: dict, machine: str, runs: dict) -> list:
+    """`runs`: runs a cell of the sweep, the overlap runs and the ideal runs."""
+    sweep = runs["sweep"]
+
+    def timed(claim: str, key: str, section: str, how_many: str) -> list:
+        ran = any(t.met is not None for t in s[key])
+        return row(claim, s[key], machine, section, how_many if ran else "—")
+
     return (
-        [row("Premise: the broadphase is a large part of the frame", s["premise"], machine,
-             "§1.2")]
-        + per_finder_rows("Paper 1: GPU-BF beats BF everywhere", s["paper1"], machine)
-        + [row("Paper 1 for GPU-BF's CPU twin (cpubf)", s["twin1"], machine, "§1")]
-        + per_finder_rows("Paper 2: GPU-BF is near SAP and BVH", s["paper2"], machine)
-        + [row("Paper 2 for GPU-BF's CPU twin (cpubf)", s["twin2"], machine, "§1"),
-           row("Paper 3: GPU-BF does best in scene 4 (mixed sizes)", s["paper3"], machine, "§1"),
-           row("Ours: cpusap beats Bullet's CPU broadphases", s["cpusap"], machine, "§1"),
-           row("Ours: the asynchronous frame pays", s["overlap"], machine, "§4"),
-           row("Ours: the frame is near the ideal for its cores", s["overlap_ideal"], machine,
-               "§4.1"),
+        [timed("Premise: the broadphase is a large part of the frame", "premise", "§1.2",
+               sweep)]
+        + per_finder_rows("Paper 1: GPU-BF beats BF everywhere", s["paper1"], machine, sweep)
+        + [timed("Paper 1 for GPU-BF's CPU twin (cpubf)", "twin1", "§1", sweep)]
+        + per_finder_rows("Paper 2: GPU-BF is near SAP and BVH", s["paper2"], machine, sweep)
+        + [timed("Paper 2 for GPU-BF's CPU twin (cpubf)", "twin2", "§1", sweep),
+           timed("Paper 3: GPU-BF does best in scene 4 (mixed sizes)", "paper3", "§1", sweep),
+           timed("Ours: cpusap beats Bullet's CPU broadphases", "cpusap", "§1", sweep),
+           timed("Ours: the asynchronous frame pays", "overlap", "§4", runs["overlap"]),
+           timed("Ours: the frame is near the ideal for its cores", "overlap_ideal", "§4.1",
+                 runs["ideal"]),
            row("Ours: the exact finders are exact", s["pairs"], machine, "§3.1"),
            row("Ours: the default substeps and CCD cost less than the old fixed K, "
                "no more error", s["physics"], machine, "§3.2")])
@@ -215,18 +231,23 @@ def machine_label(machine: dict) -> str:
     return machine["gpu"].split(" (")[0].removeprefix("NVIDIA ") + " host"
 
 
-def findings_lines(sections: dict, machine: dict, commit_line: str, table) -> list:
-    """The machines, once, then the findings table.  `sections`: each claim's targets."""
+def findings_lines(sections: dict, machine: dict, commit_line: str, table, runs: dict) -> list:
+    """The machines, once, then the findings table.  `sections`: each claim's targets;
+    `runs`: runs_a_cell() of the sweep's, the overlap's and the ideal's rows."""
     label = machine_label(machine)
     legend = [f"**{label}**: this study's runs; {commit_line}"]
-    rows = this_machine_rows(sections, label)
+    rows = this_machine_rows(sections, label, runs)
     if not any(t.met is not None for key in ("paper1", "paper2", "paper3")
                for t in sections[key]):
         more, gpu_rows = gpu_machine_rows()
         legend += more
         rows += gpu_rows
     lines = ["Machines:", ""] + [f"- {entry}" for entry in legend] + [""]
-    return lines + table(["claim", "verdict", "figure", "machine", "section"], rows)
+    note = ["", "*runs a cell*: the runs of each timed cell behind a timing verdict. On a "
+            "machine shared with other jobs, a verdict on one run a cell can turn from one "
+            "study to the next (--profile with more repetitions settles it)."]
+    return lines + table(["claim", "verdict", "figure", "runs a cell", "machine", "section"],
+                         rows) + note
 
 
 def sections_targets(cells: list, stages: list, pairs: list, physics: list, overlap: list,

@@ -270,7 +270,11 @@ def blocks_of(args, jobs: list, data: dict, machine: dict, figures: dict) -> tup
                                                figures)
     blocks = {
         "header": header_block(args, machine, d["cells"], run_seconds(args)),
-        "findings": study_claims.findings_lines(targets, machine, commit, table),
+        "findings": study_claims.findings_lines(
+            targets, machine, commit, table,
+            {"sweep": study_claims.runs_a_cell(d["cells"]),
+             "overlap": study_claims.runs_a_cell(d["overlap"]),
+             "ideal": study_claims.runs_a_cell(d["overlap_ideal"])}),
         "sweep": study_sweep.sweep_block(args, d["runs"], d["cells"], jobs, d["pairs"],
                                          figures),
         "paper_claims": study_sweep.claims_block(targets, d["cells"]),

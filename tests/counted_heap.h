@@ -2,7 +2,8 @@
 // operator new and delete (link it only into an executable of memory tests);
 // a test hands Bullet countedAllocation and countedRelease
 // (btAlignedAllocSetCustom) before it makes any Bullet object.  Counts are
-// usable sizes, so the allocator's rounding is in.
+// usable sizes, so the allocator's rounding is in; an aligned allocation
+// counts the bytes it asked for, rounded to its alignment.
 #pragma once
 
 #include <cstddef>

@@ -588,15 +588,17 @@ void printRunSummary(const RunPlan& plan, const SteppedRuns& runs) {
 
 void run(const RunArguments& arguments, const RunOptionHandles& given) {
   RunPlan plan = resolvePlan(arguments, given);
-  const RunThreads threads = runThreads(plan.threads);
-  plan.world.tasks = threads.tasks.get();
   // Everything goes to temporaries, published together at the end.
   OutputFolder outputs(plan.out);
   declareOutputs(outputs, plan);
+  // The renderer's process is forked before this one starts a thread
+  // (render/renderer_process.h); it opens no output.
+  const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
+  const RunThreads threads = runThreads(plan.threads);
+  plan.world.tasks = threads.tasks.get();
   // Before any output is opened: a calibration stopped leaves no temporary.
   calibrateTasks(plan);
   OutputFile* wav = plan.wav_file ? &outputs.open(*plan.wav_file) : nullptr;
-  const std::unique_ptr<FrameCapture> camera = openCamera(plan, outputs);
   const SteppedRuns runs = stepRuns(plan, wav, camera.get());
   const std::vector<std::string> removed = writeOutputs(plan, runs, outputs);
   std::fprintf(stderr, "%s\n",

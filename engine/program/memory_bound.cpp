@@ -110,9 +110,10 @@ UsageError pairMemoryRefusal(const physics::PairMemoryError& error, std::uint64_
                              const std::string& what) {
   const std::uint64_t limit = limitBytes(limit_mb);
   const std::uint64_t besides = limit > error.limit ? limit - error.limit : 0;
-  return UsageError(what + ": " + std::to_string(error.pairs) + " pairs need " +
-                    readableBytes(error.bytes) + ", with the " + readableBytes(besides) +
-                    " the run holds besides" + aboveTheLimit(limit_mb));
+  const std::string more_than = error.more_than ? "more than " : "";
+  return UsageError(what + ": " + more_than + std::to_string(error.pairs) + " pairs need " +
+                    more_than + readableBytes(error.bytes) + ", with the " +
+                    readableBytes(besides) + " the run holds besides" + aboveTheLimit(limit_mb));
 }
 
 }  // namespace overlap::engine

@@ -14,8 +14,9 @@
 //     cpubf's and gpubf's bit matrices of every pair of slots among them).
 //   * What grows with the pairs found is bounded by what is left: the pair
 //     cache (physics/broadphase/bulk_pair_cache.h, with our finders' own pair lists)
-//     refuses to grow past it, and the command exits 2 with the pair count
-//     and the memory they need.
+//     refuses to grow past it, and our finders stop collecting a frame's
+//     pairs past the most it could hold (finders::PairFinder::setPairLimit);
+//     the command exits 2 with the pair count and the memory they need.
 //   * Whatever allocation still fails throws std::bad_alloc (Bullet's
 //     included), which the commands report as running out of memory, exit 1.
 #pragma once
@@ -51,7 +52,8 @@ void requireMemory(std::uint64_t bytes, std::uint64_t limit_mb, const std::strin
 std::uint64_t pairMemoryLimit(std::uint64_t counted, std::uint64_t limit_mb);
 
 // The UsageError for pairs the limit cannot hold: "WHAT: N pairs need X,
-// with the Y the run holds besides above the memory limit Z (--max-memory)".
+// with the Y the run holds besides above the memory limit Z (--max-memory)";
+// "more than N pairs need more than X" where a finder stopped at the limit.
 UsageError pairMemoryRefusal(const physics::PairMemoryError& error, std::uint64_t limit_mb,
                              const std::string& what);
 

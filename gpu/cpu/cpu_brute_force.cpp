@@ -168,16 +168,27 @@ void CpuBruteForceFinder::startSearch(std::span<const ObjectBounds> objects,
   const std::uint64_t block_count = (word_count + kBlockWords - 1) / kBlockWords;
   // The pieces' bounds do not matter to the result (it is sorted below).
   const std::size_t grain = grainFor(block_count, tasks_.threads(), kPiecesPerThread, 1);
+  // Added pairs only: the removed ones were last frame's, within the limit.
+  added_count_.store(0, std::memory_order_relaxed);
+  const std::uint64_t most = pairLimit();
   tasks_.forEachPiece(block_count, grain, [&](std::size_t first_block, std::size_t end_block) {
     Changes& changes = thread_changes_[static_cast<std::size_t>(tasks_.threadIndex())];
     for (std::size_t block = first_block; block != end_block; ++block) {
       // A signal cuts a long search short (the caller stops:
-      // gpu/base/interrupt.h); the words left are not searched.
-      if (pendingInterrupt() != 0) return;
+      // gpu/base/interrupt.h), and so does passing the pair limit; the words
+      // left are not searched.
+      if (pendingInterrupt() != 0 || added_count_.load(std::memory_order_relaxed) > most) return;
       const std::uint64_t first_word = block * kBlockWords;
+      const std::size_t before = changes.added.size();
       searchWords(first_word, std::min(first_word + kBlockWords, word_count), changes);
+      added_count_.fetch_add(changes.added.size() - before, std::memory_order_relaxed);
     }
   });
+  over_limit_ = added_count_.load(std::memory_order_relaxed) > most;
+  if (over_limit_) {
+    stats_.search_ms = msSinceLaunch();
+    return;
+  }
 
   result_.added.clear();
   result_.removed.clear();
@@ -191,6 +202,7 @@ void CpuBruteForceFinder::startSearch(std::span<const ObjectBounds> objects,
 }
 
 PairDelta CpuBruteForceFinder::finishSearch() {
+  if (over_limit_) throw pairLimitError();
   return PairDelta{result_.added, result_.removed};
 }
 

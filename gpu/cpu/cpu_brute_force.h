@@ -13,9 +13,11 @@
 // A signal (gpu/base/interrupt.h's flag) cuts a search short between blocks:
 // its result is then partial and the finder's words are not last frame's;
 // the caller stops (the world and the replay throw Interrupted) and only
-// destroys the finder after it.
+// destroys the finder after it.  A frame adding more pairs than the pair
+// limit stops the same way, between blocks, and finish() refuses it.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -56,7 +58,9 @@ class CpuBruteForceFinder final : public PairFinder {
   std::vector<std::uint32_t> words_;  // last frame's bits, overwritten in place
 
   Changes result_;
-  SearchStats stats_;  // its search_ms only
+  std::atomic<std::uint64_t> added_count_{0};  // this frame's added pairs, as found
+  bool over_limit_ = false;                    // this frame added more than pairLimit()
+  SearchStats stats_;                          // its search_ms only
 };
 
 }  // namespace overlap::finders

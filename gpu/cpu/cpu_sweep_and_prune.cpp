@@ -55,7 +55,10 @@ CpuSweepAndPruneFinder::CpuSweepAndPruneFinder(TaskSystem& tasks, sap::SweepKern
     : tasks_(tasks),
       kernel_(resolveKernel(kernel)),
       thread_pairs_(static_cast<std::size_t>(tasks.threads())),
-      moved_boxes_(tasks) {}
+      moved_boxes_(tasks) {
+  for (PairKeys& pairs : thread_pairs_) pairs.limitBy(&key_limit_);
+  inverted_pairs_.limitBy(&key_limit_);
+}
 
 CpuSweepAndPruneFinder::Spread CpuSweepAndPruneFinder::sortOutBoxes(
     std::span<const ObjectBounds> objects) {
@@ -263,9 +266,13 @@ void CpuSweepAndPruneFinder::testInvertedBoxes(std::span<const ObjectBounds> obj
 void CpuSweepAndPruneFinder::startSearch(std::span<const ObjectBounds> objects,
                                          const std::span<const std::uint32_t>* changed) {
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
+  key_limit_.found.store(0, std::memory_order_relaxed);
+  key_limit_.most = pairLimit();
   const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
   moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, stats_.phases);
   if (!moved_only_) searchAll(objects);
+  // This frame's pairs are no fewer than those it added.
+  over_limit_ = key_limit_.exceeded() || added_.size() > pairLimit();
   stats_.search_ms = msSinceLaunch();
   moved_boxes_.searchFinished();
 }
@@ -280,6 +287,14 @@ void CpuSweepAndPruneFinder::searchAll(std::span<const ObjectBounds> objects) {
   sweep();                     // 5
   testInvertedBoxes(objects);  // 6
   stats_.phases.sweep_ms = msSinceLaunch() - stats_.phases.sort_ms;
+  std::uint64_t found = inverted_pairs_.size();
+  for (const PairKeys& pairs : thread_pairs_) found += pairs.size();
+  if (key_limit_.exceeded() || found > key_limit_.most) {
+    key_limit_.found.store(UINT64_MAX, std::memory_order_relaxed);  // refused
+    added_.clear();
+    removed_.clear();
+    return;
+  }
   computeDelta();  // 7
   layout_.indexForQueries();
   moved_boxes_.keepFullFrame(objects.first(slot_count_), !inverted_.empty());
@@ -333,6 +348,7 @@ void CpuSweepAndPruneFinder::computeDelta() {
 }
 
 PairDelta CpuSweepAndPruneFinder::finishSearch() {
+  if (over_limit_) throw pairLimitError();
   return PairDelta{added_, removed_};
 }
 

@@ -19,7 +19,9 @@
 //   6. test the inverted boxes against every box, one by one;
 //   7. group the pairs by lower slot (gpu/pairs/pair_set.h) and merge them with
 //      last frame's: the delta, sorted, with no help from Bullet.
-// finish() only hands the delta over.
+// finish() only hands the delta over.  Past the pair limit the sweep's lists
+// stop growing (gpu/pairs/pair_set.h's KeyLimit) and step 7 is skipped;
+// finish() refuses the frame.
 //
 // A frame in which few boxes changed skips all of that: the moved-box path
 // (gpu/cpu/cpu_sap_moved_boxes.h, owned by the finder) queries only the boxes
@@ -98,6 +100,8 @@ class CpuSweepAndPruneFinder final : public PairFinder {
   sap::SweepKernel kernel_;
   std::vector<PairKeys> thread_pairs_;  // one a thread of tasks_, by threadIndex()
   PairKeys inverted_pairs_;
+  KeyLimit key_limit_;       // both count into it: pairLimit() for the sweep's lists
+  bool over_limit_ = false;  // this frame has more pairs than pairLimit()
 
   std::uint32_t slot_count_ = 0;
   int sweep_axis_ = -1;  // none yet

@@ -348,6 +348,9 @@ class GpuBruteForceFinder final : public PairFinder {
     IndexPair* head_removed = host_block_.data()->head[kRemoved];
     IndexPair* added = head_added;
     IndexPair* removed = head_removed;
+    // Counted on the device: a frame past the limit is refused before its
+    // lists are fetched, or grown for.
+    if (added_count > pairLimit()) throw pairLimitError();
     if (std::max(added_count, removed_count) > kHeadEntries) {
       // More changes than the block holds: fetch the tails too, as part of
       // the copy back (the done event is recorded again after them).

@@ -297,6 +297,9 @@ class GpuSweepAndPruneFinder final : public PairFinder {
   PairDelta collectDelta() {
     device_.wait(FinderDevice::kDone);
     SapResultBlock& block = *host_.data();
+    // Counted on the device, even where the room was too small: a frame past
+    // the limit is refused before anything grows for it.
+    if (block.counts.pairs > pairLimit()) throw pairLimitError();
     if (spoiled(block.counts.entries, block.counts.pairs, keys_[0].size(), pairCapacity())) {
       // The first run counts too, never the host's time between the runs:
       // the second records the events again, so the first's are read now.

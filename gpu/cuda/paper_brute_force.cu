@@ -104,7 +104,7 @@ class PaperBruteForceFinder final : public PairFinder {
       device_.record(FinderDevice::kDone);
       device_.wait(FinderDevice::kDone);
       searched_ = true;
-      compareWithLastFrame();
+      if (!compareWithLastFrame()) throw pairLimitError();
       std::swap(current_, previous_);
     }
     // Scanning by byte index lists pairs by (b, a); the contract wants (a, b).
@@ -124,10 +124,12 @@ class PaperBruteForceFinder final : public PairFinder {
   }
 
   // The host side XOR, eight bytes at a time so that the unchanged majority
-  // costs one comparison per eight pairs.
-  void compareWithLastFrame() {
+  // costs one comparison per eight pairs.  False, the lists left short, once
+  // the frame has added more pairs than the pair limit.
+  bool compareWithLastFrame() {
     const std::size_t size = current_.size();
     for (std::size_t chunk = 0; chunk < size; chunk += sizeof(std::uint64_t)) {
+      if (added_.size() > pairLimit()) return false;
       const std::size_t length = std::min(sizeof(std::uint64_t), size - chunk);
       std::uint64_t now = 0;
       std::uint64_t before = 0;
@@ -140,6 +142,7 @@ class PaperBruteForceFinder final : public PairFinder {
         }
       }
     }
+    return added_.size() <= pairLimit();
   }
 
   std::uint32_t slot_count_ = 0;

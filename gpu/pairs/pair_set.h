@@ -18,6 +18,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -30,15 +31,26 @@ namespace overlap::finders {
 // The pair keys a search appends, kept from frame to frame so that it
 // allocates only while it grows.  The sweep's AVX2 kernel writes a whole
 // vector of keys at once and then keeps as many as it found.
+// A frame's lists may share a KeyLimit: each counts its keys into `found`
+// when it must grow, and once `found` passes `most` it drops its keys
+// instead of growing, so the lists stay near `most` keys in all whatever the
+// frame holds.  The caller then refuses the frame (exceeded()).  Counting
+// only when growing keeps the sweep free of shared writes.
+struct KeyLimit {
+  std::atomic<std::uint64_t> found{0};
+  std::uint64_t most = UINT64_MAX;
+  bool exceeded() const { return found.load(std::memory_order_relaxed) > most; }
+};
+
 class PairKeys {
  public:
-  void clear() { count_ = 0; }
+  void clear() { count_ = reported_ = 0; }
+  // Counts into `limit` from now on (null: none); it must outlive its use.
+  void limitBy(KeyLimit* limit) { limit_ = limit; }
   std::size_t size() const { return count_; }
   // Room for `more` keys from the end: write them there, then commit().
   std::uint64_t* room(std::size_t more) {
-    if (count_ + more > storage_.size()) {
-      storage_.resize(std::max({2 * storage_.size(), count_ + more, std::size_t{1024}}));
-    }
+    if (count_ + more > storage_.size()) grow(more);
     return storage_.data() + count_;
   }
   void commit(std::size_t written) { count_ += written; }
@@ -49,8 +61,22 @@ class PairKeys {
   std::span<const std::uint64_t> keys() const { return {storage_.data(), count_}; }
 
  private:
+  void grow(std::size_t more) {
+    if (limit_ != nullptr) {
+      limit_->found.fetch_add(count_ - reported_, std::memory_order_relaxed);
+      reported_ = count_;
+      if (limit_->exceeded()) {  // a refused frame: its keys are dropped
+        count_ = reported_ = 0;
+        if (more <= storage_.size()) return;
+      }
+    }
+    storage_.resize(std::max({2 * storage_.size(), count_ + more, std::size_t{1024}}));
+  }
+
   std::vector<std::uint64_t> storage_;  // its size is the capacity
   std::size_t count_ = 0;
+  std::size_t reported_ = 0;  // of count_, counted into limit_
+  KeyLimit* limit_ = nullptr;
 };
 
 class PairSet {

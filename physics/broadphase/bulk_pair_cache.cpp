@@ -55,13 +55,16 @@ void freeLookupMemory(void* memory, std::size_t bytes) noexcept {
   ::operator delete(memory, lookupAlignment(std::max<std::size_t>(bytes, 1)));
 }
 
-PairMemoryError::PairMemoryError(std::uint64_t pair_count, std::uint64_t needed, std::uint64_t most)
-    : std::runtime_error(std::to_string(pair_count) + " pairs need " + std::to_string(needed) +
+PairMemoryError::PairMemoryError(std::uint64_t pair_count, std::uint64_t needed, std::uint64_t most,
+                                 bool at_least)
+    : std::runtime_error(std::string(at_least ? "more than " : "") + std::to_string(pair_count) +
+                         " pairs need " + (at_least ? "more than " : "") + std::to_string(needed) +
                          " bytes, above the pair memory limit of " + std::to_string(most) +
                          " bytes"),
       pairs(pair_count),
       bytes(needed),
-      limit(most) {}
+      limit(most),
+      more_than(at_least) {}
 
 BulkPairCache::BulkPairCache() {
   index_.assign(kSmallestIndex, IndexSlot{kEmpty, 0, 0});
@@ -77,6 +80,19 @@ std::uint64_t BulkPairCache::bytesFor(std::size_t capacity, std::size_t index_sl
   return std::uint64_t{capacity} *
              (sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_) +
          std::uint64_t{index_slots} * sizeof(IndexSlot);
+}
+
+std::uint64_t BulkPairCache::mostPairs() const {
+  if (memory_limit_ == 0) return 0;
+  return std::max<std::uint64_t>(
+      1, memory_limit_ / (sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_));
+}
+
+void BulkPairCache::refuseMoreThan(std::uint64_t most_pairs) const {
+  const std::size_t pairs = static_cast<std::size_t>(most_pairs);
+  throw PairMemoryError(most_pairs,
+                        bytesFor(pairs, std::bit_ceil(std::max(2 * pairs, kSmallestIndex))),
+                        memory_limit_, true);
 }
 
 std::uint64_t BulkPairCache::bytesHeld() const {

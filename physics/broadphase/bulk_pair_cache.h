@@ -51,11 +51,15 @@
 namespace overlap::physics {
 
 // A cache that would grow past its memory limit: how many pairs it was to
-// hold, what they need, and the limit.
+// hold, what they need, and the limit.  With `more_than`, a finder stopped
+// counting at `pairs` (the most the limit could hold): the frame has more,
+// and needs more than `bytes`.
 class PairMemoryError : public std::runtime_error {
  public:
-  PairMemoryError(std::uint64_t pairs, std::uint64_t bytes, std::uint64_t limit);
+  PairMemoryError(std::uint64_t pairs, std::uint64_t bytes, std::uint64_t limit,
+                  bool more_than = false);
   std::uint64_t pairs, bytes, limit;
+  bool more_than;
 };
 
 // Memory for the cache's big arrays: 2 MiB aligned and marked for huge pages
@@ -105,6 +109,13 @@ class BulkPairCache final : public btOverlappingPairCache {
   }
   // The pair array, keys and index as allocated.
   std::uint64_t bytesHeld() const;
+  // The most pairs the limit could ever hold, 0 without a limit: a pair
+  // finder's limit (finders::PairFinder::setPairLimit), so that a frame the
+  // cache would refuse stops the finder before its lists grow for it.
+  std::uint64_t mostPairs() const;
+  // Throws the PairMemoryError of a frame with more than `most_pairs` pairs,
+  // a finder's refusal (finders::PairLimitError).
+  [[noreturn]] void refuseMoreThan(std::uint64_t most_pairs) const;
   // Throws the PairMemoryError of the first pair addOverlappingPair() refused
   // under the memory limit, if any.  Call it after each call into Bullet.
   void throwIfRefused() const {

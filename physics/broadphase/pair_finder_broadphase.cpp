@@ -192,7 +192,12 @@ void PairFinderBroadphase::applySearch(btDispatcher* dispatcher) {
   for (const std::uint32_t slot : changed_slots_) changed_flags_[slot] = 0;
   changed_slots_.clear();
   const HostStopwatch finish_watch;
-  const finders::PairDelta delta = finder_->finish();
+  finders::PairDelta delta;
+  try {
+    delta = finder_->finish();
+  } catch (const finders::PairLimitError& refusal) {
+    pair_cache_->refuseMoreThan(refusal.most_pairs);
+  }
   last_search_wait_ms_ += finish_watch.ms();
   const HostStopwatch cache_watch;
   // A pair with a destroyed proxy already left the cache with it: only pairs
@@ -212,6 +217,7 @@ void PairFinderBroadphase::applySearch(btDispatcher* dispatcher) {
 // the slots added since the last search are copied there, the rest were
 // written as they changed.
 void PairFinderBroadphase::launchFromStaging() {
+  finder_->setPairLimit(pair_cache_->mostPairs());
   const std::span<finders::ObjectBounds> staging = finder_->stagingFor(search_entries_.size());
   if (staging.empty()) {
     staging_ = {};

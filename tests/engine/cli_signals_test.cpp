@@ -278,6 +278,31 @@ TEST_F(SignalsCliTest, PairsBeyondTheMemoryLimitAreRefusedWithTheirCountAndSize)
                              " --input " + ident.string()),
                   algorithm);
   }
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  // The limit holds for what the run allocates: its peak RSS above the same
+  // command's on two boxes (the program and its libraries).  Our finders
+  // stop collecting a frame's pairs at the most the limit could hold,
+  // Bullet's hand them to the cache one by one.
+  const fs::path two = write("line2.aabbs", lineStream(2, 1));
+  const auto peakKilobytes = [](const std::string& command, int expected_exit) {
+    const std::string line = "exec " + command + " > /dev/null 2>&1";
+    const char* argv[] = {"/bin/sh", "-c", line.c_str(), nullptr};
+    pid_t pid = 0;
+    EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+    int status = 0;
+    rusage usage{};
+    ::wait4(pid, &status, 0, &usage);
+    EXPECT_TRUE(exitedWith(status, expected_exit)) << command;
+    return usage.ru_maxrss;
+  };
+  for (const char* algorithm : {"bvh", "cpubf", "cpusap"}) {
+    const std::string pairs =
+        std::string(OVERLAP_BINARY) + " pairs --max-memory 100 --algo " + algorithm + " --input ";
+    const long held =
+        peakKilobytes(pairs + ident.string(), 2) - peakKilobytes(pairs + two.string(), 0);
+    EXPECT_LT(held * 1024, 100'000'000) << algorithm << ": " << held << " kB above two boxes' run";
+  }
+#endif
   expectRefused(runCommand(std::string(OVERLAP_BENCH_BINARY) +
                            " --algos cpusap --warmup 0 --repeats 1 --max-memory 300 --input " +
                            ident.string() + " --out " + (out_ / "b").string()),

@@ -96,7 +96,7 @@ TEST_P(FinderMemoryTest, HoldsNoMoreThanItsRatesForBoxesThatPairWithNothing) {
 // half the pairs are removed and as many added.  Box counts on either side of
 // the lists' doublings.
 TEST_P(FinderMemoryTest, HoldsNoMoreThanItsRatesWhileClumpsOfPairsChange) {
-  for (const std::uint32_t boxes_count : {1100u, 2600u}) {
+  for (const std::uint32_t boxes_count : {900u, 1900u}) {
     std::vector<ObjectBounds> boxes(boxes_count);
     const auto clump = [&](bool by_parity) {
       for (std::uint32_t i = 0; i < boxes_count; ++i) {
@@ -132,6 +132,39 @@ TEST_P(FinderMemoryTest, HoldsNoMoreThanItsRatesWhileClumpsOfPairsChange) {
         << GetParam() << ", " << boxes_count << " boxes: it holds " << held.most() / most_pairs
         << " bytes a pair";
   }
+}
+
+// A frame with more pairs than the finder's pair limit: finish() refuses it,
+// the finder having held no more than the limit's pairs (not the frame's
+// 320 000), and every later launch refuses too.  A frame of exactly the
+// limit's pairs passes.
+TEST_P(FinderMemoryTest, AFramePastItsPairLimitIsRefusedBeforeItsListsGrowForIt) {
+  constexpr std::uint32_t kBoxes = 800;  // one clump: 319 600 pairs
+  constexpr std::uint64_t kPairs = std::uint64_t{kBoxes} * (kBoxes - 1) / 2;
+  constexpr std::uint64_t kLimit = 5000;
+  const std::vector<ObjectBounds> boxes(kBoxes, testing::box(0, 0, 0, 1, 1, 1));
+  test_support::takeHeapPeak();
+  HeldMemory held;
+  {
+    const auto finder = makePairFinder(GetParam());
+    finder->setPairLimit(kLimit);
+    finder->launch(boxes);
+    try {
+      (void)finder->finish();
+      ADD_FAILURE() << GetParam() << ": " << kPairs << " pairs passed a limit of " << kLimit;
+    } catch (const PairLimitError& refusal) {
+      EXPECT_EQ(refusal.most_pairs, kLimit);
+    }
+    held.frameEnded();
+    EXPECT_THROW(finder->launch(boxes), PairLimitError) << "a refused finder is spent";
+  }
+  EXPECT_LE(held.most(), cost().bytesFor(kBoxes, kLimit) + kFixedBytes)
+      << GetParam() << " holds " << held.most() / kLimit << " bytes a pair of the limit";
+
+  const auto finder = makePairFinder(GetParam());
+  finder->setPairLimit(kPairs);
+  finder->launch(boxes);
+  EXPECT_EQ(finder->finish().added.size(), kPairs);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllFinders, FinderMemoryTest, ::testing::ValuesIn(testing::finderNames()),

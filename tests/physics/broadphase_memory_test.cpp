@@ -1,10 +1,10 @@
 // A replay under a pair memory limit holds no more than the memory bounds
 // count (engine/program/memory_bound.h): BroadphaseReplay::memoryCost()'s
 // bytes for its boxes, plus the limit it was given for its pairs, whether it
-// finds them all or refuses (PairMemoryError); a pair finder's refused frame
-// also holds that frame's lists, found before the cache could refuse them.
-// Every broadphase that runs here; the heap (Bullet's allocations too)
-// counted by tests/counted_heap.h.
+// finds them all or refuses (PairMemoryError): a pair finder stops
+// collecting a frame's pairs past what the limit could hold.  Every CPU
+// broadphase; the heap (Bullet's allocations too) counted by
+// tests/counted_heap.h.
 #include <LinearMath/btAlignedAllocator.h>
 #include <gtest/gtest.h>
 
@@ -21,9 +21,9 @@
 namespace overlap::physics {
 namespace {
 
-// What a replay holds whatever its boxes (Bullet's collision configuration's
-// pools above all): 4.41 to 4.44 MB measured, for one box.
-constexpr std::uint64_t kFixedBytes = 5 << 20;
+// What a replay may hold beyond its count and the fixed part it holds for
+// one box (Bullet's collision configuration's pools, 4.4 MB).
+constexpr std::uint64_t kSlackBytes = 256 << 10;
 
 class BroadphaseMemoryTest : public ::testing::TestWithParam<std::string_view> {
  protected:
@@ -34,8 +34,19 @@ class BroadphaseMemoryTest : public ::testing::TestWithParam<std::string_view> {
   }
 
   // Replays `frames` under a pair limit of `pair_limit` bytes; the most the
-  // heap held above where it started, and whether the limit refused a frame.
+  // heap held above where it started and above what a one-box replay holds,
+  // and whether the limit refused a frame.
   std::uint64_t heldReplaying(const std::vector<std::vector<Aabb>>& frames,
+                              std::uint64_t pair_limit, bool& refused) {
+    const std::vector<std::vector<Aabb>> one_box(1, std::vector<Aabb>(1, frames[0][0]));
+    (void)peakReplaying(one_box, pair_limit, refused);  // what a process does once, done
+    const std::uint64_t fixed = peakReplaying(one_box, pair_limit, refused);
+    const std::uint64_t peak = peakReplaying(frames, pair_limit, refused);
+    return peak > fixed ? peak - fixed : 0;
+  }
+
+ private:
+  std::uint64_t peakReplaying(const std::vector<std::vector<Aabb>>& frames,
                               std::uint64_t pair_limit, bool& refused) {
     refused = false;
     const std::int64_t before = test_support::heapLive();
@@ -61,7 +72,7 @@ class BroadphaseMemoryTest : public ::testing::TestWithParam<std::string_view> {
 TEST_P(BroadphaseMemoryTest, HoldsNoMoreThanItsCountForBoxesThatPairWithNothing) {
   const bool brute_force =
       GetParam() == "bf" || broadphaseInfo(GetParam()).memory.per_slot_pair > 0;
-  const std::size_t boxes_count = brute_force ? 3000 : 30000;
+  const std::size_t boxes_count = brute_force ? 3000 : 10000;
   std::vector<std::vector<Aabb>> frames(3, std::vector<Aabb>(boxes_count));
   for (std::size_t frame = 0; frame < frames.size(); ++frame) {
     for (std::size_t i = 0; i < boxes_count; ++i) {
@@ -78,15 +89,14 @@ TEST_P(BroadphaseMemoryTest, HoldsNoMoreThanItsCountForBoxesThatPairWithNothing)
   const finders::MemoryCost cost = BroadphaseReplay::memoryCost(GetParam());
   std::printf("%s: %.1f bytes a box (counted: %u)\n", std::string(GetParam()).c_str(),
               static_cast<double>(held) / static_cast<double>(boxes_count), cost.per_slot);
-  EXPECT_LE(held, cost.bytesFor(boxes_count, 0) + pair_limit + kFixedBytes);
+  EXPECT_LE(held, cost.bytesFor(boxes_count, 0) + kSlackBytes);
 }
 
-// Two clumps of 1500 boxes each overlapping every other of its clump (2.2
+// Two clumps of 1000 boxes each overlapping every other of its clump (a
 // million pairs), the halves then the even and odd boxes, under limits that
 // refuse them at once, part way and never.
 TEST_P(BroadphaseMemoryTest, HoldsNoMoreThanItsCountUnderAPairLimit) {
-  constexpr std::size_t kBoxes = 3000;
-  constexpr std::uint64_t kPairsAFrame = 2 * (kBoxes / 2) * (kBoxes / 2 - 1) / 2;
+  constexpr std::size_t kBoxes = 2000;
   std::vector<std::vector<Aabb>> frames(3, std::vector<Aabb>(kBoxes));
   for (std::size_t frame = 0; frame < frames.size(); ++frame) {
     for (std::size_t i = 0; i < kBoxes; ++i) {
@@ -97,7 +107,7 @@ TEST_P(BroadphaseMemoryTest, HoldsNoMoreThanItsCountUnderAPairLimit) {
   }
   const finders::MemoryCost cost = BroadphaseReplay::memoryCost(GetParam());
   for (const std::uint64_t pair_limit :
-       {std::uint64_t{20} << 20, std::uint64_t{150} << 20, std::uint64_t{1} << 30}) {
+       {std::uint64_t{8} << 20, std::uint64_t{60} << 20, std::uint64_t{1} << 30}) {
     bool refused = false;
     const std::uint64_t held = heldReplaying(frames, pair_limit, refused);
     const std::uint64_t for_boxes = cost.bytesFor(kBoxes, 0);
@@ -105,23 +115,22 @@ TEST_P(BroadphaseMemoryTest, HoldsNoMoreThanItsCountUnderAPairLimit) {
                 std::string(GetParam()).c_str(), static_cast<unsigned long long>(pair_limit >> 20),
                 refused ? "refused" : "whole",
                 (static_cast<double>(held) - static_cast<double>(for_boxes)) / (1 << 20));
-    // The search lists of a refused frame: its pairs and the last frame's.
-    const std::uint64_t refused_lists =
-        refused ? 2 * kPairsAFrame * broadphaseInfo(GetParam()).memory.per_pair : 0;
-    EXPECT_LE(held, for_boxes + pair_limit + refused_lists + kFixedBytes) << "limit " << pair_limit;
+    EXPECT_LE(held, for_boxes + pair_limit + kSlackBytes) << "limit " << pair_limit;
     if (pair_limit == std::uint64_t{1} << 30) {
       EXPECT_FALSE(refused);
     }
-    if (pair_limit == std::uint64_t{20} << 20) {
+    if (pair_limit == std::uint64_t{8} << 20) {
       EXPECT_TRUE(refused);
     }
   }
 }
 
+// The CPU ones: the GPU finders' rates are held by tests/gpu/finder_memory_test.cpp,
+// and their adapter is the CPU finders'.
 std::vector<std::string_view> runnableHere() {
   std::vector<std::string_view> names;
   for (const BroadphaseInfo& info : broadphaseCatalogue()) {
-    if (!info.needs_device || finders::cudaDeviceAvailable(nullptr)) names.push_back(info.name);
+    if (!info.needs_device) names.push_back(info.name);
   }
   return names;
 }

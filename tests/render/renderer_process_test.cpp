@@ -8,7 +8,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <future>
 #include <new>
+#include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "render_test_support.h"
@@ -81,6 +84,17 @@ TEST(RendererProcess, ItsProcessRunningOutOfMemoryIsABadAllocInTheProgram) {
   EXPECT_EQ(WEXITSTATUS(status), 3);
 }
 #endif
+
+// Its child is a fork without exec: made while another thread runs (which
+// may hold a lock the child would wait on forever), it refuses.
+TEST(RendererProcess, RefusesToForkWhileAnotherThreadRuns) {
+  std::promise<void> release;
+  std::thread other([ended = release.get_future()] { ended.wait(); });
+  EXPECT_THROW(RendererProcess(8, 8), std::logic_error);
+  release.set_value();
+  other.join();
+  EXPECT_NO_THROW(RendererProcess(8, 8));
+}
 
 }  // namespace
 }  // namespace overlap::render

@@ -91,7 +91,8 @@ def check_hand_written(args) -> None:
     only_sweep = ["--experiments", "sweep", "--no-runs", "--report", "--report-doc", str(doc)]
     study(args.overlap, args.out, *only_sweep)
     filled = doc.read_text()
-    check("stale text" not in filled and "| claim | verdict | figure | machine | section |"
+    check("stale text" not in filled
+          and "| claim | verdict | figure | runs a cell | machine | section |"
           in filled, "--report did not fill the findings block")
     check("A hand-written finding about the sweep, which the study never rewrites." in filled
           and filled.index("generated:findings") < filled.index("A hand-written finding"),
