@@ -30,15 +30,28 @@ std::uint64_t physicalMemory() {
              : UINT64_MAX;
 }
 
+// ulimit -v, UINT64_MAX where there is none.
+std::uint64_t addressSpaceLimit() {
+  rlimit address_space{};
+  return ::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY
+             ? static_cast<std::uint64_t>(address_space.rlim_cur)
+             : UINT64_MAX;
+}
+
+// What the run may allocate: --max-memory, else the machine's memory.
+std::uint64_t allocationLimit(std::uint64_t limit_mb) {
+  return limit_mb > 0 ? limit_mb * kMegabyte : physicalMemory();
+}
+
+// The limit that binds: a --max-memory above ulimit -v cannot lift it.
+std::uint64_t limitBytes(std::uint64_t limit_mb) {
+  return std::min(allocationLimit(limit_mb), addressSpaceLimit());
+}
+
 }  // namespace
 
 std::uint64_t defaultMemoryLimit() {
-  std::uint64_t limit = physicalMemory();
-  rlimit address_space{};
-  if (::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY) {
-    limit = std::min<std::uint64_t>(limit, address_space.rlim_cur);
-  }
-  return limit;
+  return limitBytes(0);
 }
 
 void addMaxMemoryOption(CLI::App& command, std::uint64_t& limit_mb) {
@@ -59,20 +72,12 @@ std::uint64_t replayBytes(std::string_view algorithm, std::uint64_t objects) {
 
 namespace {
 
-std::uint64_t limitBytes(std::uint64_t limit_mb) {
-  return limit_mb > 0 ? limit_mb * kMegabyte : defaultMemoryLimit();
-}
-
-bool addressSpaceLimited() {
-  rlimit address_space{};
-  return ::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY;
-}
-
 std::string aboveTheLimit(std::uint64_t limit_mb) {
-  const char* source = limit_mb > 0 ? " (--max-memory)"
-                       : addressSpaceLimited() && defaultMemoryLimit() < physicalMemory()
-                           ? " (ulimit -v)"
-                           : " (the machine's; raise it with --max-memory)";
+  const bool address_space = addressSpaceLimit() < allocationLimit(limit_mb);
+  const char* source = address_space
+                           ? (limit_mb > 0 ? " (ulimit -v, below --max-memory)" : " (ulimit -v)")
+                       : limit_mb > 0 ? " (--max-memory)"
+                                      : " (the machine's; raise it with --max-memory)";
   return ", above the memory limit " + readableBytes(limitBytes(limit_mb)) + source;
 }
 
@@ -99,11 +104,17 @@ std::uint64_t addressSpaceInUse() {
 }  // namespace
 
 std::uint64_t pairMemoryLimit(std::uint64_t counted, std::uint64_t limit_mb) {
-  const std::uint64_t limit = limitBytes(limit_mb);
-  // Under ulimit -v, what the process already maps counts too (its
-  // threads' stacks and heaps), so a refusal comes before a failed mapping.
-  if (addressSpaceLimited()) counted = std::max(counted, addressSpaceInUse());
-  return limit > counted ? limit - counted : 1;
+  const auto left = [](std::uint64_t limit, std::uint64_t held) {
+    return limit > held ? limit - held : 1;
+  };
+  std::uint64_t pairs = left(allocationLimit(limit_mb), counted);
+  // Against ulimit -v, what the process already maps counts too (its
+  // threads' stacks and heaps), so a refusal comes before a failed mapping;
+  // against --max-memory only what the run allocates.
+  if (const std::uint64_t address_space = addressSpaceLimit(); address_space != UINT64_MAX) {
+    pairs = std::min(pairs, left(address_space, std::max(counted, addressSpaceInUse())));
+  }
+  return pairs;
 }
 
 UsageError pairMemoryRefusal(const physics::PairMemoryError& error, std::uint64_t limit_mb,

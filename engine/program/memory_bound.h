@@ -4,7 +4,8 @@
 //
 // Rules:
 //   * The limit is --max-memory (MB), by default the machine's physical
-//     memory, or the process's address-space limit (ulimit -v) if lower: a
+//     memory; the process's address-space limit (ulimit -v) where lower,
+//     whatever --max-memory says (it cannot lift a ulimit): a
 //     run that cannot fit fails in a second with exit 2 naming what needs the
 //     memory, not after minutes with std::bad_alloc or the OOM killer.
 //   * What is counted first is what a count in the input decides alone: a

@@ -436,17 +436,24 @@ void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) 
     if (first_missing.empty()) first_missing = cached;
   }
   if (to_record > 0) requireFreeSpace(first_missing, to_record, "--streams");
+  std::uint64_t pipes_held = 0;  // the pipes read so far, held until the end
   for (Workload& workload : workloads) {
     if (workload.input.empty()) continue;
     physics::AabbStreamHeader header;
     try {
       physics::AabbStreamReader reader(workload.input);
       // The benchmark holds the stream whole: what its header claims must
-      // fit the limit before a box is read (a pipe's header included).
-      requireMemory(physics::aabbStreamBytes(reader.header()), options.max_memory_mb,
-                    "--input " + workload.input.string() + ": " +
-                        std::to_string(reader.header().stored_frames) + " frames of " +
-                        std::to_string(reader.header().objects) + " boxes, held whole,");
+      // fit the limit before a box is read (a pipe's header included), beside
+      // the pipes read before it, which stay held.
+      const std::uint64_t bytes = physics::aabbStreamBytes(reader.header());
+      requireMemory(
+          pipes_held + bytes, options.max_memory_mb,
+          "--input " + workload.input.string() + ": " +
+              std::to_string(reader.header().stored_frames) + " frames of " +
+              std::to_string(reader.header().objects) + " boxes, held whole" +
+              (pipes_held > 0 ? " beside " + readableBytes(pipes_held) + " of the pipes before it"
+                              : std::string()) +
+              ",");
       if (reader.sized()) {
         reader.checkAll();
         header = reader.header();
@@ -454,6 +461,7 @@ void checkInputs(std::vector<Workload>& workloads, const BenchOptions& options) 
         // Through the reader that read the header: a pipe cannot be reopened.
         workload.read = std::make_shared<physics::AabbStream>(physics::readAabbStream(reader));
         header = *workload.read;
+        pipes_held += bytes;
       }
     } catch (const physics::AabbStreamError& error) {
       throw UsageError(std::string("--input: ") + error.what());

@@ -281,7 +281,9 @@ btBroadphasePair* BulkPairCache::addOverlappingPair(btBroadphaseProxy* proxy0,
   try {
     return addOrdered(proxy0, proxy1);
   } catch (const PairMemoryError& refused) {  // never through Bullet's frames
-    refusal_ = refused;
+    // Bullet's broadphase hands its pairs over one by one: the frame has
+    // more than those held, how many more it cannot say.
+    refusal_ = PairMemoryError(refused.pairs - 1, refused.bytes, refused.limit, true);
     return nullptr;
   }
 }

@@ -52,6 +52,20 @@ bool exitedWith(int status, int code) {
   return WIFEXITED(status) && WEXITSTATUS(status) == code;
 }
 
+// The peak RSS of `command` (run by /bin/sh, its output discarded), in
+// bytes, expecting it to exit with `expected_exit`.
+double peakBytesOf(const std::string& command, int expected_exit) {
+  const std::string line = "exec " + command + " > /dev/null 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", line.c_str(), nullptr};
+  pid_t pid = 0;
+  EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  int status = 0;
+  rusage usage{};
+  ::wait4(pid, &status, 0, &usage);
+  EXPECT_TRUE(exitedWith(status, expected_exit)) << command;
+  return static_cast<double>(usage.ru_maxrss) * 1024;  // kB on Linux
+}
+
 // A PID no process has: a child that has been waited for.
 pid_t deadPid() {
   const pid_t child = ::fork();
@@ -208,6 +222,23 @@ TEST_F(SignalsCliTest, MemoryAndDiskBoundsAreCheckedBeforeAnyWork) {
   EXPECT_FALSE(fs::exists(out_ / "b.csv"));
   EXPECT_FALSE(fs::exists(out_ / "g.aabbs"));
 
+  // The benchmark holds every pipe it reads until it ends: two that each
+  // fit the limit, but not together, are refused at the second's header.
+  const fs::path pipe_stream = write("line20k.aabbs", lineStream(20000, 1));
+  const fs::path first = fifo("first.fifo"), second = fifo("second.fifo");
+  // The writers hold no descriptor of ours, and give up in a minute.
+  const std::string writer = "(timeout 60 cat " + pipe_stream.string() + " > ";
+  const Result both =
+      runCommand(writer + first.string() + " 2>/dev/null &) ; " + writer + second.string() +
+                 " 2>/dev/null &) ; " + OVERLAP_BENCH_BINARY +
+                 " --algos cpusap --warmup 0 --repeats 1 --max-memory 2 --input " + first.string() +
+                 " " + second.string() + " --out " + (out_ / "p").string());
+  EXPECT_EQ(both.exit_code, 2) << both.stderr_text;
+  EXPECT_NE(both.stderr_text.find("held whole beside 1.3 MB of the pipes before it"),
+            std::string::npos)
+      << both.stderr_text;
+  EXPECT_FALSE(fs::exists(out_ / "p.csv"));
+
   const fs::path stream = fifo("g.fifo");
   Started generate("generate --objects 2000 --frames 1000000 --out " + stream.string(),
                    out_ / "err.txt");
@@ -239,16 +270,8 @@ TEST_F(SignalsCliTest, MemoryGrowsBoundedPerPair) {
   const fs::path many = write("ident1k.aabbs", identical);
   const fs::path few = write("line2.aabbs", lineStream(2, 1));
   const auto peakBytes = [&](const fs::path& input) {
-    const std::string command = "exec " + std::string(OVERLAP_BINARY) +
-                                " pairs --algo cpusap --input " + input.string() + " > /dev/null";
-    const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
-    pid_t pid = 0;
-    EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
-    int status = 0;
-    rusage usage{};
-    ::wait4(pid, &status, 0, &usage);
-    EXPECT_TRUE(exitedWith(status, 0));
-    return static_cast<double>(usage.ru_maxrss) * 1024;  // kB on Linux
+    return peakBytesOf(
+        std::string(OVERLAP_BINARY) + " pairs --algo cpusap --input " + input.string(), 0);
   };
   const double pairs = 1000.0 * 999 / 2;
   EXPECT_LT(peakBytes(many) - peakBytes(few), 250 * pairs);
@@ -284,23 +307,12 @@ TEST_F(SignalsCliTest, PairsBeyondTheMemoryLimitAreRefusedWithTheirCountAndSize)
   // stop collecting a frame's pairs at the most the limit could hold,
   // Bullet's hand them to the cache one by one.
   const fs::path two = write("line2.aabbs", lineStream(2, 1));
-  const auto peakKilobytes = [](const std::string& command, int expected_exit) {
-    const std::string line = "exec " + command + " > /dev/null 2>&1";
-    const char* argv[] = {"/bin/sh", "-c", line.c_str(), nullptr};
-    pid_t pid = 0;
-    EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
-    int status = 0;
-    rusage usage{};
-    ::wait4(pid, &status, 0, &usage);
-    EXPECT_TRUE(exitedWith(status, expected_exit)) << command;
-    return usage.ru_maxrss;
-  };
   for (const char* algorithm : {"bvh", "cpubf", "cpusap"}) {
     const std::string pairs =
         std::string(OVERLAP_BINARY) + " pairs --max-memory 100 --algo " + algorithm + " --input ";
-    const long held =
-        peakKilobytes(pairs + ident.string(), 2) - peakKilobytes(pairs + two.string(), 0);
-    EXPECT_LT(held * 1024, 100'000'000) << algorithm << ": " << held << " kB above two boxes' run";
+    const double held =
+        peakBytesOf(pairs + ident.string(), 2) - peakBytesOf(pairs + two.string(), 0);
+    EXPECT_LT(held, 100e6) << algorithm << ": " << held << " bytes above two boxes' run";
   }
 #endif
   expectRefused(runCommand(std::string(OVERLAP_BENCH_BINARY) +
@@ -315,6 +327,13 @@ TEST_F(SignalsCliTest, PairsBeyondTheMemoryLimitAreRefusedWithTheirCountAndSize)
                              " --input " + ident.string() + ")"),
                   algorithm);
   }
+  // A --max-memory above the ulimit cannot lift it.
+  const Result above =
+      runCommand("(" + ulimit + OVERLAP_BINARY + " pairs --algo bvh --max-memory 5000 --input " +
+                 ident.string() + ")");
+  expectRefused(above, "bvh, --max-memory above ulimit -v");
+  EXPECT_NE(above.stderr_text.find("(ulimit -v, below --max-memory)"), std::string::npos)
+      << above.stderr_text;
   const Result cpusap = runCommand("(" + ulimit + OVERLAP_BINARY + " pairs --algo cpusap --input " +
                                    ident.string() + ")");
   EXPECT_TRUE(cpusap.exit_code == 2 || cpusap.exit_code == 1) << cpusap.stderr_text;
