@@ -70,13 +70,13 @@ MODE=gpu PART=check only=""
 while (($#)); do
   case "$1" in
     --dry-run) MODE=dry ;; --study) PART=study ;;
-    --only) (($# > 1)) || refuse "--only needs STEP,..." && only=",$2," && shift ;;
+    --only) (($# > 1)) && [[ -n ${2//,/} ]] || refuse "--only needs STEP,..." && only=",$2," && shift ;;
     -h | --help) sed -n '2,/^set -uo/p' "$0" | sed '$d; s/^# \{0,1\}//' && exit 0 ;; *) refuse "unknown option '$1' (--study, --dry-run, --only STEP,...)" ;;
   esac && shift
 done
 all="unpack info gpu-tests sanitizer-memcheck sanitizer-racecheck sanitizer-initcheck sanitizer-synccheck ctest streams bench-paper bench-big bench-huge bench-million frames-demo frames-ALGO archive"
 [[ $PART == study ]] && all="unpack info study study-jobs archive report"
-for name in ${only//,/ }; do [[ " $all " == *" $name "* || ($PART == check && $name == frames-?*) ]] ||
+for name in ${only//,/ }; do [[ " $all " == *" $name "* || ($PART == check && $name =~ ^frames-(cpusap|gpubf|gpubf-paper|gpusap)$) ]] ||
   refuse "--only $name: no such step (the $PART's: $all)"; done
 export MODE PART OUT="$(realpath -m "${OUT:-$ROOT/out/gpu-check}")" SHARDS="${STUDY_SHARDS:-$(nproc)}"
 export WORK="$OUT/gpu-$PART" ARCHIVE="gpu_$PART.tar.xz" SCRATCH="${TMPDIR:-/tmp}/gpu-check-$$"
@@ -91,7 +91,7 @@ else # the demo keeps enough boxes that the default rule still picks gpubf, as f
   export BUILD=build-emulation PRESETS=emulation- CTEST_JOBS="${CTEST_JOBS:-2}" TEST_TIMEOUT=1500 SMALL="50 90" BIG=200
   export HUGE=400 MILLION=800 FRAMES_BY_SIZE="90 6 400 4 800 3" SHARDS="${STUDY_SHARDS:-2}" DEMO="--objects 600 --frames 6"
   export FRAME_OPTIONS="--scene 4 --objects 60 --frames 4" STUDY="--profile gpu-dry --threads 1 --overlap $ROOT/$BUILD/overlap"
-  deadline_s=${DEADLINE_S:-7200} scale=10 paper="1 1" big="1 1" && [[ -x $BUILD/overlap ]] || refuse "$BUILD/overlap is missing: cmake --preset cuda-emulation && cmake --build --preset cuda-emulation"
+  deadline_s=${DEADLINE_S:-7200} scale=10 paper="1 1" big="1 1" && "$BUILD/overlap" --list-algos --json &>/dev/null || refuse "$BUILD/overlap is missing or fails: cmake --preset cuda-emulation && cmake --build --preset cuda-emulation"
 fi
 mkdir -p "$OUT" || refuse "OUT=$OUT cannot be made"
 rm -rf "$WORK" "$OUT/$ARCHIVE" && mkdir -p "$WORK/logs" "$WORK/notes" "$SCRATCH"

@@ -56,6 +56,22 @@ std::string readableBytes(std::uint64_t bytes) {
   return text;
 }
 
+void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
+                             std::string_view output_option,
+                             const std::vector<std::filesystem::path>& inputs,
+                             std::string_view input_option) {
+  for (const std::filesystem::path& output : outputs) {
+    for (const std::filesystem::path& input : inputs) {
+      std::error_code error;  // an output not made yet is no input
+      if (std::filesystem::equivalent(output, input, error) && !error) {
+        throw UsageError(std::string(output_option) + " " + shownPath(output) + ": it is " +
+                         std::string(input_option) + " " + shownPath(input) +
+                         ", which the results would replace; write them elsewhere");
+      }
+    }
+  }
+}
+
 std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
                                                       const std::vector<std::string>& suffixes,
                                                       std::string_view option) {

@@ -43,6 +43,14 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
                                                       const std::vector<std::string>& suffixes,
                                                       std::string_view option);
 
+// A UsageError when one of `outputs` is one of `inputs` (the same file, as
+// the kernel resolves both: links and '..' followed), so that a run never
+// replaces what it reads: "--out z: z.csv is --input r/z.csv".
+void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
+                             std::string_view output_option,
+                             const std::vector<std::filesystem::path>& inputs,
+                             std::string_view input_option);
+
 // The same for one output of a run's folder (OutputFolder::declare): also a
 // UsageError when another output of the run is that file.
 void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,

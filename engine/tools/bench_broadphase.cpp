@@ -537,6 +537,7 @@ int run(const BenchOptions& options, const std::string& command) {
   std::vector<std::filesystem::path> outputs;
   if (!options.record_only && !options.stream_stats) {
     outputs = prepareOutputFiles(options.out, {".csv", ".json"}, "--out");
+    refuseOutputsOverInputs(outputs, "--out", options.inputs, "--input");
   }
   if (options.inputs.empty()) prepareOutputDirectory(options.streams, "--streams");
   checkInputs(workloads, options);

@@ -319,6 +319,30 @@ TEST_F(CarefulCliTest, BenchmarkNamesACorruptCachedStream) {
       << fileText(out_ / "err.txt");
 }
 
+// The benchmark refuses an --out whose results would replace an --input,
+// by name, through a link and '..', and the stream is left as it was.
+TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
+  const fs::path folder = out_ / "r";
+  fs::create_directories(folder);
+  ASSERT_EQ(std::system((std::string(OVERLAP_BINARY) + " generate --objects 20 --frames 2 --out " +
+                         (folder / "z.csv").string() + " 2>/dev/null")
+                            .c_str()),
+            0);
+  const std::string stream = fileText(folder / "z.csv");
+  fs::create_directory_symlink("r", out_ / "lk");
+  for (const std::string out :
+       {(folder / "z").string(), (out_ / "lk" / ".." / "r" / "z").string()}) {
+    const std::string command =
+        std::string(OVERLAP_BENCH_BINARY) + " --input " + (folder / "z.csv").string() +
+        " --algos bvh --warmup 0 --repeats 1 --out " + out + " 2> " + (out_ / "err.txt").string();
+    const int status = std::system(command.c_str());
+    EXPECT_EQ(WEXITSTATUS(status), 2) << out;
+    EXPECT_NE(fileText(out_ / "err.txt").find("which the results would replace"), std::string::npos)
+        << fileText(out_ / "err.txt");
+    EXPECT_EQ(fileText(folder / "z.csv"), stream) << out;
+  }
+}
+
 // A long capture says at the start how long it will take.
 TEST_F(CarefulCliTest, ALongCaptureSaysHowLongItWillTake) {
   Started capture("capture --objects 100 --keyframes 0,1000000 --capture-size 32x24 --out " +

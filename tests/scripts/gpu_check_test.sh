@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # scripts/gpu_check.sh's own promises, checked without a GPU or a build: a copy
 # of the driver in a scratch tree, beside a fake build-emulation/overlap.
-#   gpu_check_test.sh refuses-an-unknown-step   --only bogus: exit 2 naming it, nothing removed
-#   gpu_check_test.sh refuses-what-cannot-run   no build, no pack: exit 2 naming it, nothing removed
+#   gpu_check_test.sh refuses-an-unknown-step   --only bogus (frames-bogus, ","): exit 2 naming it,
+#                                               nothing removed
+#   gpu_check_test.sh refuses-what-cannot-run   no build or one that fails, no pack: exit 2 naming
+#                                               it, nothing removed
 #   gpu_check_test.sh a-signal-ends-every-step  SIGTERM: every step's processes end, nothing
 #                                               more is written into $OUT, the table says so
 set -uo pipefail
@@ -28,10 +30,15 @@ case "${1:-}" in
     refused "--only bogus: no such step" --only bogus
     refused "--only ctest: no such step (the study's" --study --dry-run --only ctest
     refused "--only needs STEP" --only
+    refused "--only needs STEP" --dry-run --only ,
+    refused "--only frames-bogus: no such step" --dry-run --only frames-bogus
     refused "unknown option '--bogus'" --bogus
     ;;
   refuses-what-cannot-run)
-    refused "build-emulation/overlap is missing" --dry-run
+    refused "build-emulation/overlap is missing or fails" --dry-run
+    mkdir -p "$tree/build-emulation" && printf '#!/bin/sh\nexit 1\n' >"$tree/build-emulation/overlap"
+    chmod +x "$tree/build-emulation/overlap"
+    refused "build-emulation/overlap is missing or fails" --dry-run
     refused ".gpu-carry/overlap-gpu.tar.xz is missing" --study
     ;;
   a-signal-ends-every-step)
