@@ -115,6 +115,12 @@ int runProgram(const char* program, CLI::App& app, const std::function<int()>& b
                                   : std::string("error: ") + error.what());
     code = 1;
   }
+  // A signal after the last moment one could stop the run (its outputs'
+  // publication) stopped nothing: the run ended as if it had not come.
+  if (const int signal_number = pendingInterrupt(); code == 0 && signal_number != 0) {
+    printError(program, std::string(signalName(signal_number)) +
+                            " came after the outputs were published: they hold this run");
+  }
   const int flushed = flushStandardOutput(program);
   return code == 0 ? flushed : code;
 }

@@ -28,6 +28,15 @@ extern "C" void onSignal(int signal_number) {
   raise(signal_number);
 }
 
+
+// A wait this long is said on stderr: shorter ones are a pipe's normal pace.
+constexpr auto kSilentWait = std::chrono::seconds(1);
+// The longest a wait goes without looking at the flag (a signal that lands
+// just before a blocking call is seen within this).
+constexpr int kCheckEveryMs = 100;
+
+}  // namespace
+
 const char* signalName(int signal_number) {
   switch (signal_number) {
     case SIGINT:
@@ -40,14 +49,6 @@ const char* signalName(int signal_number) {
       return "a signal";
   }
 }
-
-// A wait this long is said on stderr: shorter ones are a pipe's normal pace.
-constexpr auto kSilentWait = std::chrono::seconds(1);
-// The longest a wait goes without looking at the flag (a signal that lands
-// just before a blocking call is seen within this).
-constexpr int kCheckEveryMs = 100;
-
-}  // namespace
 
 Interrupted::Interrupted(int signal_number, const std::string& where)
     : std::runtime_error(std::string(signalName(signal_number)) + " at " + where),

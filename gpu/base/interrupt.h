@@ -70,6 +70,9 @@ void stopIfInterrupted(const std::string& where);
 void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::string& waiting,
                const std::string& where);
 
+// "SIGINT", "SIGTERM", "SIGHUP" ("a signal" for another).
+const char* signalName(int signal_number);
+
 // Prints the one "stopped by" line for `program` (with what was already
 // sent, if anything) and returns the exit code, 128 + the signal.
 int reportInterrupted(const char* program, const Interrupted& stop);

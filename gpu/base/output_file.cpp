@@ -718,7 +718,10 @@ void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
   for (const std::string& entry : entries) text += escapeManifestEntry(entry) + '\n';
   OutputFile manifest(folder_ / kManifestName, FinalLink::kReplace);
   manifest.write(text);
-  manifest.commit();
+  // Never stopped by a signal: commit() writes it past the last moment one
+  // can stop the run, where a stop would name outputs already replaced.
+  manifest.finish();
+  manifest.publish();
 }
 
 std::vector<std::string> OutputFolder::commit() {

@@ -181,6 +181,31 @@ TEST_F(SignalsCliTest, SighupStopsARunAndStaleTemporariesAreCleared) {
   for (const std::string& name : kept) EXPECT_EQ(fileText(folder / name), "mine") << name;
 }
 
+// A signal that lands while the outputs are renamed into place (strace
+// delivers it at the first rename) stops nothing: every output holds the
+// new run, the exit is 0, and a line says the signal came too late.
+TEST_F(SignalsCliTest, ASignalDuringThePublicationStopsNothingAndSaysSo) {
+  if (std::system("command -v strace > /dev/null 2>&1") != 0) GTEST_SKIP() << "no strace here";
+  const fs::path folder = out_ / "published";
+  ASSERT_EQ(
+      runOverlap("run --objects 30 --frames 2 --capture-every 0 --no-wav --out " + folder.string())
+          .exit_code,
+      0);
+  const std::string before = fileText(folder / "frames.csv");
+  for (const char* signal : {"SIGTERM", "SIGINT"}) {
+    const Result run = runCommand(std::string("strace -f -o /dev/null -e inject=rename:signal=") +
+                                  signal + ":when=1 " + OVERLAP_BINARY +
+                                  " run --objects 30 --frames 5 --capture-every 0 --no-wav --out " +
+                                  folder.string());
+    EXPECT_EQ(run.exit_code, 0) << signal << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(std::string(signal) +
+                                   " came after the outputs were published: they hold this run"),
+              std::string::npos)
+        << run.stderr_text;
+    EXPECT_NE(fileText(folder / "frames.csv"), before) << "the new run's frames are published";
+  }
+}
+
 // Memory bounds checked before allocating (the boxes and what the
 // broadphase holds for them), exit 2 naming the input or option and the
 // memory it needs; generate writes as it goes (frame 0
