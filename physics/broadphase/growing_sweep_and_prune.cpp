@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -119,12 +120,24 @@ void GrowingSweepAndPrune<Sweep>::calculateOverlappingPairs(btDispatcher* dispat
 }
 
 template <typename Sweep>
-btScalar GrowingSweepAndPrune<Sweep>::cell() const {
+btScalar GrowingSweepAndPrune<Sweep>::gridCell() const {
   btScalar widest = 0;
   for (int axis = 0; axis < 3; ++axis) {
     widest = std::max(widest, btScalar(1) / this->m_quantize[axis]);
   }
   return widest;
+}
+
+template <typename Sweep>
+btScalar GrowingSweepAndPrune<Sweep>::cell() const {
+  btScalar extent = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    extent = std::max(extent, this->m_worldAabbMax[axis] - this->m_worldAabbMin[axis]);
+  }
+  // Bullet quantizes (x - min) * q in floats: far from the bounds' minimum
+  // their 24 bits, not the grid's 32, set the cell (sap32 beyond about 10^5
+  // boxes' widths).
+  return gridCell() + extent * std::numeric_limits<btScalar>::epsilon() / 2;
 }
 
 template <typename Sweep>
@@ -148,7 +161,8 @@ void GrowingSweepAndPrune<Sweep>::refuseCoarseGrid(const btVector3& lo, const bt
   throw std::invalid_argument(
       std::string("algo ") + (sixteen ? "sap" : "sap32") + ": boxes from " + point(lo) + " to " +
       point(hi) + " leave its " + (sixteen ? "16" : "32") + "-bit grid cells of " + number(cell()) +
-      " m, coarser than 1/" + std::to_string(kCellsPerSmallestBox) + " of the smallest box (" +
+      " m" + (cell() > gridCell() ? " (floats' precision at that spread)" : "") +
+      ", coarser than 1/" + std::to_string(kCellsPerSmallestBox) + " of the smallest box (" +
       number(smallest) + " m): it would pair boxes that do not touch; " +
       (sixteen ? "use sap32 or an exact one (cpusap)" : "use an exact one (cpusap)"));
 }

@@ -22,7 +22,9 @@
 // with a non-finite corner grows nothing (Bullet clamps it, as before).
 //
 // A grid cell is at most 1/kCellsPerSmallestBox of the smallest box (its
-// widest side; points aside), so a pair held that does not overlap is two
+// widest side; points aside), and so is the precision of the floats Bullet
+// quantizes in (the bounds' extent times float epsilon: sap32's binding
+// limit, at about 10^5 boxes' widths), so a pair held that does not overlap is two
 // boxes within 4 cells of each other on every axis (Bullet rounds each side
 // out by up to 2).  Boxes spread so far (one box gone far off) that the
 // grid would be coarser make the pair search throw std::invalid_argument
@@ -61,7 +63,8 @@ class GrowingSweepAndPrune : public Sweep {
   void fit(const btVector3& aabbMin, const btVector3& aabbMax, btDispatcher* dispatcher);
   void setBounds(const btVector3& lo, const btVector3& hi, btDispatcher* dispatcher);
   void requantize(btDispatcher* dispatcher);
-  btScalar cell() const;  // the grid's widest cell, in metres
+  btScalar gridCell() const;  // the grid's widest cell, in metres
+  btScalar cell() const;      // gridCell(), or the floats' precision where coarser
   bool coarserThanTheBoxes(btScalar smallest) const;
   void refuseCoarseGrid(const btVector3& lo, const btVector3& hi, btScalar smallest) const;
   int growths_ = 0;

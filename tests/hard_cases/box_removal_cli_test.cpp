@@ -3,12 +3,15 @@
 // over 1 s frames, every value within its documented bounds, boxes reach
 // AABBs too large for Bullet and leave after CCD made contacts for them.
 // Each command must say so, finish with exit 0 and leave no temporary file;
-// Bullet's 16-bit sap alone stops instead, naming its grid (boxes 10^5 m
-// away leave cells coarser than the boxes), exit 1, nothing half-written.
+// Bullet's sweep and prune alone stops instead, naming its cells (boxes
+// 10^5 m away leave 16-bit sap's grid, and sap32's floats, coarser than the
+// boxes), exit 1, nothing half-written.
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <regex>
 #include <string>
+#include <utility>
 
 #include "tests/engine/cli_test_support.h"
 
@@ -24,7 +27,7 @@ const std::string kFrames = " --frames 3";  // capture runs to its last keyframe
 // The broadphases that step the leaving scene to its end; gpubf and
 // gpubf-paper run cpusap without a device, and run emulated in the CUDA
 // emulation build.
-const char* const kAlgorithms[] = {"bf", "sap32", "bvh", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
+const char* const kAlgorithms[] = {"bf", "bvh", "cpubf", "cpusap", "gpubf", "gpubf-paper"};
 
 class BoxRemovalCliTest : public CliTest {
  protected:
@@ -40,15 +43,20 @@ class BoxRemovalCliTest : public CliTest {
     expectNoTemporaries();
   }
 
-  // Runs `overlap ARGS` with 16-bit sap: exit 1, its grid named with the
-  // broadphases to use instead, no temporary left.
+  // Runs `overlap ARGS` with 16-bit sap, then with sap32 for it: exit 1,
+  // the cells named with the broadphases to use instead, no temporary left.
   void expectSapStopsNamingItsGrid(const std::string& args) {
-    SCOPED_TRACE(args);
-    const Result result = runOverlap(args);
-    EXPECT_EQ(result.exit_code, 1) << result.stderr_text;
-    EXPECT_NE(result.stderr_text.find("16-bit grid"), std::string::npos) << result.stderr_text;
-    EXPECT_NE(result.stderr_text.find("use sap32"), std::string::npos) << result.stderr_text;
-    expectNoTemporaries();
+    for (const auto& [algorithm, reason] :
+         {std::pair{"sap", "16-bit grid"}, std::pair{"sap32", "floats' precision"}}) {
+      const std::string with = std::regex_replace(args, std::regex(" --algo sap\\b"),
+                                                  std::string(" --algo ") + algorithm);
+      SCOPED_TRACE(with);
+      const Result result = runOverlap(with);
+      EXPECT_EQ(result.exit_code, 1) << result.stderr_text;
+      EXPECT_NE(result.stderr_text.find(reason), std::string::npos) << result.stderr_text;
+      EXPECT_NE(result.stderr_text.find("use "), std::string::npos) << result.stderr_text;
+      expectNoTemporaries();
+    }
   }
 
   // A temporary is an output's name with ".overlap-" and a suffix after it

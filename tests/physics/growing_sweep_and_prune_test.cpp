@@ -82,12 +82,17 @@ TEST(GrowingSweepAndPrune, TheBoundsShrinkBackWhenAFarBoxReturns) {
 // One box far enough off that the grid would turn coarser than the boxes
 // (sap: a box 1e6 m off gives cells of 19 m) is refused, naming the spread,
 // the cell and the smallest box, where Bullet would pair boxes that do not
-// touch; sap32's finer grid holds it, up to a spread of 1e30 m.
+// touch; sap32's finer grid holds 1e5 m, on either side, but not 1e6 m,
+// where the floats it is quantized in are coarser than its grid.
 TEST(GrowingSweepAndPrune, AFarBoxThatWouldMakeTheGridCoarserThanTheBoxesIsRefused) {
   const Aabb stated{{0, 0, 0}, {6, 3, 3}};
   for (const auto& [algo, far, refused] :
        {std::tuple{"sap", 1e6f, true}, std::tuple{"sap", 1e7f, true},
-        std::tuple{"sap32", 1e6f, false}, std::tuple{"sap32", 1e30f, true}}) {
+        std::tuple{"sap32", 1e5f, false}, std::tuple{"sap32", -1e5f, false},
+        // Past about 10^5 boxes' widths the floats Bullet quantizes in are
+        // coarser than the grid (at -10^6, gaps of 1/14 of a box paired).
+        std::tuple{"sap32", 1e6f, true}, std::tuple{"sap32", -1e6f, true},
+        std::tuple{"sap32", 1e30f, true}}) {
     BroadphaseReplay replay(algo, stated, kBoxes);
     std::vector<Aabb> boxes = row(0);
     replay.update(boxes);
