@@ -22,7 +22,7 @@ import pathlib
 import sys
 import tempfile
 
-from script_cli import Parser
+from script_cli import Parser, run
 
 STAGES = ["update_ms", "broadphase_ms", "narrowphase_ms", "solver_ms", "integrate_ms",
           "ccd_query_ms"]
@@ -150,4 +150,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run(main, "plot_run.py"))

@@ -12,6 +12,7 @@ Rules, each with its reason:
 """
 import argparse
 import errno
+import os
 import pathlib
 import sys
 
@@ -62,15 +63,35 @@ def existing_folder(text: str) -> pathlib.Path:
     return path
 
 
+def write_atomically(path: pathlib.Path, text: str) -> None:
+    """`text` as the whole of `path`, or `path` as it was: written beside it, then
+    renamed over it, so that a signal or a full disk never leaves it half-written."""
+    path = pathlib.Path(path)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        temporary.write_text(text)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
 def run(main, prog: str = None) -> int:
-    """main()'s exit status; BadInput and an OSError on an input path are one line naming
-    the input and the problem, exit 2 (another OSError: exit 1)."""
+    """main()'s exit status; BadInput, a file that is not UTF-8 text and an OSError on an
+    input path are one line naming the input and the problem, exit 2 (another OSError:
+    exit 1); SIGINT is one line too, exit 130."""
     prog = prog or pathlib.Path(sys.argv[0]).name
     try:
         return main() or 0
     except BadInput as problem:
         print(f"{prog}: {one_line(problem)}", file=sys.stderr)
         return 2
+    except UnicodeDecodeError as error:
+        print(f"{prog}: an input is not UTF-8 text (byte {error.start}: "
+              f"{one_line(error.reason)})", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: stopped by SIGINT", file=sys.stderr)
+        return 130
     except OSError as error:
         where = error.filename if error.filename is not None else "?"
         print(f"{prog}: {one_line(where)}: {one_line(error.strerror or error)}",

@@ -245,6 +245,12 @@ def check_utf8(path: pathlib.Path, name: str) -> None:
         raise BadArchive(f"{name}: not UTF-8 text (at byte {done + error.start})")
 
 
+def refuse_constant(name: str):
+    """json's NaN, Infinity and -Infinity, which no file of a study holds (a load
+    average of NaN would read as a measurement)."""
+    raise ValueError(f"{name} is no number a study writes")
+
+
 def read_text(study: pathlib.Path) -> dict:
     """Checks every text file's UTF-8; returns every .json file parsed, keyed by its
     path in the archive."""
@@ -258,7 +264,10 @@ def read_text(study: pathlib.Path) -> dict:
             if path.stat().st_size > MAX_JSON_BYTES:
                 raise BadArchive(f"{name}: over {MAX_JSON_BYTES // 1024 ** 2} MiB of JSON")
             try:
-                parsed[name] = json.loads(path.read_text(encoding="utf-8"))
+                parsed[name] = json.loads(path.read_text(encoding="utf-8"),
+                                          parse_constant=refuse_constant)
+            except RecursionError:
+                raise BadArchive(f"{name}: JSON nested too deep for a study's files")
             except ValueError as error:
                 raise BadArchive(f"{name}: not JSON ({error})")
     return parsed

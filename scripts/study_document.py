@@ -38,6 +38,7 @@ import shlex
 import sys
 
 from results_files import read_csv
+from script_cli import BadInput, run
 
 BLOCK = re.compile(r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", re.S)
 OPENING = re.compile(r"<!-- generated:([\w-]+) -->")
@@ -111,7 +112,7 @@ def cited_value(folder: pathlib.Path, citation: str) -> float:
     if not path.is_file():
         raise LookupError(f"no file {words[0]}")
     if path.suffix == ".json":
-        return factor * json_value(json.loads(path.read_text()), words[1])
+        return factor * json_value(json.loads(read_text(path)), words[1])
     return factor * csv_value(path, words[1:])
 
 
@@ -146,16 +147,24 @@ def check_text(folder: pathlib.Path, text: str) -> list:
     return problems
 
 
+def read_text(path: pathlib.Path) -> str:
+    """The file's text; BadInput naming it where it is not UTF-8."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{path}: not UTF-8 text (at byte {error.start})")
+
+
 def check(path: pathlib.Path) -> list:
     """Every citation of the document that does not match, as 'file:line: problem'."""
     path = pathlib.Path(path)
     return [f"{path}:{line}: {problem}"
-            for line, problem in check_text(path.parent, path.read_text())]
+            for line, problem in check_text(path.parent, read_text(path))]
 
 
 def words(names: list) -> int:
     for name in names:
-        text = pathlib.Path(name).read_text()
+        text = read_text(pathlib.Path(name))
         print(f"{name}: {len(prose(text).split())} words of prose, "
               f"{len(text.split())} in all (wc -w)")
     return 0
@@ -165,7 +174,7 @@ def check_all(names: list) -> int:
     problems = [p for name in names for p in check(pathlib.Path(name))]
     for problem in problems:
         print(problem, file=sys.stderr)
-    cited = sum(len(CITE.findall(pathlib.Path(n).read_text())) for n in names)
+    cited = sum(len(CITE.findall(read_text(pathlib.Path(n)))) for n in names)
     print(f"study_document: {cited} citations, {len(problems)} not matching their tables")
     return 1 if problems else 0
 
@@ -182,4 +191,4 @@ def main(argv: list) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(run(lambda: main(sys.argv[1:]), "study_document"))

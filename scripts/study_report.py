@@ -30,6 +30,7 @@ import study_plots
 import study_results
 import study_sweep
 from overlap_runs import portable
+from script_cli import write_atomically
 from study_tables import fmt, plain, table
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -317,7 +318,7 @@ def publish(args, blocks: dict, figures: dict) -> list:
             stale.unlink()
     for path in sorted(figures["folder"].iterdir()):
         shutil.copy(path, beside / path.name)
-    doc.write_text(text)
+    write_atomically(doc, text)
     return study_document.check(doc)
 
 
@@ -336,7 +337,7 @@ def write_everything(args, jobs: list) -> list:
     for name in CSV_TABLES:
         study_results.write_csv(figures["folder"] / f"{name}.csv", data[name])
     blocks, failures = blocks_of(args, jobs, data, machines[0] if machines else None, figures)
-    (args.out / "REPORT.md").write_text(generated_report(args, blocks))
+    write_atomically(args.out / "REPORT.md", generated_report(args, blocks))
     if args.report and not blocking:
         failures += publish(args, blocks, figures)
     return blocking + failures

@@ -79,11 +79,17 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
     throw UsageError(std::string(option) + " " + shownPath(prefix) + ": " + problem);
   }
   // The prefix itself is never written: its files go beside it, so a
-  // device, FIFO or socket there (/dev/null) is a name mistaken for a file.
+  // folder, device, FIFO or socket there (/dev/null, /dev/shm) is a name
+  // mistaken for a file.
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(prefix, error);
-  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
-      !std::filesystem::is_directory(status)) {
+  if (std::filesystem::is_directory(status)) {
+    throw UsageError(std::string(option) + " " + shownPath(prefix) +
+                     ": is a folder, not a prefix of files (they would be made beside it); name "
+                     "them inside it, as " +
+                     (prefix / "results").string());
+  }
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
     throw UsageError(std::string(option) + " " + shownPath(prefix) +
                      ": is a device, FIFO or socket, not a prefix of files (its files would be "
                      "made beside it)");

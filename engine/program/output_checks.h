@@ -37,7 +37,7 @@ std::string readableBytes(std::uint64_t bytes);
 
 // The files `prefix` + each suffix ("--out results" -> results.csv,
 // results.json), each checked as above; the prefix itself must name a file
-// ("", ".", "dir/" and "/" are UsageErrors), and not a device, FIFO or
+// ("", ".", "dir/" and "/" are UsageErrors), and not a folder, device, FIFO or
 // socket (/dev/null: the files would be made beside it).
 std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,
                                                       const std::vector<std::string>& suffixes,

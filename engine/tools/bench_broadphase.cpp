@@ -551,7 +551,8 @@ int run(const BenchOptions& options, const std::string& command) {
   for (const Workload& workload : workloads) {
     const CachedStream cached = workloadStream(workload, options);
     std::fprintf(stderr, "%s: n=%d: %s %s in %.1f s\n", kProgram, cached.stream.objects,
-                 cached.recorded ? "recorded" : "read", cached.path.c_str(), cached.seconds);
+                 cached.recorded ? "recorded" : "read", oneLine(cached.path.string()).c_str(),
+                 cached.seconds);
     streams.push_back({{"n", cached.stream.objects},
                        {"path", cached.path.string()},
                        {"recorded_frames", cached.stream.stored_frames - 1},

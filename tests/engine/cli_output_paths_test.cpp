@@ -115,11 +115,13 @@ TEST_F(OutputPathsCliTest, ALinkedPngFolderIsRefusedHoweverTheRunFolderIsNamed) 
   }
 }
 
-// The benchmark's --out names a prefix of files: a device or FIFO there is
-// refused (its files would be made beside it).
-TEST_F(OutputPathsCliTest, TheBenchmarksOutCannotBeADevice) {
+// The benchmark's --out names a prefix of files: a device, FIFO or folder
+// there is refused (its files would be made beside it).
+TEST_F(OutputPathsCliTest, TheBenchmarksOutCannotBeADeviceOrAFolder) {
   ASSERT_EQ(::mkfifo((out_ / "fifo").c_str(), 0600), 0);
-  for (const std::string out : {std::string("/dev/null"), (out_ / "fifo").string()}) {
+  fs::create_directory(out_ / "folder");
+  for (const std::string out :
+       {std::string("/dev/null"), (out_ / "fifo").string(), (out_ / "folder").string()}) {
     const std::string args =
         " --objects 30 --big-objects 0 --algos bvh --record-frames 2 "
         "--warmup 1 --repeats 1 --streams " +
@@ -197,6 +199,16 @@ TEST_F(OutputPathsCliTest, TheEdgeRatioRefusedReadsAsOverTheBound) {
   EXPECT_NE(result.stderr_text.find("times the smallest edge"), std::string::npos)
       << result.stderr_text;
   EXPECT_EQ(result.stderr_text.find("is 100 times"), std::string::npos) << result.stderr_text;
+}
+
+// A ratio of exactly 100 in decimals is the bound, whatever doubles make of
+// it (1.3 / 0.013 is 100.00000000000001 in them).
+TEST_F(OutputPathsCliTest, AnEdgeRatioOfExactlyTheBoundIsAllowed) {
+  const Result result = runOverlap(
+      "record --scene 4 --objects 20 --frames 1 --small-sizes 0.013 0.013 --average-sizes 0.013 "
+      "1.3 --large-sizes 1.3 1.3 --out " +
+      (out_ / "s.aabbs").string());
+  EXPECT_EQ(result.exit_code, 0) << result.stderr_text;
 }
 
 }  // namespace

@@ -26,8 +26,9 @@ study.CASE, tests/study/CMakeLists.txt):
                                   past the jobs get none
   no_abbreviated_options          every script of scripts/ and tests/ refuses a prefix of
                                   each of its options as an unknown option
-  bad_arguments_one_line          every script answers a missing file, a bad folder and a
-                                  bad value with one line naming it, exit 2, no traceback
+  bad_arguments_one_line          every script answers a missing file, a bad folder, a bad
+                                  value and a file not UTF-8 with one line naming it, exit
+                                  2, no traceback
 
 Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
 """
@@ -233,6 +234,9 @@ def hostile_archives(work: pathlib.Path) -> list:
             ("non_utf8_csv", None, {"sweep/s1_n40_bf_r0/frames.csv": b"frame\n\xff\n"},
              "not UTF-8"),
             ("bad_json_summary", None, {"sweep/s1_n40_bf_r0/summary.json": b"{"}, "not JSON"),
+            ("deep_json", None, {"deep.json": b"[" * 200000 + b"]" * 200000}, "nested too deep"),
+            ("nan_load", b'[{"argv": ["study.py"], "started": "x", "load_average_at_start": NaN}]',
+             {}, "NaN is no number"),
             ("summary_no_machine", None, {"sweep/s1_n40_bf_r0/summary.json": b"{}"}, "machine"),
             ("machine_not_text", None, {"sweep/s1_n40_bf_r0/summary.json": json.dumps(
                 {"machine": {"cpu": 5, "gpu": "", "compiler": "", "build_type": "",
@@ -484,8 +488,12 @@ def case_bad_arguments_one_line(args) -> None:
     unreadable = work / "unreadable.tar.xz"
     unreadable.write_text("x")
     unreadable.chmod(0)
+    not_text = work / "not_text.md"
+    not_text.write_bytes(b"# a report\n\xff\xfe\n")
     scripts = REPO / "scripts"
     cases = [
+        (["study_document.py", "check", not_text], "not_text.md: not UTF-8"),
+        (["study_document.py", "words", not_text], "not_text.md: not UTF-8"),
         (["study.py", "--overlap", missing], "--overlap"),
         (["study.py", "--overlap", args.overlap, "--threads", "x"], "--threads"),
         (["study.py", "--overlap", args.overlap, "--experiments", "nope"], "--experiments"),
