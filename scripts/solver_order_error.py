@@ -28,7 +28,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import study_plan  # noqa: E402
 import study_profiles  # noqa: E402
 import study_results  # noqa: E402
-from script_cli import Parser  # noqa: E402, run
+from script_cli import Parser, run  # noqa: E402
 from overlap_runs import run_summary  # noqa: E402
 
 ORDERS = ("serial", "coloured")

@@ -26,7 +26,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from overlap_runs import run_summary  # noqa: E402
 from results_files import read_csv  # noqa: E402
-from script_cli import BadInput, Parser, one_line  # noqa: E402, run
+from script_cli import BadInput, Parser, one_line, run  # noqa: E402
 
 # run_summary() adds --capture-every 0 --no-wav.
 COMMON = "--scene 4 --objects 3500 --frames 24 --no-tasks --algo cpusap"
