@@ -96,7 +96,7 @@ TEST_P(FinderMemoryTest, HoldsNoMoreThanItsRatesForBoxesThatPairWithNothing) {
 // half the pairs are removed and as many added.  Box counts on either side of
 // the lists' doublings.
 TEST_P(FinderMemoryTest, HoldsNoMoreThanItsRatesWhileClumpsOfPairsChange) {
-  for (const std::uint32_t boxes_count : {900u, 1500u}) {
+  for (const std::uint32_t boxes_count : {900u, 1300u}) {
     std::vector<ObjectBounds> boxes(boxes_count);
     const auto clump = [&](bool by_parity) {
       for (std::uint32_t i = 0; i < boxes_count; ++i) {
