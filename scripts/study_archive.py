@@ -308,14 +308,16 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
         raise BadOut(f"{out}: holds the archive, which replacing it would remove")
     target.parent.mkdir(parents=True, exist_ok=True)
     with ends_cleanly_on_signals(), contextlib.ExitStack() as held:
-        # Made and locked at once, signals held: no other unpack takes it for a stale one,
-        # and no signal leaves it behind before the `finally` that removes it.
-        with signals_held(), folder_locked(target.parent):
-            clear_stale(target.parent, target.name)
-            scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{target.name}.unpack-",
-                                                    dir=target.parent))
-            held.enter_context(folder_locked(scratch))
+        scratch = None
         try:
+            # Made and locked at once, signals held: no other unpack takes it for a stale
+            # one; a signal held meanwhile arrives as the block ends, inside the `try`
+            # whose `finally` removes it.
+            with signals_held(), folder_locked(target.parent):
+                clear_stale(target.parent, target.name)
+                scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{target.name}.unpack-",
+                                                        dir=target.parent))
+                held.enter_context(folder_locked(scratch))
             (scratch / SCRATCH_MARKER).touch()
             study = extract(archive, scratch)
             options = options_of(check_study(study))
@@ -327,8 +329,23 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
                 swap(study, target, scratch / "old")
             return options
         finally:
+            if scratch is not None:
+                remove_whole(scratch)
+
+
+def remove_whole(folder: pathlib.Path) -> None:
+    """`folder` removed, signals held; a signal that came just before (its handler runs
+    at Python's next step, blocked or not) waits until the folder is gone."""
+    stopped = None
+    while True:
+        try:
             with signals_held():
-                shutil.rmtree(scratch, ignore_errors=True)
+                shutil.rmtree(folder, ignore_errors=True)
+            break
+        except Interrupted as stop:
+            stopped = stop
+    if stopped is not None:
+        raise stopped
 
 
 def swap(new: pathlib.Path, target: pathlib.Path, aside: pathlib.Path) -> None:
