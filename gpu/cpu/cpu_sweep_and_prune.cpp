@@ -268,11 +268,12 @@ void CpuSweepAndPruneFinder::startSearch(std::span<const ObjectBounds> objects,
   slot_count_ = checkedSlotCount(name(), slot_count_, objects.size());
   key_limit_.found.store(0, std::memory_order_relaxed);
   key_limit_.most = pairLimit();
+  over_limit_ = false;
   const SapMovedBoxes::FullFrame full{layout_, grid_, sweep_axis_, slab_axis_};
   moved_only_ = moved_boxes_.search(objects, changed, full, added_, removed_, stats_.phases);
   if (!moved_only_) searchAll(objects);
   // This frame's pairs are no fewer than those it added.
-  over_limit_ = key_limit_.exceeded() || added_.size() > pairLimit();
+  over_limit_ = over_limit_ || key_limit_.exceeded() || added_.size() > pairLimit();
   stats_.search_ms = msSinceLaunch();
   moved_boxes_.searchFinished();
 }
@@ -290,7 +291,7 @@ void CpuSweepAndPruneFinder::searchAll(std::span<const ObjectBounds> objects) {
   std::uint64_t found = inverted_pairs_.size();
   for (const PairKeys& pairs : thread_pairs_) found += pairs.size();
   if (key_limit_.exceeded() || found > key_limit_.most) {
-    key_limit_.found.store(UINT64_MAX, std::memory_order_relaxed);  // refused
+    over_limit_ = true;
     added_.clear();
     removed_.clear();
     return;

@@ -33,10 +33,6 @@ void prefetch(const void* address) {
 
 constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
-}  // namespace
-
-namespace {
-
 std::align_val_t lookupAlignment(std::size_t bytes) {
   return std::align_val_t{bytes >= kHugePage ? kHugePage : 64};
 }
@@ -77,15 +73,12 @@ BulkPairCache::~BulkPairCache() {
 }
 
 std::uint64_t BulkPairCache::bytesFor(std::size_t capacity, std::size_t index_slots) const {
-  return std::uint64_t{capacity} *
-             (sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_) +
-         std::uint64_t{index_slots} * sizeof(IndexSlot);
+  return std::uint64_t{capacity} * bytesPerPair() + std::uint64_t{index_slots} * sizeof(IndexSlot);
 }
 
 std::uint64_t BulkPairCache::mostPairs() const {
   if (memory_limit_ == 0) return 0;
-  return std::max<std::uint64_t>(
-      1, memory_limit_ / (sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_));
+  return std::max<std::uint64_t>(1, memory_limit_ / bytesPerPair());
 }
 
 void BulkPairCache::refuseMoreThan(std::uint64_t most_pairs) const {
@@ -119,10 +112,8 @@ void BulkPairCache::reserve(std::size_t pairs) {
       (index_slots > index_.size() ? index_.size() * sizeof(IndexSlot) : 0);
   if (memory_limit_ != 0 && bytesFor(capacity, index_slots) + old_arrays > memory_limit_) {
     const std::uint64_t besides_pairs = std::uint64_t{index_slots} * sizeof(IndexSlot) + old_arrays;
-    const std::uint64_t per_pair =
-        sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_;
     const std::uint64_t fits =
-        memory_limit_ > besides_pairs ? (memory_limit_ - besides_pairs) / per_pair : 0;
+        memory_limit_ > besides_pairs ? (memory_limit_ - besides_pairs) / bytesPerPair() : 0;
     if (fits < pairs) {
       throw PairMemoryError(
           pairs, bytesFor(pairs, std::bit_ceil(std::max(2 * pairs, kSmallestIndex))) + old_arrays,

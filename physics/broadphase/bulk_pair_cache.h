@@ -166,6 +166,10 @@ class BulkPairCache final : public btOverlappingPairCache {
   // Makes room for `pairs` pairs (array and index), within the limit.
   void reserve(std::size_t pairs);
   std::uint64_t bytesFor(std::size_t capacity, std::size_t index_slots) const;
+  // A pair's bytes but its index slots: its entry, its key, and elsewhere's.
+  std::uint64_t bytesPerPair() const {
+    return sizeof(btBroadphasePair) + sizeof(std::uint64_t) + elsewhere_per_pair_;
+  }
   void growPairs(std::size_t capacity);
   void rehash(std::size_t index_slots);
   void eraseSlot(std::size_t slot);
