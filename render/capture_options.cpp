@@ -8,11 +8,18 @@
 namespace overlap::render {
 namespace {
 
+// `text` without the one '+' it may open with, as every whole-number option
+// reads it (engine/program/number_options.h).
+std::string_view unsigned_part(std::string_view text) {
+  return text.starts_with('+') ? text.substr(1) : text;
+}
+
 // "" when `text` is a positive int, else what is wrong with it.
-std::string positiveProblem(std::string_view text) {
+std::string positiveProblem(std::string_view signed_text) {
   std::string quoted = "\"";  // appended: GCC 12 warns falsely on "\"" + string (-Wrestrict)
-  quoted += text;
+  quoted += signed_text;
   quoted += '"';
+  const std::string_view text = unsigned_part(signed_text);
   const bool digits =
       !text.empty() && text.find_first_not_of("0123456789") == std::string_view::npos;
   if (!digits || text.front() == '0') {
@@ -27,7 +34,8 @@ std::string positiveProblem(std::string_view text) {
   return {};
 }
 
-int positive(std::string_view text) {
+int positive(std::string_view signed_text) {
+  const std::string_view text = unsigned_part(signed_text);
   int value = 0;
   std::from_chars(text.data(), text.data() + text.size(), value);
   return value;

@@ -46,7 +46,8 @@ def existing_file(text: str) -> pathlib.Path:
     """argparse type: a regular file that can be read."""
     path = pathlib.Path(text)
     if not path.is_file():
-        raise argparse.ArgumentTypeError(f"{one_line(text)}: no such file")
+        problem = "not a regular file" if path.exists() else "no such file"
+        raise argparse.ArgumentTypeError(f"{one_line(text)}: {problem}")
     try:
         with open(path, "rb"):
             pass

@@ -303,7 +303,7 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
     target = out.resolve()
     replaceable(target, out)
     if not archive.is_file():
-        raise BadArchive("no such file")
+        raise BadArchive("not a regular file" if archive.exists() else "no such file")
     if archive.resolve().is_relative_to(target):
         raise BadOut(f"{out}: holds the archive, which replacing it would remove")
     target.parent.mkdir(parents=True, exist_ok=True)

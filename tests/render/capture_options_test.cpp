@@ -24,6 +24,10 @@ TEST(ParseImageSize, ReadsWidthByHeight) {
   EXPECT_EQ(parseImageSize("1x4096"), (ImageSize{1, 4096}));
 }
 
+TEST(ParseImageSize, TakesALeadingPlusAsEveryWholeNumberOptionDoes) {
+  EXPECT_EQ(parseImageSize("+800x+600"), (ImageSize{800, 600}));
+}
+
 TEST(ParseImageSize, RejectsAnythingElseNamingTheBadPart) {
   const auto parse = [](const std::string& text) { parseImageSize(text); };
   expectErrorMentioning(parse, "800", "WIDTHxHEIGHT");
@@ -31,7 +35,9 @@ TEST(ParseImageSize, RejectsAnythingElseNamingTheBadPart) {
   expectErrorMentioning(parse, "800x", "height \"\"");
   expectErrorMentioning(parse, "x600", "width \"\"");
   expectErrorMentioning(parse, "-800x600", "width \"-800\"");
-  expectErrorMentioning(parse, "+800x600", "width \"+800\"");
+  expectErrorMentioning(parse, "++800x600", "width \"++800\"");
+  expectErrorMentioning(parse, "+x600", "width \"+\"");
+  expectErrorMentioning(parse, "+0x600", "width \"+0\"");
   expectErrorMentioning(parse, "800x600x2", "height \"600x2\"");
   expectErrorMentioning(parse, "800x99999999999", "height \"99999999999\" is out of range");
   expectErrorMentioning(parse, "4294967297x1", "width \"4294967297\" is out of range");
