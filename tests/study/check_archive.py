@@ -27,7 +27,8 @@ SMALL = ["--quick", "--threads", "1", "--experiments", "sweep,physics,overlap",
          "--figure-objects", "40", "--physics-scenes", "1", "--physics-objects", "40",
          "--physics-frames", "3", "--physics-substeps", "auto", "--physics-ccd", "auto",
          "--physics-seeds", "", "--overlap-scenes", "1", "--overlap-objects", "40",
-         "--overlap-loads", "0,1", "--overlap-frames", "3", "--overlap-repetitions", "1"]
+         "--overlap-loads", "0,1", "--overlap-frames", "3", "--overlap-repetitions", "1",
+         "--ideal-objects", "40", "--ideal-frames", "3"]
 ELSEWHERE_CPU = "The GPU machine's CPU (written into the archive by this test)"
 
 

@@ -31,7 +31,8 @@ TINY = ["--quick", "--threads", "1", "--scenes", ",".join(map(str, SCENES)),
         "--physics-substeps", ",".join(SUBSTEPS),
         "--latency-scenes", "1,4", "--latency-objects", "120", "--latency-frames", "4",
         "--latency-algos", "bvh,cpubf", "--timeline-objects", "120", "--timeline-frames", "4",
-        "--overlap-objects", "80", "--overlap-loads", "0,1", "--overlap-frames", "3"]
+        "--overlap-objects", "80", "--overlap-loads", "0,1", "--overlap-frames", "3",
+        "--ideal-objects", "80", "--ideal-frames", "3"]
 
 
 def rows(path: pathlib.Path) -> list:

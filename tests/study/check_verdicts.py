@@ -22,7 +22,7 @@ from check_quick import STUDY, arguments_or_skip, check
 SMALL = ["--quick", "--threads", "1", "--experiments", "pairs,overlap", "--pairs-objects", "60",
          "--pairs-frames", "3", "--pairs-algos", "bf,cpubf,cpusap", "--overlap-scenes", "4",
          "--overlap-objects", "40", "--overlap-loads", "0,1", "--overlap-frames", "2",
-         "--overlap-repetitions", "1"]
+         "--overlap-repetitions", "1", "--ideal-objects", "40", "--ideal-frames", "2"]
 
 
 def findings(report: str) -> dict:
