@@ -6,8 +6,10 @@
 # CPU-only program on a machine without the CUDA toolkit: nvcc off PATH, the
 # toolkit's folders ignored by every find_* (CMAKE_IGNORE_PATH), CUDA_PATH
 # and the like unset; the consumer's configure fails if CMake can still see
-# a toolkit or a CUDA compiler, and its binary must hold no CUDA runtime
-# call while the first one does.
+# a toolkit or a CUDA compiler or the package gives it the CUDA finders, the
+# program fails if it runs gpubf, and its binary must hold no CUDA runtime
+# call while the first one does.  Every verdict is an exit status or a fact
+# the consumer's configure wrote, never a log line matched.
 # Usage: scripts/ci_package.sh [BUILD_DIR] (default build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -37,8 +39,9 @@ calls_cuda() {
   grep -q ' cudaGetDeviceCount$' "$1.symbols"
 }
 
-consumer "$scratch/consumer"
-grep -q "Overlap_WITH_CUDA ON" "$scratch/consumer.configure.log" || {
+consumer "$scratch/consumer" -DOVERLAP_CONSUMER_FACTS="$scratch/consumer.with_cuda"
+with_cuda=$(<"$scratch/consumer.with_cuda")  # no file: the script stops here
+[[ "$with_cuda" == ON ]] || {
   echo "ci_package: the build has no CUDA finders; the CPU-only consumer is the one above"
   exit 0
 }
@@ -77,8 +80,8 @@ ignore_list=$(IFS=';'; echo "${ignored[*]}")
 env -u CUDA_PATH -u CUDA_HOME -u CUDAToolkit_ROOT -u CUDACXX -u CUDAARCHS PATH="$hidden_path" \
   bash -c "$(declare -f consumer); $(declare -p scratch launcher); consumer \"\$@\"" consumer \
   "$scratch/cpu_consumer" -DOVERLAP_CONSUMER_WITHOUT_CUDA=ON -DCMAKE_IGNORE_PATH="$ignore_list"
-grep -q "no CUDA toolkit found" "$scratch/cpu_consumer.configure.log" &&
-  grep -q "gpubf runs cpusap: .*built without CUDA" "$scratch/cpu_consumer.out" &&
-  ! calls_cuda "$scratch/cpu_consumer" ||
+# The consumer's configure failed above had the package given it the CUDA finders,
+# and the program had it run gpubf with them; its binary must not call CUDA either.
+! calls_cuda "$scratch/cpu_consumer" ||
   { echo "ci_package: the CPU-only consumer still got the CUDA finders" >&2; exit 1; }
 echo "ci_package: a CPU-only consumer with no CUDA toolkit in sight built and ran against the package"

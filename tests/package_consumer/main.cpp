@@ -51,12 +51,16 @@ int main() {
     return 1;
   }
 
-  // A device name: where it cannot run, the notice says why (scripts/ci_package.sh
-  // reads it: without the CUDA toolkit the package gives the finders built without CUDA).
+  // A device name: where it cannot run, the notice says why.  A package that
+  // gave the finders built without CUDA (Overlap_WITH_CUDA OFF) must never run it.
   const overlap::physics::BroadphaseChoice gpubf =
       overlap::physics::makeWorldBroadphase("gpubf", world_min, world_max, kBoxes + 1);
   std::printf("package consumer: gpubf runs %s%s%s\n", gpubf.name.c_str(),
               gpubf.notice.empty() ? "" : ": ", gpubf.notice.c_str());
+  if (!OVERLAP_CONSUMER_GOT_CUDA && (gpubf.name == "gpubf" || gpubf.notice.empty())) {
+    std::fprintf(stderr, "package consumer: the finders built without CUDA ran gpubf\n");
+    return 1;
+  }
 
   btBoxShape ground_shape(btVector3(20, 1, 20));
   btRigidBody ground(0, nullptr, &ground_shape);
