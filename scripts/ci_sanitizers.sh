@@ -40,10 +40,6 @@ readonly ASAN_TARGETS=(overlap_gpu_tests overlap_cuda_emulation_tests overlap_ph
   overlap_solver_tests overlap_narrowphase_tests overlap_hard_cases_tests render_tests
   replay_aabb_stream replay_command_line overlap_finder_memory_tests)
 readonly ASAN_LABELS='gpu|emulation|physics|hard_cases|render|fuzz'
-# Scenes 3 and 4 of the thread-count state test run the same step code as scenes 1
-# and 2 with more contacts: 39 and 29 s under ASan against 6 and 4 (the Release
-# suite runs all four, and TSan leaves out the same two).
-readonly ASAN_RELEASE_ONLY='^Scenes/SameStateForEveryThreadCount\..*/[34]( |$)'
 # The test executables labelled threads (tests/*/CMakeLists.txt).
 readonly TSAN_TARGETS=(overlap_gpu_tests overlap_scheduler_tests stubs_tests overlap_stream_tests
   overlap_narrowphase_tests overlap_solver_tests)
@@ -90,7 +86,7 @@ ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initi
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" \
 UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
   ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" -L "$ASAN_LABELS" -LE 'long|study|e2e' \
-    -E "$ASAN_RELEASE_ONLY" --output-junit ctest-junit.xml  # in $ASAN_DIR
+    --output-junit ctest-junit.xml  # in $ASAN_DIR
 fi
 
 if [[ " $SANITIZERS " == *" tsan "* ]]; then
@@ -110,13 +106,13 @@ section "TSan: the tests labelled threads"
 # plain-thread back end (Debian's oneTBB is not built with TSan, and its
 # hand-overs would look racy), which starts every thread it is asked for,
 # so the tests' systems of 2 to 8 threads race on both CPUs.
-# Left to the Release suite: the whole-step thread-count runs of scenes 3
-# and 4 (scenes 1 and 2 run every parallel part of the step the same way; 3
-# and 4 took 122 of the stage's 351 test-seconds here) and the narrowphase
-# equality beside finders that search on no task thread (bf, cpubf and
-# cpusap stay: the search beside the narrowphase is theirs).
+# Left to the Release suite: the narrowphase equality beside finders that
+# search on no task thread (bf, cpubf and cpusap stay: the search beside the
+# narrowphase is theirs).  The whole-step thread-count runs of scenes 3 and 4
+# are label long (scenes 1 and 2 run every parallel part of the step the same
+# way; 3 and 4 took 122 of this stage's 351 test-seconds here).
 TSAN_OPTIONS="suppressions=$PWD/tests/tsan.supp:halt_on_error=1:second_deadlock_stack=1" \
   ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" -L threads \
-    -E '^Scenes/SameStateForEveryThreadCount\..*/[34]( |$)|^EveryBroadphase/Narrowphase\..*/(bvh|sap|sap32|gpubf|gpubf_paper|gpusap)( |$)'
+    -E '^EveryBroadphase/Narrowphase\..*/(bvh|sap|sap32|gpubf|gpubf_paper|gpusap)( |$)'
 fi
 section "sanitizers: no finding"

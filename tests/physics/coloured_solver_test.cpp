@@ -140,15 +140,16 @@ TEST(ColouredSolver, WithoutColoursIsBulletsSerialSolverBitForBit) {
 }
 
 // One state for every thread count: the coloured solver (and the rest of the
-// step) reach the same state on 1, 2, 3, 8 and 16 threads, in every scene,
-// with CCD on every box and with the default CCD.
+// step) reach the same state on 1, 2, 3, 8 and 16 threads, with CCD on every
+// box and with the default CCD, in scenes 1 and 2 (3 and 4, with more contacts
+// through the same code, are coloured_solver_long_test.cpp's).
 class SameStateForEveryThreadCount : public ::testing::TestWithParam<int> {};
 
 TEST_P(SameStateForEveryThreadCount, WithCcdOnEveryBoxAndWithTheDefault) {
   EXPECT_EQ(testing::whereThreadCountsDiffer(GetParam(), 250, 60), "") << "scene " << GetParam();
 }
 
-INSTANTIATE_TEST_SUITE_P(Scenes, SameStateForEveryThreadCount, ::testing::Values(1, 2, 3, 4));
+INSTANTIATE_TEST_SUITE_P(Scenes, SameStateForEveryThreadCount, ::testing::Values(1, 2));
 
 TEST(ColouredSolver, SolverOrderNamesParseBothWays) {
   for (const SolverOrder order : {SolverOrder::kColoured, SolverOrder::kSerial}) {
