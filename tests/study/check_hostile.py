@@ -499,6 +499,8 @@ def case_bad_arguments_one_line(args) -> None:
         (["study.py", "--overlap", args.overlap, "--experiments", "nope"], "--experiments"),
         (["study.py", "--overlap", args.overlap, "--experiments", "", "--no-runs", "--out",
           work / "o"], "--experiments : expected one or more"),
+        (["study.py", "--overlap", args.overlap, "--experiments", "sweep\nx", "--no-runs",
+          "--out", work / "o"], "--experiments sweep\\nx: expected"),
         (["study.py", "--overlap", args.overlap, "--profile", "nope"], "--profile"),
         (["study.py", "--overlap", args.overlap, "--from-archive", missing, "--out", work / "o"],
          "no such file"),
