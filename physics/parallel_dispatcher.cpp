@@ -2,8 +2,9 @@
 
 #include <BulletCollision/CollisionDispatch/btBoxBoxCollisionAlgorithm.h>
 
-#include <algorithm>
 #include <typeinfo>
+
+#include "physics/broadphase/bulk_pair_cache.h"
 
 namespace overlap::physics {
 namespace {
@@ -38,28 +39,31 @@ bool isBoxBox(const btCollisionAlgorithm& algorithm) {
   return typeid(algorithm) == typeid(btBoxBoxCollisionAlgorithm);
 }
 
+// Whether dispatchStayingPairs ran a pair that needs collision and is in the
+// cache after the search: exactly the box-box pairs with an algorithm, since
+// the search gives the pairs it adds none (the serial pass finds theirs) and
+// changes no other pair's (a removal frees only the removed pair's).
+bool ranBesideSearch(const btBroadphasePair& pair) {
+  return pair.m_algorithm != nullptr && isBoxBox(*pair.m_algorithm);
+}
+
 }  // namespace
 
 // The serial part of a dispatch, in the cache's visit order: Bullet's near
 // callback, except that a box-box pair's processCollision is collected for
-// the parallel part instead of run (and, after dispatchStayingPairs, a pair
-// whose algorithm it ran is skipped).
+// the parallel part instead of run (and, after dispatchStayingPairs, a
+// box-box pair that came with its algorithm is skipped: the first half ran
+// it).
 class ParallelDispatcher::SerialPass final : public btOverlapCallback {
  public:
-  SerialPass(ParallelDispatcher& dispatcher, const btDispatcherInfo& info, bool skip_staying)
-      : dispatcher_(dispatcher), info_(info), skip_staying_(skip_staying) {}
+  SerialPass(ParallelDispatcher& dispatcher, const btDispatcherInfo& info)
+      : dispatcher_(dispatcher), info_(info) {}
 
   bool processOverlap(btBroadphasePair& pair) override {
     btCollisionObject* a = objectOf(pair.m_pProxy0);
     btCollisionObject* b = objectOf(pair.m_pProxy1);
     if (!dispatcher_.needsCollision(a, b)) return false;
-    // Only a pair that came with its algorithm can have been run already: a
-    // new pair's algorithm may take a freed one's memory.
-    if (skip_staying_ && pair.m_algorithm != nullptr &&
-        std::binary_search(dispatcher_.staying_.begin(), dispatcher_.staying_.end(),
-                           pair.m_algorithm)) {
-      return false;
-    }
+    if (dispatcher_.staying_ran_ && ranBesideSearch(pair)) return false;
     const btCollisionObjectWrapper wrap_a(nullptr, a->getCollisionShape(), a,
                                           a->getWorldTransform(), -1, -1);
     const btCollisionObjectWrapper wrap_b(nullptr, b->getCollisionShape(), b,
@@ -81,7 +85,6 @@ class ParallelDispatcher::SerialPass final : public btOverlapCallback {
  private:
   ParallelDispatcher& dispatcher_;
   const btDispatcherInfo& info_;
-  bool skip_staying_;
 };
 
 ParallelDispatcher::ParallelDispatcher(btCollisionConfiguration* config, TaskSystem& tasks)
@@ -100,7 +103,7 @@ void ParallelDispatcher::dispatchAllCollisionPairs(btOverlappingPairCache* cache
     btCollisionDispatcher::dispatchAllCollisionPairs(cache, info, dispatcher);
     return;
   }
-  staying_.clear();
+  staying_ran_ = false;
   dispatchRemainingPairs(cache, info);
 }
 
@@ -108,29 +111,44 @@ void ParallelDispatcher::dispatchStayingPairs(btOverlappingPairCache* cache,
                                               const btDispatcherInfo& info) {
   last_parallel_pairs_ = 0;
   box_pairs_.clear();
-  staying_.clear();
   // Reads only: the search may not change the cache until this returns.
   btBroadphasePairArray& pairs = cache->getOverlappingPairArray();
   for (int i = 0; i < pairs.size(); ++i) {
     btBroadphasePair& pair = pairs[i];
-    if (pair.m_algorithm == nullptr || !isBoxBox(*pair.m_algorithm) ||
-        !needsCollision(objectOf(pair.m_pProxy0), objectOf(pair.m_pProxy1))) {
-      continue;
+    if (ranBesideSearch(pair) &&
+        needsCollision(objectOf(pair.m_pProxy0), objectOf(pair.m_pProxy1))) {
+      box_pairs_.push_back(&pair);
     }
-    box_pairs_.push_back(&pair);
-    staying_.push_back(pair.m_algorithm);
   }
-  std::sort(staying_.begin(), staying_.end());
+  staying_ran_ = true;
   processInParallel(info);
 }
 
 void ParallelDispatcher::dispatchRemainingPairs(btOverlappingPairCache* cache,
                                                 const btDispatcherInfo& info) {
   box_pairs_.clear();
-  SerialPass pass(*this, info, !staying_.empty());
-  cache->processAllOverlappingPairs(&pass, this, info);
+  SerialPass pass(*this, info);
+  if (auto* bulk = dynamic_cast<BulkPairCache*>(cache)) {
+    // The pairs with serial work (new ones, and those of other algorithms)
+    // visited in the cache's order; the box-box pairs with an algorithm
+    // have none, so they are not sorted with them.
+    serial_pairs_.clear();
+    btBroadphasePairArray& pairs = cache->getOverlappingPairArray();
+    for (int i = 0; i < pairs.size(); ++i) {
+      btBroadphasePair& pair = pairs[i];
+      if (!ranBesideSearch(pair)) {
+        serial_pairs_.push_back(i);
+      } else if (!staying_ran_ &&
+                 needsCollision(objectOf(pair.m_pProxy0), objectOf(pair.m_pProxy1))) {
+        box_pairs_.push_back(&pair);
+      }
+    }
+    bulk->processPairsInVisitOrder(serial_pairs_, &pass, info);
+  } else {
+    cache->processAllOverlappingPairs(&pass, this, info);
+  }
   processInParallel(info);
-  staying_.clear();
+  staying_ran_ = false;
 }
 
 void ParallelDispatcher::processInParallel(const btDispatcherInfo& info) {

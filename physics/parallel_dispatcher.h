@@ -35,10 +35,17 @@
 // dispatchStayingPairs() runs, while the pair search runs, the box-box
 // pairs already in the cache with an algorithm; after the search has
 // changed the cache, dispatchRemainingPairs() runs the serial pass over the
-// cache as it now is, skipping the pairs whose algorithm the first half ran,
+// cache as it now is, skipping the box-box pairs that came with an
+// algorithm (the first half ran them: the search adds pairs without one),
 // and then the new box-box pairs in parallel.  Each pair's processCollision
 // runs once, on the same transforms; algorithm creations and the lost
 // pairs' releases happen in the serial order, so the state is the same.
+//
+// With our pair cache (BulkPairCache), the serial pass visits in the
+// cache's order only the pairs that have serial work (no algorithm yet, or
+// not box-box), so it sorts those few, not every pair: the box-box pairs
+// with an algorithm touch nothing shared, and in what order they are
+// collected cannot matter.
 //
 // Like the rest of Bullet, call it from one thread.
 #pragma once
@@ -77,8 +84,9 @@ class ParallelDispatcher final : public btCollisionDispatcher {
 
   TaskSystem& tasks_;
   bool parallel_ = true;
-  std::vector<btBroadphasePair*> box_pairs_;          // this half's, in visit order
-  std::vector<const btCollisionAlgorithm*> staying_;  // run by dispatchStayingPairs, sorted
+  std::vector<btBroadphasePair*> box_pairs_;  // this half's
+  std::vector<int> serial_pairs_;             // the pairs with serial work, by array index
+  bool staying_ran_ = false;                  // dispatchStayingPairs ran, the rest has not
   int last_parallel_pairs_ = 0;
 };
 

@@ -328,21 +328,9 @@ void BulkPairCache::processAllOverlappingPairs(btOverlapCallback* callback,
     processAllOverlappingPairs(callback, dispatcher);
     return;
   }
-  struct Visit {
-    std::uint64_t key;  // (id0, id1) as Bullet compares them, signed
-    int index;
-  };
   std::vector<Visit> order(static_cast<std::size_t>(pairs_.size()));
-  for (int i = 0; i < pairs_.size(); ++i) {
-    const btBroadphasePair& pair = pairs_[i];
-    const int id0 = pair.m_pProxy0 != nullptr ? pair.m_pProxy0->m_uniqueId : -1;
-    const int id1 = pair.m_pProxy1 != nullptr ? pair.m_pProxy1->m_uniqueId : -1;
-    // Flipping the sign bit orders signed ids as unsigned ones.
-    const std::uint64_t signed_key = orderedKey(id0, id1) ^ 0x8000000080000000ULL;
-    order[static_cast<std::size_t>(i)] = Visit{signed_key, i};
-  }
-  std::sort(order.begin(), order.end(),
-            [](const Visit& x, const Visit& y) { return x.key > y.key; });
+  for (int i = 0; i < pairs_.size(); ++i) order[static_cast<std::size_t>(i)] = visitOf(i);
+  sortForVisit(order);
   for (std::size_t i = 0; i < order.size();) {
     btBroadphasePair* pair = &pairs_[order[i].index];
     if (callback->processOverlap(*pair)) {
@@ -351,6 +339,37 @@ void BulkPairCache::processAllOverlappingPairs(btOverlapCallback* callback,
       ++i;
     }
   }
+}
+
+void BulkPairCache::processPairsInVisitOrder(std::span<const int> indices,
+                                             btOverlapCallback* callback,
+                                             const btDispatcherInfo& dispatchInfo) {
+  const auto visit = [&](int index) {
+    if (callback->processOverlap(pairs_[index])) {
+      throw std::logic_error("BulkPairCache::processPairsInVisitOrder: a pair asked for removal");
+    }
+  };
+  if (!dispatchInfo.m_deterministicOverlappingPairs) {
+    for (const int index : indices) visit(index);
+    return;
+  }
+  visits_.clear();
+  for (const int index : indices) visits_.push_back(visitOf(index));
+  sortForVisit(visits_);
+  for (const Visit& next : visits_) visit(next.index);
+}
+
+BulkPairCache::Visit BulkPairCache::visitOf(int index) const {
+  const btBroadphasePair& pair = pairs_[index];
+  const int id0 = pair.m_pProxy0 != nullptr ? pair.m_pProxy0->m_uniqueId : -1;
+  const int id1 = pair.m_pProxy1 != nullptr ? pair.m_pProxy1->m_uniqueId : -1;
+  // Flipping the sign bit orders signed ids as unsigned ones.
+  return Visit{orderedKey(id0, id1) ^ 0x8000000080000000ULL, index};
+}
+
+void BulkPairCache::sortForVisit(std::vector<Visit>& visits) {
+  std::sort(visits.begin(), visits.end(),
+            [](const Visit& x, const Visit& y) { return x.key > y.key; });
 }
 
 void BulkPairCache::cleanProxyFromPairs(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {

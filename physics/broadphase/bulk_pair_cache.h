@@ -151,7 +151,20 @@ class BulkPairCache final : public btOverlappingPairCache {
   }
   void sortOverlappingPairs(btDispatcher* dispatcher) override;
 
+  // Visits pairs_[i] for each i of `indices` (each once), in the order the
+  // visit above would take them: Bullet's deterministic order, or the
+  // array's.  So a pass that has work for a few pairs only (a narrowphase
+  // whose other pairs already ran) sorts those few, not the cache.  The
+  // callback may not remove a pair (it would move the others): asking to
+  // throws std::logic_error.
+  void processPairsInVisitOrder(std::span<const int> indices, btOverlapCallback* callback,
+                                const btDispatcherInfo& dispatchInfo);
+
  private:
+  struct Visit {
+    std::uint64_t key;  // (id0, id1) as Bullet compares them, signed
+    int index;
+  };
   struct IndexSlot {
     std::uint64_t key;
     std::uint32_t pair;  // its place in pairs_
@@ -173,6 +186,8 @@ class BulkPairCache final : public btOverlappingPairCache {
   void growPairs(std::size_t capacity);
   void rehash(std::size_t index_slots);
   void eraseSlot(std::size_t slot);
+  Visit visitOf(int index) const;
+  static void sortForVisit(std::vector<Visit>& visits);
   // Bullet's internalAddPair and removeOverlappingPair, ids already ordered.
   btBroadphasePair* addOrdered(btBroadphaseProxy* low, btBroadphaseProxy* high);
   void* removeOrdered(btBroadphaseProxy* low, btBroadphaseProxy* high, btDispatcher* dispatcher);
@@ -190,6 +205,7 @@ class BulkPairCache final : public btOverlappingPairCache {
   std::uint64_t memory_limit_ = 0;
   std::uint64_t elsewhere_per_pair_ = 0;
   std::optional<PairMemoryError> refusal_;  // the first pair refused, if any
+  std::vector<Visit> visits_;               // processPairsInVisitOrder's, kept for its capacity
 };
 
 }  // namespace overlap::physics

@@ -16,6 +16,7 @@
 #include <memory>
 #include <random>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -229,24 +230,68 @@ void fillScattered(TwoCaches& caches, std::vector<btBroadphaseProxy>& proxies) {
   expectSame(caches);
 }
 
+// Both caches filled by fillScattered, and a dispatch info asking for
+// Bullet's deterministic visit or not.
+struct Scattered {
+  explicit Scattered(bool deterministic) {
+    fillScattered(caches, proxies);
+    info.m_deterministicOverlappingPairs = deterministic;
+  }
+  TwoCaches caches;
+  std::vector<btBroadphaseProxy> proxies = std::vector<btBroadphaseProxy>(200);
+  btDispatcherInfo info;
+};
+
 TEST(BulkPairCache, VisitsRemovesAndSortsAsBulletsCacheDoes) {
   for (const bool deterministic : {false, true}) {
-    TwoCaches caches;
-    std::vector<btBroadphaseProxy> proxies(200);
-    fillScattered(caches, proxies);
-    btDispatcherInfo info;
-    info.m_deterministicOverlappingPairs = deterministic;
+    Scattered scattered(deterministic);
+    TwoCaches& caches = scattered.caches;
+    const btDispatcherInfo& info = scattered.info;
     RecordVisits bullet_visits(!deterministic), bulk_visits(!deterministic);
     caches.bullet.processAllOverlappingPairs(&bullet_visits, nullptr, info);
     caches.bulk.processAllOverlappingPairs(&bulk_visits, nullptr, info);
     EXPECT_EQ(bulk_visits.visits, bullet_visits.visits) << "deterministic " << deterministic;
     EXPECT_GT(bullet_visits.visits.size(), 100u);
     expectSame(caches);
-    caches.bullet.removeOverlappingPairsContainingProxy(&proxies[17], nullptr);
-    caches.bulk.removeOverlappingPairsContainingProxy(&proxies[17], nullptr);
+    caches.bullet.removeOverlappingPairsContainingProxy(&scattered.proxies[17], nullptr);
+    caches.bulk.removeOverlappingPairsContainingProxy(&scattered.proxies[17], nullptr);
     expectSame(caches);
     static_cast<btOverlappingPairCache&>(caches.bullet).sortOverlappingPairs(nullptr);
     caches.bulk.sortOverlappingPairs(nullptr);
+    expectSame(caches);
+  }
+}
+
+// A subset's visit keeps the full visit's order (the dispatcher's serial
+// pass sorts only the pairs that have serial work), and refuses removal.
+TEST(BulkPairCache, VisitsASubsetOfPairsInTheOrderOfTheFullVisit) {
+  for (const bool deterministic : {false, true}) {
+    Scattered scattered(deterministic);
+    TwoCaches& caches = scattered.caches;
+    const btDispatcherInfo& info = scattered.info;
+    RecordVisits all(false);
+    caches.bulk.processAllOverlappingPairs(&all, nullptr, info);
+    // Every third pair, and the first and the last, given in array order.
+    std::vector<int> subset;
+    const int count = caches.bulk.getNumOverlappingPairs();
+    for (int i = 0; i < count; ++i) {
+      if (i % 3 == 0 || i == count - 1) subset.push_back(i);
+    }
+    std::vector<int> expected;
+    btBroadphasePairArray& pairs = caches.bulk.getOverlappingPairArray();
+    for (const int visit : all.visits) {
+      for (const int i : subset) {
+        const btBroadphasePair& pair = pairs[i];
+        const int sum = pair.m_pProxy0->m_uniqueId + pair.m_pProxy1->m_uniqueId;
+        if (sum * 100000 + pair.m_pProxy0->m_uniqueId == visit) expected.push_back(visit);
+      }
+    }
+    ASSERT_EQ(expected.size(), subset.size());
+    RecordVisits some(false);
+    caches.bulk.processPairsInVisitOrder(subset, &some, info);
+    EXPECT_EQ(some.visits, expected) << "deterministic " << deterministic;
+    RecordVisits removing(true);
+    EXPECT_THROW(caches.bulk.processPairsInVisitOrder(subset, &removing, info), std::logic_error);
     expectSame(caches);
   }
 }
