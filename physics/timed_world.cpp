@@ -96,6 +96,9 @@ TimedDynamicsWorld::TimedDynamicsWorld(btDispatcher* dispatcher, btBroadphaseInt
   if (setup_.search_beside != nullptr && setup_.tasks != nullptr) {
     search_group_ = setup_.tasks->makeGroup();
   }
+  if (setup_.ccd_queries != nullptr && setup_.tasks != nullptr) {
+    refresh_group_ = setup_.tasks->makeGroup();
+  }
 }
 
 TimedDynamicsWorld::~TimedDynamicsWorld() {
@@ -195,11 +198,8 @@ void TimedDynamicsWorld::internalSingleStepSimulation(btScalar dt) {
   searchAndNarrowphase(dispatch);
   if (setup_.after_narrowphase) setup_.after_narrowphase();
   // 6. solver
-  timePhase(timings_.solver_ms, [&] {
-    calculateSimulationIslands();
-    getSolverInfo().m_timeStep = dt;
-    solveConstraints(getSolverInfo());
-  });
+  getSolverInfo().m_timeStep = dt;
+  solveBesideQueryRefresh();
   // 7. integrate, with CCD's motion clamp
   timePhase(timings_.integrate_ms, [&] { integrateTransforms(dt); });
   // 8. bookkeeping
@@ -276,6 +276,39 @@ void TimedDynamicsWorld::searchBesideNarrowphase(btDispatcherInfo& dispatch) {
   stopIfSearchInterrupted();
   timePhase(timings_.narrowphase_ms,
             [&] { parallel_dispatcher_->dispatchRemainingPairs(cache, dispatch); });
+}
+
+// The AABBs of phase 3 are the last the query tree takes before phase 7's
+// sweeps, and the solver makes no query: the tree takes them now, on a
+// thread beside the solver (Bullet's serial solver leaves the others idle),
+// not at phase 7's first sweep.  With one thread the job runs at the wait,
+// where that sweep would have run it; either way the tree takes the same
+// AABBs in the same order, whatever the thread count.
+void TimedDynamicsWorld::solveBesideQueryRefresh() {
+  const bool refresh =
+      refresh_group_ != nullptr && getDispatchInfo().m_useContinuous && anyCcdBody();
+  if (refresh) refresh_group_->run([this] { setup_.ccd_queries->refreshForQueries(); });
+  try {
+    timePhase(timings_.solver_ms, [&] {
+      calculateSimulationIslands();
+      solveConstraints(getSolverInfo());
+    });
+  } catch (...) {
+    if (refresh) refresh_group_->wait();  // the job ends before the error leaves
+    throw;
+  }
+  if (refresh) {
+    const HostStopwatch wait_watch;
+    refresh_group_->wait();
+    timings_.ccd_query_ms += wait_watch.ms();
+  }
+}
+
+bool TimedDynamicsWorld::anyCcdBody() const {
+  for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i) {
+    if (m_nonStaticRigidBodies[i]->getCcdSquareMotionThreshold() != 0) return true;
+  }
+  return false;
 }
 
 template <typename Body>

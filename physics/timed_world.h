@@ -69,8 +69,10 @@ class ParallelDispatcher;
 
 // What TimedDynamicsWorld needs from its owner, given when it is built.
 struct TimedWorldSetup {
-  const CcdQueryBroadphase* ccd_queries = nullptr;  // CCD's sweeps, timed apart into ccd_query_ms
-  TaskSystem* tasks = nullptr;                      // the step's parallel parts; null: none
+  // CCD's sweeps, timed apart into ccd_query_ms; its tree is refreshed
+  // beside the solver when a body has CCD on.
+  CcdQueryBroadphase* ccd_queries = nullptr;
+  TaskSystem* tasks = nullptr;  // the step's parallel parts; null: none
   // Our broadphase, when its search is to run beside the narrowphase (with a
   // ParallelDispatcher that dispatches in parallel); null: search, then narrowphase.
   PairFinderBroadphase* search_beside = nullptr;
@@ -146,6 +148,10 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   template <typename Body>
   void forEachIndex(int count, std::size_t grain, const Body& body);
   double ccdQueryMs() const;
+  // Phase 6, with the query tree's refresh for phase 7's sweeps beside it.
+  void solveBesideQueryRefresh();
+  // Whether a body sweeps this substep when it moves fast: one with a CCD threshold.
+  bool anyCcdBody() const;
 
   // Per body of the substep's phase: what its parallel part found.
   struct PredictiveHit {
@@ -161,9 +167,10 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
     btVector3 min, max;
   };
   std::vector<NewAabb> new_aabbs_;
-  std::atomic<double> piece_ms_{0};          // the parallel pieces' time, on all threads
-  ParallelDispatcher* parallel_dispatcher_;  // the world's dispatcher when it is one
-  std::unique_ptr<TaskGroup> search_group_;  // the search job beside the narrowphase
+  std::atomic<double> piece_ms_{0};           // the parallel pieces' time, on all threads
+  ParallelDispatcher* parallel_dispatcher_;   // the world's dispatcher when it is one
+  std::unique_ptr<TaskGroup> search_group_;   // the search job beside the narrowphase
+  std::unique_ptr<TaskGroup> refresh_group_;  // the query tree's refresh beside the solver
   FrameTimings timings_;
   std::vector<SubstepReport> substeps_;  // this frame's, the last one running
   bool reporting_ = false;               // inside stepReported()

@@ -21,7 +21,8 @@
 // Threads: rayTest and aabbTest may run on several threads at once (CCD's
 // sweeps on the task system), between calls of the rest, which take one
 // thread: the first query after a setAabb refreshes the tree under a lock,
-// and each thread walks it with a stack of its own.
+// and each thread walks it with a stack of its own; refreshForQueries() may
+// run the refresh early, beside other work.
 #pragma once
 
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
@@ -48,6 +49,12 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   // Time spent in rayTest and aabbTest (tree refresh included) since construction, ms.
   // Queries on several threads at once add up each one's time.
   double queryMs() const { return query_ms_.load(std::memory_order_relaxed); }
+  // Brings every stale leaf into the tree, in the order setAabb saw them,
+  // once for all the queries that follow (the first query after a setAabb
+  // does it itself when nothing did).  Its time is not in queryMs().  It may
+  // run on another thread beside the world's other work, while no call but
+  // rayTest and aabbTest is made: the world's solver, which makes none.
+  void refreshForQueries();
 
   btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType,
                                  void* userPtr, int collisionFilterGroup, int collisionFilterMask,
@@ -77,9 +84,6 @@ class CcdQueryBroadphase final : public btBroadphaseInterface {
   };
   // The proxy's leaf; throws std::logic_error for a proxy without one.
   Leaf& leafOf(const btBroadphaseProxy* proxy);
-  // Brings every stale leaf into the tree, in the order setAabb saw them,
-  // once for all the queries that follow.
-  void refreshForQueries();
   void addQueryMs(double ms) { query_ms_.fetch_add(ms, std::memory_order_relaxed); }
   // Passes the tree's answers on as the wrapped broadphase's proxies.
   class ForwardRay;
