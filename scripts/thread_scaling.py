@@ -14,6 +14,7 @@ ratio of each configuration to the first, on the terminal and in the CSV's
       --config "t1=build/overlap:--threads 1" --config "t2=build/overlap:--threads 2"
 """
 import csv
+import io
 import os
 import pathlib
 import shlex
@@ -26,7 +27,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from overlap_runs import run_summary  # noqa: E402
 from results_files import read_csv  # noqa: E402
-from script_cli import BadInput, Parser, one_line, run  # noqa: E402
+from script_cli import BadInput, Parser, one_line, run, write_atomically  # noqa: E402
 
 # run_summary() adds --capture-every 0 --no-wav.
 COMMON = "--scene 4 --objects 3500 --frames 24 --no-tasks --algo cpusap"
@@ -37,9 +38,22 @@ def parse_config(text: str) -> tuple:
     binary, _, options = rest.partition(":")
     if not sep or not label or not binary:
         raise BadInput(f"--config {one_line(text)}: expected LABEL=BINARY[:OPTIONS]")
-    if not os.access(binary, os.X_OK):
-        raise BadInput(f"--config {one_line(text)}: {one_line(binary)} is not an executable")
+    if not os.path.isfile(binary) or not os.access(binary, os.X_OK):
+        raise BadInput(f"--config {one_line(text)}: {one_line(binary)} is not an executable file")
     return label, binary, shlex.split(options)
+
+
+def check_out(out: pathlib.Path) -> None:
+    """Refuses, before any run, an --out the CSV could not be written to at the end:
+    its folder is made (an empty one stays if the runs fail) and a file tried in it."""
+    if out.exists() and not out.is_file():
+        raise BadInput(f"--out {one_line(out)}: not a regular file")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out.parent, prefix=f".{out.name}."):
+            pass
+    except OSError as error:
+        raise BadInput(f"--out {one_line(out)}: {one_line(error.strerror or error)}")
 
 
 def run_once(binary: str, options: list, skip: int) -> tuple:
@@ -67,10 +81,14 @@ def main() -> None:
         if not args.config:
             raise BadInput("--config: at least one LABEL=BINARY[:OPTIONS]")
         configs = [parse_config(text) for text in args.config]
+        labels = [label for label, _, _ in configs]
+        if len(set(labels)) != len(labels):
+            raise BadInput("--config: each LABEL once (given: " + one_line(" ".join(labels)) + ")")
         if args.rounds < 1:
             raise BadInput(f"--rounds {args.rounds}: at least 1")
-        if args.out.is_dir():
-            raise BadInput(f"--out {one_line(args.out)}: a folder, not a file")
+        if args.skip < 0:
+            raise BadInput(f"--skip {args.skip}: at least 0")
+        check_out(args.out)
         common = shlex.split(args.common)
         load_before = os.getloadavg()[0]
         rows = []
@@ -105,14 +123,11 @@ def main() -> None:
              "# configs: " + "; ".join(f"{label}={pathlib.Path(binary).name} {' '.join(o)}"
                                        for label, binary, o in configs),
              "# medians: " + "; ".join(summary)]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    temporary = args.out.with_name(args.out.name + ".partial")
-    with open(temporary, "w", newline="") as file:
-        file.write("\n".join(lines) + "\n")
-        writer = csv.DictWriter(file, fieldnames=["round", "config", "physics_ms"])
-        writer.writeheader()
-        writer.writerows(rows)
-    temporary.replace(args.out)
+    table = io.StringIO(newline="")
+    writer = csv.DictWriter(table, fieldnames=["round", "config", "physics_ms"])
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomically(args.out, "\n".join(lines) + "\n" + table.getvalue())
     print(f"load {load_before:.2f} -> {load_after:.2f}; " + "; ".join(summary))
     print(f"wrote {args.out}")
 

@@ -531,7 +531,15 @@ def case_bad_arguments_one_line(args) -> None:
         (["peers/check_broadmark_pairs.py", "--driver", missing, "--overlap", args.overlap,
           "--input", missing], "--input"),
         (["peers/check_broadmark_pairs.py", "--driver", missing, "--overlap", args.overlap,
-          "--input", a_file], "--driver")]
+          "--input", a_file], "--driver"),
+        *[(["thread_scaling.py", "--config", config, *extra, "--out", out], named)
+          for config, extra, out, named in [
+              (f"a={work}", [], work / "t.csv", "not an executable file"),
+              (f"a={args.overlap}", ["--skip", "-1"], work / "t.csv", "--skip -1"),
+              (f"a={args.overlap}", ["--config", f"a={args.overlap}"], work / "t.csv",
+               "each LABEL once"),
+              (f"a={args.overlap}", [], "/dev/null", "not a regular file"),
+              (f"a={args.overlap}", [], a_file / "t.csv", "--out")]]]
     for words, named in cases:
         before = sorted(p.name for p in work.iterdir())
         result = subprocess.run([PYTHON, str(scripts / words[0]), *map(str, words[1:])],
