@@ -38,9 +38,20 @@ def parse_config(text: str) -> tuple:
     binary, _, options = rest.partition(":")
     if not sep or not label or not binary:
         raise BadInput(f"--config {one_line(text)}: expected LABEL=BINARY[:OPTIONS]")
+    if not label.isprintable():
+        raise BadInput(f"--config {one_line(text)}: the label {one_line(label)} holds a "
+                       "control character (it names a CSV row)")
     if not os.path.isfile(binary) or not os.access(binary, os.X_OK):
         raise BadInput(f"--config {one_line(text)}: {one_line(binary)} is not an executable file")
-    return label, binary, shlex.split(options)
+    return label, binary, split_options(f"--config {text}", options)
+
+
+def split_options(option: str, text: str) -> list:
+    """`text` split as a shell would, or BadInput naming `option`."""
+    try:
+        return shlex.split(text)
+    except ValueError as error:
+        raise BadInput(f"{one_line(option)}: {error}")
 
 
 def check_out(out: pathlib.Path) -> None:
@@ -88,8 +99,8 @@ def main() -> None:
             raise BadInput(f"--rounds {args.rounds}: at least 1")
         if args.skip < 0:
             raise BadInput(f"--skip {args.skip}: at least 0")
+        common = split_options(f"--common {args.common}", args.common)
         check_out(args.out)
-        common = shlex.split(args.common)
         load_before = os.getloadavg()[0]
         rows = []
         machines = {}

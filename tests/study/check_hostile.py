@@ -539,7 +539,11 @@ def case_bad_arguments_one_line(args) -> None:
               (f"a={args.overlap}", ["--config", f"a={args.overlap}"], work / "t.csv",
                "each LABEL once"),
               (f"a={args.overlap}", [], "/dev/null", "not a regular file"),
-              (f"a={args.overlap}", [], a_file / "t.csv", "--out")]]]
+              (f"a={args.overlap}", [], a_file / "t.csv", "--out"),
+              (f"a={args.overlap}:--seed '1", [], work / "t.csv", "No closing quotation"),
+              (f"a={args.overlap}", ["--common", "--seed '1"], work / "new" / "t.csv",
+               "--common"),
+              (f"a\nb={args.overlap}", [], work / "t.csv", "control character")]]]
     for words, named in cases:
         before = sorted(p.name for p in work.iterdir())
         result = subprocess.run([PYTHON, str(scripts / words[0]), *map(str, words[1:])],
