@@ -9,7 +9,7 @@ naming it (exit 2), never a traceback.
 import json
 import subprocess
 
-from script_cli import BadInput
+from script_cli import BadInput, run_child
 
 _TABLE = []
 
@@ -17,8 +17,8 @@ _TABLE = []
 def load(overlap: str) -> None:
     """Raises BadInput naming `overlap` when it does not list its broadphases."""
     try:
-        listed = subprocess.run([overlap, "--list-algos", "--json"], check=True,
-                                capture_output=True, text=True).stdout
+        listed = run_child([overlap, "--list-algos", "--json"], check=True,
+                           capture_output=True, text=True).stdout
         _TABLE[:] = json.loads(listed)["broadphases"]
     except OSError as error:
         raise BadInput(f"{overlap}: cannot run it ({error.strerror}): build it first, or name "

@@ -18,11 +18,10 @@ import json
 import os
 import pathlib
 import statistics
-import subprocess
 import sys
 
 from overlap_runs import portable
-from script_cli import BadInput, Parser, run
+from script_cli import BadInput, Parser, run, run_child
 
 
 def positive(text: str) -> int:
@@ -46,7 +45,7 @@ def run_bench(args) -> None:
     before = load_average()
     print(f"cpusap_table: load average {before}; running {' '.join(bench_command(args))}",
           file=sys.stderr)
-    failed = subprocess.run(bench_command(args)).returncode
+    failed = run_child(bench_command(args)).returncode
     after = load_average()
     json_path = pathlib.Path(args.out + ".json")
     if failed and not json_path.exists():  # it refused its input (exit 2) or wrote nothing
@@ -82,9 +81,9 @@ def measure_live(runs: pathlib.Path) -> dict:
     for scene in (1, 2, 3, 4):
         for algorithm in ("sap", "cpusap"):
             out = live_run_dir(runs, scene, algorithm)
-            subprocess.run(["build/overlap", "run", "--scene", str(scene), "--objects", "3500",
-                            "--frames", str(LIVE_FRAMES), "--algo", algorithm, "--no-tasks",
-                            "--capture-every", "0", "--no-wav", "--out", str(out)], check=True)
+            run_child(["build/overlap", "run", "--scene", str(scene), "--objects", "3500",
+                       "--frames", str(LIVE_FRAMES), "--algo", algorithm, "--no-tasks",
+                       "--capture-every", "0", "--no-wav", "--out", str(out)], check=True)
             with open(out / "frames.csv") as frames:
                 rows = list(csv.DictReader(frames))[LIVE_WARMUP:]
             medians[f"{scene}/{algorithm}"] = statistics.median(

@@ -11,14 +11,15 @@ import pathlib
 import subprocess
 import sys
 
+from script_cli import run_child
+
 
 def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
     """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary."""
     summary_path = folder / "summary.json"
     if not summary_path.exists():
-        subprocess.run([overlap, "run", *options, "--capture-every", "0", "--no-wav",
-                        "--out", str(folder)], check=True,
-                       stderr=subprocess.DEVNULL)
+        run_child([overlap, "run", *options, "--capture-every", "0", "--no-wav",
+                   "--out", str(folder)], check=True, stderr=subprocess.DEVNULL)
     return json.loads(summary_path.read_text())
 
 

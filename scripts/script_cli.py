@@ -9,12 +9,22 @@ Rules, each with its reason:
     exit 2, and nothing written: argparse's errors are that line too, and main()
     raises BadInput, which run() turns into it.  A traceback is a defect of the
     script, never an answer to its input.
+  * SIGINT, SIGTERM and SIGHUP stop a script as they stop `overlap` (docs/CLI.md,
+    "Signals"): the first raises Stopped where the script is, so every `finally` and
+    `with` removes what the script had half-made; a child it runs (run_child) gets the
+    signal too and is waited for, so it removes its own temporaries; then one line and
+    exit 128 + the signal.  A repeat within a second of the first is the same request
+    (timeout(1) signals the process and then its group) and is dropped; a later one
+    ends the script at once, by that signal.
 """
 import argparse
 import errno
 import os
 import pathlib
+import signal
+import subprocess
 import sys
+import time
 
 # An OSError with one of these is about the input named (a path that is not there, or
 # not readable); any other (a full disk, an I/O error) is the machine's: exit 1.
@@ -24,6 +34,63 @@ INPUT_ERRORS = (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENO
 
 class BadInput(Exception):
     """An input the script cannot use; the message names it and says why."""
+
+
+class Stopped(KeyboardInterrupt):
+    """SIGINT, SIGTERM or SIGHUP came (a KeyboardInterrupt, so code that stops on ^C
+    stops on each)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+STOPS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+REPEAT_SECONDS = 1.0  # a signal this soon after the first is the first delivered twice
+CHILD_STOP_SECONDS = 30  # how long a signalled child may take to stop before it is killed
+_first_stop = []  # (when, signal) of the first stop signal
+
+
+def _on_stop(signum, frame):
+    now = time.monotonic()
+    if not _first_stop:
+        _first_stop.append((now, signum))
+        raise Stopped(signum)
+    if now - _first_stop[0][0] < REPEAT_SECONDS:
+        return
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
+def stop_on_signals() -> None:
+    """Installs the stop rule (above) for SIGINT, SIGTERM and SIGHUP."""
+    for signum in STOPS:
+        signal.signal(signum, _on_stop)
+
+
+def run_child(command: list, check: bool = False, capture_output: bool = False,
+              **popen) -> subprocess.CompletedProcess:
+    """subprocess.run(command, ...) for a child that stops on a signal as overlap does: a
+    stop (Stopped) while it runs is sent on to it (unless it came first, to its whole
+    process group), then the child is waited for, at most CHILD_STOP_SECONDS, before the
+    stop goes on (subprocess.run would kill it at once, leaving its temporaries)."""
+    if capture_output:
+        popen.update(stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    with subprocess.Popen(command, **popen) as child:
+        try:
+            stdout, stderr = child.communicate()
+        except Stopped as stop:
+            if child.poll() is None:
+                child.send_signal(stop.signum)  # a repeat, if it had it: dropped there
+                try:
+                    child.communicate(timeout=CHILD_STOP_SECONDS)
+                except subprocess.TimeoutExpired:
+                    child.kill()
+            raise
+    result = subprocess.CompletedProcess(command, child.returncode, stdout, stderr)
+    if check:
+        result.check_returncode()
+    return result
 
 
 class Parser(argparse.ArgumentParser):
@@ -80,8 +147,9 @@ def write_atomically(path: pathlib.Path, text: str) -> None:
 def run(main, prog: str = None) -> int:
     """main()'s exit status; BadInput, a file that is not UTF-8 text and an OSError on an
     input path are one line naming the input and the problem, exit 2 (another OSError:
-    exit 1); SIGINT is one line too, exit 130."""
+    exit 1); a stop signal is one line too, exit 128 + the signal (see the rules)."""
     prog = prog or pathlib.Path(sys.argv[0]).name
+    stop_on_signals()
     try:
         return main() or 0
     except BadInput as problem:
@@ -91,9 +159,10 @@ def run(main, prog: str = None) -> int:
         print(f"{prog}: an input is not UTF-8 text (byte {error.start}: "
               f"{one_line(error.reason)})", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{prog}: stopped by SIGINT", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stop:
+        signum = getattr(stop, "signum", signal.SIGINT)
+        print(f"{prog}: stopped by {signal.Signals(signum).name}", file=sys.stderr)
+        return 128 + signum
     except OSError as error:
         where = error.filename if error.filename is not None else "?"
         print(f"{prog}: {one_line(where)}: {one_line(error.strerror or error)}",

@@ -55,7 +55,7 @@ import study_profiles
 import study_report
 import study_archive
 from script_cli import BadInput, Parser, one_line, run as run_script
-from study_out_folder import InvocationLog, locked, write_atomically
+from study_out_folder import InvocationLog, foreign_folder_problem, locked, write_atomically
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 PROFILES = study_profiles.load()
@@ -241,12 +241,33 @@ VALUE_CHECKS = {
 ALGO_LISTS = ("algos", "pairs_algos", "latency_algos", "physics_algo", "overlap_algo")
 
 
+def given_twice(text: str):
+    """The first item of a comma-separated list that repeats one before it (numbers by
+    value: 1 and 1.0 are one), or None."""
+    seen = set()
+    for word in text.split(","):
+        try:
+            key = float(word)
+        except ValueError:
+            key = word
+        if key in seen:
+            return word
+        seen.add(key)
+    return None
+
+
 def check_values(args, parser: argparse.ArgumentParser) -> None:
     full = study_profiles.options(PROFILES, "full")
     for key in [*VALUE_CHECKS, *(k for k, v in full.items() if type(v) is int)]:
         holds, must = VALUE_CHECKS.get(key, (lambda n: n >= 1, "a whole number from 1"))
         if not holds(getattr(args, key)):
-            parser.error(f"--{key.replace('_', '-')} {getattr(args, key)}: expected {must}")
+            parser.error(f"--{key.replace('_', '-')} {one_line(repr(getattr(args, key)))}: "
+                         f"expected {must}")
+    for key in [*VALUE_CHECKS, *ALGO_LISTS]:  # a list item twice would run its jobs twice
+        value = getattr(args, key)
+        if isinstance(value, str) and (twice := given_twice(value)) is not None:
+            parser.error(f"--{key.replace('_', '-')} {one_line(value)}: {one_line(twice)} is "
+                         "given twice; name each once")
     if args.report and not args.report_doc.is_file():
         parser.error(f"--report-doc {args.report_doc}: no such file (--report fills its "
                      "generated blocks)")
@@ -257,9 +278,13 @@ def check_algorithms(args) -> None:
     known = broadphases.names()
     for key in ALGO_LISTS:
         value = getattr(args, key)
-        unknown = [a for a in value.split(",") if a not in known] if value else [""]
+        if not value:
+            raise BadInput(f"--{key.replace('_', '-')} '': names no broadphase; name one or "
+                           f"more of {args.overlap}'s ({', '.join(known)})")
+        unknown = [a for a in value.split(",") if a not in known]
         if unknown:
-            raise BadInput(f"--{key.replace('_', '-')} {value}: {','.join(unknown) or 'none'} "
+            raise BadInput(f"--{key.replace('_', '-')} {one_line(value)}: "
+                           f"{one_line(','.join(repr(a) for a in unknown))} "
                            f"is not a broadphase of {args.overlap} ({', '.join(known)})")
 
 
@@ -472,17 +497,20 @@ def report(args, jobs: list) -> int:
 
 def main(argv: list) -> int:
     args = parse_args(argv)
-    if args.from_archive:
+    if args.from_archive:  # the unpack has its own rule for --out (study_archive.py)
         argv = options_from_archive(argv)
         args = parse_args(argv)
+    elif problem := foreign_folder_problem(args.out):
+        raise BadInput(f"--out {one_line(args.out)}: {problem}")
     broadphases.load(args.overlap)
     check_algorithms(args)
     args.argv = argv
     jobs = study_plan.plan(args)
     if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing
         run_and_log(jobs, args, argv)
-    write_atomically(args.out / "commands.txt",
-                     "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
+    with locked(args.out):  # the lock first: what marks --out as a study's folder
+        write_atomically(args.out / "commands.txt", "".join(
+            " ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
     if args.runs_only:
         print(f"study: runs in {args.out}; the report from them: scripts/study.py --profile "
               f"{args.profile} --out {args.out} --no-runs", file=sys.stderr)

@@ -24,8 +24,8 @@ Rules, each with its reason:
   * The new folder is unpacked beside D (PARENT/.D.unpack-XXXXXXXX), D is renamed
     into that scratch folder and the new one renamed to D with SIGINT, SIGTERM
     and SIGHUP held off, and only then is the old one removed: a signal at any
-    moment leaves D whole, old or new.  A signal removes the scratch folder, then
-    ends the process as that signal does.  A scratch folder whose unpack was
+    moment leaves D whole, old or new.  A signal (script_cli.Stopped) removes the
+    scratch folder, then goes on: the script stops as script_cli says.  A scratch folder whose unpack was
     killed (no process holds its lock) is removed by the next unpack beside it.
 """
 import codecs
@@ -43,12 +43,13 @@ import tarfile
 import tempfile
 import zlib
 
+from script_cli import STOPS, Stopped
+
 MARKER = ".study-archive"  # in D: D is an unpack, which the next unpack may replace
 SCRATCH_MARKER = ".study-unpack"  # in a scratch folder: made by an unpack
 MAX_BYTES = 2 * 1024 ** 3
 MAX_MEMBERS = 50_000  # a full study (1112 jobs) unpacks to about 6000
 TEXT_SUFFIXES = (".json", ".csv", ".md", ".txt")
-HELD = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 MACHINE_TEXT = ("cpu", "gpu", "compiler", "build_type", "git_commit")
 
 
@@ -60,36 +61,10 @@ class BadOut(Exception):
     """--out cannot be replaced by an unpack; the message says why."""
 
 
-class Interrupted(BaseException):
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
-
-
-@contextlib.contextmanager
-def ends_cleanly_on_signals():
-    """Inside, SIGINT, SIGTERM and SIGHUP raise Interrupted (so every `finally` runs);
-    leaving by one, the process then ends as that signal ends it."""
-    def interrupt(signum, frame):
-        raise Interrupted(signum)
-    previous = {s: signal.signal(s, interrupt) for s in HELD}
-    try:
-        yield
-    except Interrupted as stop:
-        for s in HELD:
-            signal.signal(s, signal.SIG_DFL)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, [stop.signum])
-        os.kill(os.getpid(), stop.signum)
-        raise SystemExit(128 + stop.signum)  # where the signal does not end it
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-
-
 @contextlib.contextmanager
 def signals_held():
     """SIGINT, SIGTERM and SIGHUP wait until the block is done."""
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
     try:
         yield
     finally:
@@ -307,7 +282,7 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
     if archive.resolve().is_relative_to(target):
         raise BadOut(f"{out}: holds the archive, which replacing it would remove")
     target.parent.mkdir(parents=True, exist_ok=True)
-    with ends_cleanly_on_signals(), contextlib.ExitStack() as held:
+    with contextlib.ExitStack() as held:
         scratch = None
         try:
             # Made and locked at once, signals held: no other unpack takes it for a stale
@@ -342,7 +317,7 @@ def remove_whole(folder: pathlib.Path) -> None:
             with signals_held():
                 shutil.rmtree(folder, ignore_errors=True)
             break
-        except Interrupted as stop:
+        except Stopped as stop:
             stopped = stop
     if stopped is not None:
         raise stopped

@@ -13,6 +13,10 @@ Rules, each with its reason:
     that writes the report last has read every result the others finished.
   * Nothing a process needs only for itself (the GPU probe's run) is written
     into --out: another shard's `overlap` could replace it, or remove it.
+  * --out is a study's folder or becomes one: absent, empty, or holding the lock
+    or the invocation log that every study writes before anything else
+    (foreign_folder_problem); a study never writes its report, commands and
+    figures over a folder of the user's (`--out docs` holds docs/REPORT.md).
 """
 import contextlib
 import fcntl
@@ -23,6 +27,25 @@ import tempfile
 
 LOCK_NAME = ".study.lock"
 LOG_NAME = "study_invocations.json"
+
+
+def foreign_folder_problem(out: pathlib.Path) -> str:
+    """Why --out `out` is not a study's folder to write into, or "" when it is one."""
+    if not os.path.lexists(out):
+        return ""
+    if not out.is_dir():
+        return "exists and is not a folder"
+    try:
+        if not any(out.iterdir()):
+            return ""
+    except OSError as error:
+        return f"cannot be read ({error.strerror})"
+    if any((out / name).is_file() and not (out / name).is_symlink()
+           for name in (LOCK_NAME, LOG_NAME)):
+        return ""
+    return (f"holds files and is not a study's folder (it has no {LOCK_NAME} or {LOG_NAME}): "
+            "a study writes REPORT.md, commands.txt and report/ there; give a new or empty "
+            "folder, or an earlier study's")
 
 
 def write_atomically(path: pathlib.Path, text: str) -> None:

@@ -19,6 +19,7 @@ import broadphases
 import study_physics
 import study_results
 from overlap_runs import run_summary
+from script_cli import run_child
 from study_out_folder import write_atomically
 
 EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline", "overlap")
@@ -67,7 +68,7 @@ class Job:
 
 def check_output(command: list) -> str:
     """Runs `command`, returns its stdout; on failure shows its stderr and stops the study."""
-    result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    result = run_child(command, capture_output=True, text=True)
     if result.returncode != 0:
         sys.exit(f"study: failed (exit {result.returncode}): {' '.join(command)}\n{result.stderr}")
     return result.stdout
@@ -154,7 +155,7 @@ class PairsJob(Job):
             check_output(record)
         if not self.exact_path.exists():
             write_atomically(self.exact_path, check_output(exact))
-        result = subprocess.run(mine, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        result = run_child(mine, capture_output=True, text=True)
         if result.returncode != 0 or "instead" in result.stderr:
             sys.exit(f"study: {' '.join(mine)} failed or did not run {self.algo}:\n{result.stderr}")
         exact_frames = pairs_by_frame(self.exact_path.read_text())

@@ -36,7 +36,15 @@ done
 [[ -n "$out" && -n "$shards" ]] || usage
 [[ "$shards" =~ ^[1-9][0-9]*$ ]] || die "--shards $shards: expected a count, 1 or more"
 command -v sbatch > /dev/null || die "sbatch is not on PATH (no Slurm client here)"
-mkdir -p "$out/slurm"
+# --out is a study's folder, as study.py takes it (study_out_folder.py): refused
+# if it holds a user's files; else its logs folder and the lock that marks it.
+PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys
+from study_out_folder import LOCK_NAME, foreign_folder_problem
+out = pathlib.Path(sys.argv[1])
+if problem := foreign_folder_problem(out):
+    sys.exit(f"study_slurm: --out {out}: {problem}")
+(out / "slurm").mkdir(parents=True, exist_ok=True)
+(out / LOCK_NAME).touch()' "$out" || exit 2
 out="$(cd "$out" && pwd)"
 # The full profile runs only when confirmed: a batch job cannot answer, so it says --full.
 confirm=()

@@ -3,6 +3,8 @@
 #include <oneapi/tbb/info.h>
 
 #include <algorithm>
+#include <cerrno>  // program_invocation_short_name
+#include <cstdio>
 #include <stdexcept>
 #include <string_view>
 #include <tuple>
@@ -188,7 +190,14 @@ RunThreads runThreads(int threads) {
     run.cap.emplace(tbb::global_control::max_allowed_parallelism,
                     static_cast<std::size_t>(threads));
   }
-  run.tasks = makeTaskSystem(threadsInUse());
+  const int in_use = threadsInUse();
+  if (threads > in_use) {  // said, never cut silently: the summary's count is not the asked one
+    std::fprintf(stderr,
+                 "%s: --threads %d: this machine runs at most %d (its hardware threads); "
+                 "the run uses %d\n",
+                 program_invocation_short_name, threads, in_use, in_use);
+  }
+  run.tasks = makeTaskSystem(in_use);
   return run;
 }
 

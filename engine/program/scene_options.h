@@ -86,7 +86,8 @@ std::string broadphaseNameList();
 // A run's threads, for as long as it lives: oneTBB capped at `threads`
 // (0: oneTBB's default), and the one task system of threadsInUse() threads
 // that the run hands to everything parallel (the step, the finders, the
-// tasks), so --threads N caps the whole run.
+// tasks), so --threads N caps the whole run.  oneTBB runs no more threads
+// than the machine has: a larger N is cut to that, and stderr says so.
 struct RunThreads {
   std::optional<tbb::global_control> cap;
   std::unique_ptr<TaskSystem> tasks;

@@ -1,33 +1,47 @@
 #include "gpu/base/interrupt.h"
 
+#include <time.h>  // clock_gettime, async-signal-safe
+
 #include <atomic>
 #include <cerrno>  // program_invocation_short_name
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 
 namespace overlap {
 namespace {
 
-// The first of SIGINT, SIGTERM and SIGHUP is stored; any later one, of the
-// same kind or another, ends the process by its own default action (the
-// shell sees it killed by that signal).  Only async-signal-safe calls: the
-// signal is blocked while its handler runs, so raise() delivers it, now
-// undefended, as the handler returns.
+// The first of SIGINT, SIGTERM and SIGHUP is stored with the time it came.
+// A later one within kSameRequestNs of it is the same request, delivered
+// twice (timeout(1) signals the process, then its group), and is dropped;
+// any later one, of the same kind or another, ends the process by its own
+// default action (the shell sees it killed by that signal).  Only
+// async-signal-safe calls (clock_gettime, sigaction, raise): the signal is
+// blocked while its handler runs, so raise() delivers it, now undefended,
+// as the handler returns.
+constexpr std::int64_t kSameRequestNs = 1'000'000'000;
+std::atomic<std::int64_t> first_signal_ns{0};
+static_assert(std::atomic<std::int64_t>::is_always_lock_free, "the handler stores into it");
+
 extern "C" void onSignal(int signal_number) {
-  int none = 0;
-  if (interrupt_detail::received.compare_exchange_strong(none, signal_number,
-                                                         std::memory_order_relaxed)) {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  // Never 0, which marks "none yet".
+  const std::int64_t now_ns = std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec + 1;
+  std::int64_t first_ns = 0;
+  if (first_signal_ns.compare_exchange_strong(first_ns, now_ns, std::memory_order_relaxed)) {
+    interrupt_detail::received.store(signal_number, std::memory_order_relaxed);
     return;
   }
+  if (now_ns - first_ns < kSameRequestNs) return;
   struct sigaction fallback {};
   fallback.sa_handler = SIG_DFL;
   sigemptyset(&fallback.sa_mask);
   sigaction(signal_number, &fallback, nullptr);
   raise(signal_number);
 }
-
 
 // A wait this long is said on stderr: shorter ones are a pipe's normal pace.
 constexpr auto kSilentWait = std::chrono::seconds(1);

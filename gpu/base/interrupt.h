@@ -12,15 +12,18 @@
 //     run can always be stopped; only hidden temporaries
 //     (".NAME.overlap-PID-XXXXXX") are then left beside the untouched
 //     outputs, and the next run writing into that folder removes them
-//     (output_file.h).
+//     (output_file.h).  One that comes within a second of the first is
+//     the same request delivered twice, and is dropped: timeout(1) sends
+//     its signal to the process and then to its group, and the run must
+//     still stop cleanly.
 //   * SIGPIPE is ignored: a write to a pipe or FIFO whose reader has gone
 //     fails with EPIPE like any failed write, so the writer names the output,
 //     removes its temporaries and exits 1 instead of dying silently.
 //   * SIGXFSZ is ignored too: a write past the file-size limit (`ulimit -f`)
 //     fails with EFBIG ("File too large"), reported naming the file.
-//   * The handlers only store the first signal's number, or restore the
-//     default action and raise a later one: nothing else is
-//     async-signal-safe to do there.
+//   * The handlers only store the first signal's number and time, drop a
+//     repeat, or restore the default action and raise a later one: nothing
+//     else is async-signal-safe to do there.
 #pragma once
 
 #include <atomic>

@@ -480,6 +480,73 @@ def case_no_abbreviated_options(args) -> None:
                   f"{result.stderr}")
 
 
+def case_study_never_writes_over_a_users_folder(args) -> None:
+    """A plain study (runs, --runs-only, --no-runs) refuses an --out that holds files and
+    is not a study's folder, and leaves it as it was; an empty or earlier study's folder
+    is taken (study_out_folder.foreign_folder_problem)."""
+    work = args.out
+    users = work / "docs"
+    (users / "notes").mkdir(parents=True)
+    (users / "REPORT.md").write_text("a report written by hand\n")
+    (users / "notes" / "thesis.txt").write_text("years of work\n")
+    before = snapshot(users)
+    for mode in ([], ["--runs-only"], ["--no-runs"], ["--no-runs", "--report",
+                                                       "--report-doc", users / "REPORT.md"]):
+        for out, cwd in ((users, None), (".", users)):
+            result = study("--overlap", args.overlap, *NO_RUNS, *mode, "--out", out, cwd=cwd)
+            one_line_refusal(result, "--out", "not a study's folder")
+            check(snapshot(users) == before, f"{mode} --out {out}: changed {users}")
+    empty = work / "empty"
+    empty.mkdir()
+    for again in ("first", "second"):
+        result = study("--overlap", args.overlap, *NO_RUNS, "--no-runs", "--out", empty)
+        check(result.returncode == 0, f"{again} --no-runs into an empty folder: exit "
+              f"{result.returncode}:\n{result.stderr}")
+        check((empty / "REPORT.md").is_file(), f"{again}: no REPORT.md in {empty}")
+
+
+def case_stop_signals_reach_the_runs(args) -> None:
+    """SIGTERM or SIGHUP to a script (not its group) while it runs `overlap run` stops
+    the run too: the script waits for it, removes its scratch folder and exits 128 + the
+    signal with one line; timeout(1), which signals twice, stops it as cleanly."""
+    work = args.out
+    scratch = work / "tmp"
+    scratch.mkdir()
+    env = {**os.environ, "TMPDIR": str(scratch)}
+    script = [PYTHON, str(REPO / "scripts" / "thread_scaling.py"), "--config",
+              f"a={args.overlap}", "--common", "--objects 100 --frames 1000000 --no-tasks",
+              "--out", str(work / "t.csv")]
+    for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+        process = subprocess.Popen(script, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                   env=env, text=True)
+        children = pathlib.Path(f"/proc/{process.pid}/task/{process.pid}/children")
+        give_up = time.monotonic() + 60
+        runs = []
+        while not runs and process.poll() is None and time.monotonic() < give_up:
+            runs = children.read_text().split() if children.exists() else []
+            time.sleep(0.05)
+        if not runs:
+            process.kill()
+            check(False, f"thread_scaling.py started no run:\n{process.communicate()[1]}")
+        time.sleep(1.5)  # into the run's frames
+        process.send_signal(signum)
+        _, stderr = process.communicate(timeout=60)
+        name = signal.Signals(signum).name
+        check(process.returncode == 128 + signum and stderr.count("\n") == 1 and
+              f"stopped by {name}" in stderr,
+              f"{name}: exit {process.returncode}:\n{stderr}")
+        check(not any(pathlib.Path(f"/proc/{run}").exists() and
+                      pathlib.Path(f"/proc/{run}/stat").read_text().split()[2] != "Z"
+                      for run in runs), f"{name}: its overlap run {runs} still runs")
+        check(not any(scratch.iterdir()), f"{name}: left {sorted(scratch.iterdir())}")
+        check(not (work / "t.csv").exists(), f"{name}: wrote its CSV")
+    result = subprocess.run(["timeout", "3", *script], capture_output=True, text=True,
+                            env=env, timeout=60)
+    check(result.returncode == 124 and "stopped by SIGTERM" in result.stderr,
+          f"timeout: exit {result.returncode}:\n{result.stderr}")
+    check(not any(scratch.iterdir()), f"timeout: left {sorted(scratch.iterdir())}")
+
+
 def case_bad_arguments_one_line(args) -> None:
     work = args.out
     missing = work / "missing"
@@ -498,9 +565,9 @@ def case_bad_arguments_one_line(args) -> None:
         (["study.py", "--overlap", args.overlap, "--threads", "x"], "--threads"),
         (["study.py", "--overlap", args.overlap, "--experiments", "nope"], "--experiments"),
         (["study.py", "--overlap", args.overlap, "--experiments", "", "--no-runs", "--out",
-          work / "o"], "--experiments : expected one or more"),
+          work / "o"], "--experiments '': expected one or more"),
         (["study.py", "--overlap", args.overlap, "--experiments", "sweep\nx", "--no-runs",
-          "--out", work / "o"], "--experiments sweep\\nx: expected"),
+          "--out", work / "o"], "--experiments 'sweep\\nx': expected"),
         (["study.py", "--overlap", args.overlap, "--profile", "nope"], "--profile"),
         (["study.py", "--overlap", args.overlap, "--from-archive", missing, "--out", work / "o"],
          "no such file"),
@@ -517,7 +584,10 @@ def case_bad_arguments_one_line(args) -> None:
           for option, value in [("--objects", "x"), ("--objects", "-5"), ("--scenes", "9"),
                                 ("--algos", "nope"), ("--frames", "0"), ("--threads", "-1"),
                                 ("--physics-ccd", "x"), ("--overlap-loads", "1,,2"),
-                                ("--physics-substeps", "auto,0"), ("--shard", "2/1")]],
+                                ("--physics-substeps", "auto,0"), ("--shard", "2/1"),
+                                ("--algos", "bf,bf"), ("--scenes", "1,1"),
+                                ("--objects", "40,40"), ("--overlap-loads", "1,1.0"),
+                                ("--algos", "")]],
         (["study.py", "--overlap", args.overlap, "--out", work / "o", "--no-runs", "--report",
           "--report-doc", missing], "--report-doc"),
         (["gpu_results.py", "--raw", missing], "--raw"),
