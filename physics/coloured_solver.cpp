@@ -64,7 +64,23 @@ std::string colouringProblem(const ContactColouring& colouring) {
 }
 
 ColouredConstraintSolver::ColouredConstraintSolver(TaskSystem& tasks, int colours)
-    : tasks_(tasks), colours_(std::clamp(colours, 0, kColours)) {}
+    : tasks_(tasks), colours_(std::clamp(colours, 0, kColours)), crew_jobs_(tasks.makeGroup()) {}
+
+btScalar ColouredConstraintSolver::solveGroup(btCollisionObject** bodies, int numBodies,
+                                              btPersistentManifold** manifolds, int numManifolds,
+                                              btTypedConstraint** constraints, int numConstraints,
+                                              const btContactSolverInfo& info,
+                                              btIDebugDraw* debugDrawer, btDispatcher* dispatcher) {
+  TaskCrew crew(tasks_, *crew_jobs_);
+  crew_ = &crew;
+  struct Release {
+    TaskCrew*& crew;
+    ~Release() { crew = nullptr; }
+  } release{crew_};
+  return btSequentialImpulseConstraintSolverMt::solveGroup(
+      bodies, numBodies, manifolds, numManifolds, constraints, numConstraints, info, debugDrawer,
+      dispatcher);
+}
 
 btScalar ColouredConstraintSolver::solveGroupCacheFriendlySetup(
     btCollisionObject** bodies, int numBodies, btPersistentManifold** manifolds, int numManifolds,
@@ -84,7 +100,7 @@ void ColouredConstraintSolver::convertBodies(btCollisionObject** bodies, int num
   m_tmpSolverBodyPool.resizeNoInitialize(numBodies + 1);
   m_fixedBodyId = numBodies;
   initSolverBody(&m_tmpSolverBodyPool[m_fixedBodyId], nullptr, info.m_timeStep);
-  tasks_.forEachPiece(static_cast<std::size_t>(numBodies), kItemsPerPiece,
+  crew_->forEachPiece(static_cast<std::size_t>(numBodies), kItemsPerPiece,
                       [this, bodies](std::size_t first, std::size_t end) {
                         internalConvertBodies(bodies, static_cast<int>(first),
                                               static_cast<int>(end), *info_);
@@ -312,12 +328,12 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
   }
   m_manifoldCachedInfoArray.resizeNoInitialize(numManifolds);
   piece_unconverted_.assign(pieceCount(count, kItemsPerPiece), 0);
-  tasks_.forEachPiece(count, kItemsPerPiece, [this, manifolds](std::size_t first, std::size_t end) {
+  crew_->forEachPiece(count, kItemsPerPiece, [this, manifolds](std::size_t first, std::size_t end) {
     collectManifolds(manifolds, first, end);
   });
   colourManifolds(manifolds, numManifolds, info);
   // Each manifold writes its own rows (Bullet's allocation, by manifold).
-  tasks_.forEachPiece(count, kItemsPerPiece, [this](std::size_t first, std::size_t end) {
+  crew_->forEachPiece(count, kItemsPerPiece, [this](std::size_t first, std::size_t end) {
     internalAllocContactConstraints(&m_manifoldCachedInfoArray[static_cast<int>(first)],
                                     static_cast<int>(end - first));
   });
@@ -344,7 +360,7 @@ btScalar ColouredConstraintSolver::sweepBatch(int batch, const Row& row) {
     std::size_t grain;
   };
   const Sweep context{this, &row, begin, grain};
-  tasks_.forEachPiece(count, grain, [&context](std::size_t first, std::size_t end) {
+  crew_->forEachPiece(count, grain, [&context](std::size_t first, std::size_t end) {
     const RowRange* ranges = context.solver->rows_.data() + context.begin;
     btScalar worst = 0;
     for (std::size_t m = first; m < end; ++m) {
@@ -477,13 +493,13 @@ btScalar ColouredConstraintSolver::solveGroupCacheFriendlyFinish(btCollisionObje
                                                                  const btContactSolverInfo& info) {
   // Each contact writes its own point, each solver body its own body.
   if (info.m_solverMode & SOLVER_USE_WARMSTARTING) {
-    tasks_.forEachPiece(static_cast<std::size_t>(m_tmpSolverContactConstraintPool.size()),
+    crew_->forEachPiece(static_cast<std::size_t>(m_tmpSolverContactConstraintPool.size()),
                         kItemsPerPiece, [this](std::size_t first, std::size_t end) {
                           writeBackContacts(static_cast<int>(first), static_cast<int>(end), *info_);
                         });
   }
   writeBackJoints(0, m_tmpSolverNonContactConstraintPool.size(), info);
-  tasks_.forEachPiece(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), kItemsPerPiece,
+  crew_->forEachPiece(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), kItemsPerPiece,
                       [this](std::size_t first, std::size_t end) {
                         writeBackBodies(static_cast<int>(first), static_cast<int>(end), *info_);
                       });

@@ -59,7 +59,9 @@
 //   rows, bodies and contact points.
 //
 // Thread use: solveGroup runs on its caller and on the task system's
-// threads inside forEachPiece; one solver serves one world.
+// threads, which a crew holds for the call (physics/task_crew.h: the loops
+// are opened and joined by atomics, a hundred a solve); one solver serves
+// one world.
 #pragma once
 
 #include <BulletDynamics/ConstraintSolver/btSequentialImpulseConstraintSolverMt.h>
@@ -71,6 +73,7 @@
 
 #include "gpu/task_system.h"
 #include "physics/step_policy.h"
+#include "physics/task_crew.h"
 
 namespace overlap::physics {
 
@@ -113,6 +116,13 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   const ContactColouring& lastColouring() const { return colouring_; }
   // Coloured batches (the overflow batch included) made since construction.
   std::int64_t batchesMade() const { return batches_made_; }
+
+  // Bullet's solveGroup, with a crew of the task system's threads held for
+  // its parallel loops (physics/task_crew.h).
+  btScalar solveGroup(btCollisionObject** bodies, int numBodies, btPersistentManifold** manifolds,
+                      int numManifolds, btTypedConstraint** constraints, int numConstraints,
+                      const btContactSolverInfo& info, btIDebugDraw* debugDrawer,
+                      btDispatcher* dispatcher) override;
 
  protected:
   btScalar solveGroupCacheFriendlySetup(btCollisionObject** bodies, int numBodies,
@@ -164,6 +174,8 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
 
   TaskSystem& tasks_;
   int colours_;
+  std::unique_ptr<TaskGroup> crew_jobs_;       // the crews' helper jobs, late ones included
+  TaskCrew* crew_ = nullptr;                   // the running solveGroup call's
   const btContactSolverInfo* info_ = nullptr;  // the running solveGroup call's
   ContactColouring colouring_;
   struct RowRange {

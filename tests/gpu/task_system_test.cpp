@@ -15,20 +15,12 @@
 #include <utility>
 #include <vector>
 
+#include "tests/task_setups.h"
+
 namespace overlap {
 namespace {
 
-struct Setup {
-  TaskBackEnd back_end;
-  int threads;
-};
-
-std::string setupName(const ::testing::TestParamInfo<Setup>& info) {
-  return std::string(info.param.back_end == TaskBackEnd::kOneTbb ? "OneTbb" : "PlainThreads") +
-         std::to_string(info.param.threads);
-}
-
-class TaskSystemTest : public ::testing::TestWithParam<Setup> {
+class TaskSystemTest : public ::testing::TestWithParam<TaskSetup> {
  protected:
   std::unique_ptr<TaskSystem> tasks_ = makeTaskSystem(GetParam().threads, GetParam().back_end);
 };
@@ -134,21 +126,8 @@ TEST_P(TaskSystemTest, AGroupWaitsForItsJobsWhenItGoes) {
   EXPECT_TRUE(ended.load());
 }
 
-// Under ThreadSanitizer, the plain back end alone: Debian's oneTBB is not
-// instrumented (gpu/task_system.h).
-#ifndef OVERLAP_PLAIN_THREAD_TASKS
-INSTANTIATE_TEST_SUITE_P(OneTbb, TaskSystemTest,
-                         ::testing::Values(Setup{TaskBackEnd::kOneTbb, 1},
-                                           Setup{TaskBackEnd::kOneTbb, 2},
-                                           Setup{TaskBackEnd::kOneTbb, 4}),
-                         setupName);
-#endif
-INSTANTIATE_TEST_SUITE_P(PlainThreads, TaskSystemTest,
-                         ::testing::Values(Setup{TaskBackEnd::kPlainThreads, 1},
-                                           Setup{TaskBackEnd::kPlainThreads, 2},
-                                           Setup{TaskBackEnd::kPlainThreads, 3},
-                                           Setup{TaskBackEnd::kPlainThreads, 8}),
-                         setupName);
+INSTANTIATE_TEST_SUITE_P(BackEnds, TaskSystemTest, ::testing::ValuesIn(taskSetups()),
+                         taskSetupName);
 
 TEST(TaskSystem, RefusesANegativeThreadCountAndTakesZeroAsEveryHardwareThread) {
   EXPECT_THROW(makeTaskSystem(-1), std::invalid_argument);
