@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "render/osmesa_library.h"
 #include "render/render_error.h"
 
 namespace overlap::render {
@@ -9,7 +10,7 @@ namespace {
 
 template <typename Function>
 void load(Function& slot, const char* name) {
-  const OSMESAproc address = OSMesaGetProcAddress(name);
+  const OSMESAproc address = osMesa().GetProcAddress(name);
   if (address == nullptr) {
     throw RenderError(std::string("OSMesa does not provide the OpenGL function ") + name);
   }

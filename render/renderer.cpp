@@ -9,6 +9,7 @@
 
 #include "render/camera.h"
 #include "render/gl_loader.h"
+#include "render/osmesa_library.h"
 #include "render/shaders.h"
 
 namespace overlap::render {
@@ -16,8 +17,8 @@ namespace {
 
 struct OsMesaContextDeleter {
   void operator()(osmesa_context* context) const {
-    if (OSMesaGetCurrentContext() == context) OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);
-    OSMesaDestroyContext(context);
+    if (osMesa().GetCurrentContext() == context) osMesa().MakeCurrent(nullptr, nullptr, 0, 0, 0);
+    osMesa().DestroyContext(context);
   }
 };
 using OsMesaContextHandle = std::unique_ptr<osmesa_context, OsMesaContextDeleter>;
@@ -148,7 +149,7 @@ struct OffscreenRenderer::Context {
   std::vector<InstanceAttributes> instances;  // reused between renders
 
   void makeCurrent() {
-    if (!OSMesaMakeCurrent(osmesa.get(), unused_window_pixel.data(), GL_UNSIGNED_BYTE, 1, 1)) {
+    if (!osMesa().MakeCurrent(osmesa.get(), unused_window_pixel.data(), GL_UNSIGNED_BYTE, 1, 1)) {
       throw RenderError("OSMesa cannot make the render context current");
     }
   }
@@ -274,7 +275,7 @@ OffscreenRenderer::OffscreenRenderer(int width, int height, ColourMode mode)
                             OSMESA_CONTEXT_MINOR_VERSION,
                             3,
                             0};
-  c.osmesa.reset(OSMesaCreateContextAttribs(attributes, nullptr));
+  c.osmesa.reset(osMesa().CreateContextAttribs(attributes, nullptr));
   // This Mesa gives a 3.3 core context (the render tests check it): only
   // memory can be missing.
   if (!c.osmesa) throw RendererOutOfMemory("OSMesa cannot create an OpenGL 3.3 core context");

@@ -56,7 +56,10 @@ void addListAlgosFlag(CLI::App& app) {
       "--list-algos",
       [json] {
         const std::string text =
-            json->count() > 0 ? algorithmListJson().dump(2) + '\n' : algorithmListText();
+            json->count() > 0 ? algorithmListJson().dump(2, ' ', false,
+                                                         nlohmann::json::error_handler_t::replace) +
+                                    '\n'
+                              : algorithmListText();
         std::fputs(text.c_str(), stdout);
         throw CLI::Success();
       },

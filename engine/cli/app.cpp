@@ -64,15 +64,17 @@ void refuseWordsBesideListAlgos(int argc, char** argv) {
 }  // namespace
 
 int runCommandLine(int argc, char** argv) {
-  CLI::App app{"Overlap: GPU brute-force broadphase in Bullet (Serpa & Rodrigues, SBGames 2014)",
-               "overlap"};
-  addCommands(app);
-  catchInterrupts();
-  return runProgram("overlap", app, [&] {
-    requireKnownSubcommand(app, argc, argv);
-    refuseWordsBesideListAlgos(argc, argv);
-    app.parse(argc, argv);
-    return 0;
+  return startProgram("overlap", [&] {
+    CLI::App app{"Overlap: GPU brute-force broadphase in Bullet (Serpa & Rodrigues, SBGames 2014)",
+                 "overlap"};
+    addCommands(app);
+    catchInterrupts();
+    return runProgram("overlap", app, [&] {
+      requireKnownSubcommand(app, argc, argv);
+      refuseWordsBesideListAlgos(argc, argv);
+      app.parse(argc, argv);
+      return 0;
+    });
   });
 }
 

@@ -21,7 +21,6 @@
 #include <thread>
 #include <vector>
 
-#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
 #include "engine/cli/physics_options.h"
@@ -30,6 +29,7 @@
 #include "engine/program/number_options.h"
 #include "engine/program/option_conflicts.h"
 #include "engine/program/output_checks.h"
+#include "engine/program/program_runner.h"
 #include "engine/program/progress.h"
 #include "engine/program/scene_options.h"
 #include "engine/program/summary_output.h"
@@ -558,7 +558,10 @@ std::vector<std::string> writeOutputs(const RunPlan& plan, const SteppedRuns& ru
   }
   outputs.open(plan.out / "frames.csv").write(framesCsv(runs.async_run.rows));
   outputs.open(plan.out / "timeline.json").write(runs.timeline.json());
-  outputs.open(plan.out / "summary.json").write(summary.dump(2) + "\n");
+  // A name may hold any bytes: one that is not UTF-8 is written as U+FFFD
+  // (nlohmann's default throws, and only after the whole run).
+  outputs.open(plan.out / "summary.json")
+      .write(summary.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return outputs.commit();
 }
 

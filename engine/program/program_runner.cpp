@@ -1,5 +1,7 @@
 #include "engine/program/program_runner.h"
 
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -88,6 +90,34 @@ std::string outOfMemoryText(const CLI::App& app, const std::bad_alloc& error) {
 }
 
 }  // namespace
+
+namespace {
+
+// Writes `text` to stderr without allocating.
+void writeToStderr(const char* text) {
+  for (std::size_t left = std::strlen(text); left > 0;) {
+    const ssize_t wrote = ::write(STDERR_FILENO, text, left);
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote <= 0) return;
+    text += wrote;
+    left -= static_cast<std::size_t>(wrote);
+  }
+}
+
+}  // namespace
+
+int startProgram(const char* program, const std::function<int()>& program_main) noexcept {
+  try {
+    return program_main();
+  } catch (const std::bad_alloc&) {
+    writeToStderr(program);
+    writeToStderr(": out of memory while starting (ulimit -v or the machine's memory)\n");
+  } catch (...) {
+    writeToStderr(program);
+    writeToStderr(": error: the command line could not be built\n");
+  }
+  return 1;
+}
 
 int runProgram(const char* program, CLI::App& app, const std::function<int()>& body) {
   int code = 0;

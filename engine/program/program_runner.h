@@ -20,6 +20,13 @@ namespace overlap::engine {
 // there (`> /dev/full`) exits 1 naming it, whatever printed it.
 int runProgram(const char* program, CLI::App& app, const std::function<int()>& body);
 
+// The whole of main() after holdStandardStreams(): `program_main` builds the
+// command line and calls runProgram.  An allocation that fails before
+// runProgram's handlers are in place (while CLI11 adds the options, at a
+// `ulimit -v` just above what the libraries need) exits 1 with one line
+// saying so, written without allocating, not by SIGABRT.
+int startProgram(const char* program, const std::function<int()>& program_main) noexcept;
+
 // `message` on one line: newline, carriage return and every other control
 // character written as an escape (\n, \r, \xNN).  Every message that names
 // a path the user gave goes through it (the errors, the lines naming what a

@@ -37,7 +37,7 @@ std::string Timeline::json() const {
                       {"args", args}});
   }
   const nlohmann::json trace = {{"traceEvents", events}, {"displayTimeUnit", "ms"}};
-  return trace.dump();
+  return trace.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 Clock::duration overlapOf(const Interval& a, const Interval& b) {

@@ -589,7 +589,9 @@ int run(const BenchOptions& options, const std::string& command) {
   overlap::OutputFile csv(csv_path);
   overlap::OutputFile json_file(json_path);
   csv.write(csvText(rows, command, notes));
-  json_file.write(json.dump(2) + '\n');
+  // A name may hold any bytes: one that is not UTF-8 is written as U+FFFD
+  // (nlohmann's default throws, and only after the whole run).
+  json_file.write(json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
   csv.finish();
   json_file.finish();
   stopIfInterrupted("the publication of the outputs");
@@ -612,22 +614,24 @@ int run(const BenchOptions& options, const std::string& command) {
 int main(int argc, char** argv) {
   overlap::holdStandardStreams();  // first: before anything opens a file
   using namespace overlap::engine;
-  CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams", kProgram};
-  app.footer(
-      "cpusap's results (docs/results/broadphase_cpusap.md): "
-      "scripts/cpusap_table.py --streams DIR runs this with --objects "
-      "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
-      "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
-  BenchOptions options;
-  addBenchOptions(app, options);
-  overlap::catchInterrupts();
-  return runProgram(kProgram, app, [&] {
-    app.parse(argc, argv);
-    refuseIgnoredOptions(app);
-    try {
-      return run(options, quotedCommand(argc, argv));
-    } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
-      throw UsageError(std::string("bad cached stream: ") + error.what());
-    }
+  return startProgram(kProgram, [&] {
+    CLI::App app{"Broadphase time per frame on recorded scene-4 AABB streams", kProgram};
+    app.footer(
+        "cpusap's results (docs/results/broadphase_cpusap.md): "
+        "scripts/cpusap_table.py --streams DIR runs this with --objects "
+        "500,1250,2000,2750,3500,10000,30000 --algos sap,bvh,cpubf,cpusap --big-objects 100000 "
+        "--big-algos cpubf,cpusap --repeats 5 and records the load average.");
+    BenchOptions options;
+    addBenchOptions(app, options);
+    overlap::catchInterrupts();
+    return runProgram(kProgram, app, [&] {
+      app.parse(argc, argv);
+      refuseIgnoredOptions(app);
+      try {
+        return run(options, quotedCommand(argc, argv));
+      } catch (const overlap::physics::AabbStreamError& error) {  // a corrupt cached stream, named
+        throw UsageError(std::string("bad cached stream: ") + error.what());
+      }
+    });
   });
 }

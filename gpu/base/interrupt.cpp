@@ -79,6 +79,12 @@ void catchInterrupts() {
   // came: a second signal of another kind must end the process too.
   action.sa_flags = 0;
   for (const int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+    // A signal ignored when the program started stays ignored: `nohup`, a
+    // shell's `trap '' INT` or a background job asked for that.
+    struct sigaction inherited {};
+    if (sigaction(signal_number, nullptr, &inherited) == 0 && inherited.sa_handler == SIG_IGN) {
+      continue;
+    }
     sigaction(signal_number, &action, nullptr);
   }
   std::signal(SIGPIPE, SIG_IGN);

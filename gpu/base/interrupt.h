@@ -51,8 +51,9 @@ inline std::atomic<int> received{0};
 static_assert(std::atomic<int>::is_always_lock_free, "the handler stores into it");
 }  // namespace interrupt_detail
 
-// Installs the handlers for SIGINT, SIGTERM and SIGHUP and ignores SIGPIPE
-// and SIGXFSZ.
+// Installs the handlers for SIGINT, SIGTERM and SIGHUP, leaving alone any of
+// them that the program was started with ignored (`nohup`, `trap '' INT`),
+// and ignores SIGPIPE and SIGXFSZ.
 void catchInterrupts();
 
 // The signal that arrived (SIGINT, SIGTERM, SIGHUP), or 0: a check cheap

@@ -5,6 +5,7 @@
 #include <BulletCollision/BroadphaseCollision/btSimpleBroadphase.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <new>
 #include <stdexcept>
@@ -230,6 +231,14 @@ BroadphaseChoice BroadphaseCatalogue::make(std::string_view name, const btVector
   if (max_objects < 0) {
     throw std::invalid_argument("algo " + std::string(name) + ": max_objects " +
                                 std::to_string(max_objects) + " is negative");
+  }
+  // SAP quantizes inside the bounds: a NaN or infinite one pairs everything.
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!std::isfinite(world_min[axis]) || !std::isfinite(world_max[axis]) ||
+        !(world_min[axis] <= world_max[axis])) {
+      throw std::invalid_argument("algo " + std::string(name) + ": the world bounds' axis " +
+                                  std::to_string(axis) + " is not a finite min <= max");
+    }
   }
   BroadphaseChoice choice;
   choice.name = std::string(name);

@@ -96,7 +96,8 @@ class BroadphaseCatalogue {
   // them around any box outside: physics/broadphase/growing_sweep_and_prune.h);
   // `max_objects` is the most proxies the run will create.  Throws
   // std::invalid_argument for an unknown name, a negative max_objects or
-  // one the algorithm can't hold.  Bullet's bf, sap and sap32 hold
+  // one the algorithm can't hold, or world bounds that are not finite with
+  // min <= max on each axis.  Bullet's bf, sap and sap32 hold
   // max_objects proxies at most: one more throws std::invalid_argument
   // naming max_objects (the object added is then left without a proxy);
   // bvh and our finders grow.  Our CPU finders search on `tasks`' threads,

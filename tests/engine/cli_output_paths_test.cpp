@@ -150,6 +150,24 @@ TEST_F(OutputPathsCliTest, TheBenchmarksStreamCacheNeverWritesThroughALink) {
   EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(cached)));
 }
 
+// A name may hold any bytes: the JSON outputs write one that is not UTF-8
+// as U+FFFD instead of failing once everything was measured.
+TEST_F(OutputPathsCliTest, ANameThatIsNotUtf8IsWrittenIntoTheJsonOutputs) {
+  const std::string name = "b\xff";
+  const Result bench = runCommand(std::string(OVERLAP_BENCH_BINARY) +
+                                  " --objects 30 --big-objects 0 --algos bvh --record-frames 2 "
+                                  "--warmup 1 --repeats 1 --streams " +
+                                  (out_ / name).string() + " --out " + (out_ / name).string());
+  ASSERT_EQ(bench.exit_code, 0) << bench.stderr_text;
+  EXPECT_TRUE(fs::is_regular_file(out_ / (name + ".json")));
+  EXPECT_TRUE(fs::is_regular_file(out_ / (name + ".csv")));
+  const Result run = runHere("run --objects 20 --frames 2 --capture-every 0 --out '" +
+                             (out_ / ("r" + name)).string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_TRUE(fs::is_regular_file(out_ / ("r" + name) / "summary.json"));
+  EXPECT_TRUE(fs::is_regular_file(out_ / ("r" + name) / "timeline.json"));
+}
+
 // The line naming what a command wrote escapes a newline in a name, as
 // every message does: one line, whatever the name.
 TEST_F(OutputPathsCliTest, TheWroteLineEscapesANewlineInAName) {

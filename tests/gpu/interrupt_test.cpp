@@ -8,6 +8,7 @@
 #include <signal.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <string>
 #include <thread>
@@ -44,6 +45,25 @@ TEST_F(InterruptTest, ASecondSignalAfterASecondEndsTheProcessByItself) {
         },
         ::testing::KilledBySignal(second), "")
         << signalName(second);
+  }
+}
+
+TEST_F(InterruptTest, ASignalIgnoredAtStartStaysIgnored) {
+  // nohup ignores SIGHUP, a shell's `trap '' INT` SIGINT: the program must
+  // not take them back.
+  for (const int ignored : {SIGINT, SIGTERM, SIGHUP}) {
+    EXPECT_EXIT(
+        {
+          std::signal(ignored, SIG_IGN);
+          catchInterrupts();
+          raise(ignored);
+          std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+          raise(ignored);
+          const bool still_ignored = std::signal(ignored, SIG_IGN) == SIG_IGN;
+          std::exit(pendingInterrupt() == 0 && still_ignored ? 0 : 1);
+        },
+        ::testing::ExitedWithCode(0), "")
+        << signalName(ignored);
   }
 }
 

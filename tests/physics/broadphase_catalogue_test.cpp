@@ -7,6 +7,7 @@
 
 #include <csignal>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -14,6 +15,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "gpu/base/interrupt.h"
@@ -153,6 +155,20 @@ TEST(BroadphaseCatalogue, BulletsFixedBroadphasesRefuseAProxyPastMaxObjectsNamin
 TEST(BroadphaseCatalogue, TheGrowingBroadphasesTakeMoreThanMaxObjects) {
   for (const std::string_view name : {"bvh", "cpusap", "cpubf"}) {
     EXPECT_NO_THROW(addBoxes(name, 5, 50)) << name;
+  }
+}
+
+TEST(BroadphaseCatalogue, WorldBoundsThatAreNotFiniteOrAreInvertedAreRefused) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (const BroadphaseInfo& info : broadphaseCatalogue()) {
+    for (const auto& [low, high] : {std::pair{btVector3(-1, nan, -1), btVector3(1, 1, 1)},
+                                    std::pair{btVector3(-1, -1, -1), btVector3(1, 1, inf)},
+                                    std::pair{btVector3(-inf, -1, -1), btVector3(1, 1, 1)},
+                                    std::pair{btVector3(1, -1, -1), btVector3(-1, 1, 1)}}) {
+      EXPECT_THROW(makeWorldBroadphase(info.name, low, high, 10), std::invalid_argument)
+          << info.name;
+    }
   }
 }
 
