@@ -8,11 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/physics_options.h"
 #include "engine/program/memory_bound.h"
 #include "engine/program/number_options.h"
+#include "engine/program/output_checks.h"
+#include "engine/program/program_runner.h"
 #include "engine/program/progress.h"
 #include "engine/program/scene_options.h"
 #include "engine/program/summary_output.h"
@@ -94,6 +95,7 @@ void printPairs(const PairsOptions& options) {
   std::string csv = "frame,a,b\n";
   int frame = 0;
   int frames_sent = 0;  // frames whose rows went to stdout
+  refuseStandardOutputOverInput(options.input, "--input");
   try {
     physics::AabbStreamReader reader(options.input);
     if (reader.sized()) reader.checkAll();

@@ -1,5 +1,8 @@
 #include "engine/program/output_checks.h"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <iterator>
 
@@ -69,6 +72,18 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
                          ", which the results would replace; write them elsewhere");
       }
     }
+  }
+}
+
+void refuseStandardOutputOverInput(const std::filesystem::path& input,
+                                   std::string_view input_option) {
+  struct stat out {};
+  struct stat in {};
+  if (::fstat(STDOUT_FILENO, &out) != 0 || !S_ISREG(out.st_mode)) return;  // a pipe, tty, device
+  if (::stat(input.c_str(), &in) != 0) return;  // the input's own check names it
+  if (out.st_dev == in.st_dev && out.st_ino == in.st_ino) {
+    throw UsageError("standard output is " + std::string(input_option) + " " + shownPath(input) +
+                     ", which the rows would overwrite; send them elsewhere");
   }
 }
 

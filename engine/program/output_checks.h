@@ -51,6 +51,11 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
                              const std::vector<std::filesystem::path>& inputs,
                              std::string_view input_option);
 
+// A UsageError when standard output is the file `input` (`1<>FILE`, or
+// `>>FILE`): the rows written there would overwrite what is being read.
+void refuseStandardOutputOverInput(const std::filesystem::path& input,
+                                   std::string_view input_option);
+
 // The same for one output of a run's folder (OutputFolder::declare): also a
 // UsageError when another output of the run is that file.
 void declareOutput(OutputFolder& outputs, const std::filesystem::path& file,

@@ -168,6 +168,22 @@ TEST_F(OutputPathsCliTest, ANameThatIsNotUtf8IsWrittenIntoTheJsonOutputs) {
   EXPECT_TRUE(fs::is_regular_file(out_ / ("r" + name) / "timeline.json"));
 }
 
+// `pairs` prints its rows on standard output: one that is its --input
+// (`1<>FILE`, `>>FILE`) would overwrite the stream as it is read.
+TEST_F(OutputPathsCliTest, PairsRefusesAStandardOutputThatIsItsInput) {
+  ASSERT_EQ(runHere("generate --objects 20 --frames 3 --out y.aabbs").exit_code, 0);
+  const std::string before = fileText(out_ / "y.aabbs");
+  for (const std::string redirect : {"1<>y.aabbs", ">>y.aabbs"}) {
+    const Result result = runCommand("cd " + out_.string() + " && sh -c '" + OVERLAP_BINARY +
+                                     " pairs --input y.aabbs " + redirect + "'");
+    EXPECT_EQ(result.exit_code, 2) << redirect << ": " << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find("standard output is --input y.aabbs"), std::string::npos)
+        << result.stderr_text;
+    EXPECT_EQ(fileText(out_ / "y.aabbs"), before) << redirect;
+  }
+  EXPECT_EQ(runHere("pairs --input y.aabbs").exit_code, 0);
+}
+
 // The line naming what a command wrote escapes a newline in a name, as
 // every message does: one line, whatever the name.
 TEST_F(OutputPathsCliTest, TheWroteLineEscapesANewlineInAName) {
