@@ -15,11 +15,13 @@ from script_cli import run_child
 
 
 def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
-    """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary."""
+    """`overlap run OPTIONS --out FOLDER`, unless FOLDER already holds its summary; a run
+    that fails raises CalledProcessError holding its stderr (what overlap said)."""
     summary_path = folder / "summary.json"
     if not summary_path.exists():
         run_child([overlap, "run", *options, "--capture-every", "0", "--no-wav",
-                   "--out", str(folder)], check=True, stderr=subprocess.DEVNULL)
+                   "--out", str(folder)], check=True, stderr=subprocess.PIPE,
+                  text=True)
     return json.loads(summary_path.read_text())
 
 

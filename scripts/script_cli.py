@@ -16,6 +16,16 @@ Rules, each with its reason:
     exit 128 + the signal.  A repeat within a second of the first is the same request
     (timeout(1) signals the process and then its group) and is dropped; a later one
     ends the script at once, by that signal.
+  * A stop is sticky: the handler records it before it raises, and check_stopped()
+    raises it again at the script's own safe points (after an unpack, before a
+    publication) and run() once main() returns, so a library whose broad `except`
+    swallows the raise (tarfile's owner lookup catches KeyError around pwd/grp) never
+    loses it: a stopped script never ends as if it had finished.
+  * A signal ignored when the script starts (SIG_IGN: under nohup, `trap '' INT`, a
+    background job of a non-interactive shell) stays ignored, here and in every child
+    (ignored dispositions survive exec): the convention nohup and shells rely on.
+  * Running out of memory (MemoryError) is one line, exit 1: the machine's limit, not
+    bad input (exit 2) and not a traceback.
 """
 import argparse
 import errno
@@ -34,6 +44,18 @@ INPUT_ERRORS = (errno.ENOENT, errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENO
 
 class BadInput(Exception):
     """An input the script cannot use; the message names it and says why."""
+
+
+class Failed(Exception):
+    """Not the input's fault: the machine's (out of memory, a child that could not start
+    or was killed); the message names what failed.  run(): one line, exit 1."""
+
+
+def signal_name(signum: int) -> str:
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
 
 
 class Stopped(KeyboardInterrupt):
@@ -63,9 +85,24 @@ def _on_stop(signum, frame):
 
 
 def stop_on_signals() -> None:
-    """Installs the stop rule (above) for SIGINT, SIGTERM and SIGHUP."""
+    """Installs the stop rule (above) for SIGINT, SIGTERM and SIGHUP, except for a signal
+    that was ignored when the script started: that one stays ignored."""
     for signum in STOPS:
-        signal.signal(signum, _on_stop)
+        if signal.getsignal(signum) != signal.SIG_IGN:
+            signal.signal(signum, _on_stop)
+
+
+def stopped_by():
+    """The stop signal that came (recorded by the handler, even where a library swallowed
+    its Stopped), or None."""
+    return _first_stop[0][1] if _first_stop else None
+
+
+def check_stopped() -> None:
+    """Raises Stopped again when a stop signal came: at a script's safe points (before it
+    publishes anything), so no library's broad `except` can lose a stop."""
+    if _first_stop:
+        raise Stopped(_first_stop[0][1])
 
 
 def run_child(command: list, check: bool = False, capture_output: bool = False,
@@ -151,7 +188,15 @@ def run(main, prog: str = None) -> int:
     prog = prog or pathlib.Path(sys.argv[0]).name
     stop_on_signals()
     try:
-        return main() or 0
+        status = main() or 0
+        check_stopped()  # a stop some library swallowed: the script did not finish
+        return status
+    except MemoryError:
+        print(f"{prog}: out of memory (a memory limit, ulimit -v?)", file=sys.stderr)
+        return 1
+    except Failed as failure:
+        print(f"{prog}: {one_line(failure)}", file=sys.stderr)
+        return 1
     except BadInput as problem:
         print(f"{prog}: {one_line(problem)}", file=sys.stderr)
         return 2

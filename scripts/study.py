@@ -40,25 +40,33 @@ also fills the generated blocks of the hand-written docs/REPORT.md.
 
 matplotlib: run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
-import argparse
 import os
-import pathlib
-import re
 import sys
-import tempfile
-import time
 
-import broadphases
-from overlap_runs import run_summary
-import study_plan
-import study_profiles
-import study_report
-import study_archive
-from script_cli import BadInput, Parser, one_line, run as run_script
-from study_out_folder import InvocationLog, foreign_folder_problem, locked, write_atomically
+try:  # a memory limit (ulimit -v) can stop the imports: one line and exit 1, no traceback
+    import argparse
+    import collections
+    import csv
+    import pathlib
+    import re
+    import tempfile
+    import time
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
-PROFILES = study_profiles.load()
+    import broadphases
+    from overlap_runs import run_summary
+    import study_plan
+    import study_profiles
+    import study_report
+    import study_archive
+    from script_cli import BadInput, Parser, one_line, run as run_script
+    from study_out_folder import (InvocationLog, foreign_folder_problem, locked, read_log,
+                                  write_atomically)
+
+    REPO = pathlib.Path(__file__).resolve().parent.parent
+    PROFILES = study_profiles.load()
+except MemoryError:
+    os.write(2, b"study: out of memory while starting (a memory limit, ulimit -v?)\n")
+    sys.exit(1)
 
 HELP = {
     "scenes": "sweep: scenes", "algos": "sweep: broadphases", "objects": "sweep: box counts",
@@ -194,6 +202,42 @@ def parse_shard(text: str) -> tuple:
     return shard, shards
 
 
+# overlap's own bounds (`overlap run --help`): a value it would refuse is refused here,
+# before anything is planned, run or written; the counts only the study has (repetitions)
+# are bounded too, so a typo never plans billions of jobs.
+MAX_OBJECTS = 10_000_000  # overlap's --objects: 1..10000000
+MAX_FRAMES = 1_000_000  # overlap's --frames: 1..1000000
+MAX_REPETITIONS = 1000  # the study's own: processes per point
+MAX_THREADS = 1024  # overlap's --threads: 0..1024
+MAX_SUBSTEPS = 1000  # overlap's --substeps K: 1..1000
+MAX_TASK_LOAD = 100  # overlap's --task-load: [0, 100]
+MAX_SEED = 2 ** 64 - 1  # overlap's --seed: 0..2^64-1
+# A whole number as overlap reads one: plain decimal digits, no sign, no leading zero, no
+# '_' and no space (Python's int() takes `1_000`, ` 5` and `05`; overlap refuses them).
+WHOLE = re.compile(r"0|[1-9][0-9]{0,19}")
+DECIMAL = re.compile(r"(0|[1-9][0-9]{0,8})(\.[0-9]{1,9})?")
+
+
+def whole(text: str) -> int:
+    """argparse type: a whole number spelled as overlap takes it (bounds: check_values)."""
+    if not WHOLE.fullmatch(text):
+        raise argparse.ArgumentTypeError(
+            f"{one_line(repr(text))}: expected a whole number in plain digits (no sign, "
+            "leading zero, '_' or space)")
+    return int(text)
+
+
+def int_bounds(key: str) -> tuple:
+    """(low, high) of a whole-number option of the profiles, by what it counts."""
+    if key.endswith("objects"):
+        return 1, MAX_OBJECTS
+    if key.endswith("frames"):
+        return 1, MAX_FRAMES
+    if key.endswith("repetitions"):
+        return 1, MAX_REPETITIONS
+    raise KeyError(f"no bound for the profiles' option {key}: add one to int_bounds")
+
+
 def listed(text: str, item, low: float, high: float = None, empty: bool = False,
            also: tuple = ()) -> bool:
     """Whether `text` is comma-separated `item`s (int or float) in [low, high], or words
@@ -204,7 +248,7 @@ def listed(text: str, item, low: float, high: float = None, empty: bool = False,
     for word in words:
         if word in also:
             continue
-        if not re.fullmatch(r"[0-9]{1,9}" if item is int else r"[0-9]{1,9}(\.[0-9]{1,9})?", word):
+        if not (WHOLE if item is int else DECIMAL).fullmatch(word):
             return False
         if not low <= item(word) <= (high if high is not None else float("inf")):
             return False
@@ -214,27 +258,32 @@ def listed(text: str, item, low: float, high: float = None, empty: bool = False,
 # What each run option must hold (the algorithms are checked against overlap's catalogue
 # once it is read): bad values are refused here, before anything runs or is written.
 SCENES = (lambda t: listed(t, int, 1, 4), "scene numbers 1-4, comma-separated")
-COUNTS = (lambda t: listed(t, int, 1), "whole numbers from 1, comma-separated")
+COUNTS = (lambda t: listed(t, int, 1, MAX_OBJECTS),
+          f"box counts 1-{MAX_OBJECTS}, comma-separated")
+LOADS = (lambda t: listed(t, float, 0, MAX_TASK_LOAD),
+         f"--task-load values 0-{MAX_TASK_LOAD}, comma-separated")
 VALUE_CHECKS = {
     "scenes": SCENES, "physics_scenes": SCENES, "latency_scenes": SCENES,
     "overlap_scenes": SCENES, "objects": COUNTS, "overlap_objects": COUNTS,
     "ideal_scenes": SCENES, "ideal_objects": COUNTS,
-    "ideal_threads": (lambda t: listed(t, int, 1, 4096), "thread counts 1-4096, comma-separated"),
-    "ideal_loads": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
-    "physics_compare_objects": (lambda t: listed(t, int, 1, empty=True),
-                                "whole numbers from 1, comma-separated, or nothing"),
-    "physics_seeds": (lambda t: listed(t, int, 0, empty=True),
-                      "whole numbers, comma-separated, or nothing"),
-    "physics_substeps": (lambda t: listed(t, int, 1, also=("auto",)),
-                         "substep counts from 1 and/or auto, comma-separated"),
+    "ideal_threads": (lambda t: listed(t, int, 1, MAX_THREADS),
+                      f"thread counts 1-{MAX_THREADS}, comma-separated"),
+    "ideal_loads": LOADS,
+    "physics_compare_objects": (lambda t: listed(t, int, 1, MAX_OBJECTS, empty=True),
+                                f"box counts 1-{MAX_OBJECTS}, comma-separated, or nothing"),
+    "physics_seeds": (lambda t: listed(t, int, 0, MAX_SEED, empty=True),
+                      f"seeds 0-{MAX_SEED}, comma-separated, or nothing"),
+    "physics_substeps": (lambda t: listed(t, int, 1, MAX_SUBSTEPS, also=("auto",)),
+                         f"substep counts 1-{MAX_SUBSTEPS} and/or auto, comma-separated"),
     "physics_ccd": (lambda t: all(w in ("off", "auto", "all") for w in t.split(",")),
                     "off, auto and/or all, comma-separated"),
     "latency_growths": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
-    "overlap_loads": (lambda t: listed(t, float, 0), "numbers from 0, comma-separated"),
-    "capture_keyframes": (lambda t: listed(t, int, 0), "frame numbers, comma-separated"),
-    "threads": (lambda n: 0 <= n <= 4096, "0 (every hardware thread) to 4096"),
-    "seed": (lambda n: n >= 0, "a whole number from 0"),
-    "capture_objects": (lambda n: n >= 1, "a whole number from 1"),
+    "overlap_loads": LOADS,
+    "capture_keyframes": (lambda t: listed(t, int, 0, MAX_FRAMES - 1),
+                          f"frame numbers 0-{MAX_FRAMES - 1}, comma-separated"),
+    "threads": (lambda n: 0 <= n <= MAX_THREADS, f"0 (every hardware thread) to {MAX_THREADS}"),
+    "seed": (lambda n: 0 <= n <= MAX_SEED, f"a whole number 0-{MAX_SEED}"),
+    "capture_objects": (lambda n: 1 <= n <= MAX_OBJECTS, f"a box count 1-{MAX_OBJECTS}"),
     "experiments": (lambda t: all(w in study_plan.EXPERIMENTS for w in t.split(",")),
                     f"one or more of {','.join(study_plan.EXPERIMENTS)}, comma-separated"),
 }
@@ -259,7 +308,11 @@ def given_twice(text: str):
 def check_values(args, parser: argparse.ArgumentParser) -> None:
     full = study_profiles.options(PROFILES, "full")
     for key in [*VALUE_CHECKS, *(k for k, v in full.items() if type(v) is int)]:
-        holds, must = VALUE_CHECKS.get(key, (lambda n: n >= 1, "a whole number from 1"))
+        if key in VALUE_CHECKS:
+            holds, must = VALUE_CHECKS[key]
+        else:
+            low, high = int_bounds(key)
+            holds, must = (lambda n, lo=low, hi=high: lo <= n <= hi), f"{low}-{high}"
         if not holds(getattr(args, key)):
             parser.error(f"--{key.replace('_', '-')} {one_line(repr(getattr(args, key)))}: "
                          f"expected {must}")
@@ -292,8 +345,11 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     """One option per profile key, its default the profile's (None here: filled after)."""
     full, quick = (study_profiles.options(PROFILES, name) for name in ("full", "quick"))
     for key, value in full.items():
-        parser.add_argument("--" + key.replace("_", "-"), type=type(value), default=None,
-                            help=f"{HELP[key]} (full: {value}; quick: {quick[key]})")
+        counted = type(value) is int
+        bounds = "; %d-%d" % int_bounds(key) if counted else ""
+        parser.add_argument("--" + key.replace("_", "-"), type=whole if counted else str,
+                            default=None,
+                            help=f"{HELP[key]} (full: {value}; quick: {quick[key]}{bounds})")
 
 
 def apply_profile(args, parser: argparse.ArgumentParser) -> None:
@@ -344,6 +400,11 @@ def parse_args(argv: list) -> argparse.Namespace:
                         "it): unpacked as --out (which must be absent, empty or an earlier "
                         "unpack: docs/STUDY.md), with the run options those runs were made "
                         "with (never a path, a program or --report); implies --no-runs")
+    parser.add_argument("--check-only", action="store_true",
+                        help="check the options, --out and its log, overlap's broadphases and "
+                        "the plan as a study would, then exit (0: they hold) without running "
+                        "or writing anything (scripts/study_slurm.sh checks so before it "
+                        "submits)")
     parser.add_argument("--no-runs", action="store_true",
                         help="run nothing; tables, figures and report from existing results")
     parser.add_argument("--report", action="store_true",
@@ -351,13 +412,15 @@ def parse_args(argv: list) -> argparse.Namespace:
                         "report) and copy its figures and CSVs into the report/ beside it")
     parser.add_argument("--report-doc", type=pathlib.Path, default=REPO / "docs" / "REPORT.md",
                         help="the report --report fills (default docs/REPORT.md)")
-    parser.add_argument("--seed", type=int, default=42, help="every run's seed (default 42)")
-    parser.add_argument("--threads", type=int, default=0,
-                        help="oneTBB thread cap passed to every run (0: all hardware threads)")
+    parser.add_argument("--seed", type=whole, default=42,
+                        help=f"every run's seed, 0-{MAX_SEED} (default 42)")
+    parser.add_argument("--threads", type=whole, default=0,
+                        help=f"oneTBB thread cap passed to every run, 0-{MAX_THREADS} (0: all "
+                        "hardware threads)")
     parser.add_argument("--capture", action="store_true",
                         help="re-capture Figure 1's keyframes instead of docs/keyframes/")
-    parser.add_argument("--capture-objects", type=int, default=1250,
-                        help="--capture: boxes (default 1250)")
+    parser.add_argument("--capture-objects", type=whole, default=1250,
+                        help=f"--capture: boxes, 1-{MAX_OBJECTS} (default 1250)")
     parser.add_argument("--capture-keyframes", default="0,512,1024,2047",
                         help="Figure 1's frames (default 0,512,1024,2047)")
     add_run_options(parser)
@@ -391,16 +454,16 @@ def archive_options() -> dict:
 RUN_VALUE = re.compile(r"[A-Za-z0-9_.,+-]{0,1000}")
 # What a recorded invocation names that is not the runs': left out without a word.
 NOT_THE_RUNS = ("--overlap", "--emulation", "--out", "--shard", "--from-archive", "--notes",
-                "--report-doc", "--runs-only", "--no-runs", "--report")
+                "--report-doc", "--runs-only", "--no-runs", "--report", "--check-only")
 
 
 def recorded_options(argv: list) -> list:
     """The run-shaping options of a recorded argv (its first word the script), as
     `--name=value` words; raises BadArchive for a value that is not the option's."""
     allowed, kept, left = archive_options(), [], []
-    words = list(argv[1:])
+    words = collections.deque(argv[1:])  # popped from the left: linear in a long argv
     while words:
-        word = words.pop(0)
+        word = words.popleft()
         name, has_value, value = word.partition("=")
         kind = allowed.get(name)
         if kind is None:
@@ -416,7 +479,7 @@ def recorded_options(argv: list) -> list:
         if not has_value:
             if not words:
                 raise study_archive.BadArchive(f"its recorded option {name} has no value")
-            value = words.pop(0)
+            value = words.popleft()
         if kind is int and not re.fullmatch(r"-?[0-9]{1,9}", value) or \
                 kind is str and not RUN_VALUE.fullmatch(value):
             raise study_archive.BadArchive(
@@ -428,10 +491,61 @@ def recorded_options(argv: list) -> list:
     return kept
 
 
-def options_from_archive(argv: list) -> list:
-    """study.py's argv for the report from --from-archive's runs: the archive's run
-    options, then this command's own (which win), then --no-runs.  The archive is
-    unpacked into --out only when they parse."""
+# What the report raises when a run file lacks what it reads (a key, a column, a type):
+# from an archive that is the archive's fault, refused as bad input.
+REPORT_READ_ERRORS = (LookupError, TypeError, ValueError, AttributeError, ArithmeticError,
+                      csv.Error)
+
+
+def file_read_when(error: BaseException, study: pathlib.Path) -> str:
+    """The archive's experiment folder (study/sweep, study/physics...) whose runs the report
+    was reading when `error` came: the innermost frame holding a path (or a job's folder)
+    under `study`.  Only the experiment: a table that reads its runs first and uses them
+    after holds the last run read, not the one that lacked the value."""
+    found = None
+    trace = error.__traceback__
+    while trace is not None:
+        for value in trace.tb_frame.f_locals.values():
+            inner = value if isinstance(value, dict) else vars(value) if hasattr(
+                value, "__dict__") and not isinstance(value, type) else {}
+            for path in (value, inner.get("path"), inner.get("folder")):
+                if isinstance(path, (str, pathlib.PurePath)) and str(path).startswith(
+                        str(study) + os.sep):
+                    found = pathlib.Path(path)
+        trace = trace.tb_next
+    if found is None:
+        return "its runs"
+    return "study/" + found.relative_to(study).parts[0] + ": a run's files"
+
+
+def archive_report(combined: list, study: pathlib.Path) -> list:
+    """The report made from the unpacked runs in the scratch folder `study`, before --out
+    is replaced (so what the report cannot read refuses the archive, --out as it was);
+    returns its failures.  Its paths are shown as $OUT, as in --out itself."""
+    args = parse_args(combined)
+    shown = list(combined)
+    for index, word in enumerate(shown[:-1]):
+        if word == "--out":
+            shown[index + 1] = str(study)
+    args.out, args.report, args.argv = study, False, shown
+    broadphases.load(args.overlap)
+    check_algorithms(args)
+    jobs = study_plan.plan(args)
+    try:
+        with locked(args.out):
+            return study_report.write_everything(args, jobs)
+    except REPORT_READ_ERRORS as error:
+        where = file_read_when(error, study)
+        problem = one_line(str(error))[:200]
+        raise study_archive.BadArchive(f"{where} do not hold what the report reads "
+                                       f"({type(error).__name__}: {problem})")
+
+
+def options_from_archive(argv: list) -> tuple:
+    """(study.py's argv for the report from --from-archive's runs: the archive's run
+    options, then this command's own (which win), then --no-runs; the report's failures).
+    The archive is unpacked into --out only when they parse and the report is made from
+    its runs (in the scratch folder)."""
     args = parse_args(argv)
 
     def options_of(log: list) -> list:
@@ -439,7 +553,7 @@ def options_from_archive(argv: list) -> list:
         parse_args(combined)  # a bad combination exits 2 here, --out untouched
         return combined
     try:
-        return study_archive.unpack(args.from_archive, args.out, options_of)
+        return study_archive.unpack(args.from_archive, args.out, options_of, archive_report)
     except study_archive.BadArchive as problem:
         raise BadInput(f"--from-archive {args.from_archive}: {problem}")
     except study_archive.BadOut as problem:
@@ -495,17 +609,46 @@ def report(args, jobs: list) -> int:
     return 1 if failures else 0
 
 
-def main(argv: list) -> int:
+def from_archive(argv: list) -> int:
+    """--from-archive: the report is made in the scratch unpack (archive_report), then
+    --out is replaced by it; here only commands.txt (and with --report the hand-written
+    report's blocks, made again from --out's runs) follow."""
+    argv, failures = options_from_archive(argv)
     args = parse_args(argv)
-    if args.from_archive:  # the unpack has its own rule for --out (study_archive.py)
-        argv = options_from_archive(argv)
-        args = parse_args(argv)
-    elif problem := foreign_folder_problem(args.out):
-        raise BadInput(f"--out {one_line(args.out)}: {problem}")
     broadphases.load(args.overlap)
     check_algorithms(args)
     args.argv = argv
     jobs = study_plan.plan(args)
+    with locked(args.out):
+        write_atomically(args.out / "commands.txt", "".join(
+            " ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
+    if args.report:
+        return report(args, jobs)
+    for failure in failures:
+        print(f"study: FAILED: {failure}", file=sys.stderr)
+    print(f"study: report: {args.out / 'REPORT.md'} (tables as CSV and figures in "
+          f"{args.out / 'report'})", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def main(argv: list) -> int:
+    args = parse_args(argv)
+    if args.from_archive and args.check_only:
+        raise BadInput("--check-only checks a study's options; --from-archive's are checked "
+                       "by the unpack itself, before --out is touched")
+    if args.from_archive:  # the unpack has its own rule for --out (study_archive.py)
+        return from_archive(argv)
+    if problem := foreign_folder_problem(args.out):
+        raise BadInput(f"--out {one_line(args.out)}: {problem}")
+    read_log(args.out)  # a log that is not the study's: refused before any job runs
+    broadphases.load(args.overlap)
+    check_algorithms(args)
+    args.argv = argv
+    jobs = study_plan.plan(args)
+    if args.check_only:
+        print(f"study: options checked: {len(jobs)} jobs planned into {args.out}; nothing run "
+              "or written", file=sys.stderr)
+        return 0
     if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing
         run_and_log(jobs, args, argv)
     with locked(args.out):  # the lock first: what marks --out as a study's folder

@@ -13,14 +13,20 @@ Rules, each with its reason:
     folders under ./study, none absolute, none through '..', no link, no
     device, at most MAX_MEMBERS members and MAX_BYTES bytes unpacked (a sparse
     member counts its full size).  Then the unpacked text: every .json, .csv,
-    .md and .txt file is UTF-8, every .json file parses, the invocation log and
-    the runs' machine fields have the shapes the report reads.  A member that is
+    .md and .txt file is UTF-8, every .json file parses (no NaN, no Infinity, no
+    number beyond a double: 1e999 would read as a measurement), the invocation log,
+    the runs' summary.json and frames.csv have the shapes the report reads; then
+    (study.py's `prepare`) the report is made in the scratch folder, so a run file
+    lacking anything else it reads refuses the archive too.  A member that is
     not under ./study is never written, yet an absolute or '..' name, a link or a
     device anywhere refuses the archive.  A bad archive is
     one line naming it and the problem, exit 2, and D as it was.
   * Members are written as tarfile's `data` filter writes them (as_data(), and the
     filter itself where the Python has it): no setuid, setgid or sticky bit, no
-    write for group or others, no owner taken from the archive.
+    write for group or others, no owner taken from the archive nor looked up
+    (OwnerlessTar: tarfile's lookup swallowed a stop signal).
+  * A stop is never lost: script_cli.check_stopped() after the unpack, after the
+    report and before the swap raises a stop some library's `except` swallowed.
   * The new folder is unpacked beside D (PARENT/.D.unpack-XXXXXXXX), D is renamed
     into that scratch folder and the new one renamed to D with SIGINT, SIGTERM
     and SIGHUP held off, and only then is the old one removed: a signal at any
@@ -31,10 +37,12 @@ Rules, each with its reason:
 import codecs
 import contextlib
 import copy
+import csv
 import fcntl
 import glob
 import json
 import lzma
+import math
 import os
 import pathlib
 import shutil
@@ -43,7 +51,7 @@ import tarfile
 import tempfile
 import zlib
 
-from script_cli import STOPS, Stopped
+from script_cli import STOPS, Stopped, check_stopped
 
 MARKER = ".study-archive"  # in D: D is an unpack, which the next unpack may replace
 SCRATCH_MARKER = ".study-unpack"  # in a scratch folder: made by an unpack
@@ -157,10 +165,20 @@ def as_data(member: tarfile.TarInfo) -> tarfile.TarInfo:
     return safe
 
 
+class OwnerlessTar(tarfile.TarFile):
+    """A TarFile that never sets or looks up a member's owner: every member belongs to this
+    process (as_data), and tarfile's own chown, run as root, looks each owner's name up
+    in pwd/grp inside an `except KeyError: pass` that would swallow a stop signal's
+    Stopped raised meanwhile (and costs a passwd lookup a member)."""
+
+    def chown(self, tarinfo, targetpath, numeric_owner):
+        pass
+
+
 def extract(archive: pathlib.Path, scratch: pathlib.Path) -> pathlib.Path:
     filtered = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
     try:
-        with tarfile.open(archive) as tar:
+        with OwnerlessTar.open(archive) as tar:
             tar.extractall(scratch, [as_data(m) for m in study_members(tar)], **filtered)
     except (tarfile.TarError, EOFError, lzma.LZMAError, zlib.error) as error:
         first = str(error).splitlines()[0].rstrip(":") if str(error) else type(error).__name__
@@ -203,7 +221,11 @@ INVOCATION = {"argv": [str], "started": str, "load_average_at_start": NUMBER,
               "finished?": bool, "seconds?": (int, float, type(None)),
               "jobs?": [{"group": str, "experiment": str, "key": str, "start": NUMBER,
                          "end": NUMBER}]}
-SUMMARY = {"machine": {**{key: str for key in MACHINE_TEXT}, "hardware_threads": int}}
+# What every run's summary.json holds that the report reads of every run (the tables read
+# more of some; the report itself, made in the scratch folder before the swap, refuses an
+# archive whose runs lack that: study.py).
+SUMMARY = {"machine": {**{key: str for key in MACHINE_TEXT}, "hardware_threads": int},
+           "parameters": {"algorithm": str}, "timings_ms": dict, "counts": dict}
 MAX_JSON_BYTES = 64 * 1024 ** 2
 
 
@@ -226,6 +248,34 @@ def refuse_constant(name: str):
     raise ValueError(f"{name} is no number a study writes")
 
 
+def finite_float(text: str) -> float:
+    """A JSON number with a fraction or an exponent; one beyond a double (1e999, -1e400,
+    which float() reads as an infinity without a word) is refused as NaN is."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text[:40]} is beyond a double: no number a study writes")
+    return value
+
+
+def parse_json(text: str):
+    """A study file's JSON: no NaN, no Infinity, no number beyond a double (ValueError,
+    RecursionError as json.loads raises them)."""
+    return json.loads(text, parse_constant=refuse_constant, parse_float=finite_float)
+
+
+def check_log(log, name: str) -> None:
+    """The invocation log `name` has the shape the report and the next shard read: a
+    list of invocations (raises BadArchive)."""
+    check_shape(log, [INVOCATION], name)
+    for index, run in enumerate(log):
+        if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
+            raise BadArchive(f"{name}[{index}]: finished, yet no seconds of its jobs")
+        for word in run["argv"] + [run["started"]]:
+            if "`" in word or not word.isprintable() or len(word) > 4096:
+                raise BadArchive(f"{name}[{index}]: the word {word[:60]!r} is not one a "
+                                 "command line of the study holds")
+
+
 def read_text(study: pathlib.Path) -> dict:
     """Checks every text file's UTF-8; returns every .json file parsed, keyed by its
     path in the archive."""
@@ -239,8 +289,7 @@ def read_text(study: pathlib.Path) -> dict:
             if path.stat().st_size > MAX_JSON_BYTES:
                 raise BadArchive(f"{name}: over {MAX_JSON_BYTES // 1024 ** 2} MiB of JSON")
             try:
-                parsed[name] = json.loads(path.read_text(encoding="utf-8"),
-                                          parse_constant=refuse_constant)
+                parsed[name] = parse_json(path.read_text(encoding="utf-8"))
             except RecursionError:
                 raise BadArchive(f"{name}: JSON nested too deep for a study's files")
             except ValueError as error:
@@ -254,27 +303,43 @@ def check_study(study: pathlib.Path) -> list:
         raise BadArchive("its ./study has no study_invocations.json: no study ran into it")
     parsed = read_text(study)
     log = parsed["study/study_invocations.json"]
-    check_shape(log, [INVOCATION], "study/study_invocations.json")
+    check_log(log, "study/study_invocations.json")
     if not log or not log[0]["argv"]:
         raise BadArchive("study/study_invocations.json: names no invocation")
-    for index, run in enumerate(log):
-        if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
-            raise BadArchive(f"study/study_invocations.json[{index}]: finished, yet no "
-                             "seconds of its jobs")
-        for word in run["argv"] + [run["started"]]:
-            if "`" in word or not word.isprintable() or len(word) > 4096:
-                raise BadArchive(f"study/study_invocations.json[{index}]: the word "
-                                 f"{word[:60]!r} is not one a command line of the study holds")
     for name, data in parsed.items():
         if name.endswith("/summary.json"):
             check_shape(data, SUMMARY, name)
+    for path in sorted(study.rglob("frames.csv")):
+        check_frames(path, "study/" + path.relative_to(study).as_posix())
     return log
 
 
-def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
+FRAMES_COLUMNS = ("frame", "update_ms", "broadphase_ms", "total_ms")  # the report's own
+
+
+def check_frames(path: pathlib.Path, name: str) -> None:
+    """A run's frames.csv holds what the report reads: a header with the columns it reads
+    (FRAMES_COLUMNS), then at least one row of as many cells."""
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = csv.reader(f)
+        header = next(rows, None)
+        first = next(rows, None)
+    if not header:
+        raise BadArchive(f"{name}: empty, no header of the frames' columns")
+    missing = [column for column in FRAMES_COLUMNS if column not in header]
+    if missing:
+        raise BadArchive(f"{name}: its header has no {', '.join(missing)} column")
+    if first is None or len(first) != len(header):
+        raise BadArchive(f"{name}: no frame row under its header")
+
+
+def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):
     """Unpacks the archive's ./study as `out` (see the rules above) and returns
-    options_of(its invocation log), called before `out` is touched: it raises
-    BadArchive to refuse the archive.  Raises BadOut when `out` may not be replaced."""
+    (options_of(its invocation log), prepare(options, the unpacked study folder)), both
+    called before `out` is touched: either raises BadArchive to refuse the archive
+    (prepare makes the report in the scratch folder, so an archive whose runs do not
+    hold what it reads is refused with `out` as it was).  Raises BadOut when `out` may
+    not be replaced."""
     target = out.resolve()
     replaceable(target, out)
     if not archive.is_file():
@@ -295,14 +360,18 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of) -> list:
                 held.enter_context(folder_locked(scratch))
             (scratch / SCRATCH_MARKER).touch()
             study = extract(archive, scratch)
+            check_stopped()  # a stop some library's `except` swallowed while unpacking
             options = options_of(check_study(study))
+            prepared = prepare(options, study) if prepare is not None else None
+            check_stopped()
             (study / MARKER).write_text(
                 f"An unpack of the study archive {archive.name} (scripts/study.py "
                 "--from-archive): the next unpack into this folder replaces it.\n")
             with folder_locked(target.parent):
                 replaceable(target, out)
+                check_stopped()  # the last point before D is replaced
                 swap(study, target, scratch / "old")
-            return options
+            return options, prepared
         finally:
             if scratch is not None:
                 remove_whole(scratch)

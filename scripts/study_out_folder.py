@@ -17,6 +17,10 @@ Rules, each with its reason:
     or the invocation log that every study writes before anything else
     (foreign_folder_problem); a study never writes its report, commands and
     figures over a folder of the user's (`--out docs` holds docs/REPORT.md).
+  * OUT/study_invocations.json is read (read_log) only as the log a study writes: JSON
+    with no NaN or number beyond a double, a list of invocations of the shape the report
+    reads; any other is bad input naming it, refused before any job runs (and again
+    under the lock before each write, since another shard may have written it).
 """
 import contextlib
 import fcntl
@@ -24,6 +28,8 @@ import json
 import os
 import pathlib
 import tempfile
+
+from script_cli import BadInput, one_line
 
 LOCK_NAME = ".study.lock"
 LOG_NAME = "study_invocations.json"
@@ -73,6 +79,24 @@ def locked(out: pathlib.Path):
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
+def read_log(out: pathlib.Path) -> list:
+    """OUT/study_invocations.json, checked (see the rules); [] when there is none."""
+    import study_archive  # here: study_archive's checks are the archive's and the log's
+    path = out / LOG_NAME
+    if not path.exists():
+        return []
+    try:
+        log = study_archive.parse_json(path.read_text(encoding="utf-8"))
+        study_archive.check_log(log, str(path))
+    except RecursionError:
+        raise BadInput(f"{one_line(path)}: JSON nested too deep for a study's log")
+    except study_archive.BadArchive as problem:
+        raise BadInput(one_line(problem))
+    except ValueError as error:  # json's errors, UnicodeDecodeError among them
+        raise BadInput(f"{one_line(path)}: not the study's log: not JSON ({one_line(error)})")
+    return log
+
+
 class InvocationLog:
     """This invocation's entry in OUT/study_invocations.json, beside every other shard's:
     each write re-reads the log under the lock and adds or replaces only this entry (the
@@ -84,7 +108,7 @@ class InvocationLog:
     def write(self) -> None:
         path = self.out / LOG_NAME
         with locked(self.out):
-            log = json.loads(path.read_text()) if path.exists() else []
+            log = read_log(self.out)
             if self.index is None:
                 self.index = len(log)
                 log.append(self.entry)

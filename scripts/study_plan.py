@@ -19,7 +19,7 @@ import broadphases
 import study_physics
 import study_results
 from overlap_runs import run_summary
-from script_cli import run_child
+from script_cli import one_line, run_child, signal_name
 from study_out_folder import write_atomically
 
 EXPERIMENTS = ("sweep", "pairs", "physics", "latency", "timeline", "overlap")
@@ -91,9 +91,12 @@ class RunJob(Job):
     def run(self):
         try:
             run_summary(self.overlap, self.folder, self.options)
-        except subprocess.CalledProcessError:
-            sys.exit("study: failed: " + " ".join(self.commands()[0]) +
-                     "\n(run it by hand to see its message)")
+        except subprocess.CalledProcessError as error:
+            said = [line for line in (error.stderr or "").splitlines() if line.strip()]
+            how = (f"killed by {signal_name(-error.returncode)}" if error.returncode < 0
+                   else f"exit {error.returncode}")
+            sys.exit(f"study: failed ({how}): {' '.join(self.commands()[0])}: " +
+                     (one_line(said[-1]) if said else "it said nothing"))
 
 
 class LatencyJob(Job):

@@ -16,6 +16,8 @@ Rules, each with its reason:
   * write_everything() returns the study's failures (a finder that missed exact pairs,
     a report that cannot stand, a citation that no longer matches): exit 1.
 """
+import bisect
+import collections
 import json
 import pathlib
 import shutil
@@ -24,6 +26,7 @@ import subprocess
 import study_claims
 import study_document
 import study_errors
+import study_out_folder
 import study_overlap
 import study_physics
 import study_plots
@@ -129,8 +132,7 @@ def header_block(args, machine: dict, cells: list, seconds: float) -> list:
 
 
 def invocations(args) -> list:
-    log = args.out / "study_invocations.json"
-    return json.loads(log.read_text()) if log.exists() else []
+    return study_out_folder.read_log(args.out)
 
 
 def shown_command(args, words) -> str:
@@ -143,11 +145,10 @@ def run_argv(argv: list) -> list:
     folder of another machine), a binary outside this repository by its last two names
     (build/overlap), and no --report-doc (it names a file of the machine that ran it)."""
     own_out = argv[argv.index("--out") + 1] if "--out" in argv[:-1] else None
-    shown, words = [], list(argv)
-    while words:
-        word = words.pop(0)
-        if word in ("--notes", "--report-doc") and words:
-            words.pop(0)
+    shown, words = [], iter(argv)  # an iterator: a long argv costs its length, once
+    for word in words:
+        if word in ("--notes", "--report-doc"):
+            next(words, None)
             continue
         if own_out and word.startswith(own_out):
             word = "$OUT" + word[len(own_out):]
@@ -168,20 +169,46 @@ def invocation_line(args, run: dict) -> str:
         (" (other jobs were running)." if load >= 0.5 else " (a quiet machine)."))
 
 
-def overlapping(spans: list, index: int, job: dict) -> list:
-    return [(i, o) for i, o in spans if i != index
-            and o["start"] < job["end"] and job["start"] < o["end"]]
+class Meetings:
+    """How many of a set of jobs' spans each span meets (o.start < j.end and j.start <
+    o.end), by bisection on the sorted starts and ends: n log n for n spans, where trying
+    every pair took minutes for a long log (every span of a repeated entry meets every
+    other).  A span of no length met at its instant is counted as the pairs were."""
+
+    def __init__(self, jobs: list):
+        self.starts = sorted(job["start"] for job in jobs)
+        self.ends = sorted(job["end"] for job in jobs)
+        self.points = collections.Counter(job["start"] for job in jobs
+                                          if job["start"] == job["end"])
+
+    def met(self, job: dict) -> int:
+        start, end = job["start"], job["end"]
+        return (bisect.bisect_left(self.starts, end) - bisect.bisect_right(self.ends, start)
+                + (self.points[start] if start == end else 0))
 
 
 def beside_counts(spans: list) -> tuple:
-    """({experiment: {other experiment: runs met}}, the groups whose runs met each other)."""
+    """({experiment: {other experiment: runs met}}, the groups whose runs met each other),
+    counting only the runs of other invocations (shards)."""
+    def meetings(key) -> dict:
+        grouped = {}
+        for index, job in spans:
+            grouped.setdefault(key(index, job), []).append(job)
+        return {name: Meetings(jobs) for name, jobs in grouped.items()}
+    by_experiment = meetings(lambda index, job: job["experiment"])
+    own_experiment = meetings(lambda index, job: (index, job["experiment"]))
+    by_group = meetings(lambda index, job: job["group"])
+    own_group = meetings(lambda index, job: (index, job["group"]))
     beside, clashes = {}, set()
     for index, job in spans:
-        for _, other in overlapping(spans, index, job):
-            counts = beside.setdefault(job["experiment"], {})
-            counts[other["experiment"]] = counts.get(other["experiment"], 0) + 1
-            if other["group"] == job["group"]:
-                clashes.add(job["group"])
+        for other, all_of_it in by_experiment.items():
+            own = own_experiment.get((index, other))
+            met = all_of_it.met(job) - (own.met(job) if own else 0)
+            if met > 0:
+                counts = beside.setdefault(job["experiment"], {})
+                counts[other] = counts.get(other, 0) + met
+        if by_group[job["group"]].met(job) - own_group[(index, job["group"])].met(job) > 0:
+            clashes.add(job["group"])
     return beside, clashes
 
 

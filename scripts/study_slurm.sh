@@ -34,8 +34,21 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 [[ -n "$out" && -n "$shards" ]] || usage
-[[ "$shards" =~ ^[1-9][0-9]*$ ]] || die "--shards $shards: expected a count, 1 or more"
+[[ "$shards" =~ ^[1-9][0-9]{0,5}$ ]] || die "--shards $shards: expected a count, 1 to 999999"
+# The pass-through options are the study's own, but not those this script sets: a second
+# --out would override the folder checked here, --shard each task's share.
+for word in "$@"; do
+  case "$word" in
+    --out|--out=*|--shard|--shard=*|--from-archive|--from-archive=*|--runs-only|--no-runs|--check-only)
+      die "${word%%=*} after --: study_slurm.sh sets it itself (give --out before --)" ;;
+  esac
+done
 command -v sbatch > /dev/null || die "sbatch is not on PATH (no Slurm client here)"
+# The study's own checks of every option, --out and its log (study.py --check-only, as a
+# shard would start), before anything is made or submitted: a bad value is one line and
+# exit 2 here, not a failure of every task on the cluster.
+"$python" "$repo/scripts/study.py" --check-only --profile "$profile" --out "$out" "$@" \
+  --runs-only --shard "1/$shards" || exit $?
 # --out is a study's folder, as study.py takes it (study_out_folder.py): refused
 # if it holds a user's files; else its logs folder and the lock that marks it.
 PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys

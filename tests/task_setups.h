@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,12 @@ struct TaskSetup {
   TaskBackEnd back_end;
   int threads;
 };
+
+// What gtest prints for a setup (ctest's test list, a failure).
+inline void PrintTo(const TaskSetup& setup, std::ostream* out) {
+  *out << (setup.back_end == TaskBackEnd::kOneTbb ? "oneTBB, " : "plain threads, ") << setup.threads
+       << (setup.threads == 1 ? " thread" : " threads");
+}
 
 inline std::string taskSetupName(const ::testing::TestParamInfo<TaskSetup>& info) {
   return std::string(info.param.back_end == TaskBackEnd::kOneTbb ? "OneTbb" : "PlainThreads") +

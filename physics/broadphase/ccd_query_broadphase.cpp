@@ -123,7 +123,11 @@ void CcdQueryBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin,
 
 // btDbvtBroadphase::rayTest walks both of the tree's sets with one stack
 // shared by every caller (without BT_THREADSAFE); the same walk, with a
-// stack a thread.
+// stack a call.  Not a thread_local one: glibc registers a thread_local's
+// destructor at its first use in each thread, and aborts the process when
+// that registration finds no memory (a worker's first CCD sweep under a
+// tight ulimit -v); a stack a call is an allocation, which fails as
+// std::bad_alloc.
 void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayTo,
                                  btBroadphaseRayCallback& callback, const btVector3& aabbMin,
                                  const btVector3& aabbMax) {
@@ -137,7 +141,7 @@ void CcdQueryBroadphase::rayTest(const btVector3& rayFrom, const btVector3& rayT
     }
     ForwardRay& ray_;
   } visit(forward);
-  thread_local btAlignedObjectArray<const btDbvtNode*> stack;
+  btAlignedObjectArray<const btDbvtNode*> stack;
   for (const btDbvt& set : tree_.m_sets) {
     set.rayTestInternal(set.m_root, rayFrom, rayTo, forward.m_rayDirectionInverse, forward.m_signs,
                         forward.m_lambda_max, aabbMin, aabbMax, stack, visit);

@@ -29,6 +29,16 @@ study.CASE, tests/study/CMakeLists.txt):
   bad_arguments_one_line          every script answers a missing file, a bad folder, a bad
                                   value and a file not UTF-8 with one line naming it, exit
                                   2, no traceback
+  unpack_stop_never_lost          SIGTERM anywhere in a 40000-member unpack: exit 143, no
+                                  scratch folder, --out whole
+  ignored_signals_stay_ignored    nohup's SIGHUP and an ignored SIGINT stay ignored
+  archive_runs_lacking_what_the_report_reads_refused   runs' files without what the
+                                  report reads, numbers beyond a double: exit 2, --out kept
+  long_invocation_log_costs_linear_time   20000 invocations: a report in seconds
+  study_log_of_wrong_shape_refused   a --out log not a study's: exit 2 before any run
+  scripts_with_shebang_executable every #! script executable, on disk and in git
+  slurm_checks_before_submitting  study_slurm.sh: bad options refused, nothing submitted
+  memory_limit_not_bad_input      under ulimit -v: exit 1, one line, never exit 2
 
 Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
 """
@@ -505,10 +515,9 @@ def case_study_never_writes_over_a_users_folder(args) -> None:
         check((empty / "REPORT.md").is_file(), f"{again}: no REPORT.md in {empty}")
 
 
-def case_stop_signals_reach_the_runs(args) -> None:
-    """SIGTERM or SIGHUP to a script (not its group) while it runs `overlap run` stops
-    the run too: the script waits for it, removes its scratch folder and exits 128 + the
-    signal with one line; timeout(1), which signals twice, stops it as cleanly."""
+def endless_thread_scaling(args) -> tuple:
+    """A thread_scaling.py command whose one run lasts until it is stopped, with its
+    own scratch folder as TMPDIR: (command, environment, scratch folder, work folder)."""
     work = args.out
     scratch = work / "tmp"
     scratch.mkdir()
@@ -516,6 +525,14 @@ def case_stop_signals_reach_the_runs(args) -> None:
     script = [PYTHON, str(REPO / "scripts" / "thread_scaling.py"), "--config",
               f"a={args.overlap}", "--common", "--objects 100 --frames 1000000 --no-tasks",
               "--out", str(work / "t.csv")]
+    return script, env, scratch, work
+
+
+def case_stop_signals_reach_the_runs(args) -> None:
+    """SIGTERM or SIGHUP to a script (not its group) while it runs `overlap run` stops
+    the run too: the script waits for it, removes its scratch folder and exits 128 + the
+    signal with one line; timeout(1), which signals twice, stops it as cleanly."""
+    script, env, scratch, work = endless_thread_scaling(args)
     for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
         process = subprocess.Popen(script, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                    env=env, text=True)
@@ -545,6 +562,292 @@ def case_stop_signals_reach_the_runs(args) -> None:
     check(result.returncode == 124 and "stopped by SIGTERM" in result.stderr,
           f"timeout: exit {result.returncode}:\n{result.stderr}")
     check(not any(scratch.iterdir()), f"timeout: left {sorted(scratch.iterdir())}")
+
+
+def case_unpack_stop_never_lost(args) -> None:
+    """SIGTERM at any moment of a large unpack (40000 members, as root too: tarfile's owner
+    lookup caught KeyError around the handler's raise) always ends in exit 143, one line,
+    --out whole (old or new) and no scratch folder: the stop is sticky."""
+    work = args.out
+    many = work / "many.tar.xz"
+    with tarfile.open(many, "w:xz") as tar:
+        add(tar, "./study", type=tarfile.DIRTYPE, mode=0o755)
+        add(tar, "./study/study_invocations.json", json.dumps([invocation(NO_RUNS)]).encode())
+        add(tar, "./study/which", b"new")
+        for i in range(40_000):
+            add(tar, f"./study/pad/{i}.dat", b"x", uname="nosuchuser", gname="nosuchgroup")
+    out = work / "out"
+    started = time.monotonic()
+    timed = study("--from-archive", many, "--overlap", args.overlap, "--out", out)
+    took = time.monotonic() - started
+    check(timed.returncode in (0, 1), f"the large unpack: exit {timed.returncode}:\n{timed.stderr}")
+    for fraction in (0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95):
+        shutil.rmtree(out, ignore_errors=True)
+        earlier_unpack(out, b"old")
+        process = subprocess.Popen([PYTHON, str(STUDY), "--from-archive", str(many),
+                                    "--overlap", args.overlap, "--out", str(out)],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        time.sleep(took * fraction)
+        process.send_signal(signal.SIGTERM)
+        _, stderr = process.communicate(timeout=120)
+        if process.returncode == 0 and fraction > 0.5:
+            continue  # it had finished before the signal came
+        check(process.returncode == 128 + signal.SIGTERM and stderr.count("\n") == 1 and
+              "stopped by SIGTERM" in stderr,
+              f"SIGTERM at {fraction:.0%} of the unpack: exit {process.returncode}:\n{stderr}")
+        check(not scratch_left(work), f"SIGTERM at {fraction:.0%}: left {scratch_left(work)}")
+        which = (out / "which").read_bytes() if (out / "which").is_file() else None
+        check(which in (b"old", b"new"), f"SIGTERM at {fraction:.0%}: --out is not whole")
+
+
+def case_ignored_signals_stay_ignored(args) -> None:
+    """A signal ignored when a script starts (nohup's SIGHUP, `trap '' INT`) stays ignored:
+    the script runs on, and still stops on a signal it was not told to ignore."""
+    script, env, scratch, work = endless_thread_scaling(args)
+
+    def ignoring_int():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for how, command, ignored, preexec in [
+            ("nohup", ["nohup", *script], signal.SIGHUP, None),
+            ("trap '' INT", script, signal.SIGINT, ignoring_int)]:
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                   env=env, text=True, preexec_fn=preexec, cwd=work)
+        time.sleep(1.5)
+        if process.poll() is not None:
+            check(False, f"{how}: ended before the signal:\n{process.communicate()[1]}")
+        process.send_signal(ignored)
+        time.sleep(1.0)
+        if process.poll() is not None:
+            check(False, f"{how}: {signal.Signals(ignored).name}, ignored at start, stopped it "
+                  f"(exit {process.returncode}):\n{process.communicate()[1]}")
+        process.send_signal(signal.SIGTERM)
+        _, stderr = process.communicate(timeout=60)
+        check(process.returncode == 128 + signal.SIGTERM and "stopped by SIGTERM" in stderr,
+              f"{how}: SIGTERM after the ignored signal: exit {process.returncode}:\n{stderr}")
+        check(not any(scratch.iterdir()), f"{how}: left {sorted(scratch.iterdir())}")
+    result = subprocess.run([PYTHON, "-c", "import signal, sys; sys.path.insert(0, sys.argv[1]); "
+                             "import script_cli; script_cli.stop_on_signals(); "
+                             "print(signal.getsignal(signal.SIGHUP) == signal.SIG_IGN, "
+                             "signal.getsignal(signal.SIGTERM) == script_cli._on_stop)",
+                             str(REPO / "scripts")], capture_output=True, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    check(result.stdout.split() == ["True", "True"],
+          f"stop_on_signals over an ignored SIGHUP: {result.stdout!r} {result.stderr!r}")
+
+
+def real_runs(args, folder: pathlib.Path) -> pathlib.Path:
+    made = study("--overlap", args.overlap, "--emulation", args.out / "none", "--out", folder,
+                 "--runs-only", *NO_RUNS)
+    check(made.returncode == 0, f"the runs: exit {made.returncode}:\n{made.stderr}")
+    (folder / ".study.lock").unlink(missing_ok=True)
+    return folder
+
+
+def archive_of(runs: pathlib.Path, path: pathlib.Path, change) -> pathlib.Path:
+    copy = path.parent / (path.name + ".src")
+    shutil.rmtree(copy, ignore_errors=True)
+    shutil.copytree(runs, copy)
+    change(copy)
+    with tarfile.open(path, "w:xz") as tar:
+        tar.add(copy, arcname="./study")
+    shutil.rmtree(copy)
+    return path
+
+
+def edit_json(path: pathlib.Path, edit) -> None:
+    data = json.loads(path.read_text())
+    edit(data)
+    path.write_text(json.dumps(data))
+
+
+def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
+    """An archive whose runs' files lack what the report reads (an empty frames.csv, a
+    column missing, a summary.json without parameters or with parameters not an object, a
+    key of them missing), or with a number beyond a double (1e999, -1e400): one line naming
+    the file (or its experiment) and the problem, exit 2, --out as it was, no scratch."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    run = "sweep/s1_n40_bf_r0"
+    out = work / "out"
+    earlier_unpack(out, b"old", files=2)
+    before = snapshot(out)
+
+    def frames(text):
+        return lambda f: (f / run / "frames.csv").write_text(text)
+
+    def summary(edit):
+        return lambda f: edit_json(f / run / "summary.json", edit)
+
+    def log(edit):
+        return lambda f: edit_json(f / "study_invocations.json", edit)
+
+    def raw_log(text):
+        return lambda f: (f / "study_invocations.json").write_text(text)
+    good_log = json.loads((runs / "study_invocations.json").read_text())
+    for name, change, words in [
+            ("frames_empty", frames(""), [f"study/{run}/frames.csv", "empty"]),
+            ("frames_no_rows", frames("frame,update_ms,broadphase_ms,total_ms\n"),
+             [f"study/{run}/frames.csv", "no frame row"]),
+            ("frames_columns_missing", frames("frame,total_ms\nx,y\n"),
+             [f"study/{run}/frames.csv", "update_ms"]),
+            ("summary_no_parameters", summary(lambda d: d.pop("parameters")),
+             [f"study/{run}/summary.json", "parameters"]),
+            ("parameters_not_object", summary(lambda d: d.update(parameters=5)),
+             [f"study/{run}/summary.json", "not an object"]),
+            ("parameters_no_scene", summary(lambda d: d["parameters"].pop("scene")),
+             ["study/sweep", "do not hold what the report reads", "scene"]),
+            ("timings_not_object", summary(lambda d: d.update(timings_ms=[])),
+             [f"study/{run}/summary.json", "timings_ms"]),
+            ("load_1e999", raw_log(json.dumps(good_log).replace(
+                '"load_average_at_start": ', '"load_average_at_start": 1e999, "x": ')),
+             ["study_invocations.json", "beyond a double"]),
+            ("seconds_minus_1e400", raw_log(json.dumps(good_log).replace(
+                '"seconds": ', '"seconds": -1e400, "y": ')),
+             ["study_invocations.json", "beyond a double"]),
+            ("summary_1e999", lambda f: (f / run / "summary.json").write_text(
+                (f / run / "summary.json").read_text().replace('"wall_seconds": ',
+                                                               '"wall_seconds": 1e999, "z": ')),
+             [f"study/{run}/summary.json", "beyond a double"])]:
+        tar = archive_of(runs, work / f"{name}.tar.xz", change)
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        one_line_refusal(result, f"--from-archive {tar}", *words)
+        check(snapshot(out) == before, f"{name}: --out was touched:\n{result.stderr}")
+        check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+
+
+def case_long_invocation_log_costs_linear_time(args) -> None:
+    """An archive whose invocation log repeats one entry 20000 times (every job meeting
+    every other) makes its report in seconds, not the minutes a pairwise count took."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    tar = archive_of(runs, work / "long.tar.xz",
+                     lambda f: edit_json(f / "study_invocations.json", lambda d: d.extend(
+                         [d[0]] * 19_999)))
+    started = time.monotonic()
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", work / "out",
+                   timeout=120)
+    took = time.monotonic() - started
+    check(result.returncode == 0, f"exit {result.returncode}:\n{result.stderr}")
+    check(took < 60, f"20000 invocations took {took:.0f} s")
+    check("20000 invocation(s)" in (work / "out" / "REPORT.md").read_text(),
+          "the report does not count the log's 20000 invocations")
+
+
+def case_study_log_of_wrong_shape_refused(args) -> None:
+    """--out with a study_invocations.json that is not the log a study writes (bad JSON, an
+    object, a list of numbers, a number beyond a double): one line naming it, exit 2, before
+    any job runs (with --no-runs too), the folder as it was."""
+    work = args.out
+    for name, text in [("bad_json", "[{"), ("object", '{"a": 1}'), ("numbers", "[1]"),
+                       ("inf", json.dumps([invocation(NO_RUNS)]).replace('0.1', '1e999'))]:
+        folder = work / name
+        folder.mkdir()
+        (folder / "study_invocations.json").write_text(text + "\n")
+        before = snapshot(folder)
+        for mode in ([], ["--no-runs"], ["--runs-only"]):
+            result = study("--overlap", args.overlap, "--emulation", work / "none", *NO_RUNS,
+                           *mode, "--out", folder)
+            one_line_refusal(result, f"{folder}/study_invocations.json")
+            check(snapshot(folder) == before, f"{name} {mode}: the folder changed")
+
+
+def case_scripts_with_shebang_executable(args) -> None:
+    """Every file under scripts/ that opens with #! is executable, on disk and in git, and
+    every scripts/ command the docs give names an executable file."""
+    scripts = [p for p in sorted((REPO / "scripts").rglob("*")) if p.is_file()
+               and p.read_bytes()[:2] == b"#!"]
+    check(len(scripts) >= 10, f"found only {len(scripts)} scripts")
+    for path in scripts:
+        check(os.access(path, os.X_OK), f"{path.relative_to(REPO)}: opens with #! but is not "
+              "executable (chmod +x, git update-index --chmod=+x)")
+    listed = subprocess.run(["git", "-C", str(REPO), "ls-files", "-s", "scripts"],
+                            capture_output=True, text=True)
+    if listed.returncode == 0:  # a checkout (not a tarball): git's mode is what a clone gets
+        modes = {line.split("\t")[1]: line.split()[0] for line in listed.stdout.splitlines()}
+        for path in scripts:
+            name = path.relative_to(REPO).as_posix()
+            check(modes.get(name, "100755") == "100755",
+                  f"{name}: committed as {modes.get(name)}, not 100755 (git update-index "
+                  "--chmod=+x)")
+    commands = set()
+    for doc in [REPO / "README.md", *sorted((REPO / "docs").rglob("*.md"))]:
+        for match in re.finditer(r"^\s*(?:\$ )?(scripts/[\w./-]+\.(?:py|sh))\b", doc.read_text(),
+                                 re.MULTILINE):
+            commands.add((doc.relative_to(REPO).as_posix(), match[1]))
+    check(any(c == "scripts/study_slurm.sh" for _, c in commands),
+          "no doc runs scripts/study_slurm.sh: the doc scan finds nothing")
+    for doc, command in sorted(commands):
+        path = REPO / command
+        check(path.is_file() and os.access(path, os.X_OK),
+              f"{doc} runs {command}, which is not an executable file")
+
+
+def case_slurm_checks_before_submitting(args) -> None:
+    """scripts/study_slurm.sh checks the study's options (study.py --check-only) and refuses
+    a second --out, --shard or --from-archive after --, before it makes or submits anything:
+    exit 2, one line, no sbatch call, no --out folder (sbatch faked on PATH)."""
+    work = args.out
+    fake = work / "bin"
+    fake.mkdir()
+    calls = work / "sbatch_calls"
+    (fake / "sbatch").write_text(f"#!/bin/sh\necho \"$@\" >> {calls}\necho 12345\n")
+    (fake / "sbatch").chmod(0o755)
+    env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}"}
+    slurm = REPO / "scripts" / "study_slurm.sh"
+    own = ["--overlap", args.overlap]
+    for words, named in [
+            (["--profile", "nosuch"], "--profile"),
+            (["--profile", "quick", "--", *own, "--algos", "nosuch"], "--algos"),
+            (["--profile", "quick", "--", *own, "--objects", "0"], "--objects"),
+            (["--profile", "quick", "--", *own, "--repetitions", "99999999999999"],
+             "--repetitions"),
+            (["--profile", "quick", "--", *own, "--out", "/etc"], "--out"),
+            (["--profile", "quick", "--", *own, "--out=/etc"], "--out"),
+            (["--profile", "quick", "--", *own, "--shard", "1/2"], "--shard"),
+            (["--shards", "99999999999999999999999"], "--shards")]:
+        out = work / "sl"
+        result = subprocess.run([str(slurm), "--out", str(out), "--shards", "4", *words],
+                                capture_output=True, text=True, env=env, timeout=120)
+        check(result.returncode == 2 and result.stderr.count("\n") == 1 and
+              named in result.stderr and "Traceback" not in result.stderr,
+              f"study_slurm.sh {' '.join(words)}: exit {result.returncode}:\n{result.stderr}")
+        check(not calls.exists(), f"study_slurm.sh {' '.join(words)}: submitted "
+              f"{calls.read_text() if calls.exists() else ''}")
+        check(not out.exists(), f"study_slurm.sh {' '.join(words)}: made {out}")
+    out = work / "good"
+    result = subprocess.run([str(slurm), "--out", str(out), "--shards", "4", "--profile", "quick",
+                             "--", *own, *NO_RUNS[1:]], capture_output=True, text=True, env=env,
+                            timeout=120)
+    check(result.returncode == 0 and len(calls.read_text().splitlines()) == 2,
+          f"good options: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_memory_limit_not_bad_input(args) -> None:
+    """study.py under a small `ulimit -v`: a MemoryError while it starts, or an overlap that
+    cannot start (its loader, exit 127) or is killed, is one line and exit 1 (the machine's
+    limit), never a traceback and never exit 2 (bad input); nothing left in --out."""
+    work = args.out
+    seen = set()
+    for kib in (17_000, 20_000, 23_000, 26_000, 40_000, 100_000, 150_000, 200_000):
+        def limited(kib=kib):
+            resource.setrlimit(resource.RLIMIT_AS, (kib * 1024, kib * 1024))
+        out = work / f"out_{kib}"
+        result = subprocess.run([PYTHON, str(STUDY), "--overlap", args.overlap, "--emulation",
+                                 str(work / "none"), "--out", str(out), "--runs-only", *NO_RUNS],
+                                capture_output=True, text=True, preexec_fn=limited, timeout=120)
+        lines = result.stderr.splitlines()
+        if result.returncode == 0:
+            continue
+        check(result.returncode == 1 and "Traceback" not in result.stderr,
+              f"ulimit -v {kib}: exit {result.returncode}:\n{result.stderr}")
+        check(len([l for l in lines if l.startswith("study")]) >= 1 and
+              not any("Traceback" in l for l in lines), f"ulimit -v {kib}: {result.stderr}")
+        seen.add(kib)
+    check(seen, "no limit made study.py fail: the check proves nothing")
 
 
 def case_bad_arguments_one_line(args) -> None:
@@ -587,7 +890,19 @@ def case_bad_arguments_one_line(args) -> None:
                                 ("--physics-substeps", "auto,0"), ("--shard", "2/1"),
                                 ("--algos", "bf,bf"), ("--scenes", "1,1"),
                                 ("--objects", "40,40"), ("--overlap-loads", "1,1.0"),
-                                ("--algos", "")]],
+                                ("--algos", ""), ("--repetitions", "99999999999999"),
+                                ("--overlap-repetitions", "999999999999"),
+                                ("--objects", "999999999"), ("--objects", "05"),
+                                ("--frames", "1_000"), ("--frames", " 5"), ("--frames", "05"),
+                                ("--frames", "1000001"), ("--seed", "18446744073709551616"),
+                                ("--seed", "-1"), ("--threads", "1025"),
+                                ("--ideal-threads", "2000"), ("--overlap-loads", "101"),
+                                ("--physics-substeps", "1001"),
+                                ("--capture-objects", "10000001")]],
+        (["study.py", "--overlap", args.overlap, "--out", work / "o", "--check-only",
+          *NO_RUNS, "--objects", "0"], "--objects"),
+        (["study.py", "--overlap", args.overlap, "--out", work / "o", "--check-only",
+          "--from-archive", a_file], "--check-only"),
         (["study.py", "--overlap", args.overlap, "--out", work / "o", "--no-runs", "--report",
           "--report-doc", missing], "--report-doc"),
         (["gpu_results.py", "--raw", missing], "--raw"),
