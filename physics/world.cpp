@@ -91,6 +91,7 @@ struct PhysicsWorld::Bullet {
     // world's bodies leave it without one removal each.
     if (isSweepAndPrune(broadphase->pairSearch())) {
       for (auto& body : bodies) {
+        if (body->getBroadphaseHandle() == nullptr) continue;  // its proxy's creation failed
         broadphase->forgetProxy(body->getBroadphaseHandle());
         body->setBroadphaseHandle(nullptr);
       }
@@ -157,8 +158,8 @@ void PhysicsWorld::buildWorld(const WorldOptions& options) {
   // The catalogue's world broadphase: the pair search asked for, whose CCD
   // sweeps go through one tree shared by every broadphase, the same queries
   // for all (physics/broadphase/ccd_query_broadphase.h).
-  WorldBroadphaseChoice choice = makeWorldBroadphase(options.algorithm, -bound, bound,
-                                                     n + kWallCount + kUserObjects, tasks_);
+  WorldBroadphaseChoice choice =
+      makeWorldBroadphase(options.algorithm, -bound, bound, n + kWallCount + kUserObjects, tasks_);
   b.broadphase = std::move(choice.broadphase);
   algorithm_ = choice.name;
   algorithm_notice_ = choice.notice;
@@ -214,13 +215,16 @@ void PhysicsWorld::addBoxes(bool sleep) {
     body->setLinearVelocity(toBullet(start.velocity));
     body->setUserIndex(i);
     if (!sleep) body->setActivationState(DISABLE_DEACTIVATION);
-    b.world->addRigidBody(body.get());
+    // Owned before the world names it: an allocation that fails inside
+    // addRigidBody (its proxy) leaves the body in the world's list, and a
+    // body freed by the unwinding would be read by the world's destructor.
+    b.shapes.push_back(std::move(shape));
+    b.bodies.push_back(std::move(body));
     b.edges.push_back(start.edge);
     b.smallest_edge = std::min(b.smallest_edge, start.edge);
     b.removed.push_back(false);
     b.ccd.push_back(0);
-    b.shapes.push_back(std::move(shape));
-    b.bodies.push_back(std::move(body));
+    b.world->addRigidBody(b.bodies.back().get());
   }
   b.typical_edge = typicalEdge(b.edges);
 }
@@ -243,9 +247,9 @@ void PhysicsWorld::addWalls() {
     auto body = std::make_unique<btRigidBody>(0.0f, nullptr, shape.get());
     body->setWorldTransform(btTransform(btQuaternion::getIdentity(), toBullet(centre)));
     body->setUserIndex(n + w);
-    b.world->addRigidBody(body.get());
     b.shapes.push_back(std::move(shape));
-    b.bodies.push_back(std::move(body));
+    b.bodies.push_back(std::move(body));  // owned before the world names it, as a box
+    b.world->addRigidBody(b.bodies.back().get());
   }
 }
 

@@ -65,8 +65,21 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
                              std::string_view input_option) {
   for (const std::filesystem::path& output : outputs) {
     for (const std::filesystem::path& input : inputs) {
-      std::error_code error;  // an output not made yet is no input
-      if (std::filesystem::equivalent(output, input, error) && !error) {
+      std::error_code error;
+      bool same = std::filesystem::equivalent(output, input, error) && !error;
+      if (!same) {
+        // An output not made yet, or one through folders not made yet
+        // (`sub/../x` before sub exists: equivalent() says no): where the
+        // kernel will put it is the existing part resolved, the rest as
+        // written, normalised (the folders it makes are folders, not links).
+        std::error_code ignored;
+        const auto output_at =
+            std::filesystem::weakly_canonical(std::filesystem::absolute(output, ignored), ignored);
+        const auto input_at =
+            std::filesystem::weakly_canonical(std::filesystem::absolute(input, ignored), ignored);
+        same = !ignored && output_at == input_at;
+      }
+      if (same) {
         throw UsageError(std::string(output_option) + " " + shownPath(output) + ": it is " +
                          std::string(input_option) + " " + shownPath(input) +
                          ", which the results would replace; write them elsewhere");

@@ -56,13 +56,20 @@ btBroadphaseProxy* CcdQueryBroadphase::createProxy(const btVector3& aabbMin,
                            std::to_string(proxy->m_uniqueId));
   }
   const auto id = static_cast<std::size_t>(proxy->m_uniqueId);
-  if (id >= leaves_.size()) leaves_.resize(std::max(id + 1, 2 * leaves_.size()));
-  if (leaves_[id].proxy != nullptr) {
-    throw std::logic_error("CcdQueryBroadphase: two live proxies numbered " + std::to_string(id));
+  try {
+    if (id >= leaves_.size()) leaves_.resize(std::max(id + 1, 2 * leaves_.size()));
+    if (leaves_[id].proxy != nullptr) {
+      throw std::logic_error("CcdQueryBroadphase: two live proxies numbered " + std::to_string(id));
+    }
+    btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
+                                                collisionFilterGroup, collisionFilterMask, nullptr);
+    leaves_[id] = Leaf{proxy, node, aabbMin, aabbMax, false, 0};
+  } catch (...) {
+    // No proxy is handed out: the pair search's goes too (out of memory in
+    // the tree's insert, say), or it would outlive its object.
+    pairs_->destroyProxy(proxy, dispatcher);
+    throw;
   }
-  btBroadphaseProxy* node = tree_.createProxy(aabbMin, aabbMax, shapeType, proxy,
-                                              collisionFilterGroup, collisionFilterMask, nullptr);
-  leaves_[id] = Leaf{proxy, node, aabbMin, aabbMax, false, 0};
   return proxy;
 }
 

@@ -320,7 +320,8 @@ TEST_F(CarefulCliTest, BenchmarkNamesACorruptCachedStream) {
 }
 
 // The benchmark refuses an --out whose results would replace an --input,
-// by name, through a link and '..', and the stream is left as it was.
+// by name, through a link and '..', through a folder not made yet and '..',
+// and the stream is left as it was.
 TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
   const fs::path folder = out_ / "r";
   fs::create_directories(folder);
@@ -330,8 +331,9 @@ TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
             0);
   const std::string stream = fileText(folder / "z.csv");
   fs::create_directory_symlink("r", out_ / "lk");
-  for (const std::string out :
-       {(folder / "z").string(), (out_ / "lk" / ".." / "r" / "z").string()}) {
+  // A folder not made yet counts as a folder: `new/../z` is r/z.
+  for (const std::string out : {(folder / "z").string(), (out_ / "lk" / ".." / "r" / "z").string(),
+                                (folder / "new" / ".." / "z").string()}) {
     const std::string command =
         std::string(OVERLAP_BENCH_BINARY) + " --input " + (folder / "z.csv").string() +
         " --algos bvh --warmup 0 --repeats 1 --out " + out + " 2> " + (out_ / "err.txt").string();
@@ -341,6 +343,7 @@ TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
         << fileText(out_ / "err.txt");
     EXPECT_EQ(fileText(folder / "z.csv"), stream) << out;
   }
+  EXPECT_FALSE(fs::exists(folder / "new"));
 }
 
 // A long capture says at the start how long it will take.
