@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "gpu/base/interrupt.h"
+
 namespace overlap::render {
 namespace {
 
@@ -172,7 +174,7 @@ RendererProcess::RendererProcess(int width, int height, ColourMode mode)
   if (child_ == 0) serve(ends[1], program, width, height, mode);
   ::close(ends[1]);
   to_child_ = ends[0];
-  receiveReply();
+  receiveReply("the start of OSMesa's renderer");
 }
 
 RendererProcess::~RendererProcess() {
@@ -187,19 +189,48 @@ void RendererProcess::send(const void* bytes, std::size_t size) {
   if (to_child_ < 0 || !writeAll(to_child_, bytes, size)) childDied();
 }
 
-void RendererProcess::receive(void* bytes, std::size_t size) {
-  if (to_child_ < 0 || !readAll(to_child_, bytes, size)) childDied();
+void RendererProcess::receive(void* bytes, std::size_t size, const char* waiting) {
+  auto* next = static_cast<char*>(bytes);
+  while (to_child_ >= 0 && size > 0) {
+    // A stop signal ends the start's wait, however long the child takes (it
+    // opens OSMesa and LLVM, which may crawl under memory pressure); a
+    // frame's is short, and the run stops at the frame's end as ever.
+    if (const int signal_number = waiting != nullptr ? pendingInterrupt() : 0; signal_number != 0) {
+      stopChild();
+      throw Interrupted(signal_number, waiting);
+    }
+    const ssize_t got = ::recv(to_child_, next, size, 0);
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) break;
+    next += got;
+    size -= static_cast<std::size_t>(got);
+  }
+  if (size > 0) childDied();
+}
+
+void RendererProcess::stopChild() {
+  if (to_child_ >= 0) {
+    ::close(to_child_);
+    to_child_ = -1;
+  }
+  if (child_ > 0) {
+    ::kill(child_, SIGKILL);
+    while (::waitpid(child_, nullptr, 0) < 0 && errno == EINTR) {
+    }
+    child_ = -1;
+  }
+  why_ = "OSMesa's renderer process was stopped with the program";
 }
 
 // Reads a reply's first byte, and throws the error it brings.
-void RendererProcess::receiveReply() {
+void RendererProcess::receiveReply(const char* waiting) {
   Reply reply{};
-  receive(&reply, 1);
+  receive(&reply, 1, waiting);
   if (reply == Reply::kDone) return;
   std::uint32_t length = 0;
-  receive(&length, sizeof(length));
+  receive(&length, sizeof(length), waiting);
   std::string message(length, '\0');
-  receive(message.data(), length);
+  receive(message.data(), length, waiting);
   switch (reply) {
     case Reply::kImageSizeError:
       throw ImageSizeError(message);

@@ -13,14 +13,15 @@
 //
 // Invariants: the same errors as OffscreenRenderer's (ImageSizeError,
 // RenderError naming the problem), raised in the program; a child that
-// dies throws RendererOutOfMemory, and every later call throws it too; the
-// destructor waits for the child, so none outlives its RendererProcess.
-// Rule: make it before the process starts a thread or calls OSMesa: the
-// child is a fork without exec, which may use only what no other thread held
-// at the fork (one forked after the process made an OSMesa context hung,
-// tests/render/renderer_process_test.cpp); made with a second thread
-// running it throws std::logic_error.  `overlap run` and `capture` make it
-// before their task system's first thread.
+// dies throws RendererOutOfMemory, and every later call throws it too; a
+// stop signal (gpu/base/interrupt.h) while the program waits for the
+// child's start (OSMesa and LLVM opened) ends the wait at once: the child
+// is killed and Interrupted names the start; the destructor waits for the child, so none outlives
+// its RendererProcess. Rule: make it before the process starts a thread or calls OSMesa: the child
+// is a fork without exec, which may use only what no other thread held at the fork (one forked
+// after the process made an OSMesa context hung, tests/render/renderer_process_test.cpp); made with
+// a second thread running it throws std::logic_error.  `overlap run` and `capture` make it before
+// their task system's first thread.
 #pragma once
 
 #include <sys/types.h>
@@ -50,8 +51,12 @@ class RendererProcess {
 
  private:
   void send(const void* bytes, std::size_t size);
-  void receive(void* bytes, std::size_t size);
-  void receiveReply();
+  // `waiting`: what a stop signal that ends the wait names (Interrupted);
+  // null: the wait is not ended by one (a frame's render, which is short).
+  void receive(void* bytes, std::size_t size, const char* waiting = nullptr);
+  void receiveReply(const char* waiting = nullptr);
+  // Kills and reaps the child, at once (a stop signal came).
+  void stopChild();
   [[noreturn]] void childDied();
 
   int width_;

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "engine/program/usage_error.h"
+#include "gpu/base/interrupt.h"
 #include "render/capture_options.h"
 
 namespace overlap::engine {
@@ -45,6 +46,8 @@ std::unique_ptr<FrameCapture> openCapture(OutputFolder& outputs,
     throw UsageError("--capture-size " + size_text + ": " + error.what());
   } catch (const render::RenderError&) {
     throw;  // OSMesa failing is the program's failure, not the value's
+  } catch (const Interrupted&) {
+    throw;  // a stop during the renderer's start
   } catch (const std::runtime_error& error) {
     throw UsageError(std::string("--capture-size: ") + error.what());
   }

@@ -1,10 +1,12 @@
 #include "engine/program/output_checks.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <iterator>
+#include <utility>
 
 #include "gpu/base/output_file.h"
 
@@ -90,13 +92,29 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
 
 void refuseStandardOutputOverInput(const std::filesystem::path& input,
                                    std::string_view input_option) {
-  struct stat out {};
   struct stat in {};
-  if (::fstat(STDOUT_FILENO, &out) != 0 || !S_ISREG(out.st_mode)) return;  // a pipe, tty, device
   if (::stat(input.c_str(), &in) != 0) return;  // the input's own check names it
-  if (out.st_dev == in.st_dev && out.st_ino == in.st_ino) {
-    throw UsageError("standard output is " + std::string(input_option) + " " + shownPath(input) +
-                     ", which the rows would overwrite; send them elsewhere");
+  // A file, or a FIFO (`1<>FIFO`: the program's own write end would keep the
+  // FIFO from ever ending); stderr too, which gets the summary.
+  if (!S_ISREG(in.st_mode) && !S_ISFIFO(in.st_mode)) return;
+  for (const auto& [fd, name] :
+       {std::pair{STDOUT_FILENO, "standard output"}, std::pair{STDERR_FILENO, "standard error"}}) {
+    struct stat out {};
+    if (::fstat(fd, &out) != 0) continue;
+    if (out.st_dev == in.st_dev && out.st_ino == in.st_ino) {
+      // The message itself would be written over the input: into
+      // /dev/null with it (the exit status still says no).
+      if (fd == STDERR_FILENO) {
+        const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+        if (null >= 0) {
+          ::dup2(null, STDERR_FILENO);
+          ::close(null);
+        }
+      }
+      throw UsageError(std::string(name) + " is " + std::string(input_option) + " " +
+                       shownPath(input) + ", which what is written there would overwrite; send " +
+                       "it elsewhere");
+    }
   }
 }
 

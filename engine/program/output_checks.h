@@ -51,8 +51,9 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
                              const std::vector<std::filesystem::path>& inputs,
                              std::string_view input_option);
 
-// A UsageError when standard output is the file `input` (`1<>FILE`, or
-// `>>FILE`): the rows written there would overwrite what is being read.
+// A UsageError when standard output or standard error is the file or FIFO
+// `input` (`1<>FILE`, `>>FILE`, `2<>FILE`): what is written there would
+// overwrite what is being read, or keep a FIFO from ever ending.
 void refuseStandardOutputOverInput(const std::filesystem::path& input,
                                    std::string_view input_option);
 

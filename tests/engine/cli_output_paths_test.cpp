@@ -168,19 +168,29 @@ TEST_F(OutputPathsCliTest, ANameThatIsNotUtf8IsWrittenIntoTheJsonOutputs) {
   EXPECT_TRUE(fs::is_regular_file(out_ / ("r" + name) / "timeline.json"));
 }
 
-// `pairs` prints its rows on standard output: one that is its --input
-// (`1<>FILE`, `>>FILE`) would overwrite the stream as it is read.
+// `pairs` prints its rows on standard output and its summary on standard
+// error: either one being its --input (`1<>FILE`, `>>FILE`, `2<>FILE`) would
+// overwrite the stream as it is read; a FIFO that is both would never end.
 TEST_F(OutputPathsCliTest, PairsRefusesAStandardOutputThatIsItsInput) {
   ASSERT_EQ(runHere("generate --objects 20 --frames 3 --out y.aabbs").exit_code, 0);
   const std::string before = fileText(out_ / "y.aabbs");
-  for (const std::string redirect : {"1<>y.aabbs", ">>y.aabbs"}) {
+  // Standard error that is the input gets no message either: it would land there.
+  for (const auto& [redirect, said] : std::vector<std::pair<std::string, std::string>>{
+           {"1<>y.aabbs", "standard output is --input y.aabbs"},
+           {">>y.aabbs", "standard output is --input y.aabbs"},
+           {"2<>y.aabbs", ""}}) {
     const Result result = runCommand("cd " + out_.string() + " && sh -c '" + OVERLAP_BINARY +
                                      " pairs --input y.aabbs " + redirect + "'");
     EXPECT_EQ(result.exit_code, 2) << redirect << ": " << result.stderr_text;
-    EXPECT_NE(result.stderr_text.find("standard output is --input y.aabbs"), std::string::npos)
-        << result.stderr_text;
+    EXPECT_NE(result.stderr_text.find(said), std::string::npos) << result.stderr_text;
     EXPECT_EQ(fileText(out_ / "y.aabbs"), before) << redirect;
   }
+  // A FIFO read and written by the program would never end.
+  ASSERT_EQ(::mkfifo((out_ / "p").c_str(), 0600), 0);
+  const Result fifo =
+      runCommand("cd " + out_.string() + " && (timeout 20 cat y.aabbs > p &) && sh -c '" +
+                 "timeout 20 " + OVERLAP_BINARY + " pairs --input p 1<>p'");
+  EXPECT_EQ(fifo.exit_code, 2) << fifo.stderr_text;
   EXPECT_EQ(runHere("pairs --input y.aabbs").exit_code, 0);
 }
 

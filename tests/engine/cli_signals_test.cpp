@@ -148,6 +148,30 @@ TEST_F(SignalsCliTest, AFifoReaderThatLeavesEndsTheRunWithExit1) {
 // SIGHUP stops a run like SIGTERM; a run clears the temporaries that
 // a killed run of the program left (dead writer), and nothing else: not a
 // live writer's, not a file of another pattern.
+// The renderer's start (OSMesa and LLVM opened in its process) may take
+// long: a stop signal ends the wait on it at once, not when it is done.
+TEST_F(SignalsCliTest, AStopDuringTheRenderersStartEndsTheWaitAtOnce) {
+  const fs::path mark = out_ / "osmesa_loading";
+  Started capture(
+      "capture --objects 20 --keyframes 0 --capture-size 32x24 --out " + (out_ / "shots").string(),
+      out_ / "err.txt",
+      "env LD_LIBRARY_PATH=" + std::string(OVERLAP_SLOW_OSMESA_DIR) +
+          " OVERLAP_SLOW_OSMESA_MARK=" + mark.string() + " " + OVERLAP_BINARY);
+  for (int i = 0; i < 300 && !fs::exists(mark); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(fs::exists(mark)) << capture.stderrText();
+  const auto signalled = std::chrono::steady_clock::now();
+  capture.signal(SIGTERM);
+  const int status = capture.wait();
+  EXPECT_LT(std::chrono::steady_clock::now() - signalled, std::chrono::seconds(20));
+  EXPECT_TRUE(exitedWith(status, 143)) << capture.stderrText();
+  EXPECT_NE(capture.stderrText().find("stopped by SIGTERM at the start of OSMesa's renderer"),
+            std::string::npos)
+      << capture.stderrText();
+  EXPECT_FALSE(fs::exists(out_ / "shots"));
+}
+
 TEST_F(SignalsCliTest, SighupStopsARunAndStaleTemporariesAreCleared) {
   const fs::path folder = out_ / "rk";
   Started run("run --objects 100 --frames 100000 --capture-every 1 --capture-size 32x24 --out " +
