@@ -1,5 +1,6 @@
 #include "render/renderer_process.h"
 
+#include <fcntl.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -109,6 +110,13 @@ bool replying(int fd, Work&& work) {
   // for its last writer, a temporary for its last holder).
   if (fd > 3) ::close_range(3, static_cast<unsigned>(fd) - 1, 0);
   ::close_range(static_cast<unsigned>(fd) + 1, ~0U, 0);
+  // Nor its standard streams: what fails here reaches the program through
+  // `fd` and is said there in one line; an abort's own text (glibc's,
+  // LLVM's, under a tight ulimit -v) would be a second, alarming one.
+  if (const int null = ::open("/dev/null", O_RDWR | O_CLOEXEC); null >= 0) {
+    for (const int standard : {STDIN_FILENO, STDOUT_FILENO, STDERR_FILENO}) ::dup2(null, standard);
+    if (null > STDERR_FILENO) ::close(null);
+  }
   std::unique_ptr<OffscreenRenderer> renderer;
   if (!replying(fd, [&] { renderer = std::make_unique<OffscreenRenderer>(width, height, mode); })) {
     ::_exit(0);
@@ -260,7 +268,11 @@ void RendererProcess::childDied() {
         how = "exited with " + std::to_string(WEXITSTATUS(status));
       }
     }
-    why_ = "OSMesa's renderer process " + how + ", as OSMesa does when an allocation fails";
+    // Most likely memory (OSMesa writes through a failed allocation's null),
+    // but a broken library or a kill from outside end it so too.
+    why_ = "OSMesa's renderer process " + how +
+           ", as OSMesa does when an allocation fails (or its library is broken, or the process "
+           "was killed)";
   }
   throw RendererOutOfMemory(why_);
 }

@@ -9,7 +9,9 @@
 // through a pipe and sends the image back.  The child ignores the signals
 // the program handles (gpu/base/interrupt.h: the program stops, and the
 // child ends with it), holds no descriptor of the program's but its two
-// pipes, and ends when the program closes them or dies.
+// pipes (its standard streams are /dev/null: its failures reach the program
+// through the pipe, never as a second message on stderr), and ends when the
+// program closes them or dies.
 //
 // Invariants: the same errors as OffscreenRenderer's (ImageSizeError,
 // RenderError naming the problem), raised in the program; a child that
