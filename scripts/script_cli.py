@@ -26,6 +26,11 @@ Rules, each with its reason:
     (ignored dispositions survive exec): the convention nohup and shells rely on.
   * Running out of memory (MemoryError) is one line, exit 1: the machine's limit, not
     bad input (exit 2) and not a traceback.
+  * Once main() has ended (everything published, or the failure known), run() holds the
+    stop signals until the process ends: a signal then changes nothing (run() says so when
+    it came before it returned), never a death by the first signal in the interpreter's
+    teardown, which gives the signals back their default action while modules are still
+    being torn down.
 """
 import argparse
 import errno
@@ -181,14 +186,41 @@ def write_atomically(path: pathlib.Path, text: str) -> None:
         temporary.unlink(missing_ok=True)
 
 
+def _hold_stops() -> None:
+    """From here to the process's end, the stop signals wait (and are dropped at exit)."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
+
+
+def _stops_after_the_end() -> list:
+    """The stop signals that came once main() had ended, held (those ignored from the
+    start, pending as well since a held signal is never ignored, left out)."""
+    pending = signal.sigpending()
+    return [signum for signum in STOPS if signum in pending and
+            signal.getsignal(signum) not in (signal.SIG_IGN, None)]
+
+
 def run(main, prog: str = None) -> int:
     """main()'s exit status; BadInput, a file that is not UTF-8 text and an OSError on an
     input path are one line naming the input and the problem, exit 2 (another OSError:
-    exit 1); a stop signal is one line too, exit 128 + the signal (see the rules)."""
+    exit 1); a stop signal is one line too, exit 128 + the signal (see the rules).  Once
+    main() ends the stop signals are held to the process's end (see the rules)."""
     prog = prog or pathlib.Path(sys.argv[0]).name
     stop_on_signals()
+    status = _outcome(main, prog)
+    _hold_stops()  # again: a stop raised inside _outcome's own `finally` skipped it there
+    late = _stops_after_the_end()
+    if late:
+        print(f"{prog}: {', '.join(signal_name(s) for s in late)} came after the script had "
+              f"ended (exit {status}); it changed nothing", file=sys.stderr)
+    return status
+
+
+def _outcome(main, prog: str) -> int:
     try:
-        status = main() or 0
+        try:
+            status = main() or 0
+        finally:
+            _hold_stops()  # what main() published stays; no signal interrupts the end
         check_stopped()  # a stop some library swallowed: the script did not finish
         return status
     except MemoryError:

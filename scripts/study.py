@@ -212,6 +212,11 @@ MAX_THREADS = 1024  # overlap's --threads: 0..1024
 MAX_SUBSTEPS = 1000  # overlap's --substeps K: 1..1000
 MAX_TASK_LOAD = 100  # overlap's --task-load: [0, 100]
 MAX_SEED = 2 ** 64 - 1  # overlap's --seed: 0..2^64-1
+# The plan's own bounds: values in one list option, and jobs in the whole plan (the product
+# of the lists' lengths and the repetitions, counted before any job is made: a plan too
+# large to hold is refused, never built).  The full profile plans 1148 jobs.
+MAX_LIST_ITEMS = 1000
+MAX_JOBS = 100_000
 # A whole number as overlap reads one: plain decimal digits, no sign, no leading zero, no
 # '_' and no space (Python's int() takes `1_000`, ` 5` and `05`; overlap refuses them).
 WHOLE = re.compile(r"0|[1-9][0-9]{0,19}")
@@ -307,6 +312,11 @@ def given_twice(text: str):
 
 def check_values(args, parser: argparse.ArgumentParser) -> None:
     full = study_profiles.options(PROFILES, "full")
+    for key in [*VALUE_CHECKS, *ALGO_LISTS]:  # first: what follows reads every value
+        value = getattr(args, key)
+        if isinstance(value, str) and value.count(",") >= MAX_LIST_ITEMS:
+            parser.error(f"--{key.replace('_', '-')}: {value.count(',') + 1} values; at most "
+                         f"{MAX_LIST_ITEMS} in a list")
     for key in [*VALUE_CHECKS, *(k for k, v in full.items() if type(v) is int)]:
         if key in VALUE_CHECKS:
             holds, must = VALUE_CHECKS[key]
@@ -324,6 +334,17 @@ def check_values(args, parser: argparse.ArgumentParser) -> None:
     if args.report and not args.report_doc.is_file():
         parser.error(f"--report-doc {args.report_doc}: no such file (--report fills its "
                      "generated blocks)")
+
+
+def check_plan_size(args, parser: argparse.ArgumentParser) -> None:
+    """At most MAX_JOBS jobs, counted before the plan is made (--check-only included)."""
+    sizes = study_plan.plan_sizes(args)
+    total = sum(sizes.values())
+    if total > MAX_JOBS:
+        largest = max(sizes, key=sizes.get)
+        parser.error(f"the options plan {total} jobs ({largest}: {sizes[largest]}), over the "
+                     f"{MAX_JOBS} a study takes (the full profile plans 1148): fewer list "
+                     "values or repetitions")
 
 
 def check_algorithms(args) -> None:
@@ -368,7 +389,10 @@ def apply_profile(args, parser: argparse.ArgumentParser) -> None:
 
 
 def parse_args(argv: list) -> argparse.Namespace:
-    parser = Parser(description=__doc__.splitlines()[0])
+    parser = Parser(description=__doc__.splitlines()[0], epilog=(
+        f"Bounds: each option's below; at most {MAX_LIST_ITEMS} values in a list option, and "
+        f"at most {MAX_JOBS} jobs in the plan (the product of the lists' lengths and the "
+        "repetitions; the full profile plans 1148), refused before anything is planned."))
     parser.add_argument("--overlap", default=str(REPO / "build" / "overlap"),
                         help="the overlap binary (default: build/overlap)")
     parser.add_argument("--emulation", default=str(REPO / "build-emulation" / "overlap"),
@@ -428,6 +452,7 @@ def parse_args(argv: list) -> argparse.Namespace:
     apply_profile(args, parser)
     check_values(args, parser)
     args.experiments = study_plan.names(args.experiments)
+    check_plan_size(args, parser)
     args.overlap = str(pathlib.Path(args.overlap).resolve())
     args.emulation = str(pathlib.Path(args.emulation).resolve())
     blocked = next((p for p in [args.out, *args.out.parents] if os.path.exists(p)), None)
@@ -576,7 +601,7 @@ def run_and_log(jobs: list, args, argv: list) -> None:
     again after them: a stopped study still names its runs; an invocation that runs
     nothing (everything done) is not logged, so regenerating the report leaves it as it
     was.  Each job's start and end are kept for the report's "what ran beside what"."""
-    started = time.time()
+    started, clock = time.time(), time.monotonic()  # the duration by a clock never set back
     invocation = {"argv": ["scripts/study.py", *argv], "started": time.strftime(
         "%Y-%m-%d %H:%M:%S", time.localtime(started)), "seconds": None,
         "load_average_at_start": round(os.getloadavg()[0], 2), "finished": False, "jobs": []}
@@ -585,15 +610,15 @@ def run_and_log(jobs: list, args, argv: list) -> None:
     def job_ran(job, start: float, end: float) -> None:
         invocation["jobs"].append({"group": job.group, "experiment": job.experiment,
                                    "key": job.key, "start": round(start, 2),
-                                   "end": round(end, 2)})
+                                   "end": round(max(start, end), 2)})  # a clock set back
         log.write()
 
     ran, gpu_pending = run_jobs(jobs, args, log.write, job_ran)
     if ran:
-        invocation.update(seconds=round(time.time() - started, 1), finished=True,
+        invocation.update(seconds=round(time.monotonic() - clock, 1), finished=True,
                           gpu_jobs_pending=len(gpu_pending))
         log.write()
-        print(f"study: {len(ran)} jobs ran in {format_seconds(time.time() - started)}",
+        print(f"study: {len(ran)} jobs ran in {format_seconds(time.monotonic() - clock)}",
               file=sys.stderr)
 
 

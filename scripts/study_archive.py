@@ -15,7 +15,9 @@ Rules, each with its reason:
     member counts its full size).  Then the unpacked text: every .json, .csv,
     .md and .txt file is UTF-8, every .json file parses (no NaN, no Infinity, no
     number beyond a double: 1e999 would read as a measurement), the invocation log,
-    the runs' summary.json and frames.csv have the shapes the report reads; then
+    the runs' summary.json and frames.csv have the shapes the report reads (and
+    frames.csv no NaN or infinity either; the log no negative duration, time or load
+    average); then
     (study.py's `prepare`) the report is made in the scratch folder, so a run file
     lacking anything else it reads refuses the archive too.  A member that is
     not under ./study is never written, yet an absolute or '..' name, a link or a
@@ -40,18 +42,20 @@ import copy
 import csv
 import fcntl
 import glob
+import io
 import json
 import lzma
 import math
 import os
 import pathlib
+import re
 import shutil
 import signal
 import tarfile
 import tempfile
 import zlib
 
-from script_cli import STOPS, Stopped, check_stopped
+from script_cli import STOPS, Stopped, check_stopped, one_line
 
 MARKER = ".study-archive"  # in D: D is an unpack, which the next unpack may replace
 SCRATCH_MARKER = ".study-unpack"  # in a scratch folder: made by an unpack
@@ -270,6 +274,19 @@ def check_log(log, name: str) -> None:
     for index, run in enumerate(log):
         if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
             raise BadArchive(f"{name}[{index}]: finished, yet no seconds of its jobs")
+        # Durations, times and load averages are never negative, nor a job's end before
+        # its start: such a number would read as a measurement ("took -1 s").
+        fields = [("load_average_at_start", run["load_average_at_start"]),
+                  ("seconds", run.get("seconds"))]
+        for at, job in enumerate(run.get("jobs", [])):
+            fields += [(f"jobs[{at}].start", job["start"]), (f"jobs[{at}].end", job["end"])]
+            if job["end"] < job["start"]:
+                raise BadArchive(f"{name}[{index}].jobs[{at}]: its end {job['end']} is before "
+                                 f"its start {job['start']}: no job a study logs")
+        for field, value in fields:
+            if isinstance(value, (int, float)) and value < 0:
+                raise BadArchive(f"{name}[{index}].{field}: {json.dumps(value)[:40]} is "
+                                 "negative: no number a study writes")
         for word in run["argv"] + [run["started"]]:
             if "`" in word or not word.isprintable() or len(word) > 4096:
                 raise BadArchive(f"{name}[{index}]: the word {word[:60]!r} is not one a "
@@ -317,13 +334,22 @@ def check_study(study: pathlib.Path) -> list:
 FRAMES_COLUMNS = ("frame", "update_ms", "broadphase_ms", "total_ms")  # the report's own
 
 
+# What a cell that float() reads as NaN or an infinity holds (nan, inf, infinity in any
+# case, or an exponent of three digits or more, as in 1e999): only rows with one are read
+# cell by cell, so a long frames.csv costs one scan.
+NOT_FINITE_HINT = re.compile(r"[nNiI]|[eE][+-]?[0-9]{3}")
+
+
 def check_frames(path: pathlib.Path, name: str) -> None:
     """A run's frames.csv holds what the report reads: a header with the columns it reads
-    (FRAMES_COLUMNS), then at least one row of as many cells."""
+    (FRAMES_COLUMNS), then at least one row of as many cells, and no cell that reads as
+    NaN or an infinity (nan, inf, 1e999: no number overlap writes, and one would read as a
+    measurement, as in the JSON)."""
     with open(path, newline="", encoding="utf-8") as f:
-        rows = csv.reader(f)
-        header = next(rows, None)
-        first = next(rows, None)
+        text = f.read()
+    rows = csv.reader(io.StringIO(text, newline=""))
+    header = next(rows, None)
+    first = next(rows, None)
     if not header:
         raise BadArchive(f"{name}: empty, no header of the frames' columns")
     missing = [column for column in FRAMES_COLUMNS if column not in header]
@@ -331,6 +357,18 @@ def check_frames(path: pathlib.Path, name: str) -> None:
         raise BadArchive(f"{name}: its header has no {', '.join(missing)} column")
     if first is None or len(first) != len(header):
         raise BadArchive(f"{name}: no frame row under its header")
+    body = text.partition("\n")[2]
+    if not NOT_FINITE_HINT.search(body):
+        return
+    for line, row in enumerate(csv.reader(io.StringIO(body, newline="")), start=2):
+        for column, cell in zip(header, row):
+            try:
+                value = float(cell)
+            except ValueError:
+                continue
+            if not math.isfinite(value):
+                raise BadArchive(f"{name}: line {line}, {one_line(column)[:40]} "
+                                 f"{one_line(cell)[:40]!r} is no number a study writes")
 
 
 def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):

@@ -267,8 +267,11 @@ def physics_cells(args) -> list:
     cells = []
     for scene in ints(args.physics_scenes):
         cells += main_physics_cells(args, scene)
+    seen = set(cells)  # a set: linear in the cells, however long the lists
     for scene in ints(args.physics_scenes):
-        cells += [c for c in comparison_physics_cells(args, scene) if c not in cells]
+        added = [c for c in comparison_physics_cells(args, scene) if c not in seen]
+        cells += added
+        seen.update(added)
     return cells
 
 
@@ -434,6 +437,30 @@ def capture_jobs(p: Plan) -> list:
 
 PLANNERS = {"sweep": sweep_jobs, "pairs": pairs_jobs, "physics": physics_jobs,
             "latency": latency_jobs, "timeline": timeline_jobs, "overlap": overlap_jobs}
+
+
+def plan_sizes(args) -> dict:
+    """{experiment: how many jobs plan(args) lists for it}, counted from the options alone
+    (products of list lengths and repetitions; the physics cells, a few per list item, are
+    listed), so a plan too large to hold is refused before a job is made."""
+    a, sizes = args, {}
+    counts = {
+        "sweep": lambda: len(ints(a.scenes)) * len(ints(a.objects)) * len(names(a.algos))
+        * a.repetitions,
+        "pairs": lambda: len(names(a.pairs_algos)),
+        "physics": lambda: sum(1 + (cell[3] == "off") for cell in physics_cells(a)),
+        "latency": lambda: len(ints(a.latency_scenes)) * len(names(a.latency_algos)),
+        "timeline": lambda: 1,
+        "overlap": lambda: len(ints(a.overlap_scenes)) * len(ints(a.overlap_objects))
+        * len(names(a.overlap_loads)) * a.overlap_repetitions
+        + len(ints(a.ideal_scenes)) * len(ints(a.ideal_objects)) * len(names(a.ideal_loads))
+        * len(ints(a.ideal_threads)) * a.ideal_repetitions}
+    for experiment in EXPERIMENTS:
+        if experiment in a.experiments:
+            sizes[experiment] = counts[experiment]()
+    if a.capture:
+        sizes["capture"] = len(ints(a.scenes))
+    return sizes
 
 
 def plan(args) -> list:

@@ -36,43 +36,66 @@ done
 [[ -n "$out" && -n "$shards" ]] || usage
 [[ "$shards" =~ ^[1-9][0-9]{0,5}$ ]] || die "--shards $shards: expected a count, 1 to 999999"
 # The pass-through options are the study's own, but not those this script sets: a second
-# --out would override the folder checked here, --shard each task's share.
+# --out would override the folder checked here, --shard each task's share, a --profile (or
+# --quick, --full) the profile the tasks are confirmed for; and no --help, which the check
+# would answer with the help (exit 0) and every task likewise.
 for word in "$@"; do
   case "$word" in
     --out|--out=*|--shard|--shard=*|--from-archive|--from-archive=*|--runs-only|--no-runs|--check-only)
       die "${word%%=*} after --: study_slurm.sh sets it itself (give --out before --)" ;;
+    --profile|--profile=*|--quick|--full)
+      die "${word%%=*} after --: study_slurm.sh sets the profile (give --profile before --)" ;;
+    --help|-h|-h*)
+      die "$word after --: the study's help runs nothing (scripts/study.py --help shows it)" ;;
   esac
 done
 command -v sbatch > /dev/null || die "sbatch is not on PATH (no Slurm client here)"
-# The study's own checks of every option, --out and its log (study.py --check-only, as a
-# shard would start), before anything is made or submitted: a bad value is one line and
-# exit 2 here, not a failure of every task on the cluster.
-"$python" "$repo/scripts/study.py" --check-only --profile "$profile" --out "$out" "$@" \
-  --runs-only --shard "1/$shards" || exit $?
-# --out is a study's folder, as study.py takes it (study_out_folder.py): refused
-# if it holds a user's files; else its logs folder and the lock that marks it.
-PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys
-from study_out_folder import LOCK_NAME, foreign_folder_problem
-out = pathlib.Path(sys.argv[1])
-if problem := foreign_folder_problem(out):
-    sys.exit(f"study_slurm: --out {out}: {problem}")
-(out / "slurm").mkdir(parents=True, exist_ok=True)
-(out / LOCK_NAME).touch()' "$out" || exit 2
-out="$(cd "$out" && pwd)"
+# Every job's command, built once: the tasks run `shard` with --shard i/K, the report job
+# `report`; the check below runs these very words (with --check-only), so what passes here
+# is what runs there.  --out absolute: the jobs start in the checkout (--chdir).
+[[ "$out" == /* ]] || out="$PWD/$out"
 # The full profile runs only when confirmed: a batch job cannot answer, so it says --full.
 confirm=()
 [[ "$profile" == full ]] && confirm=(--full)
 study=("$python" "$repo/scripts/study.py" --profile "$profile" --out "$out" "$@")
-quoted() { printf '%q ' "$@"; }
+shard=("${study[@]}" "${confirm[@]}" --runs-only)
+report=("${study[@]}" --no-runs)
+# The study's own checks of every option, --out and its log (study.py --check-only, as a
+# shard and the report job would start), before anything is made or submitted: a bad value
+# is one line and exit 2 here, not a failure of every task on the cluster.
+"${shard[@]}" --shard "1/$shards" --check-only || exit $?
+"${report[@]}" --check-only || exit $?
+# --out is a study's folder, as study.py takes it (study_out_folder.py): refused
+# if it holds a user's files; else its logs folder and the lock that marks it.
+PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys
+from study_out_folder import LOCK_NAME, foreign_folder_problem
+from script_cli import one_line
+out = pathlib.Path(sys.argv[1])
+if problem := foreign_folder_problem(out):
+    sys.exit(f"study_slurm: --out {one_line(out)}: {problem}")
+try:
+    (out / "slurm").mkdir(parents=True, exist_ok=True)
+    (out / LOCK_NAME).touch()
+except OSError as error:
+    sys.exit(f"study_slurm: --out {one_line(out)}: {one_line(error.strerror or error)}")' \
+  "$out" || exit 2
+# Words for the jobs' /bin/sh (sbatch --wrap: "a simple sh shell script"): each in single
+# quotes, a ' as '\'' -- every byte as it is, in any locale (bash's printf %q writes $'...',
+# which sh reads as a $ and a quoted word).
+sh_quoted() {
+  local word words=()
+  for word in "$@"; do words+=("'${word//\'/\'\\\'\'}'"); done
+  printf '%s' "${words[*]}"
+}
 # shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
 array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
   --output="$out/slurm/shard-%a.log" --chdir="$repo" \
-  --wrap="$(quoted "${study[@]}" "${confirm[@]}" --runs-only) --shard \$SLURM_ARRAY_TASK_ID/$shards")"
+  --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")"
 array="${array%%;*}"
 echo "study_slurm: shards: job $array, $shards tasks, logs in $out/slurm/shard-N.log"
 # shellcheck disable=SC2086
-report="$(sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
+report_job="$(sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
   --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
-  --chdir="$repo" --wrap="$(quoted "${study[@]}" --no-runs)")" || {
+  --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")")" || {
   echo "study_slurm: the report job failed: $out/slurm/report.log" >&2; exit 1; }
-echo "study_slurm: report: job ${report%%;*}, when every shard has ended well: $out/REPORT.md"
+echo "study_slurm: report: job ${report_job%%;*}, when every shard has ended well: $out/REPORT.md"

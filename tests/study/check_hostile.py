@@ -37,8 +37,15 @@ study.CASE, tests/study/CMakeLists.txt):
   long_invocation_log_costs_linear_time   20000 invocations: a report in seconds
   study_log_of_wrong_shape_refused   a --out log not a study's: exit 2 before any run
   scripts_with_shebang_executable every #! script executable, on disk and in git
-  slurm_checks_before_submitting  study_slurm.sh: bad options refused, nothing submitted
+  slurm_checks_before_submitting  study_slurm.sh: bad options (a --profile or --help after
+                                  --) refused, nothing submitted
+  slurm_jobs_run_the_checked_words   what study_slurm.sh submits is word for word what
+                                  it checked, whatever bytes --out holds, under LANG=C
   memory_limit_not_bad_input      under ulimit -v: exit 1, one line, never exit 2
+  stop_after_the_end_changes_nothing   a stop signal in a script's interpreter teardown:
+                                  main()'s exit status, never a death by that signal
+  oversized_plan_refused_quickly  a list of 20000 values, a plan of 2 million jobs: refused
+                                  in one line before the plan is made, in a small address space
 
 Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
 """
@@ -588,10 +595,13 @@ def case_unpack_stop_never_lost(args) -> None:
                                     "--overlap", args.overlap, "--out", str(out)],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         time.sleep(took * fraction)
+        finished_first = process.poll() is not None
         process.send_signal(signal.SIGTERM)
         _, stderr = process.communicate(timeout=120)
-        if process.returncode == 0 and fraction > 0.5:
-            continue  # it had finished before the signal came
+        # Faster than the timed run (the load changed): it had finished before
+        # the signal came, or had published everything, and says so.
+        if process.returncode == 0 and (finished_first or "came after" in stderr):
+            continue
         check(process.returncode == 128 + signal.SIGTERM and stderr.count("\n") == 1 and
               "stopped by SIGTERM" in stderr,
               f"SIGTERM at {fraction:.0%} of the unpack: exit {process.returncode}:\n{stderr}")
@@ -663,8 +673,10 @@ def edit_json(path: pathlib.Path, edit) -> None:
 def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
     """An archive whose runs' files lack what the report reads (an empty frames.csv, a
     column missing, a summary.json without parameters or with parameters not an object, a
-    key of them missing), or with a number beyond a double (1e999, -1e400): one line naming
-    the file (or its experiment) and the problem, exit 2, --out as it was, no scratch."""
+    key of them missing), or with a number beyond a double (1e999, -1e400), NaN or an
+    infinity in a frames.csv as in the JSON, a negative load average or duration in the log:
+    one line naming the file (or its experiment) and the problem, exit 2, --out as it was,
+    no scratch."""
     if importlib.util.find_spec("matplotlib") is None:
         sys.exit(77)
     work = args.out
@@ -682,6 +694,16 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
 
     def log(edit):
         return lambda f: edit_json(f / "study_invocations.json", edit)
+
+    def first_cell(text):  # the first frame's update_ms
+        def change(f):
+            lines = (f / run / "frames.csv").read_text().splitlines(keepends=True)
+            column = lines[0].split(",").index("update_ms")
+            cells = lines[1].split(",")
+            cells[column] = text
+            lines[1] = ",".join(cells)
+            (f / run / "frames.csv").write_text("".join(lines))
+        return change
 
     def raw_log(text):
         return lambda f: (f / "study_invocations.json").write_text(text)
@@ -706,6 +728,15 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
             ("seconds_minus_1e400", raw_log(json.dumps(good_log).replace(
                 '"seconds": ', '"seconds": -1e400, "y": ')),
              ["study_invocations.json", "beyond a double"]),
+            ("frames_1e999", first_cell("1e999"), [f"study/{run}/frames.csv", "update_ms",
+                                                   "'1e999' is no number a study writes"]),
+            ("frames_nan", first_cell("nan"), [f"study/{run}/frames.csv", "'nan' is no"]),
+            ("frames_minus_inf", first_cell("-Infinity"), [f"study/{run}/frames.csv",
+                                                          "'-Infinity' is no"]),
+            ("load_negative", log(lambda d: d[0].update(load_average_at_start=-5)),
+             ["study_invocations.json[0].load_average_at_start: -5 is negative"]),
+            ("seconds_negative", log(lambda d: d[0].update(seconds=-1)),
+             ["study_invocations.json[0].seconds: -1 is negative"]),
             ("summary_1e999", lambda f: (f / run / "summary.json").write_text(
                 (f / run / "summary.json").read_text().replace('"wall_seconds": ',
                                                                '"wall_seconds": 1e999, "z": ')),
@@ -739,11 +770,21 @@ def case_long_invocation_log_costs_linear_time(args) -> None:
 
 def case_study_log_of_wrong_shape_refused(args) -> None:
     """--out with a study_invocations.json that is not the log a study writes (bad JSON, an
-    object, a list of numbers, a number beyond a double): one line naming it, exit 2, before
-    any job runs (with --no-runs too), the folder as it was."""
+    object, a list of numbers, a number beyond a double, a negative duration, time or load
+    average, a job that ends before it starts): one line naming it (and the field), exit 2,
+    before any job runs (with --no-runs too), the folder as it was."""
     work = args.out
+    def negative(**fields):
+        return json.dumps([{**invocation(NO_RUNS), **fields}])
     for name, text in [("bad_json", "[{"), ("object", '{"a": 1}'), ("numbers", "[1]"),
-                       ("inf", json.dumps([invocation(NO_RUNS)]).replace('0.1', '1e999'))]:
+                       ("inf", json.dumps([invocation(NO_RUNS)]).replace('0.1', '1e999')),
+                       ("negative_seconds", negative(seconds=-1)),
+                       ("negative_load", negative(load_average_at_start=-5)),
+                       ("negative_start", negative(jobs=[{"group": "g", "experiment": "sweep",
+                                                          "key": "k", "start": -3, "end": 1}])),
+                       ("end_before_start", negative(jobs=[{
+                           "group": "g", "experiment": "sweep", "key": "k", "start": 10,
+                           "end": 9}]))]:
         folder = work / name
         folder.mkdir()
         (folder / "study_invocations.json").write_text(text + "\n")
@@ -751,7 +792,12 @@ def case_study_log_of_wrong_shape_refused(args) -> None:
         for mode in ([], ["--no-runs"], ["--runs-only"]):
             result = study("--overlap", args.overlap, "--emulation", work / "none", *NO_RUNS,
                            *mode, "--out", folder)
-            one_line_refusal(result, f"{folder}/study_invocations.json")
+            one_line_refusal(result, f"{folder}/study_invocations.json", *{
+                "negative_seconds": [".seconds: -1 is negative"],
+                "negative_load": [".load_average_at_start: -5 is negative"],
+                "negative_start": [".jobs[0].start: -3 is negative"],
+                "end_before_start": [".jobs[0]: its end 9 is before its start 10"]}.get(
+                    name, []))
             check(snapshot(folder) == before, f"{name} {mode}: the folder changed")
 
 
@@ -808,6 +854,12 @@ def case_slurm_checks_before_submitting(args) -> None:
             (["--profile", "quick", "--", *own, "--out", "/etc"], "--out"),
             (["--profile", "quick", "--", *own, "--out=/etc"], "--out"),
             (["--profile", "quick", "--", *own, "--shard", "1/2"], "--shard"),
+            (["--profile", "full", "--", *own, "--profile", "quick"], "--profile"),
+            (["--", *own, "--profile=quick"], "--profile"),
+            (["--profile", "quick", "--", *own, "--full"], "--full"),
+            (["--", *own, "--quick"], "--quick"),
+            (["--profile", "quick", "--", *own, "--help"], "--help"),
+            (["--profile", "quick", "--", *own, "-h"], "-h"),
             (["--shards", "99999999999999999999999"], "--shards")]:
         out = work / "sl"
         result = subprocess.run([str(slurm), "--out", str(out), "--shards", "4", *words],
@@ -824,6 +876,133 @@ def case_slurm_checks_before_submitting(args) -> None:
                             timeout=120)
     check(result.returncode == 0 and len(calls.read_text().splitlines()) == 2,
           f"good options: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_slurm_jobs_run_the_checked_words(args) -> None:
+    """The commands study_slurm.sh submits (sbatch --wrap, which the job's /bin/sh runs) are
+    word for word the ones its check ran (study.py --check-only): for the array's task and
+    the report job, with the full profile's --full as with --profile quick, and for an
+    --out with a space, a tab, a quote and a byte not ASCII under LANG=C (sbatch and python3
+    faked on PATH: each records what it was given)."""
+    work = args.out
+    fake = work / "bin"
+    fake.mkdir()
+    calls, ran = work / "sbatch_calls", work / "python_argvs"
+    (fake / "sbatch").write_text(
+        "#!/bin/sh\n"
+        f"n=$(ls '{calls}' | wc -l)\n"
+        "for a; do case \"$a\" in --wrap=*) printf '%s' \"${a#--wrap=}\" > "
+        f"'{calls}'/wrap$n ;; esac; done\n"
+        "echo 1000$n\n")
+    (fake / "sbatch").chmod(0o755)
+    recorder = fake / "python3"
+    recorder.write_text(
+        f"#!{PYTHON}\nimport json, os, sys\n"
+        f"with open({str(ran)!r}, 'a') as f:\n"
+        "    f.write(json.dumps([os.fsencode(w).hex() for w in sys.argv]) + '\\n')\n"
+        "if not os.environ.get('RECORD_ONLY'):\n"
+        f"    os.execv({PYTHON!r}, [{PYTHON!r}] + sys.argv[1:])\n")
+    recorder.chmod(0o755)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LC_")}
+    env.update(PATH=f"{fake}:{os.environ['PATH']}", PYTHON=str(recorder), LANG="C",
+               LC_ALL="C")
+    slurm = REPO / "scripts" / "study_slurm.sh"
+    odd = os.fsencode(str(work)) + b"/stud \t'q\xe9 x"
+    for profile, out in [("quick", odd), ("full", os.fsencode(str(work / "full")))]:
+        calls.mkdir()
+        ran.unlink(missing_ok=True)
+        result = subprocess.run([str(slurm), "--out", out, "--shards", "2", "--profile",
+                                 profile, "--", "--overlap", args.overlap, *NO_RUNS[1:]],
+                                capture_output=True, env=env, timeout=120)
+        check(result.returncode == 0, f"{profile}: exit {result.returncode}:\n"
+              f"{result.stderr.decode(errors='replace')}")
+        checked = [[bytes.fromhex(w) for w in json.loads(line)]
+                   for line in ran.read_text().splitlines()]
+        checked = [argv for argv in checked if b"--check-only" in argv]
+        wraps = [(calls / f"wrap{n}").read_bytes() for n in range(2)]
+        ran.unlink()
+        for wrap in wraps:
+            done = subprocess.run(["/bin/sh", "-c", wrap], env={
+                **env, "SLURM_ARRAY_TASK_ID": "1", "RECORD_ONLY": "1"}, capture_output=True)
+            check(done.returncode == 0, f"{profile}: sh -c {wrap!r}: {done.stderr!r}")
+        submitted = [[bytes.fromhex(w) for w in json.loads(line)]
+                     for line in ran.read_text().splitlines()]
+        for what, job_argv in zip(("task 1", "report"), submitted):
+            given = job_argv[job_argv.index(b"--out") + 1] if b"--out" in job_argv else None
+            check(given == out, f"{profile}: the {what}'s --out is {given!r}, not {out!r}")
+        check(len(checked) == 2, f"{profile}: {len(checked)} checks ran, expected the task's "
+              "and the report job's")
+        for what, check_argv, job_argv in zip(("task 1", "report"), checked, submitted):
+            check(check_argv == job_argv + [b"--check-only"],
+                  f"{profile}: the {what} runs {job_argv}, the check ran {check_argv}")
+        check((b"--full" in submitted[0]) == (profile == "full"),
+              f"{profile}: the task's --full: {submitted[0]}")
+        check(os.path.isfile(out + b"/.study.lock"), f"{profile}: {out!r} not made")
+        shutil.rmtree(calls)
+
+
+def case_oversized_plan_refused_quickly(args) -> None:
+    """A list option of 20000 values with --repetitions 1000 (--objects), or lists within
+    their bound whose product with the repetitions is past the plan's bound (2 million
+    jobs): one line naming the bound, exit 2, in seconds and in a small address space,
+    --check-only and a plain study alike, nothing written; the full profile is within it."""
+    work = args.out
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_AS, (400 << 20, 400 << 20))
+    for values, named in [(20000, "--objects: 20000 values; at most 1000"),
+                          (1000, "plan 2000000 jobs")]:
+        for mode in (["--check-only"], ["--runs-only"], []):
+            out = work / "o"
+            started = time.monotonic()
+            result = study("--overlap", args.overlap, "--emulation", work / "none", "--quick",
+                           "--experiments", "sweep", "--scenes", "1", "--algos", "bf,cpusap",
+                           "--objects", ",".join(map(str, range(1, values + 1))),
+                           "--frames", "5", "--repetitions", "1000", *mode, "--out", out,
+                           preexec_fn=limited, timeout=60)
+            took = time.monotonic() - started
+            one_line_refusal(result, named)
+            check(took < 20, f"{values} values {mode}: refused after {took:.0f} s")
+            check(not out.exists(), f"{values} values {mode}: made {out}")
+    result = study("--overlap", args.overlap, "--profile", "full", "--check-only", "--out",
+                   work / "full")
+    check(result.returncode == 0 and "1148 jobs" in result.stderr,
+          f"the full profile: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_stop_after_the_end_changes_nothing(args) -> None:
+    """A stop signal that comes once a script's main() has ended (everything published),
+    while the interpreter tears down (which gives the signals back their default action, as
+    done here by hand, then lingers): the script ends with main()'s status, not killed by
+    the signal (SIGTERM, SIGINT and SIGHUP, each as the first signal)."""
+    script = args.out / "publishes_then_tears_down.py"
+    script.write_text(
+        "import signal, sys, time\n"
+        f"sys.path.insert(0, {str(REPO / 'scripts')!r})\n"
+        "import script_cli\n"
+        "def main():\n"
+        "    print('published', flush=True)\n"
+        "    return 3\n"
+        "status = script_cli.run(main, 'teardown')\n"
+        "for signum in script_cli.STOPS:  # what the interpreter's teardown does\n"
+        "    signal.signal(signum, signal.SIG_DFL)\n"
+        "print('tearing down', flush=True)\n"
+        "time.sleep(2)\n"
+        "sys.exit(status)\n")
+    for signum in script_cli_stops():
+        child = subprocess.Popen([PYTHON, str(script)], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, text=True)
+        lines = [child.stdout.readline(), child.stdout.readline()]
+        check(lines == ["published\n", "tearing down\n"], f"the script said {lines}")
+        child.send_signal(signum)
+        _, stderr = child.communicate(timeout=30)
+        check(child.returncode == 3, f"{signal.Signals(signum).name} in the teardown: exit "
+              f"{child.returncode}, expected main()'s 3:\n{stderr}")
+        check("Traceback" not in stderr, f"{signal.Signals(signum).name}: {stderr}")
+
+
+def script_cli_stops() -> tuple:
+    return (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 
 
 def case_memory_limit_not_bad_input(args) -> None:
@@ -898,7 +1077,8 @@ def case_bad_arguments_one_line(args) -> None:
                                 ("--seed", "-1"), ("--threads", "1025"),
                                 ("--ideal-threads", "2000"), ("--overlap-loads", "101"),
                                 ("--physics-substeps", "1001"),
-                                ("--capture-objects", "10000001")]],
+                                ("--capture-objects", "10000001"),
+                                ("--physics-seeds", ",".join(map(str, range(1001))))]],
         (["study.py", "--overlap", args.overlap, "--out", work / "o", "--check-only",
           *NO_RUNS, "--objects", "0"], "--objects"),
         (["study.py", "--overlap", args.overlap, "--out", work / "o", "--check-only",
