@@ -60,7 +60,7 @@ try:  # a memory limit (ulimit -v) can stop the imports: one line and exit 1, no
     import study_archive
     from script_cli import BadInput, Parser, one_line, run as run_script
     from study_out_folder import (InvocationLog, foreign_folder_problem, locked, read_log,
-                                  write_atomically)
+                                  unmakable_problem, write_atomically)
 
     REPO = pathlib.Path(__file__).resolve().parent.parent
     PROFILES = study_profiles.load()
@@ -663,7 +663,7 @@ def main(argv: list) -> int:
                        "by the unpack itself, before --out is touched")
     if args.from_archive:  # the unpack has its own rule for --out (study_archive.py)
         return from_archive(argv)
-    if problem := foreign_folder_problem(args.out):
+    if problem := foreign_folder_problem(args.out) or unmakable_problem(args.out):
         raise BadInput(f"--out {one_line(args.out)}: {problem}")
     read_log(args.out)  # a log that is not the study's: refused before any job runs
     broadphases.load(args.overlap)

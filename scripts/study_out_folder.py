@@ -54,6 +54,22 @@ def foreign_folder_problem(out: pathlib.Path) -> str:
             "folder, or an earlier study's")
 
 
+def unmakable_problem(out: pathlib.Path) -> str:
+    """Why a study could not write into --out `out` (make it, or write inside it), or "":
+    tried with a scratch folder made and removed in `out` or its nearest existing folder
+    (permission bits do not tell root's case, nor /proc's)."""
+    here = pathlib.Path(os.path.abspath(out))
+    while not os.path.lexists(here):
+        here = here.parent
+    if not here.is_dir():
+        return f"{one_line(here)} is not a folder"
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=here, prefix=".study-check-"))
+    except OSError as error:
+        return f"cannot be written in {one_line(here)} ({error.strerror})"
+    return ""
+
+
 def write_atomically(path: pathlib.Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",

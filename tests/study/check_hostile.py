@@ -1061,6 +1061,9 @@ def case_bad_arguments_one_line(args) -> None:
           work / "o"], "unreadable"),
         (["study.py", "--overlap", args.overlap, "--out", a_file / "sub", "--runs-only",
           *NO_RUNS], "a_file"),
+        # An --out no study could make is said before any job, --check-only too.
+        (["study.py", "--overlap", args.overlap, "--out", "/proc/1/nope", "--check-only",
+          *NO_RUNS], "--out /proc/1/nope: cannot be written in /proc/1"),
         *[(["study.py", "--overlap", args.overlap, "--out", work / "o", "--runs-only",
             *NO_RUNS, option, value], option)
           for option, value in [("--objects", "x"), ("--objects", "-5"), ("--scenes", "9"),
