@@ -2,8 +2,8 @@
 // short parallel loops, each opened and joined by atomics alone.  The
 // coloured solver runs thousands of loops a frame, one per colour and sweep,
 // of some microseconds of rows each, where a TaskSystem::forEachPiece per
-// loop (a oneTBB parallel_for, its threads woken and joined) costs about as
-// much as the rows.  Box2D v3's solver stages are the model.
+// loop (a oneTBB parallel_for, its threads woken and joined) costs a large
+// share of the rows' own time.  Box2D v3's solver stages are the model.
 //
 // Rules, each with its reason:
 // - forEachPiece(count, grain, body) splits [0, count) into the pieces
