@@ -61,6 +61,32 @@ std::string readableBytes(std::uint64_t bytes) {
   return text;
 }
 
+namespace {
+
+// Where the kernel puts `path` once the folders missing on its way are made:
+// each existing part resolved (links followed from where they stand), a
+// missing one kept as written (it will be a folder), `..` the parent of what
+// was reached.  So `sub/../link/x`, sub missing, is `link`'s target's x.
+std::filesystem::path reachedPath(const std::filesystem::path& path) {
+  std::error_code error;
+  std::filesystem::path reached = std::filesystem::absolute(path, error).root_path();
+  for (const std::filesystem::path& part : std::filesystem::absolute(path, error).relative_path()) {
+    if (part == ".") continue;
+    if (part == "..") {
+      reached = reached.parent_path();
+      continue;
+    }
+    reached /= part;
+    if (std::filesystem::exists(std::filesystem::symlink_status(reached, error))) {
+      std::filesystem::path resolved = std::filesystem::canonical(reached, error);
+      if (!error) reached = std::move(resolved);
+    }
+  }
+  return reached;
+}
+
+}  // namespace
+
 void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
                              std::string_view output_option,
                              const std::vector<std::filesystem::path>& inputs,
@@ -68,19 +94,8 @@ void refuseOutputsOverInputs(const std::vector<std::filesystem::path>& outputs,
   for (const std::filesystem::path& output : outputs) {
     for (const std::filesystem::path& input : inputs) {
       std::error_code error;
-      bool same = std::filesystem::equivalent(output, input, error) && !error;
-      if (!same) {
-        // An output not made yet, or one through folders not made yet
-        // (`sub/../x` before sub exists: equivalent() says no): where the
-        // kernel will put it is the existing part resolved, the rest as
-        // written, normalised (the folders it makes are folders, not links).
-        std::error_code ignored;
-        const auto output_at =
-            std::filesystem::weakly_canonical(std::filesystem::absolute(output, ignored), ignored);
-        const auto input_at =
-            std::filesystem::weakly_canonical(std::filesystem::absolute(input, ignored), ignored);
-        same = !ignored && output_at == input_at;
-      }
+      const bool same = (std::filesystem::equivalent(output, input, error) && !error) ||
+                        reachedPath(output) == reachedPath(input);
       if (same) {
         throw UsageError(std::string(output_option) + " " + shownPath(output) + ": it is " +
                          std::string(input_option) + " " + shownPath(input) +
@@ -97,25 +112,25 @@ void refuseStandardOutputOverInput(const std::filesystem::path& input,
   // A file, or a FIFO (`1<>FIFO`: the program's own write end would keep the
   // FIFO from ever ending); stderr too, which gets the summary.
   if (!S_ISREG(in.st_mode) && !S_ISFIFO(in.st_mode)) return;
-  for (const auto& [fd, name] :
-       {std::pair{STDOUT_FILENO, "standard output"}, std::pair{STDERR_FILENO, "standard error"}}) {
+  const auto isInput = [&](int fd) {
     struct stat out {};
-    if (::fstat(fd, &out) != 0) continue;
-    if (out.st_dev == in.st_dev && out.st_ino == in.st_ino) {
-      // The message itself would be written over the input: into
-      // /dev/null with it (the exit status still says no).
-      if (fd == STDERR_FILENO) {
-        const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
-        if (null >= 0) {
-          ::dup2(null, STDERR_FILENO);
-          ::close(null);
-        }
-      }
-      throw UsageError(std::string(name) + " is " + std::string(input_option) + " " +
-                       shownPath(input) + ", which what is written there would overwrite; send " +
-                       "it elsewhere");
+    return ::fstat(fd, &out) == 0 && out.st_dev == in.st_dev && out.st_ino == in.st_ino;
+  };
+  const bool over_stdout = isInput(STDOUT_FILENO);
+  const bool over_stderr = isInput(STDERR_FILENO);
+  if (!over_stdout && !over_stderr) return;
+  // With standard error the input, the message itself would be written over
+  // it (`>>FILE 2>&1` too): into /dev/null with it, the exit status says no.
+  if (over_stderr) {
+    const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (null >= 0) {
+      ::dup2(null, STDERR_FILENO);
+      ::close(null);
     }
   }
+  throw UsageError(std::string(over_stdout ? "standard output" : "standard error") + " is " +
+                   std::string(input_option) + " " + shownPath(input) +
+                   ", which what is written there would overwrite; send it elsewhere");
 }
 
 std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::path& prefix,

@@ -331,9 +331,11 @@ TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
             0);
   const std::string stream = fileText(folder / "z.csv");
   fs::create_directory_symlink("r", out_ / "lk");
-  // A folder not made yet counts as a folder: `new/../z` is r/z.
-  for (const std::string out : {(folder / "z").string(), (out_ / "lk" / ".." / "r" / "z").string(),
-                                (folder / "new" / ".." / "z").string()}) {
+  // A folder not made yet counts as a folder: `new/../z` is r/z, and a link
+  // after it is followed (`new/../lk/z`).
+  for (const std::string out :
+       {(folder / "z").string(), (out_ / "lk" / ".." / "r" / "z").string(),
+        (folder / "new" / ".." / "z").string(), (out_ / "new" / ".." / "lk" / "z").string()}) {
     const std::string command =
         std::string(OVERLAP_BENCH_BINARY) + " --input " + (folder / "z.csv").string() +
         " --algos bvh --warmup 0 --repeats 1 --out " + out + " 2> " + (out_ / "err.txt").string();
@@ -344,6 +346,7 @@ TEST_F(CarefulCliTest, BenchmarkNeverWritesItsResultsOverItsInput) {
     EXPECT_EQ(fileText(folder / "z.csv"), stream) << out;
   }
   EXPECT_FALSE(fs::exists(folder / "new"));
+  EXPECT_FALSE(fs::exists(out_ / "new"));
 }
 
 // A long capture says at the start how long it will take.

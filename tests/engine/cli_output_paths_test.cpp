@@ -178,7 +178,9 @@ TEST_F(OutputPathsCliTest, PairsRefusesAStandardOutputThatIsItsInput) {
   for (const auto& [redirect, said] : std::vector<std::pair<std::string, std::string>>{
            {"1<>y.aabbs", "standard output is --input y.aabbs"},
            {">>y.aabbs", "standard output is --input y.aabbs"},
-           {"2<>y.aabbs", ""}}) {
+           {"2<>y.aabbs", ""},
+           {"1<>y.aabbs 2<>y.aabbs", ""},
+           {">>y.aabbs 2>&1", ""}}) {
     const Result result = runCommand("cd " + out_.string() + " && sh -c '" + OVERLAP_BINARY +
                                      " pairs --input y.aabbs " + redirect + "'");
     EXPECT_EQ(result.exit_code, 2) << redirect << ": " << result.stderr_text;
