@@ -261,10 +261,19 @@ def finite_float(text: str) -> float:
     return value
 
 
+def finite_int(text: str) -> int:
+    """A JSON whole number; one beyond a double (a 400-digit integer, which the report's
+    arithmetic turns into an OverflowError) is refused as 1e999 is."""
+    if len(text.lstrip("-")) > 308:
+        raise ValueError(f"{text[:40]}... is beyond a double: no number a study writes")
+    return int(text)
+
+
 def parse_json(text: str):
     """A study file's JSON: no NaN, no Infinity, no number beyond a double (ValueError,
     RecursionError as json.loads raises them)."""
-    return json.loads(text, parse_constant=refuse_constant, parse_float=finite_float)
+    return json.loads(text, parse_constant=refuse_constant, parse_float=finite_float,
+                      parse_int=finite_int)
 
 
 def check_log(log, name: str) -> None:
@@ -334,10 +343,12 @@ def check_study(study: pathlib.Path) -> list:
 FRAMES_COLUMNS = ("frame", "update_ms", "broadphase_ms", "total_ms")  # the report's own
 
 
-# What a cell that float() reads as NaN or an infinity holds (nan, inf, infinity in any
-# case, or an exponent of three digits or more, as in 1e999): only rows with one are read
-# cell by cell, so a long frames.csv costs one scan.
-NOT_FINITE_HINT = re.compile(r"[nNiI]|[eE][+-]?[0-9]{3}")
+# What a cell that float() reads as NaN or an infinity must hold: a letter of nan or inf,
+# a three-digit exponent, 100 digits in a row (a long mantissa overflows too: with a
+# two-digit exponent, a shorter one stays below 1e199), or a
+# character beyond ASCII (float() reads any script's decimal digits: 1e\u0664\u0660\u0660).
+# Only a body with one is read cell by cell, so a long frames.csv costs one scan.
+NOT_FINITE_HINT = re.compile(r"[nNiI]|[eE][+-]?[0-9]{3}|[0-9]{100}|[^\x00-\x7f]")
 
 
 def check_frames(path: pathlib.Path, name: str) -> None:

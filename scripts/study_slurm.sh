@@ -54,17 +54,44 @@ command -v sbatch > /dev/null || die "sbatch is not on PATH (no Slurm client her
 # `report`; the check below runs these very words (with --check-only), so what passes here
 # is what runs there.  --out absolute: the jobs start in the checkout (--chdir).
 [[ "$out" == /* ]] || out="$PWD/$out"
+shown_out="${out//$'\n'/\\n}"  # the name on one line, in this script's own lines
+# sbatch reads its --output names as patterns: a % in --out would be replaced (%j: the
+# job's number) and a backslash turns the patterns off (every shard into one log).
+[[ "$out" == *%* || "$out" == *\\* ]] &&
+  die "--out $shown_out: sbatch reads % and \\ in its log names as patterns; give a folder without them"
 # The full profile runs only when confirmed: a batch job cannot answer, so it says --full.
 confirm=()
 [[ "$profile" == full ]] && confirm=(--full)
 study=("$python" "$repo/scripts/study.py" --profile "$profile" --out "$out" "$@")
 shard=("${study[@]}" "${confirm[@]}" --runs-only)
 report=("${study[@]}" --no-runs)
+# A stop from here on says what was made and submitted: a fresh --out with nothing
+# submitted is removed, shards submitted without their report job are cancelled.
+fresh_out=""; [[ -e "$out" ]] || fresh_out="$out"
+submitting="" submitted=""
+stopped() {
+  trap - INT TERM HUP
+  if [[ -n "$submitting" && -z "$submitted" ]]; then
+    echo "study_slurm: stopped by SIG$1 while sbatch was submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2
+  elif [[ -z "$submitted" ]]; then
+    [[ -n "$fresh_out" ]] && rm -rf -- "$fresh_out"
+    echo "study_slurm: stopped by SIG$1; nothing submitted" >&2
+  else
+    command -v scancel > /dev/null && scancel "$submitted" 2> /dev/null
+    echo "study_slurm: stopped by SIG$1; the shards' job $submitted, submitted without its report job, is cancelled (or cancel it: scancel $submitted)" >&2
+  fi
+  exit $((128 + $2))
+}
+trap 'stopped INT 2' INT
+trap 'stopped TERM 15' TERM
+trap 'stopped HUP 1' HUP
 # The study's own checks of every option, --out and its log (study.py --check-only, as a
 # shard and the report job would start), before anything is made or submitted: a bad value
 # is one line and exit 2 here, not a failure of every task on the cluster.
-"${shard[@]}" --shard "1/$shards" --check-only || exit $?
-"${report[@]}" --check-only || exit $?
+# From the checkout, where the jobs start: a relative path among the options must mean there
+# what it will mean in the jobs.
+(cd "$repo" && "${shard[@]}" --shard "1/$shards" --check-only) || exit $?
+(cd "$repo" && "${report[@]}" --check-only) || exit $?
 # --out is a study's folder, as study.py takes it (study_out_folder.py): refused
 # if it holds a user's files; else its logs folder and the lock that marks it.
 PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys
@@ -88,14 +115,17 @@ sh_quoted() {
   printf '%s' "${words[*]}"
 }
 # shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
+submitting=1
 array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
   --output="$out/slurm/shard-%a.log" --chdir="$repo" \
   --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")"
 array="${array%%;*}"
-echo "study_slurm: shards: job $array, $shards tasks, logs in $out/slurm/shard-N.log"
+submitted="$array"
+echo "study_slurm: shards: job $array, $shards tasks, logs in $shown_out/slurm/shard-N.log"
 # shellcheck disable=SC2086
 report_job="$(sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
   --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
   --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")")" || {
-  echo "study_slurm: the report job failed: $out/slurm/report.log" >&2; exit 1; }
-echo "study_slurm: report: job ${report_job%%;*}, when every shard has ended well: $out/REPORT.md"
+  echo "study_slurm: sbatch refused the report job; the shards' job $array runs without it (scancel $array, or submit the report: ${report[*]})" >&2; exit 1; }
+trap - INT TERM HUP
+echo "study_slurm: report: job ${report_job%%;*}, when every shard has ended well: $shown_out/REPORT.md"

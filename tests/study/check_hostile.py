@@ -41,6 +41,8 @@ study.CASE, tests/study/CMakeLists.txt):
                                   --) refused, nothing submitted
   slurm_jobs_run_the_checked_words   what study_slurm.sh submits is word for word what
                                   it checked, whatever bytes --out holds, under LANG=C
+  slurm_stop_says_what_was_submitted   a stop of study_slurm.sh: one line, 128 + the
+                                  signal, a fresh --out removed when nothing was submitted
   memory_limit_not_bad_input      under ulimit -v: exit 1, one line, never exit 2
   stop_after_the_end_changes_nothing   a stop signal in a script's interpreter teardown:
                                   main()'s exit status, never a death by that signal
@@ -731,6 +733,14 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
             ("frames_1e999", first_cell("1e999"), [f"study/{run}/frames.csv", "update_ms",
                                                    "'1e999' is no number a study writes"]),
             ("frames_nan", first_cell("nan"), [f"study/{run}/frames.csv", "'nan' is no"]),
+            # float() overflows without an exponent of three digits too.
+            ("frames_long_mantissa", first_cell("1" + "0" * 301 + "e99"),
+             [f"study/{run}/frames.csv", "is no number a study writes"]),
+            ("frames_arabic_indic_exponent", first_cell("1e\u0664\u0660\u0660"),
+             [f"study/{run}/frames.csv", "is no number a study writes"]),
+            ("seconds_400_digits", raw_log(json.dumps(good_log).replace(
+                '"seconds": ', '"seconds": 1' + '0' * 400 + ', "w": ')),
+             ["study_invocations.json", "beyond a double"]),
             ("frames_minus_inf", first_cell("-Infinity"), [f"study/{run}/frames.csv",
                                                           "'-Infinity' is no"]),
             ("load_negative", log(lambda d: d[0].update(load_average_at_start=-5)),
@@ -870,12 +880,70 @@ def case_slurm_checks_before_submitting(args) -> None:
         check(not calls.exists(), f"study_slurm.sh {' '.join(words)}: submitted "
               f"{calls.read_text() if calls.exists() else ''}")
         check(not out.exists(), f"study_slurm.sh {' '.join(words)}: made {out}")
+    # sbatch reads % and \\ in its log names as patterns; and the jobs start in the
+    # checkout, so a path relative to the caller's folder is checked from there.
+    elsewhere = os.path.relpath(args.overlap, work)
+    for out, words, named in [
+            (work / "p%jq", own, "sbatch reads %"),
+            (work / "b\\sl", own, "sbatch reads %"),
+            (work / "rel", ["--overlap", elsewhere], "--overlap")]:
+        result = subprocess.run([str(slurm), "--out", str(out), "--shards", "2", "--profile",
+                                 "quick", "--", *words, *NO_RUNS[1:]], capture_output=True,
+                                text=True, env=env, timeout=120, cwd=work)
+        check(result.returncode == 2 and result.stderr.count("\n") == 1 and
+              named in result.stderr, f"study_slurm.sh --out {out}: exit "
+              f"{result.returncode}:\n{result.stderr}")
+        check(not calls.exists() and not out.exists(), f"study_slurm.sh --out {out}: went on")
     out = work / "good"
     result = subprocess.run([str(slurm), "--out", str(out), "--shards", "4", "--profile", "quick",
                              "--", *own, *NO_RUNS[1:]], capture_output=True, text=True, env=env,
                             timeout=120)
     check(result.returncode == 0 and len(calls.read_text().splitlines()) == 2,
           f"good options: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_slurm_stop_says_what_was_submitted(args) -> None:
+    """A stop signal to study_slurm.sh says what it had done: during the study's check,
+    nothing made and nothing submitted (exit 143, one line of its own); while sbatch
+    submits the shards, which job to look for (sbatch faked, slow)."""
+    work = args.out
+    fake = work / "bin"
+    fake.mkdir()
+    started = work / "sbatch_started"
+    (fake / "sbatch").write_text(f"#!/bin/sh\ntouch {started}\nsleep 3\necho 4242\n")
+    (fake / "sbatch").chmod(0o755)
+    env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}"}
+    slurm = REPO / "scripts" / "study_slurm.sh"
+    out = work / "st"
+    command = [str(slurm), "--out", str(out), "--shards", "2", "--profile", "quick", "--",
+               "--overlap", args.overlap, *NO_RUNS[1:]]
+    # While sbatch submits.
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               text=True, env=env)
+    deadline = time.monotonic() + 60
+    while not started.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    lines = [line for line in stderr.splitlines() if line.startswith("study_slurm:")]
+    check(process.returncode == 128 + signal.SIGTERM and len(lines) == 1 and
+          "while sbatch was submitting the shards" in lines[0],
+          f"SIGTERM during sbatch: exit {process.returncode}:\n{stderr}")
+    # Before anything is made: the fresh --out is gone.
+    shutil.rmtree(out, ignore_errors=True)
+    started.unlink()
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               text=True, env=env)
+    time.sleep(0.05)
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    if not started.exists():  # the stop came before the submission, as meant
+        check(not out.exists(), f"SIGTERM before sbatch: --out left:\n{stderr}")
+        # (bash's first milliseconds, before the trap is set, end by the signal itself)
+        check(process.returncode == -signal.SIGTERM or (
+            process.returncode == 128 + signal.SIGTERM and
+            "stopped by SIGTERM; nothing submitted" in stderr),
+              f"SIGTERM before sbatch: exit {process.returncode}:\n{stderr}")
 
 
 def case_slurm_jobs_run_the_checked_words(args) -> None:
