@@ -842,17 +842,22 @@ def case_scripts_with_shebang_executable(args) -> None:
               f"{doc} runs {command}, which is not an executable file")
 
 
+def fake_sbatch(work: pathlib.Path, body: str) -> dict:
+    """An environment whose PATH finds first an `sbatch` that runs the sh `body`."""
+    fake = work / "bin"
+    fake.mkdir()
+    (fake / "sbatch").write_text(f"#!/bin/sh\n{body}\n")
+    (fake / "sbatch").chmod(0o755)
+    return {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}"}
+
+
 def case_slurm_checks_before_submitting(args) -> None:
     """scripts/study_slurm.sh checks the study's options (study.py --check-only) and refuses
     a second --out, --shard or --from-archive after --, before it makes or submits anything:
     exit 2, one line, no sbatch call, no --out folder (sbatch faked on PATH)."""
     work = args.out
-    fake = work / "bin"
-    fake.mkdir()
     calls = work / "sbatch_calls"
-    (fake / "sbatch").write_text(f"#!/bin/sh\necho \"$@\" >> {calls}\necho 12345\n")
-    (fake / "sbatch").chmod(0o755)
-    env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}"}
+    env = fake_sbatch(work, f"echo \"$@\" >> {calls}\necho 12345")
     slurm = REPO / "scripts" / "study_slurm.sh"
     own = ["--overlap", args.overlap]
     for words, named in [
@@ -907,12 +912,8 @@ def case_slurm_stop_says_what_was_submitted(args) -> None:
     nothing made and nothing submitted (exit 143, one line of its own); while sbatch
     submits the shards, which job to look for (sbatch faked, slow)."""
     work = args.out
-    fake = work / "bin"
-    fake.mkdir()
     started = work / "sbatch_started"
-    (fake / "sbatch").write_text(f"#!/bin/sh\ntouch {started}\nsleep 3\necho 4242\n")
-    (fake / "sbatch").chmod(0o755)
-    env = {**os.environ, "PATH": f"{fake}:{os.environ['PATH']}"}
+    env = fake_sbatch(work, f"touch {started}\nsleep 3\necho 4242")
     slurm = REPO / "scripts" / "study_slurm.sh"
     out = work / "st"
     command = [str(slurm), "--out", str(out), "--shards", "2", "--profile", "quick", "--",
