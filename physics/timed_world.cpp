@@ -99,6 +99,9 @@ TimedDynamicsWorld::TimedDynamicsWorld(btDispatcher* dispatcher, btBroadphaseInt
   if (setup_.ccd_queries != nullptr && setup_.tasks != nullptr) {
     refresh_group_ = setup_.tasks->makeGroup();
   }
+  if (setup_.after_narrowphase && setup_.tasks != nullptr) {
+    record_group_ = setup_.tasks->makeGroup();
+  }
 }
 
 TimedDynamicsWorld::~TimedDynamicsWorld() {
@@ -196,7 +199,7 @@ void TimedDynamicsWorld::internalSingleStepSimulation(btScalar dt) {
   });
   // 4. search and 5. narrowphase
   searchAndNarrowphase(dispatch);
-  if (setup_.after_narrowphase) setup_.after_narrowphase();
+  if (setup_.after_narrowphase && record_group_ == nullptr) setup_.after_narrowphase();
   // 6. solver
   getSolverInfo().m_timeStep = dt;
   solveBesideQueryRefresh();
@@ -288,13 +291,19 @@ void TimedDynamicsWorld::solveBesideQueryRefresh() {
   const bool refresh =
       refresh_group_ != nullptr && getDispatchInfo().m_useContinuous && anyCcdBody();
   if (refresh) refresh_group_->run([this] { setup_.ccd_queries->refreshForQueries(); });
+  if (record_group_ != nullptr) {
+    record_group_->run([this] { setup_.after_narrowphase(); });
+    record_pending_ = true;
+  }
   try {
     timePhase(timings_.solver_ms, [&] {
       calculateSimulationIslands();
-      solveConstraints(getSolverInfo());
+      solveIslands();
     });
   } catch (...) {
-    if (refresh) refresh_group_->wait();  // the job ends before the error leaves
+    // The jobs end before the error leaves.
+    if (refresh) refresh_group_->wait();
+    awaitNarrowphaseRecord();
     throw;
   }
   if (refresh) {
@@ -302,6 +311,29 @@ void TimedDynamicsWorld::solveBesideQueryRefresh() {
     refresh_group_->wait();
     timings_.ccd_query_ms += wait_watch.ms();
   }
+}
+
+void TimedDynamicsWorld::awaitNarrowphaseRecord() {
+  if (!record_pending_) return;
+  record_pending_ = false;
+  record_group_->wait();
+}
+
+void TimedDynamicsWorld::solveIslands() {
+  if (!IslandGroup::models(*this)) {
+    awaitNarrowphaseRecord();
+    solveConstraints(getSolverInfo());
+    return;
+  }
+  btContactSolverInfo& info = getSolverInfo();
+  m_constraintSolver->prepareSolve(getNumCollisionObjects(), m_dispatcher1->getNumManifolds());
+  island_group_.gather(*this);
+  // The solver writes the velocities the record reads.
+  awaitNarrowphaseRecord();
+  m_constraintSolver->solveGroup(island_group_.bodies(), island_group_.bodyCount(),
+                                 island_group_.manifolds(), island_group_.manifoldCount(), nullptr,
+                                 0, info, m_debugDrawer, m_dispatcher1);
+  m_constraintSolver->allSolved(info, m_debugDrawer);
 }
 
 bool TimedDynamicsWorld::anyCcdBody() const {

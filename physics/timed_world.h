@@ -10,9 +10,9 @@
 //   3. update       AABBs into the broadphase; after_aabb_update  update_ms
 //   4. search       the pair search and the pair-cache update,
 //                   one call (calculateOverlappingPairs)          broadphase_ms
-//   5. narrowphase  contacts for the cached pairs; then
-//                   after_narrowphase (untimed)                  narrowphase_ms
-//   6. solver       simulation islands, the constraint solver    solver_ms
+//   5. narrowphase  contacts for the cached pairs               narrowphase_ms
+//   6. solver       simulation islands (after_narrowphase beside
+//                   them), the constraint solver in one group    solver_ms
 //   7. integrate    velocities into transforms, with CCD's
 //                   motion clamp (integrateBody)                 integrate_ms
 //   8. bookkeeping  Bullet's actions and sleep                   total only
@@ -59,6 +59,7 @@
 
 #include "gpu/task_system.h"
 #include "physics/frame_report.h"
+#include "physics/island_group.h"
 #include "physics/step_policy.h"
 
 namespace overlap::physics {
@@ -77,7 +78,11 @@ struct TimedWorldSetup {
   // ParallelDispatcher that dispatches in parallel); null: search, then narrowphase.
   PairFinderBroadphase* search_beside = nullptr;
   std::function<void()> after_aabb_update;  // in phase 3, before the search reads them
-  std::function<void()> after_narrowphase;  // after phase 5, before the solver
+  // After phase 5, before the solver's first row: with a task system, on it
+  // beside the islands (which write only the bodies' island, activation and
+  // companion marks), so it may read the bodies' poses and speeds and the
+  // manifolds, and write nothing of Bullet's.
+  std::function<void()> after_narrowphase;
 };
 
 class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
@@ -148,8 +153,14 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   template <typename Body>
   void forEachIndex(int count, std::size_t grain, const Body& body);
   double ccdQueryMs() const;
-  // Phase 6, with the query tree's refresh for phase 7's sweeps beside it.
+  // Phase 6, with the query tree's refresh for phase 7's sweeps and the
+  // setup's after_narrowphase beside it.
   void solveBesideQueryRefresh();
+  // Returns when the after_narrowphase job has ended (at once when none runs).
+  void awaitNarrowphaseRecord();
+  // Bullet's islands solved in one solveGroup call (physics/island_group.h),
+  // or Bullet's own island path where that does not model the world.
+  void solveIslands();
   // Whether a body sweeps this substep when it moves fast: one with a CCD threshold.
   bool anyCcdBody() const;
 
@@ -171,6 +182,9 @@ class TimedDynamicsWorld final : public btDiscreteDynamicsWorld {
   ParallelDispatcher* parallel_dispatcher_;   // the world's dispatcher when it is one
   std::unique_ptr<TaskGroup> search_group_;   // the search job beside the narrowphase
   std::unique_ptr<TaskGroup> refresh_group_;  // the query tree's refresh beside the solver
+  std::unique_ptr<TaskGroup> record_group_;   // after_narrowphase beside the islands
+  bool record_pending_ = false;               // its job runs
+  IslandGroup island_group_;                  // the solver's one group, kept for its capacity
   FrameTimings timings_;
   std::vector<SubstepReport> substeps_;  // this frame's, the last one running
   bool reporting_ = false;               // inside stepReported()
