@@ -182,8 +182,10 @@ void BroadphaseReplay::setPairMemoryLimit(std::uint64_t bytes, std::uint64_t cal
   bullet_->bounded = bytes != 0 ? cache : nullptr;
 }
 
-void BroadphaseReplay::findPairs() {
+void BroadphaseReplay::findPairs(const std::function<std::string()>& where) {
   bullet_->broadphase->calculateOverlappingPairs(&bullet_->dispatcher);
+  // A search a signal cut short is never handed on as if whole.
+  if (pendingInterrupt() != 0) stopIfInterrupted(where());
   bullet_->throwIfPairsRefused();
 }
 

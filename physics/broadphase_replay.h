@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -85,9 +86,10 @@ class BroadphaseReplay {
   // (physics/broadphase/bulk_pair_cache.h) instead of growing past it.  0: no limit.
   void setPairMemoryLimit(std::uint64_t bytes, std::uint64_t caller_per_pair = 0);
   // Finds the pairs and updates the persistent pair cache.  A signal may cut
-  // a finder's search short (cpubf): the pairs are then not whole, and the
-  // caller, which looks at the flag after it, stops.
-  void findPairs();
+  // a finder's search short (bf, cpubf): findPairs then throws Interrupted
+  // (gpu/base/interrupt.h) at where(), so no caller compares or prints part
+  // of a search as if it were whole.
+  void findPairs(const std::function<std::string()>& where = [] { return "a pair search"; });
   // The cache's pairs as object indices (a < b), sorted.
   PairList pairs() const;
   // The last findPairs()'s split, for our broadphases only.

@@ -5,7 +5,6 @@
 #include <optional>
 #include <string>
 
-#include "engine/program/program_runner.h"
 #include "engine/cli/commands.h"
 #include "engine/cli/frame_capture.h"
 #include "engine/cli/physics_options.h"
@@ -14,6 +13,7 @@
 #include "engine/program/number_options.h"
 #include "engine/program/option_conflicts.h"
 #include "engine/program/output_checks.h"
+#include "engine/program/program_runner.h"
 #include "engine/program/progress.h"
 #include "engine/program/scene_options.h"
 #include "engine/program/summary_output.h"
@@ -46,7 +46,7 @@ void capture(const CaptureOptions& options) {
   std::vector<int> keyframes = options.keyframes;
   std::sort(keyframes.begin(), keyframes.end());
   prepareOutputDirectory(options.out, "--out");
-  OutputFolder outputs(options.out);
+  OutputFolder outputs(options.out, "capture");
   for (const int frame : keyframes) {
     declareOutput(outputs, options.out / pngName(config.scene, frame), "--out");
   }

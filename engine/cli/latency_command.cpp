@@ -125,10 +125,11 @@ struct SearchResult {
   double ms;  // writing the AABBs and finding the pairs
 };
 
-SearchResult search(physics::BroadphaseReplay& replay, const std::vector<physics::Aabb>& boxes) {
+SearchResult search(physics::BroadphaseReplay& replay, const std::vector<physics::Aabb>& boxes,
+                    int frame) {
   const HostStopwatch watch;
   replay.update(boxes);
-  replay.findPairs();
+  replay.findPairs([frame] { return "frame " + std::to_string(frame) + ", a pair search"; });
   const double ms = watch.ms();
   return {replay.pairs(), ms};
 }
@@ -149,9 +150,9 @@ FrameSearches searchAll(Studied& studied, const std::vector<physics::Aabb>& now,
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t which = (k + static_cast<std::size_t>(frame)) % count;
     if (which == 0) {
-      result.on_time = search(*studied.on_time, now);
+      result.on_time = search(*studied.on_time, now, frame);
     } else {
-      result.late[which - 1] = search(*studied.late[which - 1], late_boxes[which - 1]);
+      result.late[which - 1] = search(*studied.late[which - 1], late_boxes[which - 1], frame);
     }
   }
   return result;
@@ -241,7 +242,7 @@ void measureLatency(const LatencyOptions& options) {
   session.runFrames(options.frames, [&](int frame, const ScheduledFrame& scheduled) {
     frames.add(scheduled.physics.timings.total_ms, scheduled.physics.timings);
     const std::vector<physics::Aabb> now = boxAabbs(world, bounds);
-    const Pairs exact = search(oracle, now).pairs;
+    const Pairs exact = search(oracle, now, frame).pairs;
     std::vector<std::vector<physics::Aabb>> late_boxes;  // one per growth
     for (const double growth : options.growths) {
       late_boxes.push_back(grown(last, last_speeds, static_cast<float>(growth) * frame_time));

@@ -133,7 +133,10 @@ void printPairs(const PairsOptions& options) {
       try {  // Bullet's own broadphases find pairs as the boxes are written
         const HostStopwatch search;
         replay.update(boxes);
-        replay.findPairs();
+        replay.findPairs([&] {
+          return "frame " + std::to_string(frame) + " of " + std::to_string(header.stored_frames) +
+                 ", its pair search";
+        });
         search_ms.push_back(search.ms());
       } catch (const physics::PairMemoryError& error) {
         throw pairMemoryRefusal(error, options.max_memory_mb,
@@ -142,11 +145,6 @@ void printPairs(const PairsOptions& options) {
       } catch (const std::invalid_argument& error) {  // boxes sap's grid cannot hold
         throw UsageError("--input " + options.input.string() + ", frame " + std::to_string(frame) +
                          ": " + error.what());
-      }
-      // A signal cuts cpubf's search short: its pairs are not whole.
-      if (pendingInterrupt() != 0) {
-        stopIfInterrupted("frame " + std::to_string(frame) + " of " +
-                          std::to_string(header.stored_frames) + ", its pair search");
       }
       const physics::PairList pairs = replay.pairs();  // read back from the cache once
       pair_counts.push_back(static_cast<double>(pairs.size()));

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -34,17 +35,30 @@ void prepareOutputFile(const std::filesystem::path& file, std::string_view optio
 void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
                       std::string_view option) {
   std::error_code error;
-  const std::filesystem::file_status status = std::filesystem::status(file, error);
-  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
-  // The folder it goes to, or the nearest one that exists (made by the run).
-  const std::filesystem::path folder =
-      nearestExisting(std::filesystem::absolute(file, error).parent_path());
-  const std::filesystem::space_info space = std::filesystem::space(folder, error);
-  if (error) return;  // unknown here: a full disk is then reported by the write
-  if (bytes > space.available) {
+  std::uint64_t available = 0;
+  if (const int descriptor = descriptorOfOutput(file); descriptor >= 0) {
+    // Written to the descriptor: the room of the file system it is on.
+    struct stat info {};
+    struct statvfs room {};
+    if (::fstat(descriptor, &info) != 0 || !S_ISREG(info.st_mode)) return;
+    if (::fstatvfs(descriptor, &room) != 0) return;
+    available = static_cast<std::uint64_t>(room.f_bavail) * room.f_frsize;
+  } else {
+    const std::filesystem::file_status status = std::filesystem::status(file, error);
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
+    // The folder it goes to, links followed, or the nearest one that exists
+    // (made by the run).
+    const std::filesystem::path folder = nearestExisting(
+        std::filesystem::weakly_canonical(std::filesystem::absolute(file, error), error)
+            .parent_path());
+    const std::filesystem::space_info space = std::filesystem::space(folder, error);
+    if (error) return;  // unknown here: a full disk is then reported by the write
+    available = space.available;
+  }
+  if (bytes > available) {
     throw UsageError(std::string(option) + " " + shownPath(file) + ": needs " +
-                     readableBytes(bytes) + ", and its folder has " +
-                     readableBytes(space.available) + " free");
+                     readableBytes(bytes) + ", and its folder has " + readableBytes(available) +
+                     " free");
   }
 }
 
@@ -150,10 +164,14 @@ std::vector<std::filesystem::path> prepareOutputFiles(const std::filesystem::pat
                      "them inside it, as " +
                      (prefix / "results").string());
   }
-  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+  // An open descriptor's name (/dev/stdout, /proc/self/fd/N) is the same
+  // mistake whatever the descriptor is: its files would be made in /dev or
+  // /proc.
+  if ((std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) ||
+      descriptorOfOutput(prefix) >= 0) {
     throw UsageError(std::string(option) + " " + shownPath(prefix) +
-                     ": is a device, FIFO or socket, not a prefix of files (its files would be "
-                     "made beside it)");
+                     ": is a device, FIFO, socket or open descriptor, not a prefix of files "
+                     "(its files would be made beside it)");
   }
   std::vector<std::filesystem::path> files;
   for (const std::string& suffix : suffixes) {

@@ -1,5 +1,7 @@
 #include "engine/tools/bench_options.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -127,11 +129,16 @@ void refuseIgnoredOptions(const CLI::App& app) {
            "first would be ignored");
   }
   // One stream given twice would be measured twice, as two rows.
+  // The same file however reached: a link, a hard link, another spelling.
   std::set<std::string> inputs;
+  std::set<std::pair<dev_t, ino_t>> files;
   for (const std::string& input : app.get_option("--input")->as<std::vector<std::string>>()) {
     std::error_code error;
     const std::filesystem::path file = std::filesystem::weakly_canonical(input, error);
-    if (!inputs.insert(error ? input : file.string()).second) {
+    struct stat info {};
+    const bool same_file = ::stat(input.c_str(), &info) == 0 && S_ISREG(info.st_mode) &&
+                           !files.emplace(info.st_dev, info.st_ino).second;
+    if (!inputs.insert(error ? input : file.string()).second || same_file) {
       throw UsageError("--input " + input + ": given twice (the same file); give each stream once");
     }
   }

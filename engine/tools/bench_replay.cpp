@@ -165,10 +165,11 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
   ReplaySamples samples;
   std::vector<std::uint32_t> changed;
   for (int frame = 0; frame < stream.stored_frames; ++frame) {
-    const auto stopHere = [&] {
-      stopIfInterrupted("n=" + std::to_string(stream.objects) + " " + row.algorithm + ", frame " +
-                        std::to_string(frame) + " of " + std::to_string(stream.stored_frames));
+    const auto where = [&] {
+      return "n=" + std::to_string(stream.objects) + " " + row.algorithm + ", frame " +
+             std::to_string(frame) + " of " + std::to_string(stream.stored_frames);
     };
+    const auto stopHere = [&] { stopIfInterrupted(where()); };
     if (pendingInterrupt() != 0) stopHere();  // before the clock starts
     std::vector<std::uint8_t> present;
     if (row.churn > 0) present = presentObjects(seed, frame, stream.objects, row.churn);
@@ -185,7 +186,7 @@ void replayOnce(const physics::AabbStream& stream, int warmup, std::uint64_t see
         replay.update(stream.frame(frame), present);
       }
       updated_us = usSince(start);
-      replay.findPairs();
+      replay.findPairs(where);
     } catch (const physics::PairMemoryError& error) {
       throw pairMemoryRefusal(error, max_memory_mb,
                               "n=" + std::to_string(stream.objects) + " with --algos " +

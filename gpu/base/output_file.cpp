@@ -28,10 +28,13 @@ std::string lastError() {
   return std::strerror(errno);
 }
 
-// `path` with every symlink followed (at most 40, as the kernel does); a
-// dangling link gives the name it points to, where the file will be made.
-fs::path followLinks(fs::path path) {
+// `path` with its symlinks followed (at most 40, as the kernel does) up to
+// the first name `stop` takes; a dangling link gives the name it points to,
+// where the file will be made.
+template <typename Stop>
+fs::path walkLinks(fs::path path, const Stop& stop) {
   for (int hop = 0; hop < 40; ++hop) {
+    if (stop(path)) return path;
     std::error_code error;
     if (!fs::is_symlink(fs::symlink_status(path, error))) return path;
     const fs::path link = fs::read_symlink(path, error);
@@ -39,6 +42,65 @@ fs::path followLinks(fs::path path) {
     path = link.is_absolute() ? link : path.parent_path() / link;
   }
   return path;
+}
+
+fs::path followLinks(fs::path path) {
+  return walkLinks(std::move(path), [](const fs::path&) { return false; });
+}
+
+constexpr int kNoDescriptor = -1;
+constexpr int kOthersDescriptor = -2;
+
+bool allDigits(const std::string& text) {
+  return !text.empty() && text.size() <= 9 &&
+         std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+// The descriptor `path` names when its folder is a process's descriptor
+// folder (/proc/PID/fd or /proc/PID/task/TID/fd, however reached: /dev/fd,
+// /proc/self, /proc/thread-self): this process's descriptor, or
+// kOthersDescriptor for another process's; kNoDescriptor otherwise.
+int descriptorEntry(const fs::path& path) {
+  const std::string name = path.filename().string();
+  if (!allDigits(name)) return kNoDescriptor;
+  std::error_code error;
+  const fs::path folder = fs::canonical(path.parent_path(), error);
+  if (error || folder.filename() != "fd") return kNoDescriptor;
+  fs::path process = folder.parent_path();  // /proc/PID or /proc/PID/task/TID
+  if (process.parent_path().filename() == "task") process = process.parent_path().parent_path();
+  if (process.parent_path() != "/proc" || !allDigits(process.filename().string())) {
+    return kNoDescriptor;
+  }
+  if (process.filename() != std::to_string(::getpid())) return kOthersDescriptor;
+  return std::stoi(name);
+}
+
+// The open descriptor `path` reaches through its links (/dev/stdout,
+// /dev/fd/N, /proc/self/fd/N, a user's link to one), or kNoDescriptor, or
+// kOthersDescriptor.  The kernel's link of a descriptor names no path the
+// program could write (an unlinked file, a memfd, "pipe:[N]"), and
+// reopening the file it is would lose the caller's append and offset: such
+// an output is written to the descriptor itself.
+int descriptorReached(fs::path path) {
+  int fd = kNoDescriptor;
+  walkLinks(std::move(path), [&fd](const fs::path& name) {
+    fd = descriptorEntry(name);
+    return fd != kNoDescriptor;
+  });
+  return fd;
+}
+
+// "" when descriptor `fd` (descriptorReached's) can take an output.
+std::string descriptorProblem(int fd) {
+  if (fd == kOthersDescriptor) {
+    return "is another process's open file (/proc/PID/fd): name the file itself";
+  }
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags < 0) return "names descriptor " + std::to_string(fd) + ", which is not open";
+  if ((flags & O_ACCMODE) == O_RDONLY) {
+    return "names descriptor " + std::to_string(fd) + ", which is open for reading only";
+  }
+  return "";
 }
 
 fs::path folderOf(const fs::path& file) {
@@ -281,6 +343,11 @@ std::string outputNameProblem(const fs::path& file) {
   return {};
 }
 
+int descriptorOfOutput(const fs::path& path) {
+  const int fd = descriptorReached(path);
+  return fd >= 0 ? fd : -1;
+}
+
 std::string outputFolderProblem(const fs::path& folder) {
   if (folder.empty()) return "the name is empty";
   return folderWritableProblem(folder);
@@ -292,11 +359,12 @@ std::string outputFileProblem(const fs::path& file) {
 
 std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writable_folders) {
   if (std::string problem = outputNameProblem(file); !problem.empty()) return problem;
+  // An open descriptor is written to itself, wherever it leads.
+  if (const int fd = descriptorReached(file); fd != kNoDescriptor) return descriptorProblem(fd);
   struct stat info {};
-  // A device, FIFO or socket is written through the name as given: the
-  // kernel follows links that name no file (/dev/stdout on a pipe reaches
-  // "pipe:[N]" in /proc/self/fd).
+  // A device or FIFO is written through the name as given.
   if (::stat(file.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISDIR(info.st_mode)) {
+    if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
     return ::access(file.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
   }
   const fs::path target = followLinks(file);
@@ -308,6 +376,7 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
   }
   if (::stat(target.c_str(), &info) == 0) {
     if (S_ISDIR(info.st_mode)) return "is a directory, not a file";
+    if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
     if (!S_ISREG(info.st_mode)) {  // written through
       return ::access(target.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
     }
@@ -327,10 +396,21 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
       target_(link == FinalLink::kFollow ? followLinks(path_) : path_),
       replace_link_(link == FinalLink::kReplace) {
   if (path_.empty()) fail("the name is empty");
+  if (!replace_link_) {
+    if (const int descriptor = descriptorReached(path_); descriptor != kNoDescriptor) {
+      if (const std::string problem = descriptorProblem(descriptor); !problem.empty()) {
+        fail(problem);
+      }
+      fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);  // its offset and append mode shared
+      if (fd_ < 0) fail("cannot use descriptor " + std::to_string(descriptor) + ": " + lastError());
+      return;
+    }
+  }
   struct stat info {};
   const bool exists =
       (replace_link_ ? ::lstat(path_.c_str(), &info) : ::stat(path_.c_str(), &info)) == 0;
   if (exists && S_ISDIR(info.st_mode)) fail("is a directory, not a file");
+  if (exists && S_ISSOCK(info.st_mode)) fail("is a socket, which no program can open as a file");
   if (exists && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
     fd_ = openWrittenThrough(path_, path_);  // the kernel follows what followLinks cannot
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
@@ -351,8 +431,18 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
   if (fd_ < 0) fail("cannot create a temporary file beside it: " + lastError());
   ::flock(fd_, LOCK_SH);  // while it is open, no other run takes it for stale
   temporary_ = name;
-  // A replaced file keeps its permissions; a new one gets the umask's.
-  ::fchmod(fd_, exists && S_ISREG(info.st_mode) ? (info.st_mode & 07777) : newFileMode());
+  // A replaced file keeps its owner (where this process may give it) and
+  // its permissions, never a set-ID bit: the new file is this program's,
+  // and a write by anyone but the owner clears those bits too.  A new file
+  // gets the umask's mode.
+  if (exists && S_ISREG(info.st_mode)) {
+    if (info.st_uid != ::geteuid() || info.st_gid != ::getegid()) {
+      [[maybe_unused]] const int kept = ::fchown(fd_, info.st_uid, info.st_gid);
+    }
+    ::fchmod(fd_, info.st_mode & 0777);
+  } else {
+    ::fchmod(fd_, newFileMode());
+  }
 }
 
 OutputFile::OutputFile(OutputFile&& other) noexcept
@@ -538,7 +628,14 @@ Resolved resolve(const fs::path& path, const struct stat* run = nullptr) {
 
 }  // namespace
 
-OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {
+namespace {
+
+constexpr std::string_view kWriterMark = "\\writer ";  // no escaped name starts so
+
+}  // namespace
+
+OutputFolder::OutputFolder(fs::path folder, std::string writer)
+    : folder_(std::move(folder)), writer_(std::move(writer)) {
   folder_identity_ = resolve(folder_ / "name").folder;
   const fs::path manifest = folder_ / kManifestName;
   declared_.emplace(identity(manifest), manifest.string());
@@ -598,6 +695,16 @@ std::string OutputFolder::declare(const fs::path& path) {
   struct stat info {};
   if (::lstat(manifest.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
     return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
+  }
+  // Another subcommand's outputs are not this run's to replace.
+  if (!writer_checked_) {
+    const std::string writer = previousWriter();
+    if (!writer.empty() && writer != writer_) {
+      return "its folder " + folder_.string() + " holds the outputs of `overlap " + writer +
+             "` (listed in " + kManifestName + "), which this " + writer_ +
+             " would remove: choose another folder";
+    }
+    writer_checked_ = true;
   }
   // Links first: the checks below try the folder by making a file there.
   if (std::string problem = linkProblem(path); !problem.empty()) return problem;
@@ -686,13 +793,12 @@ bool removeInside(int folder, const fs::path& relative) {
 
 }  // namespace
 
-std::set<std::string> OutputFolder::previousOutputs() const {
-  std::set<std::string> entries;
+std::string OutputFolder::manifestText() const {
   const FolderHandle folder(folder_);
-  if (folder.fd < 0) return entries;
+  if (folder.fd < 0) return "";
   // Never through a link: a manifest someone linked elsewhere lists nothing.
   const int fd = ::openat(folder.fd, kManifestName, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return entries;
+  if (fd < 0) return "";
   std::string text;
   struct stat info {};
   if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode)) {
@@ -701,12 +807,26 @@ std::set<std::string> OutputFolder::previousOutputs() const {
     while ((got = ::read(fd, buffer, sizeof(buffer))) > 0) text.append(buffer, got);
   }
   ::close(fd);
-  std::istringstream manifest(text);
+  return text;
+}
+
+std::string OutputFolder::previousWriter() const {
+  std::istringstream manifest(manifestText());
+  std::string line;
+  if (!std::getline(manifest, line) || line != kManifestHeader) return "";
+  if (!std::getline(manifest, line) || !line.starts_with(kWriterMark)) return "";
+  return line.substr(kWriterMark.size());
+}
+
+std::set<std::string> OutputFolder::previousOutputs() const {
+  std::set<std::string> entries;
+  std::istringstream manifest(manifestText());
   std::string line;
   // A manifest without this format's first line (an older one, or not ours)
   // is trusted with nothing: files the program did not write stay.
   if (!std::getline(manifest, line) || line != kManifestHeader) return entries;
   while (std::getline(manifest, line)) {
+    if (line.starts_with(kWriterMark)) continue;
     const std::optional<std::string> entry = unescapeManifestEntry(line);
     if (entry && safeRelative(*entry)) entries.insert(*entry);
   }
@@ -715,6 +835,7 @@ std::set<std::string> OutputFolder::previousOutputs() const {
 
 void OutputFolder::writeManifest(const std::set<std::string>& entries) const {
   std::string text = std::string(kManifestHeader) + '\n';
+  text += std::string(kWriterMark) + escapeManifestEntry(writer_) + '\n';
   for (const std::string& entry : entries) text += escapeManifestEntry(entry) + '\n';
   OutputFile manifest(folder_ / kManifestName, FinalLink::kReplace);
   manifest.write(text);

@@ -16,14 +16,19 @@
 //     no link is followed: a link in an output's own name is replaced by the
 //     file, and a linked folder between the run folder and an output is
 //     refused (declare, and again at open).
-//   * A device, FIFO or socket is reached through the name as given, so
-//     /dev/stdout works on a pipe (whose /proc link names no file).
+//   * An open descriptor named through its links (/dev/stdout, /dev/fd/N,
+//     /proc/self/fd/N) is written to itself (descriptorOfOutput), whatever
+//     it is: `--out /dev/stdout >> log` appends, an unlinked file or a
+//     memfd gets the bytes.  A device or FIFO is reached through the name
+//     as given; a socket, which no program can open, is refused.
 //   * The first output opened in a folder removes the temporaries of that
 //     pattern that dead writers left there (a run killed by SIGKILL): the
 //     PID is no process's and no one holds the lock.  A live writer's
 //     temporary and every other name are left alone.
-//   * Anything else that exists (a device, a FIFO, a socket) is written
-//     through, never replaced by a regular file.  A FIFO without a reader is
+//   * Anything else that exists (a device, a FIFO) is written through,
+//     never replaced by a regular file.  A replaced regular file keeps its
+//     owner (where the process may give it) and permissions, never a
+//     set-ID bit.  A FIFO without a reader is
 //     waited for through interrupt.h's waitUntil() (said after a second,
 //     stopped by a signal); a write blocked on a slow reader is stopped by a
 //     signal too (Interrupted).
@@ -75,6 +80,13 @@ namespace overlap {
 struct OutputError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+// The open descriptor of this process that an output `path` reaches through
+// its links (/dev/stdout, /dev/fd/N, /proc/self/fd/N, a link to one), which
+// the output is written to itself, sharing its offset and append mode (the
+// file behind it may be unlinked or a memfd, which no name reaches); -1
+// for none.  The checks refuse another process's descriptor.
+int descriptorOfOutput(const std::filesystem::path& path);
 
 // The nearest folder of `path` that exists, `path` itself included ("." for
 // a relative path with none): where a file of a folder not made yet will go.
@@ -167,7 +179,11 @@ class OutputFolder {
       "them";
 
   // Creates nothing: a missing folder is made when the first output opens.
-  explicit OutputFolder(std::filesystem::path folder);
+  // `writer` names the subcommand whose outputs the folder keeps; the
+  // manifest records it (a second line, "\\writer NAME", which an older
+  // reader skips as no name), and declare() refuses a folder whose manifest
+  // names another: each would remove the other's outputs.
+  explicit OutputFolder(std::filesystem::path folder, std::string writer = "run");
   ~OutputFolder();  // what was never published leaves nothing, folders made for it included
   OutputFolder(const OutputFolder&) = delete;
   OutputFolder& operator=(const OutputFolder&) = delete;
@@ -195,9 +211,15 @@ class OutputFolder {
   // the run folder.
   std::string linkProblem(const std::filesystem::path& path) const;
   std::set<std::string> previousOutputs() const;
+  // The subcommand the folder's manifest names ("" for none or an older one).
+  std::string previousWriter() const;
+  // The manifest's text, read without following a link ("" for none).
+  std::string manifestText() const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;
+  std::string writer_;
+  bool writer_checked_ = false;  // declare() compared the manifest's writer once
   std::string folder_identity_;
   std::vector<std::unique_ptr<OutputFile>> files_;
   std::vector<std::string> listed_;  // files_[i]'s manifest entry; empty: outside the folder

@@ -115,17 +115,18 @@ TEST_F(OutputPathsCliTest, ALinkedPngFolderIsRefusedHoweverTheRunFolderIsNamed) 
   }
 }
 
-// The benchmark's --out names a prefix of files: a device, FIFO or folder
-// there is refused (its files would be made beside it).
+// The benchmark's --out names a prefix of files: a device, FIFO, folder or
+// open descriptor there is refused (its files would be made beside it, in
+// /dev or /proc), whatever the descriptor is (here a regular file).
 TEST_F(OutputPathsCliTest, TheBenchmarksOutCannotBeADeviceOrAFolder) {
   ASSERT_EQ(::mkfifo((out_ / "fifo").c_str(), 0600), 0);
   fs::create_directory(out_ / "folder");
-  for (const std::string out :
-       {std::string("/dev/null"), (out_ / "fifo").string(), (out_ / "folder").string()}) {
+  for (const std::string out : {std::string("/dev/null"), (out_ / "fifo").string(),
+                                (out_ / "folder").string(), std::string("/dev/fd/5")}) {
     const std::string args =
         " --objects 30 --big-objects 0 --algos bvh --record-frames 2 "
         "--warmup 1 --repeats 1 --streams " +
-        (out_ / "streams").string() + " --out " + out;
+        (out_ / "streams").string() + " --out " + out + " 5> " + (out_ / "fd5.txt").string();
     const Result result = runCommand(std::string(OVERLAP_BENCH_BINARY) + args);
     EXPECT_EQ(result.exit_code, 2) << args << ": " << result.stderr_text;
     EXPECT_NE(result.stderr_text.find("not a prefix of files"), std::string::npos)

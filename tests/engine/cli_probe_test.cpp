@@ -506,13 +506,18 @@ TEST_F(ProbeCliTest, AnOptionGivenTwiceSaysSo) {
   expectRefused(runOverlap(args), args, "--objects is given 2 times; give it once");
 }
 
-// The benchmark refuses a --seed nothing reads and a stream given twice.
+// The benchmark refuses a --seed nothing reads and a stream given twice,
+// however reached.
 TEST_F(ProbeCliTest, TheBenchmarkRefusesAnIgnoredSeedAndARepeatedInput) {
   const std::string stream = writeLine(out_ / "s.aabbs", 10, 2).string();
   const std::string tail = " --algos bf --warmup 0 --repeats 1 --out " + (out_ / "b").string();
   expectRefused(runBench("--input " + stream + " --seed 5" + tail), "--seed", "--seed and --input");
   expectRefused(runBench("--input " + stream + " " + (out_ / "." / "s.aabbs").string() + tail),
                 "twice", "given twice");
+  // A hard link is the same file too.
+  fs::create_hard_link(stream, out_ / "hard.aabbs");
+  expectRefused(runBench("--input " + stream + " " + (out_ / "hard.aabbs").string() + tail),
+                "a hard link", "given twice");
   EXPECT_FALSE(fs::exists(out_ / "b.csv"));
 }
 

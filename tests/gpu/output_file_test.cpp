@@ -1,10 +1,15 @@
 // gpu/base/output_file.h: temporaries, write-through, symlinks, run folders.
 #include "gpu/base/output_file.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -222,6 +227,97 @@ TEST_F(OutputFileTest, AFailedCommitListsOnlyTheFilesThatAreThere) {
   EXPECT_NE(manifest.find("\na.txt\n"), std::string::npos) << manifest;
   EXPECT_NE(manifest.find("\nold.txt\n"), std::string::npos) << manifest;
   EXPECT_EQ(manifest.find("b.txt"), std::string::npos) << manifest;
+}
+
+// /dev/stdout, /dev/fd/N and /proc/self/fd/N are written to the descriptor
+// itself: an unlinked file gets the bytes (no "NAME (deleted)" made beside
+// it), a file opened for append keeps what it held, and a descriptor open
+// for reading only is refused before any work.
+TEST_F(OutputFileTest, AnOpenDescriptorNamedThroughItsLinksIsWrittenToItself) {
+  const fs::path unlinked = folder_ / "unlinked.out";
+  const int hidden = ::open(unlinked.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  ASSERT_GE(hidden, 0);
+  ::unlink(unlinked.c_str());
+  writeFileAtomically("/proc/self/fd/" + std::to_string(hidden), "bytes");
+  EXPECT_EQ(::lseek(hidden, 0, SEEK_END), 5);
+  EXPECT_EQ(entries(folder_), 0) << "a file made beside the unlinked one";
+  ::close(hidden);
+
+  const fs::path log = folder_ / "log.txt";
+  std::ofstream(log) << "earlier\n";
+  const int appended = ::open(log.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  ASSERT_GE(appended, 0);
+  fs::create_symlink("/dev/fd/" + std::to_string(appended), folder_ / "link");
+  EXPECT_EQ(outputFileProblem(folder_ / "link"), "");
+  writeFileAtomically(folder_ / "link", "later\n");
+  ::close(appended);
+  EXPECT_EQ(textOf(log), "earlier\nlater\n");
+
+  const int reading = ::open(log.c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(reading, 0);
+  const fs::path name = "/dev/fd/" + std::to_string(reading);
+  EXPECT_NE(outputFileProblem(name).find("open for reading only"), std::string::npos);
+  EXPECT_THROW(OutputFile{name}, OutputError);
+  ::close(reading);
+  EXPECT_EQ(textOf(log), "earlier\nlater\n");
+}
+
+// A socket cannot be opened as a file: refused before any work, never
+// waited on for a reader that cannot come.
+TEST_F(OutputFileTest, ASocketIsRefusedNotWaitedOn) {
+  const fs::path socket_path = folder_ / "s.sock";
+  const int listener = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::snprintf(address.sun_path, sizeof(address.sun_path), "%s", socket_path.c_str());
+  ASSERT_EQ(::bind(listener, reinterpret_cast<const sockaddr*>(&address), sizeof(address)), 0);
+  EXPECT_NE(outputFileProblem(socket_path).find("is a socket"), std::string::npos);
+  EXPECT_THROW(OutputFile{socket_path}, OutputError);
+  ::close(listener);
+}
+
+// A replaced file keeps its permissions and owner but never a set-ID bit: the
+// new file is this program's.
+TEST_F(OutputFileTest, AReplacedFileKeepsItsModeAndOwnerButNoSetIdBit) {
+  const fs::path path = folder_ / "own.txt";
+  std::ofstream(path) << "old";
+  ASSERT_EQ(::chmod(path.c_str(), 06750), 0);
+  const bool root = ::geteuid() == 0;
+  if (root) {
+    ASSERT_EQ(::chown(path.c_str(), 1234, 1234), 0);
+  }
+  writeFileAtomically(path, "new");
+  struct stat info {};
+  ASSERT_EQ(::stat(path.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 07777, 0750u);
+  if (root) {
+    EXPECT_EQ(info.st_uid, 1234u);
+    EXPECT_EQ(info.st_gid, 1234u);
+  }
+  EXPECT_EQ(textOf(path), "new");
+}
+
+// A folder another subcommand's manifest names is refused, so a capture never
+// removes a run's measurements (or a run a capture's pictures); a manifest of
+// the older format, which names no writer, is taken as before.
+TEST_F(OutputFileTest, AFolderOfAnotherSubcommandsOutputsIsRefused) {
+  {
+    OutputFolder run(folder_, "run");
+    ASSERT_EQ(run.declare(folder_ / "frames.csv"), "");
+    run.open(folder_ / "frames.csv").write("frame\n");
+    run.commit();
+  }
+  OutputFolder capture(folder_, "capture");
+  const std::string problem = capture.declare(folder_ / "scene4_frame0000.png");
+  EXPECT_NE(problem.find("holds the outputs of `overlap run`"), std::string::npos) << problem;
+  OutputFolder again(folder_, "run");
+  EXPECT_EQ(again.declare(folder_ / "frames.csv"), "");
+
+  std::ofstream(folder_ / OutputFolder::kManifestName)
+      << OutputFolder::kManifestHeader << "\nframes.csv\n";
+  OutputFolder older(folder_, "capture");
+  EXPECT_EQ(older.declare(folder_ / "scene4_frame0000.png"), "");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include "physics/aabb_stream.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <cmath>
 #include <cstring>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <limits>
 
+#include "gpu/base/interrupt.h"
 #include "physics/broadphase_replay.h"
 #include "tests/scratch_path.h"
 
@@ -114,6 +116,31 @@ TEST(AabbStream, MalformedFilesNameTheFileAndTheFirstBadBox) {
   EXPECT_NE(readError(tempFile("missing")).find("cannot open"), std::string::npos);
   std::filesystem::remove(good);
   std::filesystem::remove(bad);
+}
+
+// A search that a stop signal may cut short (bf and cpubf return early) is
+// never handed on as if whole: findPairs stops with Interrupted, naming where
+// the caller says, so a command cannot compare or print part of a search.
+TEST(BroadphaseReplay, ASearchUnderAStopSignalStopsInsteadOfReturningPartPairs) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  for (const char* algorithm : {"bf", "cpubf", "sap"}) {
+    EXPECT_EXIT(
+        {
+          const AabbStream stream = smallStream();
+          BroadphaseReplay replay(algorithm, stream.world, stream.objects);
+          replay.update(stream.frame(0));
+          catchInterrupts();
+          raise(SIGTERM);
+          try {
+            replay.findPairs([] { return std::string("frame 0"); });
+          } catch (const Interrupted& stop) {
+            std::exit(std::string(stop.what()) == "SIGTERM at frame 0" ? 0 : 2);
+          }
+          std::exit(1);
+        },
+        ::testing::ExitedWithCode(0), "")
+        << algorithm;
+  }
 }
 
 TEST(BroadphaseReplay, EveryAlgorithmFindsTheTouchingAndOverlappingPairs) {
