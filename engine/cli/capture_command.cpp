@@ -108,7 +108,8 @@ void addCaptureCommand(CLI::App& app) {
       "Example:\n"
       "  overlap capture --scene 3 --objects 1250 --keyframes 0,100,200 --capture-size 400x300 "
       "--out shots\n"
-      "A run replaces the PNGs the last capture wrote in --out, and only those.");
+      "A capture replaces the PNGs the last capture wrote in --out, and only those; a folder "
+      "that holds a run's outputs is refused.");
   command->parse_complete_callback([options] {
     refuseTogether(options->old_size_option, options->size_option,
                    "--size is --capture-size's old name; give one");

@@ -670,7 +670,7 @@ void addOutputOptions(CLI::App& command, RunArguments& arguments, RunOptionHandl
   command
       .add_option("--out", arguments.out,
                   "output folder; a run replaces the outputs of the last run there, and only "
-                  "those")
+                  "those (a capture's folder is refused)")
       ->capture_default_str();
   given.capture_every =
       command
