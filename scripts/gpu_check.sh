@@ -5,7 +5,9 @@
 # A step passes when it exits 0 (ctest's own status for a preset); each runs in its own
 # process group, and a signal to this script ends them all.  A bad argument, or a run that
 # cannot start, exits 2 before an earlier run's files are touched.  --dry-run: the same on
-# build-emulation/ (presets emulation-*), tiny sizes.  OUT (default out/gpu-check), DEADLINE_S.
+# build-emulation/ (presets emulation-*), tiny sizes.  OUT (default out/gpu-check), DEADLINE_S;
+# STUDY_SHARDS, CTEST_JOBS (each plain digits).  --study unpacks .gpu-carry/resume.tar.xz (a
+# returned gpu_study.tar.xz) with study_archive.py's checks, before an earlier run is touched.
 set -uo pipefail
 cd "$(dirname "$0")/.." || exit 2
 export ROOT="$PWD" SELF="$PWD/scripts/gpu_check.sh" PY="${PYTHON:-$(command -v python3)}"
@@ -44,7 +46,7 @@ step_frames() { # ALGO FOLDER OPTIONS...: one `overlap run`; ALGO must be the on
   checked "$(steps ran "$algo" "$out/summary.json")"
 }
 step_study() { # one shard per core into one --out; each starts once the one before probed the GPU
-  local i log failed=0 && [[ -f .gpu-carry/resume.tar.xz ]] && tar -C "$WORK" -xJf .gpu-carry/resume.tar.xz ./study
+  local i log failed=0 # (a resume archive's ./study is there, checked and unpacked before the steps)
   for ((i = 1; i <= SHARDS; i++)); do # a shard prints nothing before its GPU probe
     log="$WORK/logs/study_shard$i.log"; PYTHONUNBUFFERED=1 "$PY" scripts/study.py $STUDY --out "$WORK/study" \
       --shard "$i/$SHARDS" --runs-only >"$log" 2>&1 &
@@ -65,6 +67,7 @@ step_archive() {
   ((size <= 16 * 1024 * 1024)) || fail "the archive is over 16 MiB"
 }
 [[ "${1:-}" == --step ]] && { STEP=$2 && shift 2 && "$@"; exit; }
+launched=$(date +%s) # the deadline counts from here: a resume archive's unpack is within it
 
 MODE=gpu PART=check only=""
 while (($#)); do
@@ -93,9 +96,26 @@ else # the demo keeps enough boxes that the default rule still picks gpubf, as f
   export FRAME_OPTIONS="--scene 4 --objects 60 --frames 4" STUDY="--profile gpu-dry --threads 1 --overlap $ROOT/$BUILD/overlap"
   deadline_s=${DEADLINE_S:-7200} scale=10 paper="1 1" big="1 1" && "$BUILD/overlap" --list-algos --json &>/dev/null || refuse "$BUILD/overlap is missing or fails: cmake --preset cuda-emulation && cmake --build --preset cuda-emulation"
 fi
+# The numbers read from the environment, as plain digits (no sign, no leading 0, which bash's
+# arithmetic reads as octal, no unit), checked before an earlier run's files are touched.
+number() { [[ $2 =~ $3 ]] || refuse "$1=${2//[^[:print:]]/?}: expected $4"; } # NAME VALUE REGEX WHAT
+number DEADLINE_S "$deadline_s" '^(0|[1-9][0-9]{0,6})$' "whole seconds, 0 to 9999999 (no unit)"
+number STUDY_SHARDS "$SHARDS" '^[1-9][0-9]{0,3}$' "a count of shards, 1 to 9999"
+number CTEST_JOBS "$CTEST_JOBS" '^[1-9][0-9]{0,3}$' "a count of jobs, 1 to 9999"
 mkdir -p "$OUT" || refuse "OUT=$OUT cannot be made"
-rm -rf "$WORK" "$OUT/$ARCHIVE" && mkdir -p "$WORK/logs" "$WORK/notes" "$SCRATCH"
-readonly summary="$OUT/gpu_${PART}_summary.txt" started=$(date +%s) && table=() running=() failures=0 reserve=10
+# A study to resume: its archive is another run's returned one, as untrusted as any (links,
+# absolute or '..' names, devices, bad text or runs refused: study_archive.py's checks), so
+# it is unpacked and checked beside $WORK first: a bad one refuses the call, $WORK as it was.
+RESUME="" done_so_far="an earlier run's files as they were" && trap 'rm -rf "$SCRATCH" ${RESUME:+"$RESUME"}' EXIT
+early_stop() { echo "gpu_check: stopped by SIG$1 before any step; $done_so_far" >&2 && exit $((128 + $(kill -l "$1"))); }
+trap 'early_stop TERM' TERM && trap 'early_stop INT' INT && trap 'early_stop HUP' HUP
+if [[ $PART == study && -f .gpu-carry/resume.tar.xz ]]; then
+  RESUME="$OUT/.gpu-resume-$$" && rm -rf "$RESUME"
+  said="$(steps resume .gpu-carry/resume.tar.xz "$RESUME")" || refuse ".gpu-carry/resume.tar.xz: ${said//$'\n'/; }"
+fi
+done_so_far="the earlier run's files removed" && rm -rf "$WORK" "$OUT/$ARCHIVE" && mkdir -p "$WORK/logs" "$WORK/notes" "$SCRATCH"
+if [[ -n $RESUME ]]; then mv "$RESUME/study" "$WORK/study" && rmdir "$RESUME" || refuse "$RESUME: cannot be moved to $WORK/study"; fi
+readonly summary="$OUT/gpu_${PART}_summary.txt" started=$launched && table=() running=() failures=0 reserve=10
 readonly deadline=$((started + deadline_s))
 record() { # NAME STATUS SECONDS BUDGET NOTE: one line of the table, rewritten to $summary
   table+=("$(printf '%-20s %-11s %4s s of %4s  %s' "$1" "$2" "$3" "$4" "${5:0:150}")") && [[ $2 == pass ]] || ((failures++))
@@ -122,7 +142,7 @@ stop() { # SIGNAL: every running step's process group ends (TERM, then KILL), th
   wait && for entry in "${running[@]}"; do record "${entry%% *}" INTERRUPTED 0 0 "stopped by SIG$1"; done
   exit $((128 + $(kill -l "$1")))
 }
-trap 'stop TERM' TERM && trap 'stop INT' INT && trap 'stop HUP' HUP && trap 'rm -rf "$SCRATCH"' EXIT
+trap 'stop TERM' TERM && trap 'stop INT' INT && trap 'stop HUP' HUP
 run() { start "$@" && finish; } # start and wait: one step alone
 [[ $MODE == gpu ]] && run unpack 30 scripts/gpu_pack.sh --unpack
 export GPU_FINDERS && GPU_FINDERS="$(steps gpu-finders "$BUILD/overlap")" ||

@@ -11,6 +11,10 @@ library only (a GPU machine's python3 may have nothing else).
   gpu_check_steps.py jobs STUDY_OPTIONS...    how many of the study's jobs are done, of all
   gpu_check_steps.py gpu-finders OVERLAP      the finders `OVERLAP --list-algos --json` says
       need a device, comma-separated: a new one is checked with no edit of gpu_check.sh
+  gpu_check_steps.py resume ARCHIVE FOLDER    the archive's ./study unpacked as FOLDER/study
+      with study_archive.py's checks (an earlier run's archive is untrusted: no link, no
+      absolute or '..' name, no device, the study's text and runs as the report reads them);
+      a bad archive exits 1 with one line saying why
 
 Each prints one line, the step's note; a bad file exits 2 naming it.
 """
@@ -80,9 +84,22 @@ def gpu_finders(overlap: str) -> str:
     return ",".join(b["name"] for b in json.loads(listed)["broadphases"] if b["needs_device"])
 
 
+def resume(archive: str, folder: str) -> str:
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    import pathlib
+    import study_archive
+    scratch = pathlib.Path(folder)
+    scratch.mkdir()
+    try:
+        log = study_archive.check_study(study_archive.extract(pathlib.Path(archive), scratch))
+    except study_archive.BadArchive as error:
+        raise SystemExit(str(error))
+    return f"its ./study unpacked: {len(log)} invocations"
+
+
 def main(argv: list) -> int:
     commands = {"within": within, "has": has, "ran": ran, "junit": junit, "jobs": jobs,
-                "gpu-finders": gpu_finders}
+                "gpu-finders": gpu_finders, "resume": resume}
     if not argv or argv[0] not in commands:
         print(f"gpu_check_steps: the first argument is one of {', '.join(commands)}", file=sys.stderr)
         return 2

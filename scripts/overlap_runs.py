@@ -21,7 +21,7 @@ def run_summary(overlap: str, folder: pathlib.Path, options: list) -> dict:
     if not summary_path.exists():
         run_child([overlap, "run", *options, "--capture-every", "0", "--no-wav",
                    "--out", str(folder)], check=True, stderr=subprocess.PIPE,
-                  text=True)
+                  text=True, errors="backslashreplace")  # a path's bytes as they are
     return json.loads(summary_path.read_text())
 
 

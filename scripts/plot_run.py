@@ -10,13 +10,16 @@ frame by frame into OUT/run.png, beside the run's other outputs.
   bottom  the substeps the frame ran.
 
 Bad input (OUT not a run's folder, a frames.csv without a column this
-draws, or a value that is not a number) is one line naming it, exit 2,
-and nothing written; the PNG is written to a temporary beside it and
+draws, a value that is not a number, or one no run writes: NaN, an
+infinity, 1e999, a negative or one beyond LARGEST; a summary.json
+frame_time that is not a positive number of seconds up to MAX_FRAME_TIME_S)
+is one line naming it, exit 2, and nothing written; the PNG is written to a temporary beside it and
 renamed into place.  Needs matplotlib (Debian's python3-matplotlib, which
 scripts/setup.sh installs, lives with /usr/bin/python3).
 """
 import csv
 import json
+import math
 import os
 import pathlib
 import sys
@@ -30,6 +33,8 @@ COLUMNS = ["frame", "physics_ms", "total_ms", "pairs", "substeps"] + STAGES
 COLOURS = {"update_ms": "#2ca02c", "broadphase_ms": "#d62728", "narrowphase_ms": "#9467bd",
            "solver_ms": "#1f77b4", "integrate_ms": "#8c564b", "ccd_query_ms": "#e377c2",
            "other": "#bbbbbb"}
+LARGEST = 1e15  # any column's value (ms, pairs, substeps): far past any run, far below inf
+MAX_FRAME_TIME_S = 3600.0
 
 
 class BadInput(Exception):
@@ -54,19 +59,32 @@ def read_frames(out: pathlib.Path) -> dict:
     for line, row in enumerate(rows, start=2):
         for c in COLUMNS:
             try:
-                columns[c].append(float(row[c]))
+                value = float(row[c])
             except (TypeError, ValueError):
                 raise BadInput(f"{path}, line {line}: {c} is {row[c]!r}, not a number") from None
+            # float() reads nan, inf and 1e999 without a word: no run writes them, and the
+            # axes cannot hold them (nor a sum past a double, nor a negative time).
+            if not (math.isfinite(value) and 0 <= value <= LARGEST):
+                raise BadInput(f"{path}, line {line}: {c} is {row[c]!r}, no number a run "
+                               f"writes (expected 0 to {LARGEST:g})")
+            columns[c].append(value)
     return columns
 
 
 def frame_time_ms(out: pathlib.Path) -> float:
-    """The run's frame time: summary.json's, else the default 1/30 s."""
+    """The run's frame time: summary.json's, else (no summary.json, or none in it) the
+    default 1/30 s; one that is there but no positive number of seconds up to
+    MAX_FRAME_TIME_S (NaN, an infinity, 1e999, -5, a string) is BadInput."""
     try:
-        return 1000.0 * float(json.loads((out / "summary.json").read_text())
-                              ["parameters"]["frame_time"])
+        given = json.loads((out / "summary.json").read_text())["parameters"]["frame_time"]
     except (OSError, ValueError, KeyError, TypeError):
         return 1000.0 / 30
+    if isinstance(given, bool) or not isinstance(given, (int, float)) or \
+            not (math.isfinite(given) and 0 < given <= MAX_FRAME_TIME_S):
+        raise BadInput(f"{out / 'summary.json'}: parameters.frame_time is "
+                       f"{json.dumps(given)[:40]}, not a frame time (expected seconds, "
+                       f"above 0, up to {MAX_FRAME_TIME_S:g})")
+    return 1000.0 * given
 
 
 def draw(columns: dict, budget_ms: float, title: str, png: pathlib.Path) -> None:
@@ -137,6 +155,7 @@ def main() -> int:
     args = parser.parse_args()
     try:
         columns = read_frames(args.out)
+        budget_ms = frame_time_ms(args.out)
     except BadInput as problem:
         print(f"plot_run.py: {problem}", file=sys.stderr)
         return 2
@@ -144,7 +163,7 @@ def main() -> int:
         print(f"plot_run.py: {args.out}: {error.strerror}", file=sys.stderr)
         return 2
     png = args.out / "run.png"
-    draw(columns, frame_time_ms(args.out), title_of(args.out), png)
+    draw(columns, budget_ms, title_of(args.out), png)
     print(f"plot_run.py: wrote {png}", file=sys.stderr)
     return 0
 

@@ -67,9 +67,9 @@ class Stopped(KeyboardInterrupt):
     """SIGINT, SIGTERM or SIGHUP came (a KeyboardInterrupt, so code that stops on ^C
     stops on each)."""
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int, note: str = ""):
         super().__init__(signum)
-        self.signum = signum
+        self.signum, self.note = signum, note  # note: what the stop left, said after it
 
 
 STOPS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -180,7 +180,8 @@ def write_atomically(path: pathlib.Path, text: str) -> None:
     path = pathlib.Path(path)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        temporary.write_text(text)
+        # UTF-8 text; a path's byte that is not UTF-8 (a surrogate here) written escaped.
+        temporary.write_text(text, encoding="utf-8", errors="backslashreplace")
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
@@ -238,7 +239,9 @@ def _outcome(main, prog: str) -> int:
         return 2
     except KeyboardInterrupt as stop:
         signum = getattr(stop, "signum", signal.SIGINT)
-        print(f"{prog}: stopped by {signal.Signals(signum).name}", file=sys.stderr)
+        note = getattr(stop, "note", "")
+        print(f"{prog}: stopped by {signal.Signals(signum).name}"
+              + (f"; {one_line(note)}" if note else ""), file=sys.stderr)
         return 128 + signum
     except OSError as error:
         where = error.filename if error.filename is not None else "?"

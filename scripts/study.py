@@ -49,6 +49,7 @@ try:  # a memory limit (ulimit -v) can stop the imports: one line and exit 1, no
     import csv
     import pathlib
     import re
+    import signal
     import tempfile
     import time
 
@@ -58,7 +59,7 @@ try:  # a memory limit (ulimit -v) can stop the imports: one line and exit 1, no
     import study_profiles
     import study_report
     import study_archive
-    from script_cli import BadInput, Parser, one_line, run as run_script
+    from script_cli import STOPS, BadInput, Parser, Stopped, one_line, run as run_script
     from study_out_folder import (InvocationLog, foreign_folder_problem, locked, read_log,
                                   unmakable_problem, write_atomically)
 
@@ -558,12 +559,23 @@ def archive_report(combined: list, study: pathlib.Path) -> list:
     jobs = study_plan.plan(args)
     try:
         with locked(args.out):
-            return study_report.write_everything(args, jobs)
+            failures = study_report.write_everything(args, jobs)
     except REPORT_READ_ERRORS as error:
         where = file_read_when(error, study)
         problem = one_line(str(error))[:200]
         raise study_archive.BadArchive(f"{where} do not hold what the report reads "
                                        f"({type(error).__name__}: {problem})")
+    # commands.txt as --out will hold it (its paths --out's own), written here, before
+    # the swap: nothing is left to write into --out once it is the new unpack.
+    final = parse_args(combined)
+    final.argv = combined
+    with locked(args.out):
+        write_atomically(study / "commands.txt", commands_text(study_plan.plan(final)))
+    return failures
+
+
+def commands_text(jobs: list) -> str:
+    return "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands())
 
 
 def options_from_archive(argv: list) -> tuple:
@@ -629,8 +641,8 @@ def report(args, jobs: list) -> int:
     for failure in failures:
         print(f"study: FAILED: {failure}", file=sys.stderr)
     written = [args.out / "REPORT.md"] + ([args.report_doc] if args.report else [])
-    print("study: report: " + " and ".join(map(str, written)) +
-          f" (tables as CSV and figures in {args.out / 'report'})", file=sys.stderr)
+    print("study: report: " + " and ".join(map(one_line, written)) +
+          f" (tables as CSV and figures in {one_line(args.out / 'report')})", file=sys.stderr)
     return 1 if failures else 0
 
 
@@ -638,22 +650,29 @@ def from_archive(argv: list) -> int:
     """--from-archive: the report is made in the scratch unpack (archive_report), then
     --out is replaced by it; here only commands.txt (and with --report the hand-written
     report's blocks, made again from --out's runs) follow."""
-    argv, failures = options_from_archive(argv)
+    argv, failures = options_from_archive(argv)  # --out replaced: the stops held from there
     args = parse_args(argv)
-    broadphases.load(args.overlap)
-    check_algorithms(args)
-    args.argv = argv
-    jobs = study_plan.plan(args)
-    with locked(args.out):
-        write_atomically(args.out / "commands.txt", "".join(
-            " ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
     if args.report:
-        return report(args, jobs)
+        return report_from_unpack(args, argv)
     for failure in failures:
         print(f"study: FAILED: {failure}", file=sys.stderr)
-    print(f"study: report: {args.out / 'REPORT.md'} (tables as CSV and figures in "
-          f"{args.out / 'report'})", file=sys.stderr)
+    print(f"study: report: {one_line(args.out / 'REPORT.md')} (tables as CSV and figures in "
+          f"{one_line(args.out / 'report')})", file=sys.stderr)
     return 1 if failures else 0
+
+
+def report_from_unpack(args, argv: list) -> int:
+    """--from-archive --report, once --out is the new unpack: the hand-written report's
+    blocks from --out's runs, a stop let in again (it stops only this, and says so)."""
+    try:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
+        broadphases.load(args.overlap)
+        check_algorithms(args)
+        args.argv = argv
+        return report(args, study_plan.plan(args))
+    except Stopped as stop:
+        raise Stopped(stop.signum, f"--out {one_line(args.out)} is the archive's unpack, whole; "
+                      f"--report-doc {one_line(args.report_doc)} was not filled")
 
 
 def main(argv: list) -> int:
@@ -671,17 +690,16 @@ def main(argv: list) -> int:
     args.argv = argv
     jobs = study_plan.plan(args)
     if args.check_only:
-        print(f"study: options checked: {len(jobs)} jobs planned into {args.out}; nothing run "
+        print(f"study: options checked: {len(jobs)} jobs planned into {one_line(args.out)}; nothing run "
               "or written", file=sys.stderr)
         return 0
     if not args.no_runs:  # a study refused (the full one, not confirmed) writes nothing
         run_and_log(jobs, args, argv)
     with locked(args.out):  # the lock first: what marks --out as a study's folder
-        write_atomically(args.out / "commands.txt", "".join(
-            " ".join(map(str, c)) + "\n" for job in jobs for c in job.commands()))
+        write_atomically(args.out / "commands.txt", commands_text(jobs))
     if args.runs_only:
-        print(f"study: runs in {args.out}; the report from them: scripts/study.py --profile "
-              f"{args.profile} --out {args.out} --no-runs", file=sys.stderr)
+        print(f"study: runs in {one_line(args.out)}; the report from them: scripts/study.py "
+              f"--profile {args.profile} --out {one_line(args.out)} --no-runs", file=sys.stderr)
         return 0
     return report(args, jobs)
 

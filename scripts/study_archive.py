@@ -8,7 +8,11 @@ Rules, each with its reason:
   * D is replaced only when it is an earlier unpack (a folder holding MARKER,
     which every unpack writes), an empty folder, or absent.  Any other D is
     refused, and so is the current folder or one above it, through any link:
-    an unpack never removes what an unpack did not make.
+    an unpack never removes what an unpack did not make.  MARKER records the
+    digest of the log the unpack wrote; a D whose log is another (a study ran
+    into it) is refused, and a study that logs into an unpack removes MARKER
+    first (study_out_folder.claim_an_unpack), under D's lock, which the swap
+    holds too.
   * Everything is checked before D is touched.  The members: only files and
     folders under ./study, none absolute, none through '..', no link, no
     device, at most MAX_MEMBERS members and MAX_BYTES bytes unpacked (a sparse
@@ -16,8 +20,8 @@ Rules, each with its reason:
     .md and .txt file is UTF-8, every .json file parses (no NaN, no Infinity, no
     number beyond a double: 1e999 would read as a measurement), the invocation log,
     the runs' summary.json and frames.csv have the shapes the report reads (and
-    frames.csv no NaN or infinity either; the log no negative duration, time or load
-    average); then
+    no CSV outside report/ a NaN or an infinity either, a frames.csv no more rows than
+    its run's frames; the log no negative duration, time or load average); then
     (study.py's `prepare`) the report is made in the scratch folder, so a run file
     lacking anything else it reads refuses the archive too.  A member that is
     not under ./study is never written, yet an absolute or '..' name, a link or a
@@ -32,7 +36,9 @@ Rules, each with its reason:
   * The new folder is unpacked beside D (PARENT/.D.unpack-XXXXXXXX), D is renamed
     into that scratch folder and the new one renamed to D with SIGINT, SIGTERM
     and SIGHUP held off, and only then is the old one removed: a signal at any
-    moment leaves D whole, old or new.  A signal (script_cli.Stopped) removes the
+    moment leaves D whole, old or new; once D is the new one the signals stay
+    held (nothing is left to stop: commands.txt and the report were made in the
+    scratch folder).  A signal before that (script_cli.Stopped) removes the
     scratch folder, then goes on: the script stops as script_cli says.  A scratch folder whose unpack was
     killed (no process holds its lock) is removed by the next unpack beside it.
 """
@@ -42,7 +48,7 @@ import copy
 import csv
 import fcntl
 import glob
-import io
+import hashlib
 import json
 import lzma
 import math
@@ -58,6 +64,7 @@ import zlib
 from script_cli import STOPS, Stopped, check_stopped, one_line
 
 MARKER = ".study-archive"  # in D: D is an unpack, which the next unpack may replace
+LOG_NAME = "study_invocations.json"  # study_out_folder's: the log every study writes first
 SCRATCH_MARKER = ".study-unpack"  # in a scratch folder: made by an unpack
 MAX_BYTES = 2 * 1024 ** 3
 MAX_MEMBERS = 50_000  # a full study (1112 jobs) unpacks to about 6000
@@ -99,6 +106,22 @@ def folder_locked(folder: pathlib.Path, blocking: bool = True):
         os.close(fd)
 
 
+@contextlib.contextmanager
+def study_locked(target: pathlib.Path):
+    """TARGET's study lock (study_out_folder's .study.lock) held where it has one: a study
+    logging into it meanwhile (and so claiming it: no longer an unpack) waits, or has."""
+    lock = target / ".study.lock"
+    if lock.is_symlink() or not lock.is_file():
+        yield
+        return
+    fd = os.open(lock, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
 def replaceable(target: pathlib.Path, out: pathlib.Path) -> None:
     """Raises BadOut unless `target` (--out `out`, resolved) may be replaced."""
     here = pathlib.Path.cwd().resolve()
@@ -114,6 +137,32 @@ def replaceable(target: pathlib.Path, out: pathlib.Path) -> None:
         if any(target.iterdir()):
             raise BadOut(f"{out}: exists and is not an earlier unpack of a study archive "
                          f"(it has no {MARKER}); give a new folder, or empty it yourself")
+        return
+    if not log_as_unpacked(target, marker):
+        raise BadOut(f"{out}: a study has run or logged into this unpack since it was made "
+                     f"(its {LOG_NAME} is not the archive's), so it holds runs no unpack made; "
+                     "give a new folder, or empty it yourself")
+
+
+def log_digest(folder: pathlib.Path) -> str:
+    """The sha256 of FOLDER's invocation log, or "none" when it has none."""
+    try:
+        with open(folder / LOG_NAME, "rb") as f:
+            return hashlib.file_digest(f, "sha256").hexdigest() if hasattr(
+                hashlib, "file_digest") else hashlib.sha256(f.read()).hexdigest()
+    except FileNotFoundError:
+        return "none"
+
+
+def log_as_unpacked(target: pathlib.Path, marker: pathlib.Path) -> bool:
+    """Whether TARGET's invocation log is the one its unpack wrote (the digest its MARKER
+    records; a marker of an older unpack, recording none, is taken at its word)."""
+    try:
+        recorded = re.search(r"^log sha256: ([0-9a-f]{64}|none)$",
+                             marker.read_text(encoding="utf-8", errors="replace"), re.M)
+    except OSError:
+        return False
+    return recorded is None or recorded[1] == log_digest(target)
 
 
 def clear_stale(parent: pathlib.Path, name: str) -> None:
@@ -276,9 +325,11 @@ def parse_json(text: str):
                       parse_int=finite_int)
 
 
-def check_log(log, name: str) -> None:
+def check_log(log, name: str, foreign: bool = True) -> None:
     """The invocation log `name` has the shape the report and the next shard read: a
-    list of invocations (raises BadArchive)."""
+    list of invocations (raises BadArchive).  A foreign log (an archive's) has no word a
+    command line of a study would not hold either; a local --out's log holds this
+    machine's own words (its --out may hold a tab, a newline or any byte), not checked."""
     check_shape(log, [INVOCATION], name)
     for index, run in enumerate(log):
         if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
@@ -296,7 +347,7 @@ def check_log(log, name: str) -> None:
             if isinstance(value, (int, float)) and value < 0:
                 raise BadArchive(f"{name}[{index}].{field}: {json.dumps(value)[:40]} is "
                                  "negative: no number a study writes")
-        for word in run["argv"] + [run["started"]]:
+        for word in run["argv"] + [run["started"]] if foreign else ():
             if "`" in word or not word.isprintable() or len(word) > 4096:
                 raise BadArchive(f"{name}[{index}]: the word {word[:60]!r} is not one a "
                                  "command line of the study holds")
@@ -323,10 +374,32 @@ def read_text(study: pathlib.Path) -> dict:
     return parsed
 
 
+# What the study writes in its --out over what an archive holds (the report, commands.txt,
+# the lock, the unpack's marker): each of the kind the study writes there (the report's
+# tables and figures are files of report/), checked before anything is written over them.
+WRITTEN_FILES = ("commands.txt", "REPORT.md", ".study.lock", MARKER)
+WRITTEN_FOLDERS = ("report",)
+
+
+def check_written_kinds(study: pathlib.Path) -> None:
+    for name in WRITTEN_FILES:
+        if os.path.lexists(study / name) and not (study / name).is_file():
+            raise BadArchive(f"study/{name} is a folder where the study writes a file")
+    for name in WRITTEN_FOLDERS:
+        if os.path.lexists(study / name) and not (study / name).is_dir():
+            raise BadArchive(f"study/{name} is a file where the report writes a folder")
+        if (study / name).is_dir():
+            inner = next((p for p in sorted((study / name).iterdir()) if not p.is_file()), None)
+            if inner is not None:
+                raise BadArchive(f"study/{name}/{one_line(inner.name)[:80]} is a folder where "
+                                 "the report writes its tables and figures (files)")
+
+
 def check_study(study: pathlib.Path) -> list:
     """The unpacked ./study checked as the report reads it; returns its invocation log."""
     if not (study / "study_invocations.json").is_file():
         raise BadArchive("its ./study has no study_invocations.json: no study ran into it")
+    check_written_kinds(study)
     parsed = read_text(study)
     log = parsed["study/study_invocations.json"]
     check_log(log, "study/study_invocations.json")
@@ -335,8 +408,15 @@ def check_study(study: pathlib.Path) -> list:
     for name, data in parsed.items():
         if name.endswith("/summary.json"):
             check_shape(data, SUMMARY, name)
-    for path in sorted(study.rglob("frames.csv")):
-        check_frames(path, "study/" + path.relative_to(study).as_posix())
+    for path in sorted(study.rglob("*.csv")):
+        if path.is_symlink() or not path.is_file() or path.relative_to(study).parts[0] == \
+                "report":  # report/: the other machine's report, made again here
+            continue
+        name = "study/" + path.relative_to(study).as_posix()
+        if path.name == "frames.csv":
+            check_frames(path, name)
+        else:  # latency/*.csv, pairs/*.csv...: the report reads their numbers too
+            check_csv_cells(path, name)
     return log
 
 
@@ -345,22 +425,70 @@ FRAMES_COLUMNS = ("frame", "update_ms", "broadphase_ms", "total_ms")  # the repo
 
 # What a cell that float() reads as NaN or an infinity must hold: a letter of nan or inf,
 # a three-digit exponent, 100 digits in a row (a long mantissa overflows too: with a
-# two-digit exponent, a shorter one stays below 1e199), or a
-# character beyond ASCII (float() reads any script's decimal digits: 1e\u0664\u0660\u0660).
-# Only a body with one is read cell by cell, so a long frames.csv costs one scan.
-NOT_FINITE_HINT = re.compile(r"[nNiI]|[eE][+-]?[0-9]{3}|[0-9]{100}|[^\x00-\x7f]")
+# two-digit exponent, a shorter one stays below 1e199), an '_' (float() takes PEP 515's
+# 1e9_9_9 and 9_9...9: no number a study writes has one), or a character beyond ASCII
+# (float() reads any script's decimal digits: 1e\u0664\u0660\u0660).  Only a row with one
+# is read cell by cell, so a long CSV costs one scan.
+NOT_FINITE_HINT = re.compile(r"[nNiI_]|[eE][+-]?[0-9]{3}|[0-9]{100}|[^\x00-\x7f]")
+# The most bytes of a row of a run's frames.csv, a cell: overlap writes numbers of at
+# most a few tens of digits (the bound keeps what the report holds of a run to its frames).
+MAX_CELL_BYTES = 64
+
+
+def check_csv_cells(path: pathlib.Path, name: str, max_rows: int = None) -> list:
+    """Every cell of the CSV file `path` that reads as a number is finite: no NaN or
+    infinity (nan, inf, 1e999: no number overlap writes, and one would read as a
+    measurement, as in the JSON); at most `max_rows` rows under the header, each of at
+    most MAX_CELL_BYTES a cell of the header.  Read a row at a time (its memory is a row's,
+    whatever the file's size); returns (the header, the first row)."""
+    try:
+        return csv_cells(path, name, max_rows)
+    except csv.Error as error:
+        raise BadArchive(f"{name}: not CSV ({one_line(error)[:80]})")
+
+
+def csv_cells(path: pathlib.Path, name: str, max_rows: int) -> list:
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = csv.reader(f)
+        header = next(rows, None) or []
+        first = None
+        for count, row in enumerate(rows, start=1):
+            first = row if first is None else first
+            if max_rows is not None and count > max_rows:
+                raise BadArchive(f"{name}: more than its run's {max_rows} frames (its "
+                                 "summary.json's parameters.frames) in rows")
+            if max_rows is not None and sum(map(len, row)) > MAX_CELL_BYTES * len(header):
+                raise BadArchive(f"{name}: line {rows.line_num} is longer than a row of "
+                                 "numbers overlap writes")
+            if not NOT_FINITE_HINT.search("".join(row)):
+                continue
+            for column, cell in zip(header, row):
+                try:
+                    value = float(cell)
+                except ValueError:
+                    continue
+                if not math.isfinite(value):
+                    raise BadArchive(f"{name}: line {rows.line_num}, {one_line(column)[:40]} "
+                                     f"{one_line(cell)[:40]!r} is no number a study writes")
+    return header, first
+
+
+def run_frames(path: pathlib.Path) -> int:
+    """The frames the run beside `path` (a frames.csv) ran: its summary.json's, or None."""
+    try:
+        frames = json.loads((path.parent / "summary.json").read_text(encoding="utf-8"),
+                            parse_constant=refuse_constant)["parameters"]["frames"]
+    except (OSError, ValueError, KeyError, TypeError, RecursionError):
+        return None
+    return frames if type(frames) is int and 0 <= frames <= 10_000_000 else None
 
 
 def check_frames(path: pathlib.Path, name: str) -> None:
     """A run's frames.csv holds what the report reads: a header with the columns it reads
-    (FRAMES_COLUMNS), then at least one row of as many cells, and no cell that reads as
-    NaN or an infinity (nan, inf, 1e999: no number overlap writes, and one would read as a
-    measurement, as in the JSON)."""
-    with open(path, newline="", encoding="utf-8") as f:
-        text = f.read()
-    rows = csv.reader(io.StringIO(text, newline=""))
-    header = next(rows, None)
-    first = next(rows, None)
+    (FRAMES_COLUMNS), then at least one row of as many cells and at most one a frame the
+    run ran (its summary.json's parameters.frames), and no cell that reads as NaN or an
+    infinity (check_csv_cells)."""
+    header, first = check_csv_cells(path, name, run_frames(path))
     if not header:
         raise BadArchive(f"{name}: empty, no header of the frames' columns")
     missing = [column for column in FRAMES_COLUMNS if column not in header]
@@ -368,18 +496,6 @@ def check_frames(path: pathlib.Path, name: str) -> None:
         raise BadArchive(f"{name}: its header has no {', '.join(missing)} column")
     if first is None or len(first) != len(header):
         raise BadArchive(f"{name}: no frame row under its header")
-    body = text.partition("\n")[2]
-    if not NOT_FINITE_HINT.search(body):
-        return
-    for line, row in enumerate(csv.reader(io.StringIO(body, newline="")), start=2):
-        for column, cell in zip(header, row):
-            try:
-                value = float(cell)
-            except ValueError:
-                continue
-            if not math.isfinite(value):
-                raise BadArchive(f"{name}: line {line}, {one_line(column)[:40]} "
-                                 f"{one_line(cell)[:40]!r} is no number a study writes")
 
 
 def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):
@@ -414,9 +530,11 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):
             prepared = prepare(options, study) if prepare is not None else None
             check_stopped()
             (study / MARKER).write_text(
-                f"An unpack of the study archive {archive.name} (scripts/study.py "
-                "--from-archive): the next unpack into this folder replaces it.\n")
-            with folder_locked(target.parent):
+                f"An unpack of the study archive {one_line(archive.name)} (scripts/study.py "
+                "--from-archive): the next unpack into this folder replaces it, while its "
+                "log is this one (a study that runs into it makes it a study's folder).\n"
+                f"log sha256: {log_digest(study)}\n")
+            with folder_locked(target.parent), study_locked(target):
                 replaceable(target, out)
                 check_stopped()  # the last point before D is replaced
                 swap(study, target, scratch / "old")
@@ -443,8 +561,12 @@ def remove_whole(folder: pathlib.Path) -> None:
 
 def swap(new: pathlib.Path, target: pathlib.Path, aside: pathlib.Path) -> None:
     """`new` renamed to `target`, a non-empty `target` renamed to `aside` first; no
-    signal between the two renames, and `target` back as it was if the second fails."""
-    with signals_held():
+    signal between the two renames, and `target` back as it was if the second fails.
+    Once `target` is the new unpack it is published: the stop signals stay held from
+    there on (script_cli.run says that one came after; a caller that goes on to work it
+    may stop lets them go itself), so no stop is ever said after D was replaced."""
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)
+    try:
         moved = target.is_dir() and any(target.iterdir())
         if moved:
             os.rename(target, aside)
@@ -454,3 +576,6 @@ def swap(new: pathlib.Path, target: pathlib.Path, aside: pathlib.Path) -> None:
             if moved:
                 os.rename(aside, target)
             raise
+    except BaseException:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        raise

@@ -27,6 +27,7 @@ import fcntl
 import json
 import os
 import pathlib
+import sys
 import tempfile
 
 from script_cli import BadInput, one_line
@@ -75,7 +76,9 @@ def write_atomically(path: pathlib.Path, text: str) -> None:
     handle, partial = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
                                        suffix=".partial")
     try:
-        with os.fdopen(handle, "w") as f:
+        # UTF-8 text whatever the locale; a path's byte that is not UTF-8 (an --out of any
+        # bytes reads as surrogates here) written escaped, so the file stays text.
+        with os.fdopen(handle, "w", encoding="utf-8", errors="backslashreplace") as f:
             f.write(text)
         os.replace(partial, path)
     except BaseException:
@@ -103,7 +106,7 @@ def read_log(out: pathlib.Path) -> list:
         return []
     try:
         log = study_archive.parse_json(path.read_text(encoding="utf-8"))
-        study_archive.check_log(log, str(path))
+        study_archive.check_log(log, str(path), foreign=False)
     except RecursionError:
         raise BadInput(f"{one_line(path)}: JSON nested too deep for a study's log")
     except study_archive.BadArchive as problem:
@@ -111,6 +114,18 @@ def read_log(out: pathlib.Path) -> list:
     except ValueError as error:  # json's errors, UnicodeDecodeError among them
         raise BadInput(f"{one_line(path)}: not the study's log: not JSON ({one_line(error)})")
     return log
+
+
+def claim_an_unpack(out: pathlib.Path) -> None:
+    """A study that logs (and so runs) into an unpack of a study archive makes it a study's
+    folder: the unpack's marker goes (under the lock, before the log names a run), so the
+    next --from-archive refuses the folder rather than removing runs no unpack made."""
+    import study_archive
+    marker = out / study_archive.MARKER
+    if marker.is_file() and not marker.is_symlink():
+        marker.unlink()
+        print(f"study: {one_line(out)} was an unpack of a study archive; it is now this "
+              "study's folder, which --from-archive no longer replaces", file=sys.stderr)
 
 
 class InvocationLog:
@@ -125,6 +140,7 @@ class InvocationLog:
         path = self.out / LOG_NAME
         with locked(self.out):
             log = read_log(self.out)
+            claim_an_unpack(self.out)
             if self.index is None:
                 self.index = len(log)
                 log.append(self.entry)

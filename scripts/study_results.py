@@ -31,16 +31,25 @@ def number(text: str) -> float:
 def read_frames(folder: pathlib.Path) -> dict:
     """frames.csv as {column: [float per frame]}; a column the engine adds is read too, and
     a cell that is not a number reads as NaN (the tables use only the columns they name)."""
-    with open(folder / "frames.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {column: [number(row[column]) for row in rows] for column in rows[0]} if rows else {}
+    with open(folder / "frames.csv", newline="") as f:  # a row at a time: floats held only
+        rows = csv.reader(f)
+        header = next(rows, None) or []
+        columns = [[] for _ in header]
+        for row in rows:
+            if not row:  # a blank line, as DictReader skips it
+                continue
+            if len(row) != len(header):  # as DictReader read one (None: NaN; extra left)
+                row = (row + [None] * len(header))[:len(header)]
+            for cells, cell in zip(columns, row):
+                cells.append(number(cell))
+    return dict(zip(header, columns)) if columns and columns[0] else {}
 
 
 def write_csv(path: pathlib.Path, rows: list) -> None:
     if not rows:
         path.unlink(missing_ok=True)
         return
-    with open(path, "w", newline="") as f:
+    with open(path, "w", newline="", encoding="utf-8", errors="backslashreplace") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:

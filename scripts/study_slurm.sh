@@ -11,22 +11,25 @@
 # The checkout (with its build/overlap) must be at the same path on every node,
 # and the nodes' python3 needs only its standard library for the shards;
 # the report job needs matplotlib (PYTHON, default /usr/bin/python3).  --wait
-# returns when the report job has ended, with its exit status.  A shard that
-# stopped (a node lost, a time limit) is rerun by submitting the same command
-# again: finished runs are kept, only the missing ones run.
+# returns when the report job has ended, with its exit status (a stop while
+# waiting stops the waiting only: the jobs go on).  A shard that stopped (a
+# node lost, a time limit) is rerun by submitting the same command again:
+# finished runs are kept, only the missing ones run.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 python="${PYTHON:-/usr/bin/python3}"
-usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 die() { echo "study_slurm: $*" >&2; exit 2; }
 
+# An option's value: present (and, but for --sbatch, not empty), else one line and exit 2.
+needs() { [[ $# -ge 3 && ( -n "$3" || "$1" == --sbatch ) ]] || die "$1 needs $2"; }
 out="" shards="" profile="full" extra_sbatch="" wait=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
-    --out) out="${2:?--out needs a folder}"; shift 2 ;;
-    --shards) shards="${2:?--shards needs a count}"; shift 2 ;;
-    --profile) profile="${2:?--profile needs a name}"; shift 2 ;;
-    --sbatch) extra_sbatch="${2?--sbatch needs options}"; shift 2 ;;
+    --out) needs "$1" "a folder" "${@:2:1}"; out="$2"; shift 2 ;;
+    --shards) needs "$1" "a count" "${@:2:1}"; shards="$2"; shift 2 ;;
+    --profile) needs "$1" "a name" "${@:2:1}"; profile="$2"; shift 2 ;;
+    --sbatch) needs "$1" "options (\"\" for none)" "${@:2:1}"; extra_sbatch="$2"; shift 2 ;;
     --wait) wait=(--wait); shift ;;
     --) shift; break ;;
     -h|--help) usage ;;
@@ -65,21 +68,68 @@ confirm=()
 study=("$python" "$repo/scripts/study.py" --profile "$profile" --out "$out" "$@")
 shard=("${study[@]}" "${confirm[@]}" --runs-only)
 report=("${study[@]}" --no-runs)
-# A stop from here on says what was made and submitted: a fresh --out with nothing
-# submitted is removed, shards submitted without their report job are cancelled.
-fresh_out=""; [[ -e "$out" ]] || fresh_out="$out"
-submitting="" submitted=""
+# A stop from here on says what was made and submitted (phase): before the shards are
+# submitted, what this script made (the folders, slurm/ and the lock) is removed if it
+# is still as made, never a folder another submission or a study has written into
+# meanwhile; shards submitted without their report job are cancelled; once the report
+# job is submitted, a stop stops the waiting only.
+phase="" made="" array="" report_job="" sbatch_pid="" ids=""
+undo_made() {  # MADE: "LEVELS SLURM LOCK" as the folder's check printed it
+  [[ -n "$made" ]] || return 0
+  PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
+from study_out_folder import LOCK_NAME
+out, (levels, slurm, lock) = pathlib.Path(sys.argv[1]), map(int, sys.argv[2].split())
+try:
+    names = set(os.listdir(out))
+    logs = out / "slurm"
+    if lock and names <= {LOCK_NAME, "slurm"} and (out / LOCK_NAME).stat().st_size == 0 \
+            and not (logs.is_dir() and not logs.is_symlink() and os.listdir(logs)):
+        (out / LOCK_NAME).unlink()
+    if slurm:
+        logs.rmdir()
+except OSError:
+    pass
+for _ in range(levels):  # each folder made, from --out up: only while empty
+    try:
+        out.rmdir()
+    except OSError:
+        break
+    out = out.parent' "$out" "$made" 2> /dev/null || true
+}
+report_id() {  # the report job's id, once its sbatch has printed it (a whole line)
+  local line=""
+  [[ -z "$report_job" && -n "$ids" ]] && IFS= read -r line < "$ids" &&
+    [[ "${line%%;*}" =~ ^[0-9]+$ ]] && report_job="${line%%;*}"
+  [[ -n "$report_job" ]]
+}
 stopped() {
   trap - INT TERM HUP
-  if [[ -n "$submitting" && -z "$submitted" ]]; then
-    echo "study_slurm: stopped by SIG$1 while sbatch was submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2
-  elif [[ -z "$submitted" ]]; then
-    [[ -n "$fresh_out" ]] && rm -rf -- "$fresh_out"
-    echo "study_slurm: stopped by SIG$1; nothing submitted" >&2
-  else
-    command -v scancel > /dev/null && scancel "$submitted" 2> /dev/null
-    echo "study_slurm: stopped by SIG$1; the shards' job $submitted, submitted without its report job, is cancelled (or cancel it: scancel $submitted)" >&2
+  local i
+  if [[ $phase == report ]]; then  # its sbatch is submitting: wait a little for its word
+    for ((i = 0; i < 100; i++)); do
+      report_id && break; kill -0 "$sbatch_pid" 2> /dev/null || { report_id; break; }; sleep 0.1
+    done
+    if report_id; then phase=waiting
+    elif kill -0 "$sbatch_pid" 2> /dev/null; then
+      kill "$sbatch_pid" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1 while sbatch was submitting the report job; the shards' job $array is submitted: see squeue --name overlap-study-report, and scancel $array if it lists no report job" >&2
+      exit $((128 + $2))
+    else phase=shards_only
+    fi
   fi
+  case $phase in
+    shards)
+      echo "study_slurm: stopped by SIG$1 while sbatch was submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2 ;;
+    shards_only)
+      command -v scancel > /dev/null && scancel "$array" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1; the shards' job $array, submitted without its report job, is cancelled (or cancel it: scancel $array)" >&2 ;;
+    waiting)
+      kill "$sbatch_pid" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1${wait:+ while waiting for the report job}; both jobs are submitted and go on (the shards' job $array, the report job $report_job: scancel $array $report_job stops them)" >&2 ;;
+    *)
+      undo_made
+      echo "study_slurm: stopped by SIG$1; nothing submitted${made:+ (of what this script made for --out, what nothing else has written into is removed)}" >&2 ;;
+  esac
   exit $((128 + $2))
 }
 trap 'stopped INT 2' INT
@@ -94,18 +144,25 @@ trap 'stopped HUP 1' HUP
 (cd "$repo" && "${report[@]}" --check-only) || exit $?
 # --out is a study's folder, as study.py takes it (study_out_folder.py): refused
 # if it holds a user's files; else its logs folder and the lock that marks it.
-PYTHONPATH="$repo/scripts" "$python" -c 'import pathlib, sys
+made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
 from study_out_folder import LOCK_NAME, foreign_folder_problem
 from script_cli import one_line
 out = pathlib.Path(sys.argv[1])
 if problem := foreign_folder_problem(out):
     sys.exit(f"study_slurm: --out {one_line(out)}: {problem}")
+levels, here = 0, out  # what is made here, printed for a stop to undo: no more
+while not os.path.lexists(here):
+    levels, here = levels + 1, here.parent
+slurm = not os.path.lexists(out / "slurm")
+lock = not os.path.lexists(out / LOCK_NAME)
 try:
     (out / "slurm").mkdir(parents=True, exist_ok=True)
     (out / LOCK_NAME).touch()
 except OSError as error:
-    sys.exit(f"study_slurm: --out {one_line(out)}: {one_line(error.strerror or error)}")' \
-  "$out" || exit 2
+    sys.exit(f"study_slurm: --out {one_line(out)}: {one_line(error.strerror or error)}")
+finally:
+    print(levels, int(slurm), int(lock))' \
+  "$out")" || { made="${made:-}"; undo_made; exit 2; }
 # Words for the jobs' /bin/sh (sbatch --wrap: "a simple sh shell script"): each in single
 # quotes, a ' as '\'' -- every byte as it is, in any locale (bash's printf %q writes $'...',
 # which sh reads as a $ and a quoted word).
@@ -114,18 +171,42 @@ sh_quoted() {
   for word in "$@"; do words+=("'${word//\'/\'\\\'\'}'"); done
   printf '%s' "${words[*]}"
 }
+phase=shards
 # shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
-submitting=1
 array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
   --output="$out/slurm/shard-%a.log" --chdir="$repo" \
   --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")"
 array="${array%%;*}"
-submitted="$array"
+phase=report
 echo "study_slurm: shards: job $array, $shards tasks, logs in $shown_out/slurm/shard-N.log"
+# The report job's sbatch runs in the background, its --parsable line (the job's id, which
+# sbatch prints on submitting, before --wait waits) read from a file: a stop while it
+# waits is handled at once, knowing the job is submitted, and its exit status is the
+# job's own (sbatch(1): with --wait, the submitted job's exit code).
+ids="$(mktemp "${TMPDIR:-/tmp}/study_slurm.XXXXXX")" || exit 1
+trap 'rm -f -- "$ids"' EXIT
+buffered=(); command -v stdbuf > /dev/null && buffered=(stdbuf -oL)  # the id at once
 # shellcheck disable=SC2086
-report_job="$(sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
+"${buffered[@]}" sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
   --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
-  --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")")" || {
-  echo "study_slurm: sbatch refused the report job; the shards' job $array runs without it (scancel $array, or submit the report: ${report[*]})" >&2; exit 1; }
+  --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")" > "$ids" &
+sbatch_pid=$!
+until report_id || ! kill -0 "$sbatch_pid" 2> /dev/null; do sleep 0.1; done
+if report_id && [[ ${#wait[@]} -gt 0 ]]; then
+  phase=waiting
+  echo "study_slurm: report: job $report_job, when every shard has ended well: $shown_out/REPORT.md; waiting for it to end"
+fi
+status=0; wait "$sbatch_pid" || status=$?
+report_id || true
 trap - INT TERM HUP
-echo "study_slurm: report: job ${report_job%%;*}, when every shard has ended well: $shown_out/REPORT.md"
+if [[ -z "$report_job" ]]; then
+  echo "study_slurm: sbatch refused the report job; the shards' job $array runs without it (scancel $array, or submit the report: ${report[*]})" >&2; exit 1
+elif [[ ${#wait[@]} -eq 0 ]]; then
+  [[ $status -eq 0 ]] || { echo "study_slurm: sbatch submitted the report job $report_job, then exited $status; see squeue -j $report_job" >&2; exit 1; }
+  echo "study_slurm: report: job $report_job, when every shard has ended well: $shown_out/REPORT.md"
+elif [[ $status -eq 0 ]]; then
+  echo "study_slurm: report: job $report_job ended well: $shown_out/REPORT.md"
+else
+  echo "study_slurm: the report job $report_job ended with exit status $status (or never ran: a shard failed); see $shown_out/slurm/report.log and sacct -j $array,$report_job" >&2
+  exit "$status"
+fi

@@ -8,7 +8,9 @@ another, round after round (--rounds), so a change of load hits them alike.
 Each run's figure is the median physics_ms of its frames from --skip on; a
 configuration's is the median over its rounds. One CSV row per run, then the
 ratio of each configuration to the first, on the terminal and in the CSV's
-'#' lines; the load is recorded before and after.
+'#' lines (each on one line: a newline or other control character in a binary's
+name, an option or a run's machine text is written escaped); the load is
+recorded before and after.
 
   scripts/thread_scaling.py --out docs/results/thread_scaling.csv \\
       --config "t1=build/overlap:--threads 1" --config "t2=build/overlap:--threads 2"
@@ -138,7 +140,10 @@ def main() -> None:
     writer = csv.DictWriter(table, fieldnames=["round", "config", "physics_ms"])
     writer.writeheader()
     writer.writerows(rows)
-    write_atomically(args.out, "\n".join(lines) + "\n" + table.getvalue())
+    # Each '#' line on one line, whatever a name, an option or a run's machine text holds
+    # (a newline would end the comment, its rest read as the CSV's header).
+    write_atomically(args.out, "".join(f"{one_line(line)}\n" for line in lines) +
+                     table.getvalue())
     print(f"load {load_before:.2f} -> {load_after:.2f}; " + "; ".join(summary))
     print(f"wrote {args.out}")
 

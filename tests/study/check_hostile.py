@@ -48,6 +48,15 @@ study.CASE, tests/study/CMakeLists.txt):
                                   main()'s exit status, never a death by that signal
   oversized_plan_refused_quickly  a list of 20000 values, a plan of 2 million jobs: refused
                                   in one line before the plan is made, in a small address space
+  unpack_keeps_a_study_run_into_its_folder   a study run into an unpack makes it a study's:
+                                  the next --from-archive refuses it, the runs kept
+  archive_members_of_the_kind_the_study_writes_over_refused   a commands.txt, REPORT.md,
+                                  lock or marker folder, a report file: exit 2, --out kept
+  unpack_stop_after_the_swap_is_no_stop   nothing runs once --out is the new unpack (its
+                                  commands.txt came with it); a stop then is no stop
+  study_finishes_in_an_out_of_any_bytes   an --out with a tab, a newline, a non-UTF-8 byte
+  archive_csv_not_finite_refused  NaN/infinity in the latency and pairs CSVs: exit 2
+  archive_frames_bounded_by_the_runs_frames   a frames.csv past its run's frames: exit 2
 
 Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
 """
@@ -743,6 +752,11 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
              ["study_invocations.json", "beyond a double"]),
             ("frames_minus_inf", first_cell("-Infinity"), [f"study/{run}/frames.csv",
                                                           "'-Infinity' is no"]),
+            # float() takes PEP 515's underscores: an infinity without a hint of one.
+            ("frames_underscore_exponent", first_cell("1e9_9_9"),
+             [f"study/{run}/frames.csv", "'1e9_9_9' is no number a study writes"]),
+            ("frames_underscore_digits", first_cell("9_" * 400 + "9"),
+             [f"study/{run}/frames.csv", "is no number a study writes"]),
             ("load_negative", log(lambda d: d[0].update(load_average_at_start=-5)),
              ["study_invocations.json[0].load_average_at_start: -5 is negative"]),
             ("seconds_negative", log(lambda d: d[0].update(seconds=-1)),
@@ -755,6 +769,203 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
         result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
         one_line_refusal(result, f"--from-archive {tar}", *words)
         check(snapshot(out) == before, f"{name}: --out was touched:\n{result.stderr}")
+        check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+
+
+def case_unpack_keeps_a_study_run_into_its_folder(args) -> None:
+    """A study that runs into an unpack (more --objects beside the archive's runs) makes it
+    a study's folder: the next --from-archive into it is refused (one line, exit 2) and the
+    runs, their log entry and the report stay; so is an unpack whose log changed since it
+    was made while its marker stayed (a study of an older script ran into it)."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    tar = archive_of(runs, work / "a.tar.xz", lambda f: None)
+    for name in ("ran_into", "log_changed"):
+        out = work / name
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        check(result.returncode == 0 and (out / MARKER).is_file(),
+              f"{name}: the unpack: exit {result.returncode}:\n{result.stderr}")
+        if name == "ran_into":
+            more = study("--overlap", args.overlap, "--emulation", work / "none", *NO_RUNS,
+                         "--objects", "40,60", "--out", out)
+            check(more.returncode == 0 and (out / "sweep" / "s1_n60_bf_r0").is_dir(),
+                  f"the study into the unpack: exit {more.returncode}:\n{more.stderr}")
+        else:
+            edit_json(out / "study_invocations.json", lambda d: d.append(d[0]))
+        before = snapshot(out)
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        one_line_refusal(result, f"--out {out}")
+        check(snapshot(out) == before, f"{name}: the second unpack changed --out")
+        check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+
+
+def case_archive_members_of_the_kind_the_study_writes_over_refused(args) -> None:
+    """An archive whose commands.txt, REPORT.md, .study.lock or .study-archive is a folder,
+    whose report is a file or holds a folder: one line naming the archive and the member,
+    exit 2, before --out is touched (never --out replaced and then a failure, never a
+    scratch path named, never exit 1)."""
+    work = args.out
+    out = work / "out"
+    earlier_unpack(out, b"old", files=2)
+    before = snapshot(out)
+
+    def folder(name):
+        return lambda tar: add(tar, f"./study/{name}", type=tarfile.DIRTYPE, mode=0o755)
+    for name, extra, words in [
+            ("commands_folder", [folder("commands.txt")], "study/commands.txt is a folder"),
+            ("report_md_folder", [folder("REPORT.md")], "study/REPORT.md is a folder"),
+            ("lock_folder", [folder(".study.lock")], "study/.study.lock is a folder"),
+            ("marker_folder", [folder(MARKER)], f"study/{MARKER} is a folder"),
+            ("report_file", [lambda tar: add(tar, "./study/report", b"x")],
+             "study/report is a file"),
+            ("report_inner_folder", [folder("report"), folder("report/sweep.csv")],
+             "study/report/sweep.csv is a folder")]:
+        tar = archive(work / f"{name}.tar.xz", {}, extra=extra)
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        one_line_refusal(result, f"--from-archive {tar}: {words}")
+        check(snapshot(out) == before, f"{name}: --out changed")
+        check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+
+
+def case_unpack_stop_after_the_swap_is_no_stop(args) -> None:
+    """Once --out is the new unpack nothing is left to do that a stop could cut short:
+    commands.txt (naming --out's own paths) came with it, no overlap runs after the swap,
+    and a stop from there on is said to come after (exit 0); a stop that is said (143)
+    leaves --out the old unpack.  An --overlap that sleeps when asked its broadphases
+    after the swap holds that moment open, as a slow machine would."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    tar = archive_of(runs, work / "a.tar.xz", lambda f: None)
+    out = work / "out"
+    slowing = work / "slowing"
+    slow = work / "slow_overlap"
+    slow.write_text("#!/bin/sh\n"
+                    f"if [ \"$1\" = --list-algos ] && [ ! -e '{out}/old.txt' ] && "
+                    f"[ -e '{out}/{MARKER}' ]; then touch '{slowing}'; sleep 3; fi\n"
+                    f"exec '{args.overlap}' \"$@\"\n")
+    slow.chmod(0o755)
+    earlier_unpack(out, b"old")
+    (out / "old.txt").write_text("the old unpack\n")
+    process = subprocess.Popen([PYTHON, str(STUDY), "--from-archive", str(tar), "--overlap",
+                                str(slow), "--out", str(out)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while (process.poll() is None and not slowing.exists() and not
+           (not (out / "old.txt").exists() and (out / MARKER).exists())
+           and time.monotonic() < deadline):
+        time.sleep(0.01)
+    if slowing.exists() or process.poll() is None:
+        time.sleep(0.2)
+        process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    new = not (out / "old.txt").exists()
+    check(not slowing.exists(), f"overlap ran after --out was replaced:\n{stderr}")
+    check(process.returncode == 0 or (process.returncode == 128 + signal.SIGTERM and not new),
+          f"exit {process.returncode} with --out {'the new' if new else 'the old'} unpack:\n"
+          f"{stderr}")
+    if new:
+        commands = (out / "commands.txt").read_text()
+        check(f"--out {out}/sweep/" in commands and f"{runs}/" not in commands,
+              f"commands.txt is not --out's own: {commands[:300]!r}")
+
+
+def case_study_finishes_in_an_out_of_any_bytes(args) -> None:
+    """An --out whose name holds a tab, a newline or a byte that is not UTF-8 is one a study
+    finishes in: its runs, its log (this machine's own words, never refused as an
+    archive's) and its report, exit 0, then a second study adds a run there, exit 0."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    for name in (b"tab\tout", b"new\nline", b"byte\xffout"):
+        out = os.fsencode(str(args.out)) + b"/" + name
+        for objects, run in (("40", b"s1_n40_bf_r0"), ("40,60", b"s1_n60_bf_r0")):
+            result = subprocess.run([PYTHON, str(STUDY), "--overlap", args.overlap,
+                                     "--emulation", str(args.out / "none"), *NO_RUNS,
+                                     "--objects", objects, "--out", out], capture_output=True,
+                                    text=True, errors="replace")
+            check(result.returncode == 0 and os.path.isdir(out + b"/sweep/" + run) and
+                  os.path.isfile(out + b"/REPORT.md"), f"--out {name!r} --objects {objects}: "
+                  f"exit {result.returncode}:\n{result.stderr}")
+            check(all(line.startswith(("study", "[")) for line in result.stderr.splitlines()),
+                  f"--out {name!r}: a line broken by the name:\n{result.stderr}")
+
+
+def case_archive_csv_not_finite_refused(args) -> None:
+    """Not only frames.csv: a NaN or an infinity (nan, inf, 1e999) in the latency
+    experiment's CSV or a pairs CSV, which the report reads as numbers too, refuses the
+    archive: one line naming the file, line and column, exit 2, --out as it was."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = work / "runs"
+    made = study("--overlap", args.overlap, "--emulation", work / "none", "--out", runs,
+                 "--runs-only", "--quick", "--threads", "1", "--experiments", "latency,pairs",
+                 "--latency-scenes", "4", "--latency-objects", "40", "--latency-frames", "3",
+                 "--latency-algos", "bvh", "--latency-growths", "1", "--pairs-objects", "40",
+                 "--pairs-frames", "3", "--pairs-algos", "bf,cpusap")
+    check(made.returncode == 0, f"the runs: exit {made.returncode}:\n{made.stderr}")
+    (runs / ".study.lock").unlink(missing_ok=True)
+    out = work / "out"
+    earlier_unpack(out, b"old")
+    before = snapshot(out)
+
+    def last_cell(name, value):
+        def change(f):
+            path = f / name
+            lines = path.read_text().splitlines(keepends=True)
+            lines[1] = lines[1].rstrip("\n").rsplit(",", 1)[0] + f",{value}\n"
+            path.write_text("".join(lines))
+        return change
+    tar = archive_of(runs, work / "good.tar.xz", lambda f: None)
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", work / "good")
+    check(result.returncode == 0, f"the archive as made: exit {result.returncode}:\n{result.stderr}")
+    for name, value, column in [("latency/s4_n40_bvh.csv", "1e999", "late_ms"),
+                                ("latency/s4_n40_bvh.csv", "nan", "late_ms"),
+                                ("pairs/cpusap.csv", "inf", "extra")]:
+        tar = archive_of(runs, work / "bad.tar.xz", last_cell(name, value))
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out)
+        one_line_refusal(result, f"--from-archive {tar}: study/{name}: line 2, {column} "
+                         f"'{value}' is no number")
+        check(snapshot(out) == before, f"{name} {value}: --out changed")
+        check(not scratch_left(work), f"{name} {value}: left {scratch_left(work)}")
+
+
+def case_archive_frames_bounded_by_the_runs_frames(args) -> None:
+    """A frames.csv with more rows than its run's frames (summary.json's parameters.frames:
+    a small archive of one long repeated row, whose report would take gigabytes) or with a
+    row longer than overlap writes: refused in one line, exit 2, in a small address space,
+    --out as it was."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    run = "sweep/s1_n40_bf_r0"
+    out = work / "out"
+    earlier_unpack(out, b"old")
+    before = snapshot(out)
+
+    def grown(f):
+        lines = (f / run / "frames.csv").read_text().splitlines(keepends=True)
+        (f / run / "frames.csv").write_text("".join(lines + [lines[-1]] * 300_000))
+
+    def long_row(f):
+        lines = (f / run / "frames.csv").read_text().splitlines(keepends=True)
+        cells = lines[1].split(",")
+        cells[1] = "0." + "0" * 5000 + "1"
+        (f / run / "frames.csv").write_text("".join(lines[:1] + [",".join(cells)] + lines[2:]))
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_AS, (1536 << 20, 1536 << 20))
+    for name, change, words in [("grown", grown, "more than its run's 2 frames"),
+                                ("long_row", long_row, "line 2 is longer than a row")]:
+        tar = archive_of(runs, work / f"{name}.tar.xz", change)
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out,
+                       preexec_fn=limited)
+        one_line_refusal(result, f"--from-archive {tar}: study/{run}/frames.csv: {words}")
+        check(snapshot(out) == before, f"{name}: --out changed")
         check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
 
 

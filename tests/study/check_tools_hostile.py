@@ -1,0 +1,415 @@
+"""The study's tool scripts against hostile input (probe48s): study_slurm.sh (a faked
+Slurm), gpu_check.sh --dry-run (a scratch checkout whose build-emulation/ is this
+build), thread_scaling.py and plot_run.py.  One behaviour per --case (each a ctest test
+study.CASE, tests/study/CMakeLists.txt):
+
+  slurm_stop_keeps_a_folder_filled_meanwhile   a stop of study_slurm.sh during its check
+                                  removes no --out that another submission or a study
+                                  made or filled meanwhile (it made none itself)
+  slurm_wait_gives_the_report_jobs_status   --wait: the report job's own exit status, a
+                                  failed job named as one that ran, not as refused
+  slurm_stop_while_waiting_cancels_nothing   a stop while --wait waits: at once, 143,
+                                  both jobs named as going on, nothing cancelled
+  slurm_missing_option_value_one_line   a missing or empty option value: one line of
+                                  the script's own, exit 2, nothing made
+  gpu_resume_archive_checked_before_unpacking   gpu_check.sh --study: a resume archive
+                                  with a link, an absolute or '..' name is refused (exit
+                                  2, one line) before an earlier run is touched, nothing
+                                  written outside OUT; a good one is unpacked
+  gpu_check_environment_numbers_checked_first   DEADLINE_S, STUDY_SHARDS, CTEST_JOBS
+                                  not plain digits: exit 2, one line, the earlier run kept
+  thread_scaling_provenance_stays_comments   a binary whose name holds a newline: the
+                                  CSV read back has its own header and every '#' line
+  plot_run_refuses_numbers_no_run_writes   inf, nan, 1e999, a negative in frames.csv:
+                                  exit 2, one line naming file, line and column, no PNG
+  plot_run_refuses_a_frame_time_no_run_has   summary.json's frame_time NaN, infinite,
+                                  negative, zero or a string: exit 2, one line, no PNG
+
+--scripts FOLDER runs the cases against another copy of scripts/ (an old version, to see
+a case fail).  Exit 77 (ctest's skip) when a case needs what this machine lacks.
+"""
+import argparse
+import importlib.util
+import io
+import json
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import tarfile
+import time
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from check_hostile import NO_RUNS, PYTHON, REPO, add, archive, check, fake_sbatch  # noqa: E402
+
+SCRIPTS = REPO / "scripts"
+
+
+def skip(reason: str) -> None:
+    print(f"skipped: {reason}")
+    sys.exit(77)
+
+
+def one_line_exit(result, code: int, *words, prefix: str = "") -> None:
+    """Exit `code` and one line (of those starting with `prefix`: the study's own check
+    says what it checked) holding each of `words`."""
+    stderr = result.stderr if isinstance(result.stderr, str) else result.stderr.decode()
+    check(result.returncode == code, f"exit {result.returncode}, expected {code}:\n{stderr}")
+    said = [line for line in stderr.splitlines() if line.startswith(prefix)]
+    check(len(said) == 1 and "Traceback" not in stderr, f"not one line:\n{stderr}")
+    for word in words:
+        check(word in stderr, f"{word!r} not in {stderr!r}")
+
+
+# --- study_slurm.sh against a faked Slurm ---------------------------------------------
+
+def fake_slurm(work: pathlib.Path) -> tuple:
+    """sbatch records its argv (calls/callN), prints job 4242+N; with --wait it sleeps
+    FAKE_WAIT_S (1) and exits FAKE_WAIT_RC (0), the job's status as sbatch(1) says.
+    scancel appends its argv to scancel.log."""
+    calls = work / "calls"
+    calls.mkdir()
+    env = fake_sbatch(work, f"n=$(ls '{calls}' | wc -l)\nprintf '%s\\n' \"$@\" > '{calls}'/call$n\n"
+                      "echo $((4242 + n))\n"
+                      "for a; do [ \"$a\" = --wait ] && { trap 'kill $!; exit 143' TERM; "
+                      "sleep \"${FAKE_WAIT_S:-1}\" & wait $!; "
+                      "exit \"${FAKE_WAIT_RC:-0}\"; }; done\nexit 0")
+    scancel = work / "bin" / "scancel"
+    scancel.write_text(f"#!/bin/sh\necho \"$@\" >> '{work}/scancel.log'\n")
+    scancel.chmod(0o755)
+    return env, calls
+
+
+def slurm_command(args, out, *more) -> list:
+    return [str(args.scripts / "study_slurm.sh"), "--out", str(out), "--shards", "2",
+            "--profile", "quick", *more, "--", "--overlap", args.overlap, *NO_RUNS[1:]]
+
+
+def case_slurm_stop_keeps_a_folder_filled_meanwhile(args) -> None:
+    """--out absent at study_slurm.sh's start; while its check runs (a slow PYTHON),
+    another submission and its shards make and fill it; a SIGTERM then: exit 143, and
+    every file of theirs is still there."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    started = work / "python_started"
+    slow = work / "slowpy"
+    slow.write_text(f"#!/bin/sh\ntouch '{started}'\nsleep 3\nexec {PYTHON} \"$@\"\n")
+    slow.chmod(0o755)
+    out = work / "shared"
+    process = subprocess.Popen(slurm_command(args, out), stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True, env={**env, "PYTHON": str(slow)})
+    deadline = time.monotonic() + 60
+    while not started.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    # What another submission and its first shard leave there meanwhile.
+    (out / "slurm").mkdir(parents=True)
+    (out / ".study.lock").touch()
+    (out / "slurm" / "shard-1.log").write_text("another submission's shard\n")
+    (out / "study_invocations.json").write_text("[]\n")
+    (out / "sweep" / "s1_n40_bf_r0").mkdir(parents=True)
+    (out / "sweep" / "s1_n40_bf_r0" / "summary.json").write_text("{}\n")
+    before = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    check(process.returncode == 128 + signal.SIGTERM and "nothing submitted" in stderr,
+          f"exit {process.returncode}:\n{stderr}")
+    after = sorted(p.relative_to(out).as_posix() for p in out.rglob("*")) if out.exists() else []
+    check(after == before, f"--out filled meanwhile lost {sorted(set(before) - set(after))}")
+    check(not any(calls.iterdir()), "submitted after the stop")
+    # The same, --out made meanwhile but left empty by the other: it is not this script's.
+    shutil.rmtree(out)
+    started.unlink()
+    process = subprocess.Popen(slurm_command(args, out), stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True, env={**env, "PYTHON": str(slow)})
+    while not started.exists() and time.monotonic() < deadline + 60:
+        time.sleep(0.05)
+    out.mkdir()
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    check(process.returncode == 128 + signal.SIGTERM and out.is_dir(),
+          f"an --out made by another removed: exit {process.returncode}:\n{stderr}")
+
+
+def case_slurm_wait_gives_the_report_jobs_status(args) -> None:
+    """study_slurm.sh --wait returns the report job's exit status: 0 when it ended well;
+    a job that ran and failed (sbatch --wait exits with its status, 2 here) is named as
+    the report job that ended with that status, not as a refused submission."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    result = subprocess.run(slurm_command(args, out, "--wait"), capture_output=True, text=True,
+                            env={**env, "FAKE_WAIT_RC": "2"}, timeout=120)
+    one_line_exit(result, 2, "report job 4243", "exit status 2", prefix="study_slurm:")
+    check("refused" not in result.stderr, f"a job that ran, named refused: {result.stderr}")
+    check("4243" in result.stdout, f"the report job's id not said: {result.stdout}")
+    check(not (work / "scancel.log").exists(), "cancelled a job")
+    shutil.rmtree(calls)
+    calls.mkdir()
+    result = subprocess.run(slurm_command(args, out, "--wait"), capture_output=True, text=True,
+                            env=env, timeout=120)
+    check(result.returncode == 0 and "study_slurm" not in result.stderr and
+          "4243" in result.stdout,
+          f"a report that ended well: exit {result.returncode}:\n{result.stderr}")
+    # A refusal by sbatch (no job id) is still named as one, exit 1.
+    (work / "bin" / "sbatch").write_text(
+        f"#!/bin/sh\nn=$(ls '{calls}' | wc -l)\ntouch '{calls}'/call$n\n"
+        "[ $n = 0 ] && { echo 4242; exit 0; }\necho 'sbatch: error: refused' >&2; exit 1\n")
+    shutil.rmtree(calls)
+    calls.mkdir()
+    result = subprocess.run(slurm_command(args, out, "--wait"), capture_output=True, text=True,
+                            env=env, timeout=120)
+    check(result.returncode == 1 and "sbatch refused the report job" in result.stderr,
+          f"a refused report job: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_slurm_stop_while_waiting_cancels_nothing(args) -> None:
+    """A SIGTERM to study_slurm.sh (not its group) while --wait waits for the report job:
+    handled at once (not when the job ends), exit 143, one line naming both jobs as
+    submitted and going on; scancel never runs."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    said = work / "stderr"
+    with open(said, "w") as stderr_file:  # a file: a fake's orphaned sleep holds no pipe
+        process = subprocess.Popen(slurm_command(args, work / "st", "--wait"),
+                                   stdout=subprocess.DEVNULL, stderr=stderr_file,
+                                   env={**env, "FAKE_WAIT_S": "30"})
+    deadline = time.monotonic() + 90
+    while not (calls / "call1").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1)
+    sent = time.monotonic()
+    process.send_signal(signal.SIGTERM)
+    process.wait(timeout=60)
+    took = time.monotonic() - sent
+    stderr = said.read_text()
+    lines = [line for line in stderr.splitlines() if line.startswith("study_slurm:")]
+    check(process.returncode == 128 + signal.SIGTERM and len(lines) == 1 and
+          "4242" in lines[0] and "4243" in lines[0] and "go on" in lines[0],
+          f"exit {process.returncode}:\n{stderr}")
+    check(took < 10, f"the stop was handled {took:.0f} s after the signal")
+    check(not (work / "scancel.log").exists(),
+          f"cancelled: {(work / 'scancel.log').read_text() if (work / 'scancel.log').exists() else ''}")
+
+
+def case_slurm_missing_option_value_one_line(args) -> None:
+    """An option of study_slurm.sh with its value missing or empty: one line of the
+    script's own naming the option (not bash's 'line N: ...'), exit 2, nothing made or
+    submitted."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    slurm = str(args.scripts / "study_slurm.sh")
+    out = str(work / "sl")
+    for words, named in [(["--out", "", "--shards", "2"], "--out needs a folder"),
+                         (["--shards", "2", "--out"], "--out needs a folder"),
+                         (["--out", out, "--shards", ""], "--shards needs a count"),
+                         (["--out", out, "--shards"], "--shards needs a count"),
+                         (["--out", out, "--shards", "2", "--profile", ""], "--profile needs"),
+                         (["--out", out, "--shards", "2", "--profile"], "--profile needs"),
+                         (["--out", out, "--shards", "2", "--sbatch"], "--sbatch needs")]:
+        result = subprocess.run([slurm, *words], capture_output=True, text=True, env=env,
+                                timeout=60)
+        check(result.stderr.startswith("study_slurm: "), f"{words}: {result.stderr!r}")
+        one_line_exit(result, 2, named)
+        check(not any(calls.iterdir()) and not os.path.lexists(out), f"{words}: went on")
+
+
+# --- gpu_check.sh --dry-run in a scratch checkout ---------------------------------------
+
+def scratch_checkout(args) -> pathlib.Path:
+    """WORK/root: a copy of the scripts, build-emulation/ this build's folder."""
+    root = args.out / "root"
+    shutil.copytree(args.scripts, root / "scripts", symlinks=True)
+    (root / "build-emulation").symlink_to(pathlib.Path(args.overlap).parent)
+    listed = subprocess.run([args.overlap, "--list-algos", "--json"], capture_output=True)
+    if listed.returncode != 0:
+        skip(f"{args.overlap} --list-algos --json fails: gpu_check.sh --dry-run cannot run")
+    (root / ".gpu-carry").mkdir()
+    return root
+
+
+def gpu_check(root: pathlib.Path, *words, **env) -> subprocess.CompletedProcess:
+    return subprocess.run(["bash", str(root / "scripts" / "gpu_check.sh"), *words],
+                          capture_output=True, text=True, cwd=root, timeout=200,
+                          env={**os.environ, **env})
+
+
+def case_gpu_resume_archive_checked_before_unpacking(args) -> None:
+    """gpu_check.sh --study --dry-run with a .gpu-carry/resume.tar.xz whose ./study holds
+    a link out (to a folder of a user's), an absolute or a '..' name: exit 2, one line
+    naming the resume archive, the folder outside OUT as it was, the earlier run in OUT
+    kept, no scratch left; a good resume archive's ./study is unpacked as the study's."""
+    root = scratch_checkout(args)
+    victim = args.out / "victim"
+    victim.mkdir()
+    (victim / "mine.txt").write_text("a user's file\n")
+    resume = root / ".gpu-carry" / "resume.tar.xz"
+    out = args.out / "gc"
+
+    def link_out(tar):
+        add(tar, "./study/sweep", type=tarfile.SYMTYPE, linkname=str(victim))
+
+    def absolute(tar):
+        add(tar, str(victim / "planted.txt"), b"planted\n")
+
+    def dotdot(tar):
+        add(tar, "./study/../../victim/planted.txt", b"planted\n")
+
+    for name, adding in [("a link out", link_out), ("an absolute name", absolute),
+                         ("a '..' name", dotdot)]:
+        shutil.rmtree(out, ignore_errors=True)
+        (out / "gpu-study").mkdir(parents=True)
+        (out / "gpu-study" / "earlier.txt").write_text("an earlier run's\n")
+        (out / "gpu_study_summary.txt").write_text("an earlier run's summary\n")
+        archive(resume, {}, extra=[adding])
+        result = gpu_check(root, "--study", "--dry-run", "--only", "study", OUT=str(out),
+                           STUDY_SHARDS="1")
+        one_line_exit(result, 2, ".gpu-carry/resume.tar.xz")
+        check(sorted(p.name for p in victim.iterdir()) == ["mine.txt"],
+              f"{name}: wrote outside OUT: {sorted(p.name for p in victim.iterdir())}")
+        check((out / "gpu-study" / "earlier.txt").is_file() and
+              (out / "gpu_study_summary.txt").is_file(), f"{name}: the earlier run touched")
+        check(sorted(p.name for p in out.iterdir()) == ["gpu-study", "gpu_study_summary.txt"],
+              f"{name}: left {sorted(p.name for p in out.iterdir())}")
+    archive(resume, {"resumed.txt": b"an earlier loan's\n"})
+    result = gpu_check(root, "--study", "--dry-run", "--only", "info", OUT=str(out))
+    check(result.returncode == 0, f"a good resume archive: exit {result.returncode}:\n"
+          f"{result.stderr}")
+    check((out / "gpu-study" / "study" / "resumed.txt").is_file(),
+          "a good resume archive's ./study is not the study's")
+    check(not list(out.glob(".gpu-resume-*")), "a scratch folder left in OUT")
+
+
+def case_gpu_check_environment_numbers_checked_first(args) -> None:
+    """gpu_check.sh --dry-run with DEADLINE_S, STUDY_SHARDS or CTEST_JOBS not plain digits
+    (a unit, a word, a sign, a leading 0 bash reads as octal): exit 2, one line naming
+    the variable, before the earlier run's files are touched."""
+    root = scratch_checkout(args)
+    out = args.out / "gc"
+    result = gpu_check(root, "--dry-run", "--only", "info", OUT=str(out))
+    check(result.returncode == 0, f"the earlier run: exit {result.returncode}:\n{result.stderr}")
+    earlier = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    for name, value in [("DEADLINE_S", "10m"), ("DEADLINE_S", "abc"), ("DEADLINE_S", "-5"),
+                        ("DEADLINE_S", "010"), ("DEADLINE_S", "1 + 1"),
+                        ("STUDY_SHARDS", "x"), ("STUDY_SHARDS", "0"),
+                        ("CTEST_JOBS", "2x"), ("CTEST_JOBS", "0x10")]:
+        for part in ([], ["--study"]):
+            result = gpu_check(root, "--dry-run", *part, "--only", "info", OUT=str(out),
+                               **{name: value})
+            one_line_exit(result, 2, f"{name}=")
+            now = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+            check(now == earlier, f"{name}={value}: the earlier run's files changed: "
+                  f"{sorted(set(earlier) ^ set(now))}")
+
+
+# --- thread_scaling.py and plot_run.py --------------------------------------------------
+
+def case_thread_scaling_provenance_stays_comments(args) -> None:
+    """thread_scaling.py with a --config binary whose name holds a newline (and a CSV
+    header after it): the CSV read back has its own header and rows, and every line
+    before the header is a '#' line (the medians among them)."""
+    sys.path.insert(0, str(args.scripts))
+    from results_files import provenance, read_csv
+    odd = args.out / "ov\nround,config,physics_ms"
+    odd.symlink_to(args.overlap)
+    csv_path = args.out / "ts.csv"
+    result = subprocess.run(
+        [PYTHON, str(args.scripts / "thread_scaling.py"), "--out", str(csv_path), "--rounds",
+         "1", "--skip", "0", "--common",
+         "--scene 1 --objects 40 --frames 3 --no-tasks --algo bf --threads 1",
+         "--config", f"t1={odd}"], capture_output=True, text=True, timeout=120)
+    check(result.returncode == 0, f"exit {result.returncode}:\n{result.stderr}")
+    rows = read_csv(csv_path)
+    check([row["config"] for row in rows] == ["t1"], f"the rows read back: {rows}")
+    lines = csv_path.read_text().splitlines()
+    header = lines.index("round,config,physics_ms")
+    check(all(line.startswith("#") for line in lines[:header]), f"not '#': {lines[:header]}")
+    check("medians" in provenance(csv_path) and "configs" in provenance(csv_path),
+          f"provenance lost: {provenance(csv_path)}")
+
+
+def a_run(args) -> pathlib.Path:
+    if importlib.util.find_spec("matplotlib") is None:
+        skip(f"{PYTHON} has no matplotlib (plot_run.py draws with it)")
+    run = args.out / "run"
+    subprocess.run([args.overlap, "run", "--scene", "1", "--objects", "40", "--frames", "3",
+                    "--algo", "bf", "--threads", "1", "--capture-every", "0", "--no-wav",
+                    "--out", str(run)], check=True, capture_output=True, timeout=120)
+    return run
+
+
+def plot(args, folder: pathlib.Path) -> subprocess.CompletedProcess:
+    return subprocess.run([PYTHON, str(args.scripts / "plot_run.py"), str(folder)],
+                          capture_output=True, text=True, timeout=120)
+
+
+def case_plot_run_refuses_numbers_no_run_writes(args) -> None:
+    """plot_run.py on a run whose frames.csv holds inf, nan, 1e999 or a negative in a
+    column it draws (total_ms, physics_ms, a stage): exit 2, one line naming frames.csv,
+    the line and the column, no run.png and no temporary."""
+    run = a_run(args)
+    header = (run / "frames.csv").read_text().splitlines()[0].split(",")
+    for column in ("total_ms", "physics_ms", "update_ms"):
+        for value in ("inf", "nan", "1e999", "-inf", "-1"):
+            folder = args.out / "bad"
+            shutil.rmtree(folder, ignore_errors=True)
+            shutil.copytree(run, folder)
+            lines = (folder / "frames.csv").read_text().splitlines()
+            cells = lines[1].split(",")
+            cells[header.index(column)] = value
+            lines[1] = ",".join(cells)
+            (folder / "frames.csv").write_text("\n".join(lines) + "\n")
+            result = plot(args, folder)
+            one_line_exit(result, 2, "frames.csv", "line 2", column)
+            check(sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in run.iterdir()),
+                  f"{column}={value}: wrote {sorted(p.name for p in folder.iterdir())}")
+    result = plot(args, run)
+    check(result.returncode == 0 and (run / "run.png").is_file(),
+          f"a good run: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_plot_run_refuses_a_frame_time_no_run_has(args) -> None:
+    """plot_run.py on a run whose summary.json's frame_time is NaN, an infinity (1e999),
+    negative, zero or a string: exit 2, one line naming summary.json and frame_time, no
+    run.png; a summary.json without one draws with the default 1/30 s."""
+    run = a_run(args)
+    for value in ("NaN", "Infinity", "1e999", "-5", "0", '"0.03"'):
+        folder = args.out / "bad"
+        shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(run, folder)
+        summary = json.loads((folder / "summary.json").read_text())
+        summary["parameters"]["frame_time"] = "@VALUE@"
+        (folder / "summary.json").write_text(json.dumps(summary).replace('"@VALUE@"', value))
+        result = plot(args, folder)
+        one_line_exit(result, 2, "summary.json", "frame_time")
+        check(not (folder / "run.png").exists(), f"frame_time {value}: drawn")
+    summary = json.loads((folder / "summary.json").read_text(), parse_constant=str)
+    del summary["parameters"]["frame_time"]
+    (folder / "summary.json").write_text(json.dumps(summary))
+    result = plot(args, folder)
+    check(result.returncode == 0 and (folder / "run.png").is_file(),
+          f"no frame_time: exit {result.returncode}:\n{result.stderr}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(allow_abbrev=False)
+    parser.add_argument("--overlap", required=True)
+    parser.add_argument("--out", type=pathlib.Path, required=True)
+    parser.add_argument("--scripts", type=pathlib.Path, default=SCRIPTS,
+                        help="the scripts folder to test (default: this checkout's)")
+    parser.add_argument("--case", required=True,
+                        choices=[n[len("case_"):] for n in globals() if n.startswith("case_")])
+    args = parser.parse_args()
+    args.overlap = str(pathlib.Path(args.overlap).resolve())
+    args.scripts = args.scripts.resolve()
+    shutil.rmtree(args.out, ignore_errors=True)
+    args.out.mkdir(parents=True)
+    args.out = args.out.resolve()
+    globals()["case_" + args.case](args)
+    print(f"study.{args.case}: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
