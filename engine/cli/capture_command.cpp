@@ -47,6 +47,7 @@ void capture(const CaptureOptions& options) {
   std::sort(keyframes.begin(), keyframes.end());
   prepareOutputDirectory(options.out, "--out");
   OutputFolder outputs(options.out, "capture");
+  outputs.takeOlderListsWhen([](const std::string& entry) { return isKeyframeName(entry); });
   for (const int frame : keyframes) {
     declareOutput(outputs, options.out / pngName(config.scene, frame), "--out");
   }

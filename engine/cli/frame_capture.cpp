@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <regex>
 #include <vector>
 
 #include "engine/program/usage_error.h"
@@ -29,6 +30,11 @@ int renderSizeClass(physics::SizeClass size_class) {
 FrameCapture::FrameCapture(OutputFolder& outputs, const std::filesystem::path& folder, int width,
                            int height, render::ColourMode mode)
     : outputs_(outputs), folder_(folder), renderer_(width, height, mode) {}
+
+bool isKeyframeName(const std::string& name) {
+  static const std::regex keyframe(R"(scene[0-9]+_frame[0-9]{4,}\.png)");
+  return std::regex_match(name, keyframe);
+}
 
 std::string pngName(int scene, int frame) {
   char name[64];

@@ -18,6 +18,11 @@
 
 namespace overlap::engine {
 
+// Whether `name` (relative to a folder) is one a capture writes there: a
+// keyframe's PNG at the top (scene4_frame0512.png), as a run folder's list
+// written before it named its subcommand tells a capture's folder by.
+bool isKeyframeName(const std::string& name);
+
 class FrameCapture {
  public:
   // Throws render::RenderError if no OSMesa context of that size can be made.

@@ -592,7 +592,9 @@ void printRunSummary(const RunPlan& plan, const SteppedRuns& runs) {
 void run(const RunArguments& arguments, const RunOptionHandles& given) {
   RunPlan plan = resolvePlan(arguments, given);
   // Everything goes to temporaries, published together at the end.
-  OutputFolder outputs(plan.out);
+  OutputFolder outputs(plan.out, "run");
+  // A run's list never names a keyframe at the top: that is a capture's folder.
+  outputs.takeOlderListsWhen([](const std::string& entry) { return !isKeyframeName(entry); });
   declareOutputs(outputs, plan);
   // The renderer's process is forked before this one starts a thread
   // (render/renderer_process.h); it opens no output.

@@ -41,16 +41,24 @@ void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
     struct stat info {};
     struct statvfs room {};
     if (::fstat(descriptor, &info) != 0 || !S_ISREG(info.st_mode)) return;
-    if (::fstatvfs(descriptor, &room) != 0) return;
+    // A file system that counts no blocks (a memfd's, /proc) has no room to check.
+    if (::fstatvfs(descriptor, &room) != 0 || room.f_blocks == 0) return;
     available = static_cast<std::uint64_t>(room.f_bavail) * room.f_frsize;
   } else {
     const std::filesystem::file_status status = std::filesystem::status(file, error);
     if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
-    // The folder it goes to, links followed, or the nearest one that exists
-    // (made by the run).
-    const std::filesystem::path folder = nearestExisting(
-        std::filesystem::weakly_canonical(std::filesystem::absolute(file, error), error)
-            .parent_path());
+    // The folder it goes to, links followed (a link to a file not made yet
+    // included), or the nearest one that exists (made by the run).
+    std::filesystem::path target = std::filesystem::absolute(file, error);
+    for (int hop = 0;
+         hop < 40 && std::filesystem::is_symlink(std::filesystem::symlink_status(target, error));
+         ++hop) {
+      const std::filesystem::path link = std::filesystem::read_symlink(target, error);
+      if (error) break;
+      target = link.is_absolute() ? link : target.parent_path() / link;
+    }
+    const std::filesystem::path folder =
+        nearestExisting(std::filesystem::weakly_canonical(target, error).parent_path());
     const std::filesystem::space_info space = std::filesystem::space(folder, error);
     if (error) return;  // unknown here: a full disk is then reported by the write
     available = space.available;

@@ -2,13 +2,16 @@
 
 #include <time.h>  // clock_gettime, async-signal-safe
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>  // program_invocation_short_name
 #include <chrono>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <mutex>
 #include <string>
+#include <vector>
 
 namespace overlap {
 namespace {
@@ -111,7 +114,29 @@ void waitUntil(const std::function<bool(int timeout_ms)>& ready, const std::stri
   }
 }
 
-int reportInterrupted(const char* program, const Interrupted& stop) {
+namespace {
+
+std::mutex written_through_mutex;
+std::vector<std::string> written_through;  // guarded by written_through_mutex
+
+}  // namespace
+
+void noteWrittenThrough(const std::string& output) {
+  const std::lock_guard lock(written_through_mutex);
+  if (std::find(written_through.begin(), written_through.end(), output) == written_through.end()) {
+    written_through.push_back(output);
+  }
+}
+
+int reportInterrupted(const char* program, const Interrupted& original) {
+  Interrupted stop = original;
+  {
+    const std::lock_guard lock(written_through_mutex);
+    for (const std::string& output : written_through) {
+      if (!stop.already_sent.empty()) stop.already_sent += ", ";
+      stop.already_sent += output + " (written as it went)";
+    }
+  }
   if (stop.already_sent.empty()) {
     std::fprintf(stderr,
                  "%s: stopped by %s; kept nothing of this run: its temporaries are removed and "

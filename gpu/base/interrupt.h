@@ -81,4 +81,9 @@ const char* signalName(int signal_number);
 // sent, if anything) and returns the exit code, 128 + the signal.
 int reportInterrupted(const char* program, const Interrupted& stop);
 
+// Notes that `output` got bytes written as they went (an open descriptor, a
+// FIFO, a device: gpu/base/output_file.h), which a stop cannot take back:
+// reportInterrupted names it among what stays sent.
+void noteWrittenThrough(const std::string& output);
+
 }  // namespace overlap

@@ -51,8 +51,9 @@ fs::path followLinks(fs::path path) {
 constexpr int kNoDescriptor = -1;
 constexpr int kOthersDescriptor = -2;
 
+// Plain decimal digits as the kernel writes a number: no sign, no leading 0.
 bool allDigits(const std::string& text) {
-  return !text.empty() && text.size() <= 9 &&
+  return !text.empty() && text.size() <= 9 && (text.size() == 1 || text[0] != '0') &&
          std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
@@ -97,14 +98,39 @@ std::string descriptorProblem(int fd) {
   }
   const int flags = ::fcntl(fd, F_GETFL);
   if (flags < 0) return "names descriptor " + std::to_string(fd) + ", which is not open";
-  if ((flags & O_ACCMODE) == O_RDONLY) {
-    return "names descriptor " + std::to_string(fd) + ", which is open for reading only";
+  if ((flags & O_ACCMODE) == O_RDONLY || (flags & O_PATH) != 0) {
+    return "names descriptor " + std::to_string(fd) +
+           ", which is not open for writing (closed at the start, a folder, or read-only)";
+  }
+  // The program's messages go to standard error: an output that is the same
+  // file or pipe would have them spliced into it.  A terminal or /dev/null
+  // takes both.
+  struct stat output {};
+  struct stat messages {};
+  if (::fstat(fd, &output) == 0 && ::fstat(STDERR_FILENO, &messages) == 0 &&
+      output.st_dev == messages.st_dev && output.st_ino == messages.st_ino &&
+      !S_ISCHR(output.st_mode)) {
+    return "is also standard error, where the program's messages go: send them elsewhere "
+           "(2>FILE) or name the file itself";
   }
   return "";
 }
 
 fs::path folderOf(const fs::path& file) {
   return file.has_parent_path() ? file.parent_path() : fs::path(".");
+}
+
+// "" unless `file` (`info` its stat) is another user's in a sticky folder
+// not this user's, which the kernel lets no one but root rename over.
+std::string stickyReplaceProblem(const fs::path& file, const struct stat& info) {
+  if (::geteuid() == 0 || info.st_uid == ::geteuid()) return "";
+  struct stat folder {};
+  if (::stat(folderOf(file).c_str(), &folder) != 0 || (folder.st_mode & S_ISVTX) == 0 ||
+      folder.st_uid == ::geteuid()) {
+    return "";
+  }
+  return "is user " + std::to_string(info.st_uid) + "'s file in a sticky folder (" +
+         folderOf(file).string() + "), which this user cannot replace";
 }
 
 // The longest name a folder takes (NAME_MAX where the file system does not say).
@@ -380,6 +406,7 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
     if (!S_ISREG(info.st_mode)) {  // written through
       return ::access(target.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
     }
+    if (std::string problem = stickyReplaceProblem(target, info); !problem.empty()) return problem;
   } else if (errno != ENOENT) {
     return "cannot be reached: " + lastError();  // a symlink loop, a file as a folder
   }
@@ -453,6 +480,7 @@ OutputFile::OutputFile(OutputFile&& other) noexcept
       fd_(other.fd_),
       finished_(other.finished_),
       published_(other.published_),
+      noted_written_through_(other.noted_written_through_),
       created_folders_(std::move(other.created_folders_)) {
   other.fd_ = -1;
   other.temporary_.clear();
@@ -473,6 +501,11 @@ void OutputFile::fail(const std::string& what) const {
 
 void OutputFile::write(std::string_view bytes) {
   if (fd_ < 0) fail("written after it was finished");
+  // What is written through stays written, whatever stops the run.
+  if (writtenThrough() && !noted_written_through_ && !bytes.empty() && path_ != "/dev/null") {
+    noteWrittenThrough(path_.string());
+    noted_written_through_ = true;
+  }
   writeAll(fd_, bytes, path_.string(), [this] { fail("cannot write: " + lastError()); });
 }
 
@@ -696,14 +729,29 @@ std::string OutputFolder::declare(const fs::path& path) {
   if (::lstat(manifest.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
     return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
   }
+  if (::lstat(manifest.c_str(), &info) == 0 && S_ISREG(info.st_mode)) {
+    if (std::string problem = stickyReplaceProblem(manifest, info); !problem.empty()) {
+      return manifest.string() + ", the list of the run folder's outputs, " + problem;
+    }
+  }
   // Another subcommand's outputs are not this run's to replace.
   if (!writer_checked_) {
-    const std::string writer = previousWriter();
-    if (!writer.empty() && writer != writer_) {
-      return "its folder " + folder_.string() + " holds the outputs of `overlap " + writer +
-             "` (listed in " + kManifestName + "), which this " + writer_ +
-             " would remove: choose another folder";
+    std::string writer = previousWriter();
+    if (writer.empty() && older_list_is_mine_) {
+      for (const std::string& entry : previousOutputs()) {
+        if (!older_list_is_mine_(entry)) {
+          writer = "another subcommand";
+          break;
+        }
+      }
     }
+    if (!writer.empty() && writer != writer_) {
+      const std::string whose =
+          writer == "another subcommand" ? "another subcommand" : "`overlap " + writer + "`";
+      return "its folder " + folder_.string() + " holds the outputs of " + whose + " (listed in " +
+             kManifestName + "), which this " + writer_ + " would remove: choose another folder";
+    }
+    if (std::string problem = enclosingRunProblem(); !problem.empty()) return problem;
     writer_checked_ = true;
   }
   // Links first: the checks below try the folder by making a file there.
@@ -793,11 +841,15 @@ bool removeInside(int folder, const fs::path& relative) {
 
 }  // namespace
 
-std::string OutputFolder::manifestText() const {
-  const FolderHandle folder(folder_);
+namespace {
+
+// The list of outputs in `folder`, read without following a link ("" for none).
+std::string manifestTextIn(const fs::path& folder_path) {
+  const FolderHandle folder(folder_path);
   if (folder.fd < 0) return "";
   // Never through a link: a manifest someone linked elsewhere lists nothing.
-  const int fd = ::openat(folder.fd, kManifestName, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  const int fd = ::openat(folder.fd, OutputFolder::kManifestName,
+                          O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) return "";
   std::string text;
   struct stat info {};
@@ -808,6 +860,33 @@ std::string OutputFolder::manifestText() const {
   }
   ::close(fd);
   return text;
+}
+
+}  // namespace
+
+std::string OutputFolder::manifestText() const {
+  return manifestTextIn(folder_);
+}
+
+std::string OutputFolder::enclosingRunProblem() const {
+  const fs::path folder = folder_identity_;
+  if (!folder.is_absolute()) return "";
+  for (fs::path above = folder.parent_path(); above.has_relative_path();
+       above = above.parent_path()) {
+    std::istringstream manifest(manifestTextIn(above));
+    std::string line;
+    if (!std::getline(manifest, line) || line != kManifestHeader) continue;
+    const std::string inside = folder.lexically_relative(above).string() + "/";
+    while (std::getline(manifest, line)) {
+      const std::optional<std::string> entry = unescapeManifestEntry(line);
+      if (entry && entry->starts_with(inside)) {
+        return "its folder " + folder_.string() + " holds outputs of the run folder " +
+               above.string() + " (" + *entry + "), which this " + writer_ +
+               " would replace: choose another folder";
+      }
+    }
+  }
+  return "";
 }
 
 std::string OutputFolder::previousWriter() const {

@@ -65,6 +65,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -157,6 +158,7 @@ class OutputFile {
   int fd_ = -1;
   bool finished_ = false;
   bool published_ = false;
+  bool noted_written_through_ = false;  // noteWrittenThrough() told of its first bytes
   std::vector<std::filesystem::path> created_folders_;  // made for it, removed unless published
 };
 
@@ -184,6 +186,12 @@ class OutputFolder {
   // reader skips as no name), and declare() refuses a folder whose manifest
   // names another: each would remove the other's outputs.
   explicit OutputFolder(std::filesystem::path folder, std::string writer = "run");
+  // A list written before the writer line is taken only when `mine` says
+  // every entry is one this subcommand writes (a capture's keyframes, a
+  // run's files); declare() refuses it otherwise.  Unset: any such list.
+  void takeOlderListsWhen(std::function<bool(const std::string& entry)> mine) {
+    older_list_is_mine_ = std::move(mine);
+  }
   ~OutputFolder();  // what was never published leaves nothing, folders made for it included
   OutputFolder(const OutputFolder&) = delete;
   OutputFolder& operator=(const OutputFolder&) = delete;
@@ -215,11 +223,15 @@ class OutputFolder {
   std::string previousWriter() const;
   // The manifest's text, read without following a link ("" for none).
   std::string manifestText() const;
+  // Why the folder is no folder of its own, or "": a folder above it whose
+  // list names files in it (a run's frames/), which this run would replace.
+  std::string enclosingRunProblem() const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;
   std::string writer_;
   bool writer_checked_ = false;  // declare() compared the manifest's writer once
+  std::function<bool(const std::string&)> older_list_is_mine_;
   std::string folder_identity_;
   std::vector<std::unique_ptr<OutputFile>> files_;
   std::vector<std::string> listed_;  // files_[i]'s manifest entry; empty: outside the folder

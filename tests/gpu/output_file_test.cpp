@@ -256,7 +256,7 @@ TEST_F(OutputFileTest, AnOpenDescriptorNamedThroughItsLinksIsWrittenToItself) {
   const int reading = ::open(log.c_str(), O_RDONLY | O_CLOEXEC);
   ASSERT_GE(reading, 0);
   const fs::path name = "/dev/fd/" + std::to_string(reading);
-  EXPECT_NE(outputFileProblem(name).find("open for reading only"), std::string::npos);
+  EXPECT_NE(outputFileProblem(name).find("not open for writing"), std::string::npos);
   EXPECT_THROW(OutputFile{name}, OutputError);
   ::close(reading);
   EXPECT_EQ(textOf(log), "earlier\nlater\n");
@@ -314,10 +314,102 @@ TEST_F(OutputFileTest, AFolderOfAnotherSubcommandsOutputsIsRefused) {
   OutputFolder again(folder_, "run");
   EXPECT_EQ(again.declare(folder_ / "frames.csv"), "");
 
+  // A list written before the writer line: taken only when each entry is one
+  // the subcommand writes.
   std::ofstream(folder_ / OutputFolder::kManifestName)
       << OutputFolder::kManifestHeader << "\nframes.csv\n";
+  const auto keyframe = [](const std::string& entry) { return entry.ends_with(".png"); };
   OutputFolder older(folder_, "capture");
-  EXPECT_EQ(older.declare(folder_ / "scene4_frame0000.png"), "");
+  older.takeOlderListsWhen(keyframe);
+  EXPECT_NE(older.declare(folder_ / "scene4_frame0000.png").find("another subcommand"),
+            std::string::npos);
+  OutputFolder older_run(folder_, "run");
+  older_run.takeOlderListsWhen([&](const std::string& entry) { return !keyframe(entry); });
+  EXPECT_EQ(older_run.declare(folder_ / "frames.csv"), "");
+  std::ofstream(folder_ / OutputFolder::kManifestName)
+      << OutputFolder::kManifestHeader << "\nscene4_frame0000.png\n";
+  OutputFolder older_capture(folder_, "capture");
+  older_capture.takeOlderListsWhen(keyframe);
+  EXPECT_EQ(older_capture.declare(folder_ / "scene4_frame0001.png"), "");
+}
+
+// A folder inside a run folder whose list names files in it (a run's
+// frames/) is that run's, not another output folder's.
+TEST_F(OutputFileTest, AFolderHoldingAnotherRunsOutputsIsRefused) {
+  fs::create_directories(folder_ / "frames");
+  {
+    OutputFolder run(folder_, "run");
+    ASSERT_EQ(run.declare(folder_ / "frames" / "scene4_frame0000.png"), "");
+    run.open(folder_ / "frames" / "scene4_frame0000.png").write("png");
+    run.commit();
+  }
+  OutputFolder inside(folder_ / "frames", "capture");
+  const std::string problem = inside.declare(folder_ / "frames" / "scene4_frame0000.png");
+  EXPECT_NE(problem.find("holds outputs of the run folder"), std::string::npos) << problem;
+  fs::create_directories(folder_ / "other");
+  OutputFolder beside(folder_ / "other", "capture");
+  EXPECT_EQ(beside.declare(folder_ / "other" / "scene4_frame0000.png"), "");
+}
+
+// An output that is the program's own standard error would have its
+// messages spliced in: refused; a terminal or /dev/null takes both.
+TEST_F(OutputFileTest, AnOutputThatIsStandardErrorIsRefused) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path file = folder_ / "both.txt";
+  EXPECT_EXIT(
+      {
+        const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        ::dup2(fd, STDERR_FILENO);
+        const bool refused =
+            outputFileProblem("/dev/fd/" + std::to_string(fd)).find("is also standard error") !=
+            std::string::npos;
+        const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+        ::dup2(null, STDERR_FILENO);
+        const bool null_taken = outputFileProblem("/dev/fd/" + std::to_string(null)).empty();
+        std::exit(refused && null_taken ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+// Bytes written through a descriptor stay written: a stop says so rather
+// than that the outputs hold what they held before.
+TEST_F(OutputFileTest, AStopNamesWhatWasWrittenAsItWent) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path log = folder_ / "log.txt";
+  EXPECT_EXIT(
+      {
+        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+        OutputFile out("/dev/fd/" + std::to_string(fd));
+        out.write("part of a stream");
+        std::exit(reportInterrupted("test", Interrupted(SIGTERM, "frame 3")) == 128 + SIGTERM ? 0
+                                                                                              : 1);
+      },
+      ::testing::ExitedWithCode(0),
+      "already sent, and staying sent: /dev/fd/[0-9]+ \\(written as it went\\)");
+}
+
+// Another user's file in a sticky folder (/tmp) cannot be renamed over but by
+// root: refused before any work, not after it.
+TEST_F(OutputFileTest, AnotherUsersFileInAStickyFolderIsRefusedBeforeAnyWork) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to make another user's file";
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path sticky = folder_ / "sticky";
+  fs::create_directory(sticky);
+  ASSERT_EQ(::chmod(sticky.c_str(), 01777), 0);
+  const fs::path theirs = sticky / "theirs.txt";
+  std::ofstream(theirs) << "theirs";
+  ASSERT_EQ(::chmod(theirs.c_str(), 0666), 0);
+  ASSERT_EQ(::chown(theirs.c_str(), 4321, 4321), 0);
+  EXPECT_EXIT(
+      {
+        if (::setgid(1234) != 0 || ::setuid(1234) != 0) std::exit(2);
+        const std::string problem = outputFileProblem(theirs);
+        std::exit(problem.find("sticky folder") != std::string::npos &&
+                          outputFileProblem(sticky / "mine.txt").empty()
+                      ? 0
+                      : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
 }
 
 }  // namespace
