@@ -46,7 +46,7 @@ WavWriter::WavWriter(OutputFile& file, int sample_rate) : file_(file), sample_ra
   if (sample_rate_ <= 0) fail("sample rate " + std::to_string(sample_rate_) + " must be positive");
   // A stream that cannot be patched says "until it ends" (0xFFFFFFFF).
   const std::vector<unsigned char> placeholder =
-      header(sample_rate_, file_.writtenThrough() ? kStreamingDataBytes : 0);
+      header(sample_rate_, file_.rewritable() ? 0 : kStreamingDataBytes);
   file_.write(
       std::string_view(reinterpret_cast<const char*>(placeholder.data()), placeholder.size()));
 }
@@ -75,7 +75,7 @@ void WavWriter::appendStereo(std::span<const float> interleaved) {
 void WavWriter::close() {
   if (closed_) return;
   closed_ = true;
-  if (!file_.writtenThrough()) {
+  if (file_.rewritable()) {
     const std::vector<unsigned char> final_header =
         header(sample_rate_, static_cast<std::uint32_t>(data_bytes_));
     file_.rewrite(0, std::string_view(reinterpret_cast<const char*>(final_header.data()),

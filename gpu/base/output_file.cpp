@@ -430,6 +430,13 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
       }
       fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);  // its offset and append mode shared
       if (fd_ < 0) fail("cannot use descriptor " + std::to_string(descriptor) + ": " + lastError());
+      // A regular file not appended to can be patched where this output began.
+      struct stat opened {};
+      const off_t start = ::lseek(fd_, 0, SEEK_CUR);
+      rewrite_base_ = ::fstat(fd_, &opened) == 0 && S_ISREG(opened.st_mode) &&
+                              (::fcntl(fd_, F_GETFL) & O_APPEND) == 0 && start >= 0
+                          ? start
+                          : -1;
       return;
     }
   }
@@ -441,6 +448,7 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
   if (exists && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
     fd_ = openWrittenThrough(path_, path_);  // the kernel follows what followLinks cannot
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
+    rewrite_base_ = -1;
     return;
   }
   // The checks before any work created no folder: the first output made
@@ -481,6 +489,7 @@ OutputFile::OutputFile(OutputFile&& other) noexcept
       finished_(other.finished_),
       published_(other.published_),
       noted_written_through_(other.noted_written_through_),
+      rewrite_base_(other.rewrite_base_),
       created_folders_(std::move(other.created_folders_)) {
   other.fd_ = -1;
   other.temporary_.clear();
@@ -510,9 +519,10 @@ void OutputFile::write(std::string_view bytes) {
 }
 
 void OutputFile::rewrite(std::uint64_t offset, std::string_view bytes) {
-  if (fd_ < 0 || writtenThrough()) fail("cannot rewrite what is written through or finished");
+  if (fd_ < 0 || !rewritable()) fail("cannot rewrite what is streamed or finished");
   while (!bytes.empty()) {
-    const ssize_t wrote = ::pwrite(fd_, bytes.data(), bytes.size(), static_cast<off_t>(offset));
+    const ssize_t wrote =
+        ::pwrite(fd_, bytes.data(), bytes.size(), static_cast<off_t>(rewrite_base_ + offset));
     if (wrote < 0 && errno == EINTR) continue;
     if (wrote <= 0) fail("cannot write: " + lastError());
     bytes.remove_prefix(static_cast<std::size_t>(wrote));

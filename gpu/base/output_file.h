@@ -130,9 +130,12 @@ class OutputFile {
   OutputFile& operator=(const OutputFile&) = delete;
 
   void write(std::string_view bytes);
-  // Rewrites bytes already written at `offset` (a WAV header's sizes).
-  // Only for an output that is not written through.
+  // Rewrites bytes already written at `offset` from the output's start (a
+  // WAV header's sizes).  Only for a rewritable() output.
   void rewrite(std::uint64_t offset, std::string_view bytes);
+  // True for a temporary, and for a descriptor that is a regular file not
+  // opened for append (its start is where this output began).
+  bool rewritable() const { return rewrite_base_ >= 0; }
   // Flushes and syncs the whole file and closes it, still under its
   // temporary name (nothing more for an output written through).
   void finish();
@@ -145,7 +148,8 @@ class OutputFile {
   void commit();
 
   const std::filesystem::path& path() const { return path_; }
-  // True for a device, FIFO or socket: written in place, nothing to rename.
+  // True for what is written in place (an open descriptor, a device, a
+  // FIFO): nothing to rename.
   bool writtenThrough() const { return temporary_.empty(); }
 
  private:
@@ -159,6 +163,7 @@ class OutputFile {
   bool finished_ = false;
   bool published_ = false;
   bool noted_written_through_ = false;  // noteWrittenThrough() told of its first bytes
+  std::int64_t rewrite_base_ = 0;       // where the output starts in its file; -1: not rewritable
   std::vector<std::filesystem::path> created_folders_;  // made for it, removed unless published
 };
 

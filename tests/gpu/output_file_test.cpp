@@ -262,6 +262,31 @@ TEST_F(OutputFileTest, AnOpenDescriptorNamedThroughItsLinksIsWrittenToItself) {
   EXPECT_EQ(textOf(log), "earlier\nlater\n");
 }
 
+// A descriptor that is a regular file not opened for append is patched
+// where the output began (a WAV's header sizes); one opened for append is
+// streamed.
+TEST_F(OutputFileTest, ADescriptorToAFileIsRewrittenWhereTheOutputBegan) {
+  const fs::path path = folder_ / "f.bin";
+  std::ofstream(path) << "hello";
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::lseek(fd, 0, SEEK_END), 5);
+  {
+    OutputFile out("/dev/fd/" + std::to_string(fd));
+    ASSERT_TRUE(out.rewritable());
+    out.write("abcdef");
+    out.rewrite(0, "XY");
+    out.commit();
+  }
+  ::close(fd);
+  EXPECT_EQ(textOf(path), "helloXYcdef");
+  const int appended = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  OutputFile streamed("/dev/fd/" + std::to_string(appended));
+  EXPECT_FALSE(streamed.rewritable());
+  EXPECT_THROW(streamed.rewrite(0, "Z"), OutputError);
+  ::close(appended);
+}
+
 // A socket cannot be opened as a file: refused before any work, never
 // waited on for a reader that cannot come.
 TEST_F(OutputFileTest, ASocketIsRefusedNotWaitedOn) {
