@@ -215,10 +215,26 @@ void syncFolder(const fs::path& folder) {
 
 // `name` is the output's, for the message of a signal that stops a write
 // blocked on a slow reader.
+// Writes every byte.  A pipe, FIFO or socket is written a pipe buffer at a
+// time, each once poll() says it has room, looking for a stop signal every
+// tenth of a second: a reader that never reads would otherwise block the
+// write for good, and the signal may reach another thread, so no EINTR
+// comes (a blocked write in the sound job kept a run from stopping).
 void writeAll(int fd, std::string_view bytes, const std::string& name,
               const std::function<void()>& on_error) {
+  struct stat info {};
+  const bool may_block =
+      ::fstat(fd, &info) == 0 && (S_ISFIFO(info.st_mode) || S_ISSOCK(info.st_mode));
   while (!bytes.empty()) {
-    const ssize_t wrote = ::write(fd, bytes.data(), bytes.size());
+    std::size_t chunk = bytes.size();
+    if (may_block) {
+      pollfd room{fd, POLLOUT, 0};
+      const int ready = ::poll(&room, 1, 100);
+      stopIfInterrupted("the write to " + name);
+      if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
+      chunk = std::min<std::size_t>(chunk, PIPE_BUF);
+    }
+    const ssize_t wrote = ::write(fd, bytes.data(), chunk);
     if (wrote < 0 && errno == EINTR) {
       stopIfInterrupted("the write to " + name);
       continue;

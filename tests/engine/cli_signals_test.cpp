@@ -145,6 +145,26 @@ TEST_F(SignalsCliTest, AFifoReaderThatLeavesEndsTheRunWithExit1) {
   }
 }
 
+// A FIFO whose reader holds it open but never reads: the WAV's write fills
+// it and blocks in the sound job's thread, which no signal reaches; a stop
+// still ends the run at once with its line (the write looks for it).
+TEST_F(SignalsCliTest, AStopEndsARunBlockedOnAReaderThatNeverReads) {
+  const fs::path wav = fifo("full.fifo");
+  const int held = ::open(wav.c_str(), O_RDWR | O_CLOEXEC);  // a reader that never reads
+  ASSERT_GE(held, 0);
+  Started run("run --objects 20 --frames 100000 --capture-every 0 --wav " + wav.string() +
+                  " --out " + (out_ / "blocked").string(),
+              out_ / "err.txt");
+  ASSERT_TRUE(run.waitFor("default broadphase")) << run.stderrText();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // the FIFO full by now
+  run.signal(SIGTERM);
+  EXPECT_TRUE(exitedWith(run.wait(), 143)) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("stopped by SIGTERM"), std::string::npos) << run.stderrText();
+  EXPECT_NE(run.stderrText().find("(written as it went)"), std::string::npos) << run.stderrText();
+  EXPECT_FALSE(fs::exists(out_ / "blocked"));
+  ::close(held);
+}
+
 // SIGHUP stops a run like SIGTERM; a run clears the temporaries that
 // a killed run of the program left (dead writer), and nothing else: not a
 // live writer's, not a file of another pattern.
