@@ -9,19 +9,24 @@ frame by frame into OUT/run.png, beside the run's other outputs.
   middle  the pairs in the pair cache;
   bottom  the substeps the frame ran.
 
-Bad input (OUT not a run's folder, a frames.csv without a column this
-draws, a value that is not a number, or one no run writes: NaN, an
-infinity, 1e999, a negative or one beyond LARGEST; a summary.json
-frame_time that is not a positive number of seconds up to MAX_FRAME_TIME_S)
-is one line naming it, exit 2, and nothing written; the PNG is written to a temporary beside it and
+Bad input (OUT not a run's folder, a frames.csv or summary.json that is
+not UTF-8 text, a frames.csv without a column this draws, a value that is
+not an ASCII decimal number (as a run writes it: 12, 0.25, 1.5e-05; not
+another script's digits nor 1_000, which float() takes), or one no run
+writes: NaN, an infinity, 1e999, a negative or one beyond LARGEST; a
+summary.json that is not a JSON object, or whose frame_time is not a
+positive number of seconds up to MAX_FRAME_TIME_S) is one line naming the
+file, exit 2, and nothing written; the PNG is written to a temporary beside it and
 renamed into place.  Needs matplotlib (Debian's python3-matplotlib, which
 scripts/setup.sh installs, lives with /usr/bin/python3).
 """
 import csv
+import io
 import json
 import math
 import os
 import pathlib
+import re
 import sys
 import tempfile
 
@@ -35,10 +40,21 @@ COLOURS = {"update_ms": "#2ca02c", "broadphase_ms": "#d62728", "narrowphase_ms":
            "other": "#bbbbbb"}
 LARGEST = 1e15  # any column's value (ms, pairs, substeps): far past any run, far below inf
 MAX_FRAME_TIME_S = 3600.0
+# A number as a run writes it: ASCII digits, a point, an exponent (float() takes more:
+# any script's digits, '_' between digits, spaces around, 'inf' and 'nan').
+NUMBER = re.compile(r"-?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 
 class BadInput(Exception):
     """A problem with OUT, worded for the one line the script prints."""
+
+
+def utf8_text(path: pathlib.Path) -> str:
+    """`path`'s text; BadInput naming it when it is not UTF-8."""
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{path}: not UTF-8 text (byte {error.start})") from None
 
 
 def read_frames(out: pathlib.Path) -> dict:
@@ -48,8 +64,10 @@ def read_frames(out: pathlib.Path) -> dict:
         raise BadInput(f"{out}: not a folder (give the --out folder of an `overlap run`)")
     if not path.is_file():
         raise BadInput(f"{out}: has no frames.csv (give the --out folder of an `overlap run`)")
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
+    try:
+        rows = list(csv.DictReader(io.StringIO(utf8_text(path), newline="")))
+    except csv.Error as error:
+        raise BadInput(f"{path}: not CSV ({error})") from None
     if not rows:
         raise BadInput(f"{path}: no frames")
     missing = [c for c in COLUMNS if c not in rows[0]]
@@ -58,10 +76,10 @@ def read_frames(out: pathlib.Path) -> dict:
     columns = {c: [] for c in COLUMNS}
     for line, row in enumerate(rows, start=2):
         for c in COLUMNS:
-            try:
-                value = float(row[c])
-            except (TypeError, ValueError):
-                raise BadInput(f"{path}, line {line}: {c} is {row[c]!r}, not a number") from None
+            if not isinstance(row[c], str) or not NUMBER.fullmatch(row[c]):
+                raise BadInput(f"{path}, line {line}: {c} is {row[c]!r}, not a number (ASCII "
+                               "decimal, as a run writes it)")
+            value = float(row[c])
             # float() reads nan, inf and 1e999 without a word: no run writes them, and the
             # axes cannot hold them (nor a sum past a double, nor a negative time).
             if not (math.isfinite(value) and 0 <= value <= LARGEST):
@@ -72,13 +90,23 @@ def read_frames(out: pathlib.Path) -> dict:
 
 
 def frame_time_ms(out: pathlib.Path) -> float:
-    """The run's frame time: summary.json's, else (no summary.json, or none in it) the
-    default 1/30 s; one that is there but no positive number of seconds up to
-    MAX_FRAME_TIME_S (NaN, an infinity, 1e999, -5, a string) is BadInput."""
-    try:
-        given = json.loads((out / "summary.json").read_text())["parameters"]["frame_time"]
-    except (OSError, ValueError, KeyError, TypeError):
+    """The run's frame time: summary.json's, else (no summary.json, or no frame_time in
+    its parameters) the default 1/30 s; a summary.json that is not UTF-8, not JSON or not
+    an object (nor its parameters), or a frame_time that is no positive number of seconds
+    up to MAX_FRAME_TIME_S (NaN, an infinity, 1e999, -5, a string) is BadInput."""
+    path = out / "summary.json"
+    if not path.exists():
         return 1000.0 / 30
+    try:
+        summary = json.loads(utf8_text(path))
+    except (ValueError, RecursionError) as error:
+        raise BadInput(f"{path}: not JSON ({str(error)[:80]})") from None
+    parameters = summary.get("parameters", {}) if isinstance(summary, dict) else None
+    if not isinstance(parameters, dict):
+        raise BadInput(f"{path}: not a run's summary (no object of parameters)")
+    if "frame_time" not in parameters:
+        return 1000.0 / 30
+    given = parameters["frame_time"]
     if isinstance(given, bool) or not isinstance(given, (int, float)) or \
             not (math.isfinite(given) and 0 < given <= MAX_FRAME_TIME_S):
         raise BadInput(f"{out / 'summary.json'}: parameters.frame_time is "

@@ -152,6 +152,28 @@ def one_line(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
+def shell_word(word: str) -> str:
+    """`word` as a shown command line holds it (commands.txt, the report's commands): as it
+    is when every character is printable and none a backtick; else in bash's $'...'
+    quoting, a tab, a newline, a backtick, a quote or a byte that is not UTF-8 (a surrogate
+    here) escaped, so the line stays one line, a Markdown code span holds the word whole,
+    and bash reads it back byte for byte (a path a study was given may hold any byte)."""
+    word = str(word)
+    if all(c.isprintable() and c != "`" for c in word):
+        return word
+    shown = []
+    for c in word:
+        if c in "\\'`":
+            shown.append("\\" + c if c != "`" else "\\x60")
+        elif c in "\t\n\r":
+            shown.append({"\t": "\\t", "\n": "\\n", "\r": "\\r"}[c])
+        elif c.isprintable():
+            shown.append(c)
+        else:  # a control character, a surrogate of a byte not UTF-8, U+2028...: its bytes
+            shown.extend(f"\\x{b:02x}" for b in c.encode("utf-8", "surrogateescape"))
+    return "$'" + "".join(shown) + "'"
+
+
 def existing_file(text: str) -> pathlib.Path:
     """argparse type: a regular file that can be read."""
     path = pathlib.Path(text)

@@ -59,7 +59,8 @@ try:  # a memory limit (ulimit -v) can stop the imports: one line and exit 1, no
     import study_profiles
     import study_report
     import study_archive
-    from script_cli import STOPS, BadInput, Parser, Stopped, one_line, run as run_script
+    from script_cli import (STOPS, BadInput, Parser, Stopped, one_line, run as run_script,
+                            shell_word)
     from study_out_folder import (InvocationLog, foreign_folder_problem, locked, read_log,
                                   unmakable_problem, write_atomically)
 
@@ -478,9 +479,11 @@ def archive_options() -> dict:
 
 # A recorded value of a list-like option: names and numbers, never a path or an option.
 RUN_VALUE = re.compile(r"[A-Za-z0-9_.,+-]{0,1000}")
-# What a recorded invocation names that is not the runs': left out without a word.
+# What a recorded invocation names that is not the runs': left out without a word, the
+# value of one that takes a value with it (a path of the machine that ran it: any bytes).
 NOT_THE_RUNS = ("--overlap", "--emulation", "--out", "--shard", "--from-archive", "--notes",
                 "--report-doc", "--runs-only", "--no-runs", "--report", "--check-only")
+NOT_THE_RUNS_FLAGS = ("--runs-only", "--no-runs", "--report", "--check-only")
 
 
 def recorded_options(argv: list) -> list:
@@ -493,9 +496,12 @@ def recorded_options(argv: list) -> list:
         name, has_value, value = word.partition("=")
         kind = allowed.get(name)
         if kind is None:
+            if name in NOT_THE_RUNS and name not in NOT_THE_RUNS_FLAGS and not has_value \
+                    and words:
+                words.popleft()  # its value, whatever it holds: never an option here
             if name in NOT_THE_RUNS or not name.startswith("--"):
                 continue
-            left.append(name)
+            left.append(one_line(name)[:60])
             continue
         if kind is True:
             if has_value:
@@ -574,8 +580,22 @@ def archive_report(combined: list, study: pathlib.Path) -> list:
     return failures
 
 
+def planned_frames(combined: list, study: pathlib.Path) -> dict:
+    """{run folder under `study`: its --frames} for each `overlap run` of the plan the
+    report is made from (the archive's recorded options, then this command's own): what
+    the unpack bounds those runs' files by (study_archive.check_runs)."""
+    args = parse_args(combined)
+    args.out = study
+    broadphases.load(args.overlap)
+    return {job.folder.relative_to(study).as_posix():
+            int(job.options[job.options.index("--frames") + 1])
+            for job in study_plan.plan(args) if isinstance(job, study_plan.RunJob)}
+
+
 def commands_text(jobs: list) -> str:
-    return "".join(" ".join(map(str, c)) + "\n" for job in jobs for c in job.commands())
+    """commands.txt: one command a line, a word with a tab, a newline, a backtick or a
+    byte not UTF-8 (--out may hold any) in bash's $'...' quoting (script_cli.shell_word)."""
+    return "".join(" ".join(map(shell_word, c)) + "\n" for job in jobs for c in job.commands())
 
 
 def options_from_archive(argv: list) -> tuple:
@@ -590,7 +610,8 @@ def options_from_archive(argv: list) -> tuple:
         parse_args(combined)  # a bad combination exits 2 here, --out untouched
         return combined
     try:
-        return study_archive.unpack(args.from_archive, args.out, options_of, archive_report)
+        return study_archive.unpack(args.from_archive, args.out, options_of, archive_report,
+                                    planned_frames)
     except study_archive.BadArchive as problem:
         raise BadInput(f"--from-archive {args.from_archive}: {problem}")
     except study_archive.BadOut as problem:

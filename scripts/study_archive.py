@@ -20,8 +20,10 @@ Rules, each with its reason:
     .md and .txt file is UTF-8, every .json file parses (no NaN, no Infinity, no
     number beyond a double: 1e999 would read as a measurement), the invocation log,
     the runs' summary.json and frames.csv have the shapes the report reads (and
-    no CSV outside report/ a NaN or an infinity either, a frames.csv no more rows than
-    its run's frames; the log no negative duration, time or load average); then
+    no CSV outside report/ a NaN or an infinity either; the log no negative duration,
+    time or load average); each run the report reads has the frames the recorded options
+    plan for it (its summary.json's are refused when they differ, its frames.csv holds no
+    more rows: the report's memory is bounded by the log, not by a run's own word); then
     (study.py's `prepare`) the report is made in the scratch folder, so a run file
     lacking anything else it reads refuses the archive too.  A member that is
     not under ./study is never written, yet an absolute or '..' name, a link or a
@@ -325,11 +327,30 @@ def parse_json(text: str):
                       parse_int=finite_int)
 
 
+# The options whose value a study records as it was given, a path of the machine that ran
+# it (any bytes: a tab, a newline, a byte not UTF-8): study.py's --out, --overlap,
+# --emulation and --report-doc.  The archive's are never taken (study.py NOT_THE_RUNS: the
+# unpack's --out is its own) and are shown escaped (script_cli.shell_word).
+PATH_OPTIONS = ("--out", "--overlap", "--emulation", "--report-doc")
+
+
+def recorded_words(argv: list) -> list:
+    """(word, whether it is a path option's value) for each word of a recorded argv."""
+    words, after_path = [], False
+    for word in argv:
+        words.append((word, after_path or word.partition("=")[0] in PATH_OPTIONS
+                      and "=" in word))
+        after_path = not after_path and word in PATH_OPTIONS
+    return words
+
+
 def check_log(log, name: str, foreign: bool = True) -> None:
     """The invocation log `name` has the shape the report and the next shard read: a
     list of invocations (raises BadArchive).  A foreign log (an archive's) has no word a
-    command line of a study would not hold either; a local --out's log holds this
-    machine's own words (its --out may hold a tab, a newline or any byte), not checked."""
+    command line of a study would not hold either (a backtick, a control character, a
+    byte not UTF-8), but for the paths it was given (PATH_OPTIONS' values), which hold
+    what the study was given and are shown escaped; a local --out's log holds this
+    machine's own words, not checked."""
     check_shape(log, [INVOCATION], name)
     for index, run in enumerate(log):
         if run.get("finished", True) and not isinstance(run.get("seconds"), (int, float)):
@@ -347,10 +368,11 @@ def check_log(log, name: str, foreign: bool = True) -> None:
             if isinstance(value, (int, float)) and value < 0:
                 raise BadArchive(f"{name}[{index}].{field}: {json.dumps(value)[:40]} is "
                                  "negative: no number a study writes")
-        for word in run["argv"] + [run["started"]] if foreign else ():
-            if "`" in word or not word.isprintable() or len(word) > 4096:
-                raise BadArchive(f"{name}[{index}]: the word {word[:60]!r} is not one a "
-                                 "command line of the study holds")
+        for word, a_path in recorded_words(run["argv"]) + [(run["started"], False)] \
+                if foreign else ():
+            if len(word) > 4096 or not a_path and ("`" in word or not word.isprintable()):
+                raise BadArchive(f"{name}[{index}]: the word {word[:60]!r} is not one "
+                                 "a command line of the study holds")
 
 
 def read_text(study: pathlib.Path) -> dict:
@@ -395,8 +417,18 @@ def check_written_kinds(study: pathlib.Path) -> None:
                                  "the report writes its tables and figures (files)")
 
 
-def check_study(study: pathlib.Path) -> list:
-    """The unpacked ./study checked as the report reads it; returns its invocation log."""
+def check_study(study: pathlib.Path, planned=None) -> list:
+    """The unpacked ./study checked as the report reads it; returns its invocation log.
+    `planned` (see check_runs): the frames the report's plan gives each run it reads."""
+    log = check_text(study)
+    check_runs(study, planned)
+    return log
+
+
+def check_text(study: pathlib.Path) -> list:
+    """Everything but the runs' CSV files (check_runs): the kinds of what the study writes
+    over, every text file's UTF-8 and JSON, the log's and the summaries' shapes; returns
+    the invocation log."""
     if not (study / "study_invocations.json").is_file():
         raise BadArchive("its ./study has no study_invocations.json: no study ran into it")
     check_written_kinds(study)
@@ -408,16 +440,42 @@ def check_study(study: pathlib.Path) -> list:
     for name, data in parsed.items():
         if name.endswith("/summary.json"):
             check_shape(data, SUMMARY, name)
+    return log
+
+
+def check_runs(study: pathlib.Path, planned=None) -> None:
+    """Every CSV outside report/ (check_csv_cells), a run's frames.csv as check_frames
+    reads it.  `planned` ({run folder under study: frames}) is the plan the report is made
+    from, its frames the recorded options' (the archive's log, not its runs): a run of it
+    whose summary.json names other frames is refused, and its frames.csv may hold no more
+    rows than the plan's frames, so what the report holds of the runs is bounded by the
+    options, which the archive cannot forge one file at a time.  A frames.csv of no run of
+    the plan is not read by the report: only streamed here.  Without a plan (gpu_check.sh's
+    resume, whose study plans the runs itself) a run's own summary.json bounds its rows."""
+    for folder, frames in (planned or {}).items():
+        summary = study / folder / "summary.json"
+        if summary.is_symlink() or not summary.is_file():
+            continue  # not done: the report does not read the run
+        try:
+            recorded = parse_json(summary.read_text(encoding="utf-8"))["parameters"]["frames"]
+        except (ValueError, LookupError, TypeError, RecursionError):
+            recorded = None
+        if type(recorded) is not int or recorded != frames:
+            raise BadArchive(f"study/{folder}/summary.json: its run's frames "
+                             f"(parameters.frames) {json.dumps(recorded)[:40]} are not the "
+                             f"{frames} the archive's recorded options plan for it")
     for path in sorted(study.rglob("*.csv")):
         if path.is_symlink() or not path.is_file() or path.relative_to(study).parts[0] == \
                 "report":  # report/: the other machine's report, made again here
             continue
         name = "study/" + path.relative_to(study).as_posix()
-        if path.name == "frames.csv":
-            check_frames(path, name)
-        else:  # latency/*.csv, pairs/*.csv...: the report reads their numbers too
+        if path.name != "frames.csv":  # latency/*.csv, pairs/*.csv...: the report reads them
             check_csv_cells(path, name)
-    return log
+        elif planned is None:
+            check_frames(path, name, run_frames(path), "its summary.json's parameters.frames")
+        else:
+            check_frames(path, name, planned.get(path.parent.relative_to(study).as_posix()),
+                         "the archive's recorded options' plan")
 
 
 FRAMES_COLUMNS = ("frame", "update_ms", "broadphase_ms", "total_ms")  # the report's own
@@ -435,19 +493,22 @@ NOT_FINITE_HINT = re.compile(r"[nNiI_]|[eE][+-]?[0-9]{3}|[0-9]{100}|[^\x00-\x7f]
 MAX_CELL_BYTES = 64
 
 
-def check_csv_cells(path: pathlib.Path, name: str, max_rows: int = None) -> list:
+def check_csv_cells(path: pathlib.Path, name: str, max_rows: int = None, source: str = "",
+                    rows_of_numbers: bool = False) -> list:
     """Every cell of the CSV file `path` that reads as a number is finite: no NaN or
     infinity (nan, inf, 1e999: no number overlap writes, and one would read as a
-    measurement, as in the JSON); at most `max_rows` rows under the header, each of at
-    most MAX_CELL_BYTES a cell of the header.  Read a row at a time (its memory is a row's,
+    measurement, as in the JSON); at most `max_rows` rows under the header (`source` says
+    whose frames those are), and with `rows_of_numbers` (a frames.csv) each of at most
+    MAX_CELL_BYTES a cell of the header.  Read a row at a time (its memory is a row's,
     whatever the file's size); returns (the header, the first row)."""
     try:
-        return csv_cells(path, name, max_rows)
+        return csv_cells(path, name, max_rows, source, rows_of_numbers)
     except csv.Error as error:
         raise BadArchive(f"{name}: not CSV ({one_line(error)[:80]})")
 
 
-def csv_cells(path: pathlib.Path, name: str, max_rows: int) -> list:
+def csv_cells(path: pathlib.Path, name: str, max_rows: int, source: str,
+              rows_of_numbers: bool) -> list:
     with open(path, newline="", encoding="utf-8") as f:
         rows = csv.reader(f)
         header = next(rows, None) or []
@@ -455,9 +516,9 @@ def csv_cells(path: pathlib.Path, name: str, max_rows: int) -> list:
         for count, row in enumerate(rows, start=1):
             first = row if first is None else first
             if max_rows is not None and count > max_rows:
-                raise BadArchive(f"{name}: more than its run's {max_rows} frames (its "
-                                 "summary.json's parameters.frames) in rows")
-            if max_rows is not None and sum(map(len, row)) > MAX_CELL_BYTES * len(header):
+                raise BadArchive(f"{name}: more than its run's {max_rows} frames ({source}) "
+                                 "in rows")
+            if rows_of_numbers and sum(map(len, row)) > MAX_CELL_BYTES * len(header):
                 raise BadArchive(f"{name}: line {rows.line_num} is longer than a row of "
                                  "numbers overlap writes")
             if not NOT_FINITE_HINT.search("".join(row)):
@@ -483,12 +544,12 @@ def run_frames(path: pathlib.Path) -> int:
     return frames if type(frames) is int and 0 <= frames <= 10_000_000 else None
 
 
-def check_frames(path: pathlib.Path, name: str) -> None:
+def check_frames(path: pathlib.Path, name: str, max_rows, source: str) -> None:
     """A run's frames.csv holds what the report reads: a header with the columns it reads
-    (FRAMES_COLUMNS), then at least one row of as many cells and at most one a frame the
-    run ran (its summary.json's parameters.frames), and no cell that reads as NaN or an
-    infinity (check_csv_cells)."""
-    header, first = check_csv_cells(path, name, run_frames(path))
+    (FRAMES_COLUMNS), then at least one row of as many cells and at most `max_rows` (the
+    frames the run ran, by `source`; None: not bounded, a run the report does not read),
+    and no cell that reads as NaN or an infinity (check_csv_cells)."""
+    header, first = check_csv_cells(path, name, max_rows, source, rows_of_numbers=True)
     if not header:
         raise BadArchive(f"{name}: empty, no header of the frames' columns")
     missing = [column for column in FRAMES_COLUMNS if column not in header]
@@ -498,10 +559,13 @@ def check_frames(path: pathlib.Path, name: str) -> None:
         raise BadArchive(f"{name}: no frame row under its header")
 
 
-def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):
+def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None,
+           planned_of=None):
     """Unpacks the archive's ./study as `out` (see the rules above) and returns
     (options_of(its invocation log), prepare(options, the unpacked study folder)), both
-    called before `out` is touched: either raises BadArchive to refuse the archive
+    called before `out` is touched; planned_of(options, the unpacked study folder) gives
+    the frames of each run the report reads (check_runs) before its CSV files are read.
+    Each raises BadArchive to refuse the archive
     (prepare makes the report in the scratch folder, so an archive whose runs do not
     hold what it reads is refused with `out` as it was).  Raises BadOut when `out` may
     not be replaced."""
@@ -526,7 +590,8 @@ def unpack(archive: pathlib.Path, out: pathlib.Path, options_of, prepare=None):
             (scratch / SCRATCH_MARKER).touch()
             study = extract(archive, scratch)
             check_stopped()  # a stop some library's `except` swallowed while unpacking
-            options = options_of(check_study(study))
+            options = options_of(check_text(study))
+            check_runs(study, planned_of(options, study) if planned_of is not None else None)
             prepared = prepare(options, study) if prepare is not None else None
             check_stopped()
             (study / MARKER).write_text(

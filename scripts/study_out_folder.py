@@ -36,8 +36,29 @@ LOCK_NAME = ".study.lock"
 LOG_NAME = "study_invocations.json"
 
 
+def reached_path(path: pathlib.Path) -> pathlib.Path:
+    """Where the kernel puts `path` once the folders missing on its way are made: each
+    existing part resolved (links followed from where they stand), a missing one kept as
+    written (it will be a folder), `..` the parent of what was reached.  So `nx/..`, nx
+    missing, is the current folder, and `link/..` the parent of the link's target; a text
+    normalisation (os.path.abspath) gets both wrong."""
+    here = pathlib.Path(os.getcwd()) if not path.is_absolute() else pathlib.Path(path.anchor)
+    for part in path.parts[1:] if path.is_absolute() else path.parts:
+        if part == ".":
+            continue
+        if part == "..":
+            here = here.parent
+            continue
+        here = here / part
+        if os.path.lexists(here):
+            here = here.resolve()
+    return here
+
+
 def foreign_folder_problem(out: pathlib.Path) -> str:
-    """Why --out `out` is not a study's folder to write into, or "" when it is one."""
+    """Why --out `out` is not a study's folder to write into, or "" when it is one.  The
+    folder is looked at where the kernel will put it (reached_path), however spelled."""
+    out = reached_path(out)
     if not os.path.lexists(out):
         return ""
     if not out.is_dir():
@@ -59,7 +80,7 @@ def unmakable_problem(out: pathlib.Path) -> str:
     """Why a study could not write into --out `out` (make it, or write inside it), or "":
     tried with a scratch folder made and removed in `out` or its nearest existing folder
     (permission bits do not tell root's case, nor /proc's)."""
-    here = pathlib.Path(os.path.abspath(out))
+    here = reached_path(out)
     while not os.path.lexists(here):
         here = here.parent
     if not here.is_dir():

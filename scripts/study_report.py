@@ -33,7 +33,7 @@ import study_plots
 import study_results
 import study_sweep
 from overlap_runs import portable
-from script_cli import write_atomically
+from script_cli import shell_word, write_atomically
 from study_tables import fmt, plain, table
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
@@ -136,8 +136,13 @@ def invocations(args) -> list:
 
 
 def shown_command(args, words) -> str:
-    """A command line with paths relative to the repository and --out shown as $OUT."""
-    return portable(" ".join(map(str, words)), {args.out: "$OUT"})
+    """A command line with paths relative to the repository and --out shown as $OUT, each
+    word with a character no command line shows (a tab, a newline, a backtick, a byte not
+    UTF-8: a path may hold any) in bash's $'...' quoting (script_cli.shell_word)."""
+    def shown(word) -> str:
+        word = portable(str(word), {args.out: "$OUT"})
+        return "$OUT" + shell_word(word[4:]) if word.startswith("$OUT") else shell_word(word)
+    return " ".join(map(shown, words))
 
 
 def run_argv(argv: list) -> list:

@@ -57,6 +57,11 @@ study.CASE, tests/study/CMakeLists.txt):
   study_finishes_in_an_out_of_any_bytes   an --out with a tab, a newline, a non-UTF-8 byte
   archive_csv_not_finite_refused  NaN/infinity in the latency and pairs CSVs: exit 2
   archive_frames_bounded_by_the_runs_frames   a frames.csv past its run's frames: exit 2
+  archive_run_frames_not_the_plans_refused   a run's summary.json frames not those its
+                                  recorded options plan: exit 2, --out kept
+  archive_of_an_out_of_any_bytes_reported   the archive of a study whose --out held a
+                                  tab, a newline, a byte not UTF-8, a backtick: reported,
+                                  its paths shown escaped
 
 Exit 77 (ctest's skip) when a case needs the report and this interpreter has no matplotlib.
 """
@@ -510,17 +515,24 @@ def case_no_abbreviated_options(args) -> None:
 
 def case_study_never_writes_over_a_users_folder(args) -> None:
     """A plain study (runs, --runs-only, --no-runs) refuses an --out that holds files and
-    is not a study's folder, and leaves it as it was; an empty or earlier study's folder
-    is taken (study_out_folder.foreign_folder_problem)."""
+    is not a study's folder, however spelled (a missing folder then `..`, a link then
+    `..`), and leaves it as it was; an empty or earlier study's folder is taken
+    (study_out_folder.foreign_folder_problem)."""
     work = args.out
     users = work / "docs"
     (users / "notes").mkdir(parents=True)
     (users / "REPORT.md").write_text("a report written by hand\n")
     (users / "notes" / "thesis.txt").write_text("years of work\n")
+    (work / "elsewhere" / "deep").mkdir(parents=True)
+    os.symlink(work / "elsewhere" / "deep", users / "notes" / "link")
+    (work / "elsewhere" / "deep" / "mine.txt").write_text("mine\n")
     before = snapshot(users)
+    spellings = ((users, None), (".", users), ("missing/..", users),
+                 (users / "missing" / ".." / "notes" / "..", None),
+                 (users / "notes" / "link" / "..", None))
     for mode in ([], ["--runs-only"], ["--no-runs"], ["--no-runs", "--report",
                                                        "--report-doc", users / "REPORT.md"]):
-        for out, cwd in ((users, None), (".", users)):
+        for out, cwd in spellings:
             result = study("--overlap", args.overlap, *NO_RUNS, *mode, "--out", out, cwd=cwd)
             one_line_refusal(result, "--out", "not a study's folder")
             check(snapshot(users) == before, f"{mode} --out {out}: changed {users}")
@@ -876,7 +888,8 @@ def case_unpack_stop_after_the_swap_is_no_stop(args) -> None:
 def case_study_finishes_in_an_out_of_any_bytes(args) -> None:
     """An --out whose name holds a tab, a newline or a byte that is not UTF-8 is one a study
     finishes in: its runs, its log (this machine's own words, never refused as an
-    archive's) and its report, exit 0, then a second study adds a run there, exit 0."""
+    archive's) and its report, exit 0, then a second study adds a run there, exit 0; its
+    commands.txt and REPORT.md show the name escaped, one command a line."""
     if importlib.util.find_spec("matplotlib") is None:
         sys.exit(77)
     for name in (b"tab\tout", b"new\nline", b"byte\xffout"):
@@ -891,6 +904,54 @@ def case_study_finishes_in_an_out_of_any_bytes(args) -> None:
                   f"exit {result.returncode}:\n{result.stderr}")
             check(all(line.startswith(("study", "[")) for line in result.stderr.splitlines()),
                   f"--out {name!r}: a line broken by the name:\n{result.stderr}")
+            shown_lines_whole(pathlib.Path(os.fsdecode(out)), f"--out {name!r}")
+
+
+def shown_lines_whole(folder: pathlib.Path, where: str) -> None:
+    """FOLDER's commands.txt is one `overlap` command a line and every line of its
+    REPORT.md that shows a command holds whole code spans (an even count of backticks)."""
+    for line in (folder / "commands.txt").read_text(errors="replace").splitlines():
+        check(line.startswith("/") and " run " in line or " latency " in line,
+              f"{where}: a commands.txt line broken: {line!r}")
+    for line in (folder / "REPORT.md").read_text(errors="replace").splitlines():
+        check(line.startswith("```") or line.count("`") % 2 == 0,
+              f"{where}: a REPORT.md code span broken: {line!r}")
+
+
+def case_archive_of_an_out_of_any_bytes_reported(args) -> None:
+    """The archive of a study whose --out held a tab, a newline, a byte not UTF-8 or a
+    backtick (as gpu_check.sh returns one when its OUT does) is reported, exit 0: the
+    study's own recorded paths are accepted, shown escaped ($'...') in REPORT.md and
+    commands.txt, one line each; a recorded --overlap of those bytes is shown so too and
+    never run."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    for name in (b"tab\tout", b"new\nline", b"byte\xffout", b"back`tick"):
+        out = os.fsencode(str(work)) + b"/" + name
+        made = subprocess.run([PYTHON, str(STUDY), "--overlap", args.overlap, "--emulation",
+                               str(work / "none"), "--runs-only", *NO_RUNS, "--out", out],
+                              capture_output=True, text=True, errors="replace")
+        check(made.returncode == 0, f"--out {name!r}: exit {made.returncode}:\n{made.stderr}")
+        runs = pathlib.Path(os.fsdecode(out))
+        (runs / ".study.lock").unlink()
+        tar = archive_of(runs, work / "any.tar.xz", lambda f: None)
+        unpacked = work / "unpacked"
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", unpacked)
+        check(result.returncode == 0 and (unpacked / "sweep" / "s1_n40_bf_r0").is_dir(),
+              f"the archive of --out {name!r}: exit {result.returncode}:\n{result.stderr}")
+        shown_lines_whole(unpacked, f"--out {name!r}")
+    ran = work / "tool_ran"
+    tool = f"/x/a\n`touch {ran}`/overlap"
+    tar = archive(work / "tool.tar.xz", {}, log=[invocation(NO_RUNS + ["--overlap", tool])])
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", work / "tool")
+    check(result.returncode == 0, f"a recorded --overlap {tool!r}: exit {result.returncode}:\n"
+          f"{result.stderr}")
+    check(not ran.exists(), "the recorded --overlap's command ran")
+    report = (work / "tool" / "REPORT.md").read_text()
+    check("--overlap $'tool_ran\\x60/overlap'" in report,
+          "the recorded --overlap is not shown escaped (its last two names)")
+    shown_lines_whole(work / "tool", f"--overlap {tool!r}")
 
 
 def case_archive_csv_not_finite_refused(args) -> None:
@@ -967,6 +1028,44 @@ def case_archive_frames_bounded_by_the_runs_frames(args) -> None:
         one_line_refusal(result, f"--from-archive {tar}: study/{run}/frames.csv: {words}")
         check(snapshot(out) == before, f"{name}: --out changed")
         check(not scratch_left(work), f"{name}: left {scratch_left(work)}")
+
+
+def case_archive_run_frames_not_the_plans_refused(args) -> None:
+    """A run whose summary.json names other frames than the archive's recorded options plan
+    for it (the log's --frames 2; its summary forged to 1000000 beside a frames.csv of
+    300000 rows, which its own word would allow) is refused in one line naming the archive,
+    the run and both numbers, exit 2, in a small address space, --out as it was; one forged
+    to 1 is refused too, and the archive as made is reported."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    run = "sweep/s1_n40_bf_r0"
+    out = work / "out"
+    earlier_unpack(out, b"old")
+    before = snapshot(out)
+
+    def forged(frames: int, rows: int):
+        def change(f):
+            edit_json(f / run / "summary.json",
+                      lambda d: d["parameters"].update(frames=frames))
+            lines = (f / run / "frames.csv").read_text().splitlines(keepends=True)
+            (f / run / "frames.csv").write_text("".join(lines + [lines[-1]] * rows))
+        return change
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_AS, (1536 << 20, 1536 << 20))
+    for frames, rows in ((1_000_000, 300_000), (1, 0)):
+        tar = archive_of(runs, work / f"forged{frames}.tar.xz", forged(frames, rows))
+        result = study("--from-archive", tar, "--overlap", args.overlap, "--out", out,
+                       preexec_fn=limited)
+        one_line_refusal(result, f"--from-archive {tar}: study/{run}/summary.json",
+                         f"{frames} are not the 2")
+        check(snapshot(out) == before, f"frames {frames}: --out changed")
+        check(not scratch_left(work), f"frames {frames}: left {scratch_left(work)}")
+    tar = archive_of(runs, work / "good.tar.xz", lambda f: None)
+    result = study("--from-archive", tar, "--overlap", args.overlap, "--out", work / "good")
+    check(result.returncode == 0, f"the archive as made: exit {result.returncode}:\n{result.stderr}")
 
 
 def case_long_invocation_log_costs_linear_time(args) -> None:

@@ -24,6 +24,9 @@ study.CASE, tests/study/CMakeLists.txt):
                                   exit 2, one line naming file, line and column, no PNG
   plot_run_refuses_a_frame_time_no_run_has   summary.json's frame_time NaN, infinite,
                                   negative, zero or a string: exit 2, one line, no PNG
+  plot_run_names_an_unreadable_file   a summary.json not JSON (or not an object, not
+                                  UTF-8), a frames.csv not UTF-8: exit 2, one line
+                                  naming the file, no PNG
 
 --scripts FOLDER runs the cases against another copy of scripts/ (an old version, to see
 a case fail).  Exit 77 (ctest's skip) when a case needs what this machine lacks.
@@ -345,13 +348,14 @@ def plot(args, folder: pathlib.Path) -> subprocess.CompletedProcess:
 
 
 def case_plot_run_refuses_numbers_no_run_writes(args) -> None:
-    """plot_run.py on a run whose frames.csv holds inf, nan, 1e999 or a negative in a
-    column it draws (total_ms, physics_ms, a stage): exit 2, one line naming frames.csv,
-    the line and the column, no run.png and no temporary."""
+    """plot_run.py on a run whose frames.csv holds inf, nan, 1e999, a negative, or a number
+    not in ASCII decimal (Arabic-Indic digits, 1_0, a space: float() reads them, no run
+    writes them) in a column it draws (total_ms, physics_ms, a stage): exit 2, one line
+    naming frames.csv, the line and the column, no run.png and no temporary."""
     run = a_run(args)
     header = (run / "frames.csv").read_text().splitlines()[0].split(",")
     for column in ("total_ms", "physics_ms", "update_ms"):
-        for value in ("inf", "nan", "1e999", "-inf", "-1"):
+        for value in ("inf", "nan", "1e999", "-inf", "-1", "\u0661\u0660", "1_0", " 1"):
             folder = args.out / "bad"
             shutil.rmtree(folder, ignore_errors=True)
             shutil.copytree(run, folder)
@@ -359,7 +363,7 @@ def case_plot_run_refuses_numbers_no_run_writes(args) -> None:
             cells = lines[1].split(",")
             cells[header.index(column)] = value
             lines[1] = ",".join(cells)
-            (folder / "frames.csv").write_text("\n".join(lines) + "\n")
+            (folder / "frames.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
             result = plot(args, folder)
             one_line_exit(result, 2, "frames.csv", "line 2", column)
             check(sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in run.iterdir()),
@@ -390,6 +394,23 @@ def case_plot_run_refuses_a_frame_time_no_run_has(args) -> None:
     result = plot(args, folder)
     check(result.returncode == 0 and (folder / "run.png").is_file(),
           f"no frame_time: exit {result.returncode}:\n{result.stderr}")
+
+
+def case_plot_run_names_an_unreadable_file(args) -> None:
+    """plot_run.py on a run whose summary.json is not JSON ('{'), not UTF-8 or not an
+    object ('[1]', parameters not one), or whose frames.csv is not UTF-8: exit 2, one line
+    naming that file, no run.png (never the default frame time drawn without a word)."""
+    run = a_run(args)
+    for name, data in (("summary.json", b"{"), ("summary.json", b"\xff"),
+                       ("summary.json", b"[1]"), ("summary.json", b'{"parameters": 3}'),
+                       ("frames.csv", (run / "frames.csv").read_bytes() + b"\xff\n")):
+        folder = args.out / "bad"
+        shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(run, folder)
+        (folder / name).write_bytes(data)
+        result = plot(args, folder)
+        one_line_exit(result, 2, f"{folder / name}:")
+        check(not (folder / "run.png").exists(), f"{name} {data[:20]!r}: drawn")
 
 
 def main() -> int:
