@@ -49,14 +49,7 @@ void requireFreeSpace(const std::filesystem::path& file, std::uint64_t bytes,
     if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) return;
     // The folder it goes to, links followed (a link to a file not made yet
     // included), or the nearest one that exists (made by the run).
-    std::filesystem::path target = std::filesystem::absolute(file, error);
-    for (int hop = 0;
-         hop < 40 && std::filesystem::is_symlink(std::filesystem::symlink_status(target, error));
-         ++hop) {
-      const std::filesystem::path link = std::filesystem::read_symlink(target, error);
-      if (error) break;
-      target = link.is_absolute() ? link : target.parent_path() / link;
-    }
+    const std::filesystem::path target = outputTarget(std::filesystem::absolute(file, error));
     const std::filesystem::path folder =
         nearestExisting(std::filesystem::weakly_canonical(target, error).parent_path());
     const std::filesystem::space_info space = std::filesystem::space(folder, error);

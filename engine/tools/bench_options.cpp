@@ -128,17 +128,21 @@ void refuseIgnoredOptions(const CLI::App& app) {
            "--input replays the given streams and, without --churn, nothing is random, so the "
            "first would be ignored");
   }
-  // One stream given twice would be measured twice, as two rows.
-  // The same file however reached: a link, a hard link, another spelling.
+  // One stream given twice would be measured twice, as two rows: a file is
+  // known by its device and inode however reached (a link, a hard link,
+  // another spelling), anything else by its resolved name.
   std::set<std::string> inputs;
-  std::set<std::pair<dev_t, ino_t>> files;
   for (const std::string& input : app.get_option("--input")->as<std::vector<std::string>>()) {
-    std::error_code error;
-    const std::filesystem::path file = std::filesystem::weakly_canonical(input, error);
     struct stat info {};
-    const bool same_file = ::stat(input.c_str(), &info) == 0 && S_ISREG(info.st_mode) &&
-                           !files.emplace(info.st_dev, info.st_ino).second;
-    if (!inputs.insert(error ? input : file.string()).second || same_file) {
+    std::string key;
+    if (::stat(input.c_str(), &info) == 0 && S_ISREG(info.st_mode)) {
+      key = std::to_string(info.st_dev) + ":" + std::to_string(info.st_ino);
+    } else {
+      std::error_code error;
+      const std::filesystem::path file = std::filesystem::weakly_canonical(input, error);
+      key = error ? input : file.string();
+    }
+    if (!inputs.insert(key).second) {
       throw UsageError("--input " + input + ": given twice (the same file); give each stream once");
     }
   }

@@ -213,13 +213,13 @@ void syncFolder(const fs::path& folder) {
   ::close(fd);
 }
 
-// `name` is the output's, for the message of a signal that stops a write
-// blocked on a slow reader.
-// Writes every byte.  A pipe, FIFO or socket is written a pipe buffer at a
-// time, each once poll() says it has room, looking for a stop signal every
-// tenth of a second: a reader that never reads would otherwise block the
-// write for good, and the signal may reach another thread, so no EINTR
-// comes (a blocked write in the sound job kept a run from stopping).
+// Writes every byte; `name` is the output's, for the message of a signal
+// that stops a write blocked on a slow reader.  A pipe, FIFO or socket is
+// written a pipe buffer at a time, each once poll() says it has room,
+// looking for a stop signal every tenth of a second: a reader that never
+// reads would otherwise block the write for good, and the signal may reach
+// another thread, so no EINTR comes (a blocked write in the sound job kept
+// a run from stopping).
 void writeAll(int fd, std::string_view bytes, const std::string& name,
               const std::function<void()>& on_error) {
   struct stat info {};
@@ -230,7 +230,7 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
     if (may_block) {
       pollfd room{fd, POLLOUT, 0};
       const int ready = ::poll(&room, 1, 100);
-      stopIfInterrupted("the write to " + name);
+      if (pendingInterrupt() != 0) stopIfInterrupted("the write to " + name);
       if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
       chunk = std::min<std::size_t>(chunk, PIPE_BUF);
     }
@@ -383,6 +383,10 @@ std::string outputNameProblem(const fs::path& file) {
     return "names a folder (it ends in '" + file.filename().string() + "'), not a file";
   }
   return {};
+}
+
+fs::path outputTarget(const fs::path& path) {
+  return followLinks(path);
 }
 
 int descriptorOfOutput(const fs::path& path) {
@@ -691,6 +695,40 @@ namespace {
 
 constexpr std::string_view kWriterMark = "\\writer ";  // no escaped name starts so
 
+// A list's text read: the subcommand its writer line names ("" for none:
+// an older list) and every entry that unescapes.  A text without this
+// format's first line (an older format, or not ours) lists nothing.
+struct ManifestList {
+  std::string writer;
+  std::vector<std::string> entries;
+};
+
+ManifestList parseManifest(const std::string& text) {
+  ManifestList list;
+  std::istringstream manifest(text);
+  std::string line;
+  if (!std::getline(manifest, line) || line != OutputFolder::kManifestHeader) return list;
+  for (bool second = true; std::getline(manifest, line); second = false) {
+    if (line.starts_with(kWriterMark)) {
+      if (second) list.writer = line.substr(kWriterMark.size());
+      continue;
+    }
+    if (std::optional<std::string> entry = unescapeManifestEntry(line)) {
+      list.entries.push_back(std::move(*entry));
+    }
+  }
+  return list;
+}
+
+// The entries a run may act on: plain relative paths that stay inside.
+std::set<std::string> safeEntries(const ManifestList& list) {
+  std::set<std::string> entries;
+  for (const std::string& entry : list.entries) {
+    if (safeRelative(entry)) entries.insert(entry);
+  }
+  return entries;
+}
+
 }  // namespace
 
 OutputFolder::OutputFolder(fs::path folder, std::string writer)
@@ -752,28 +790,29 @@ std::string OutputFolder::declare(const fs::path& path) {
   // something a run would hang on or fail at the end: a FIFO, a folder.
   const fs::path manifest = folder_ / kManifestName;
   struct stat info {};
-  if (::lstat(manifest.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
-    return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
-  }
-  if (::lstat(manifest.c_str(), &info) == 0 && S_ISREG(info.st_mode)) {
-    if (std::string problem = stickyReplaceProblem(manifest, info); !problem.empty()) {
-      return manifest.string() + ", the list of the run folder's outputs, " + problem;
+  if (::lstat(manifest.c_str(), &info) == 0) {
+    if (!S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
+      return manifest.string() + ", the list of the run folder's outputs, is not a regular file";
+    }
+    if (S_ISREG(info.st_mode)) {
+      if (std::string problem = stickyReplaceProblem(manifest, info); !problem.empty()) {
+        return manifest.string() + ", the list of the run folder's outputs, " + problem;
+      }
     }
   }
   // Another subcommand's outputs are not this run's to replace.
   if (!writer_checked_) {
-    std::string writer = previousWriter();
-    if (writer.empty() && older_list_is_mine_) {
-      for (const std::string& entry : previousOutputs()) {
-        if (!older_list_is_mine_(entry)) {
-          writer = "another subcommand";
-          break;
-        }
+    const ManifestList previous = parseManifest(manifestText());
+    std::string whose;  // the other subcommand, when the list is another's
+    if (!previous.writer.empty()) {
+      if (previous.writer != writer_) whose = "`overlap " + previous.writer + "`";
+    } else if (older_list_is_mine_) {
+      const std::set<std::string> entries = safeEntries(previous);
+      if (!std::all_of(entries.begin(), entries.end(), older_list_is_mine_)) {
+        whose = "another subcommand";
       }
     }
-    if (!writer.empty() && writer != writer_) {
-      const std::string whose =
-          writer == "another subcommand" ? "another subcommand" : "`overlap " + writer + "`";
+    if (!whose.empty()) {
       return "its folder " + folder_.string() + " holds the outputs of " + whose + " (listed in " +
              kManifestName + "), which this " + writer_ + " would remove: choose another folder";
     }
@@ -865,10 +904,6 @@ bool removeInside(int folder, const fs::path& relative) {
   return removed;
 }
 
-}  // namespace
-
-namespace {
-
 // The list of outputs in `folder`, read without following a link ("" for none).
 std::string manifestTextIn(const fs::path& folder_path) {
   const FolderHandle folder(folder_path);
@@ -899,15 +934,11 @@ std::string OutputFolder::enclosingRunProblem() const {
   if (!folder.is_absolute()) return "";
   for (fs::path above = folder.parent_path(); above.has_relative_path();
        above = above.parent_path()) {
-    std::istringstream manifest(manifestTextIn(above));
-    std::string line;
-    if (!std::getline(manifest, line) || line != kManifestHeader) continue;
     const std::string inside = folder.lexically_relative(above).string() + "/";
-    while (std::getline(manifest, line)) {
-      const std::optional<std::string> entry = unescapeManifestEntry(line);
-      if (entry && entry->starts_with(inside)) {
+    for (const std::string& entry : parseManifest(manifestTextIn(above)).entries) {
+      if (entry.starts_with(inside)) {
         return "its folder " + folder_.string() + " holds outputs of the run folder " +
-               above.string() + " (" + *entry + "), which this " + writer_ +
+               above.string() + " (" + entry + "), which this " + writer_ +
                " would replace: choose another folder";
       }
     }
@@ -915,27 +946,9 @@ std::string OutputFolder::enclosingRunProblem() const {
   return "";
 }
 
-std::string OutputFolder::previousWriter() const {
-  std::istringstream manifest(manifestText());
-  std::string line;
-  if (!std::getline(manifest, line) || line != kManifestHeader) return "";
-  if (!std::getline(manifest, line) || !line.starts_with(kWriterMark)) return "";
-  return line.substr(kWriterMark.size());
-}
-
 std::set<std::string> OutputFolder::previousOutputs() const {
-  std::set<std::string> entries;
-  std::istringstream manifest(manifestText());
-  std::string line;
-  // A manifest without this format's first line (an older one, or not ours)
-  // is trusted with nothing: files the program did not write stay.
-  if (!std::getline(manifest, line) || line != kManifestHeader) return entries;
-  while (std::getline(manifest, line)) {
-    if (line.starts_with(kWriterMark)) continue;
-    const std::optional<std::string> entry = unescapeManifestEntry(line);
-    if (entry && safeRelative(*entry)) entries.insert(*entry);
-  }
-  return entries;
+  // Files the program did not write stay: only what the list names is acted on.
+  return safeEntries(parseManifest(manifestText()));
 }
 
 void OutputFolder::writeManifest(const std::set<std::string>& entries) const {

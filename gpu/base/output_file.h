@@ -89,6 +89,11 @@ struct OutputError : std::runtime_error {
 // for none.  The checks refuse another process's descriptor.
 int descriptorOfOutput(const std::filesystem::path& path);
 
+// The file an output `path` names with its links followed (at most 40, as
+// the kernel does; a dangling link gives the name it points to, where the
+// file will be made): where a temporary goes and whose folder's room counts.
+std::filesystem::path outputTarget(const std::filesystem::path& path);
+
 // The nearest folder of `path` that exists, `path` itself included ("." for
 // a relative path with none): where a file of a folder not made yet will go.
 std::filesystem::path nearestExisting(std::filesystem::path path);
@@ -224,8 +229,6 @@ class OutputFolder {
   // the run folder.
   std::string linkProblem(const std::filesystem::path& path) const;
   std::set<std::string> previousOutputs() const;
-  // The subcommand the folder's manifest names ("" for none or an older one).
-  std::string previousWriter() const;
   // The manifest's text, read without following a link ("" for none).
   std::string manifestText() const;
   // Why the folder is no folder of its own, or "": a folder above it whose

@@ -676,6 +676,21 @@ def real_runs(args, folder: pathlib.Path) -> pathlib.Path:
     return folder
 
 
+RUN = "sweep/s1_n40_bf_r0"  # real_runs' one run, which the archive cases change
+
+
+def runs_and_an_unpack(args, files: int = 0) -> tuple:
+    """The archive cases' start (they need matplotlib, else skip): real runs in
+    --out/runs, an earlier unpack at --out/out and its snapshot: (work, runs, out, before)."""
+    if importlib.util.find_spec("matplotlib") is None:
+        sys.exit(77)
+    work = args.out
+    runs = real_runs(args, work / "runs")
+    out = work / "out"
+    earlier_unpack(out, b"old", files=files)
+    return work, runs, out, snapshot(out)
+
+
 def archive_of(runs: pathlib.Path, path: pathlib.Path, change) -> pathlib.Path:
     copy = path.parent / (path.name + ".src")
     shutil.rmtree(copy, ignore_errors=True)
@@ -700,14 +715,8 @@ def case_archive_runs_lacking_what_the_report_reads_refused(args) -> None:
     infinity in a frames.csv as in the JSON, a negative load average or duration in the log:
     one line naming the file (or its experiment) and the problem, exit 2, --out as it was,
     no scratch."""
-    if importlib.util.find_spec("matplotlib") is None:
-        sys.exit(77)
-    work = args.out
-    runs = real_runs(args, work / "runs")
-    run = "sweep/s1_n40_bf_r0"
-    out = work / "out"
-    earlier_unpack(out, b"old", files=2)
-    before = snapshot(out)
+    work, runs, out, before = runs_and_an_unpack(args, files=2)
+    run = RUN
 
     def frames(text):
         return lambda f: (f / run / "frames.csv").write_text(text)
@@ -999,14 +1008,8 @@ def case_archive_frames_bounded_by_the_runs_frames(args) -> None:
     a small archive of one long repeated row, whose report would take gigabytes) or with a
     row longer than overlap writes: refused in one line, exit 2, in a small address space,
     --out as it was."""
-    if importlib.util.find_spec("matplotlib") is None:
-        sys.exit(77)
-    work = args.out
-    runs = real_runs(args, work / "runs")
-    run = "sweep/s1_n40_bf_r0"
-    out = work / "out"
-    earlier_unpack(out, b"old")
-    before = snapshot(out)
+    work, runs, out, before = runs_and_an_unpack(args)
+    run = RUN
 
     def grown(f):
         lines = (f / run / "frames.csv").read_text().splitlines(keepends=True)
@@ -1036,14 +1039,8 @@ def case_archive_run_frames_not_the_plans_refused(args) -> None:
     300000 rows, which its own word would allow) is refused in one line naming the archive,
     the run and both numbers, exit 2, in a small address space, --out as it was; one forged
     to 1 is refused too, and the archive as made is reported."""
-    if importlib.util.find_spec("matplotlib") is None:
-        sys.exit(77)
-    work = args.out
-    runs = real_runs(args, work / "runs")
-    run = "sweep/s1_n40_bf_r0"
-    out = work / "out"
-    earlier_unpack(out, b"old")
-    before = snapshot(out)
+    work, runs, out, before = runs_and_an_unpack(args)
+    run = RUN
 
     def forged(frames: int, rows: int):
         def change(f):
@@ -1502,21 +1499,24 @@ def case_bad_arguments_one_line(args) -> None:
               f"{' '.join(map(str, words))}: wrote into {work}")
 
 
-def main() -> int:
+def run_case(cases: dict, add_options=lambda parser: None) -> int:
+    """Runs the case_NAME of `cases` (a check script's globals()) that --case names, on
+    --overlap, in a fresh --out; `add_options` adds a script's own options."""
     parser = argparse.ArgumentParser(allow_abbrev=False)
     parser.add_argument("--overlap", required=True)
     parser.add_argument("--out", type=pathlib.Path, required=True)
+    add_options(parser)
     parser.add_argument("--case", required=True,
-                        choices=[n[len("case_"):] for n in globals() if n.startswith("case_")])
+                        choices=[n[len("case_"):] for n in cases if n.startswith("case_")])
     args = parser.parse_args()
     args.overlap = str(pathlib.Path(args.overlap).resolve())
     shutil.rmtree(args.out, ignore_errors=True)
     args.out.mkdir(parents=True)
     args.out = args.out.resolve()
-    globals()["case_" + args.case](args)
+    cases["case_" + args.case](args)
     print(f"study.{args.case}: all checks passed")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_case(globals()))

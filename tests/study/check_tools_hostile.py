@@ -31,7 +31,6 @@ study.CASE, tests/study/CMakeLists.txt):
 --scripts FOLDER runs the cases against another copy of scripts/ (an old version, to see
 a case fail).  Exit 77 (ctest's skip) when a case needs what this machine lacks.
 """
-import argparse
 import importlib.util
 import io
 import json
@@ -45,7 +44,8 @@ import tarfile
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from check_hostile import NO_RUNS, PYTHON, REPO, add, archive, check, fake_sbatch  # noqa: E402
+from check_hostile import (NO_RUNS, PYTHON, REPO, add, archive, check, fake_sbatch,  # noqa: E402
+                           run_case)
 
 SCRIPTS = REPO / "scripts"
 
@@ -414,22 +414,9 @@ def case_plot_run_names_an_unreadable_file(args) -> None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(allow_abbrev=False)
-    parser.add_argument("--overlap", required=True)
-    parser.add_argument("--out", type=pathlib.Path, required=True)
-    parser.add_argument("--scripts", type=pathlib.Path, default=SCRIPTS,
-                        help="the scripts folder to test (default: this checkout's)")
-    parser.add_argument("--case", required=True,
-                        choices=[n[len("case_"):] for n in globals() if n.startswith("case_")])
-    args = parser.parse_args()
-    args.overlap = str(pathlib.Path(args.overlap).resolve())
-    args.scripts = args.scripts.resolve()
-    shutil.rmtree(args.out, ignore_errors=True)
-    args.out.mkdir(parents=True)
-    args.out = args.out.resolve()
-    globals()["case_" + args.case](args)
-    print(f"study.{args.case}: all checks passed")
-    return 0
+    return run_case(globals(), lambda parser: parser.add_argument(
+        "--scripts", type=lambda text: pathlib.Path(text).resolve(), default=SCRIPTS,
+        help="the scripts folder to test (default: this checkout's)"))
 
 
 if __name__ == "__main__":
