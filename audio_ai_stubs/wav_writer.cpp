@@ -44,9 +44,10 @@ std::vector<unsigned char> header(int sample_rate, std::uint32_t data_bytes) {
 
 WavWriter::WavWriter(OutputFile& file, int sample_rate) : file_(file), sample_rate_(sample_rate) {
   if (sample_rate_ <= 0) fail("sample rate " + std::to_string(sample_rate_) + " must be positive");
-  // A stream that cannot be patched says "until it ends" (0xFFFFFFFF).
-  const std::vector<unsigned char> placeholder =
-      header(sample_rate_, file_.rewritable() ? 0 : kStreamingDataBytes);
+  // "Until it ends" (0xFFFFFFFF) until close() patches the sizes: what a
+  // stop leaves of a file written as it went, and a stream that cannot be
+  // patched, stay readable.
+  const std::vector<unsigned char> placeholder = header(sample_rate_, kStreamingDataBytes);
   file_.write(
       std::string_view(reinterpret_cast<const char*>(placeholder.data()), placeholder.size()));
 }

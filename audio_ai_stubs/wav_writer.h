@@ -1,12 +1,13 @@
 // WavWriter: streams interleaved stereo float samples to a 16-bit PCM RIFF/WAVE
 // file, so a run's sound can be listened to and compared byte for byte.
 //
-// It writes into a OutputFile the caller owns and publishes.  The
-// header is written first with zero sizes and patched by close(), which
-// finishes the file (still under its temporary name until published).  An
-// output written through (a FIFO, a device) cannot be patched: its header
-// says 0xFFFFFFFF, "until the stream ends", as streaming WAV writers do.  Samples are clamped to
-// [-1, 1] and rounded to the nearest int16; everything is written
+// It writes into a OutputFile the caller owns and publishes.  The header
+// is written first with its data size 0xFFFFFFFF, "until the stream ends",
+// as streaming WAV writers do, and patched by close() where the output is
+// rewritable(), which finishes the file (still under its temporary name
+// until published).  So a FIFO or device, and a descriptor's file stopped
+// part way or appended to by another holder, stay readable.  Samples are
+// clamped to [-1, 1] and rounded to the nearest int16; everything is written
 // little-endian byte by byte, so the same samples give the same bytes on every
 // machine.  Every error is a std::runtime_error naming the file.
 #pragma once

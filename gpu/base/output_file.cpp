@@ -91,6 +91,19 @@ int descriptorReached(fs::path path) {
   return fd;
 }
 
+// "" unless an output that is written through (`output` its stat) is the
+// file standard error writes to, where the program's messages go: they
+// would be spliced into it.  A terminal or /dev/null takes both.
+std::string messagesProblem(const struct stat& output) {
+  struct stat messages {};
+  if (::fstat(STDERR_FILENO, &messages) == 0 && output.st_dev == messages.st_dev &&
+      output.st_ino == messages.st_ino && !S_ISCHR(output.st_mode)) {
+    return "is also standard error, where the program's messages go: send them elsewhere "
+           "(2>FILE) or name the file itself";
+  }
+  return "";
+}
+
 // "" when descriptor `fd` (descriptorReached's) can take an output.
 std::string descriptorProblem(int fd) {
   if (fd == kOthersDescriptor) {
@@ -102,18 +115,8 @@ std::string descriptorProblem(int fd) {
     return "names descriptor " + std::to_string(fd) +
            ", which is not open for writing (closed at the start, a folder, or read-only)";
   }
-  // The program's messages go to standard error: an output that is the same
-  // file or pipe would have them spliced into it.  A terminal or /dev/null
-  // takes both.
   struct stat output {};
-  struct stat messages {};
-  if (::fstat(fd, &output) == 0 && ::fstat(STDERR_FILENO, &messages) == 0 &&
-      output.st_dev == messages.st_dev && output.st_ino == messages.st_ino &&
-      !S_ISCHR(output.st_mode)) {
-    return "is also standard error, where the program's messages go: send them elsewhere "
-           "(2>FILE) or name the file itself";
-  }
-  return "";
+  return ::fstat(fd, &output) == 0 ? messagesProblem(output) : "";
 }
 
 fs::path folderOf(const fs::path& file) {
@@ -130,7 +133,7 @@ std::string stickyReplaceProblem(const fs::path& file, const struct stat& info) 
     return "";
   }
   return "is user " + std::to_string(info.st_uid) + "'s file in a sticky folder (" +
-         folderOf(file).string() + "), which this user cannot replace";
+         folderOf(file).string() + "), which this user cannot replace or remove";
 }
 
 // The longest name a folder takes (NAME_MAX where the file system does not say).
@@ -179,13 +182,13 @@ std::string folderWritableProblem(const fs::path& folder) {
   if (::stat(folder.c_str(), &info) == 0) {
     if (!S_ISDIR(info.st_mode)) return "is not a folder";
     const std::string problem = trialProblem(folder);
-    return problem.empty() ? "" : "the folder is not writable: " + problem;
+    return problem.empty() ? "" : "no file can be made in the folder: " + problem;
   }
   if (errno != ENOENT) return "cannot be reached: " + lastError();
   const fs::path existing = nearestExisting(folder);
   if (!fs::is_directory(existing)) return existing.string() + " is not a folder";
   if (const std::string problem = trialProblem(existing); !problem.empty()) {
-    return "cannot create it: " + existing.string() + " is not writable: " + problem;
+    return "cannot create it: " + existing.string() + ": no file can be made there: " + problem;
   }
   for (const fs::path& part : folder) {
     if (part.string().size() > longestName(existing)) {
@@ -214,17 +217,18 @@ void syncFolder(const fs::path& folder) {
 }
 
 // Writes every byte; `name` is the output's, for the message of a signal
-// that stops a write blocked on a slow reader.  A pipe, FIFO or socket is
-// written a pipe buffer at a time, each once poll() says it has room,
-// looking for a stop signal every tenth of a second: a reader that never
-// reads would otherwise block the write for good, and the signal may reach
-// another thread, so no EINTR comes (a blocked write in the sound job kept
-// a run from stopping).
+// that stops a write blocked on a slow reader.  Anything but a regular file
+// (a pipe, FIFO, socket, terminal or other device) may wait on its reader:
+// it is written a pipe buffer at a time, each once poll() says it has room,
+// looking for a stop signal every tenth of a second, and a non-blocking
+// descriptor's EAGAIN waits the same way.  A reader that never reads would
+// otherwise block the write for good, and the signal may reach another
+// thread, so no EINTR comes (a blocked write in the sound job kept a run
+// from stopping).
 void writeAll(int fd, std::string_view bytes, const std::string& name,
               const std::function<void()>& on_error) {
   struct stat info {};
-  const bool may_block =
-      ::fstat(fd, &info) == 0 && (S_ISFIFO(info.st_mode) || S_ISSOCK(info.st_mode));
+  const bool may_block = ::fstat(fd, &info) == 0 && !S_ISREG(info.st_mode);
   while (!bytes.empty()) {
     std::size_t chunk = bytes.size();
     if (may_block) {
@@ -239,6 +243,7 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
       stopIfInterrupted("the write to " + name);
       continue;
     }
+    if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && may_block) continue;
     if (wrote <= 0) {
       if (wrote == 0) errno = EIO;
       on_error();
@@ -314,8 +319,7 @@ int openWrittenThrough(const fs::path& target, const fs::path& shown) {
       },
       "waiting for a reader to open " + shown.string(),
       "the wait for a reader of " + shown.string());
-  if (fd >= 0) ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
-  return fd;
+  return fd;  // left non-blocking: its file description is this output's alone (writeAll)
 }
 
 // A manifest entry: a plain relative path that stays inside the folder.
@@ -403,6 +407,17 @@ std::string outputFileProblem(const fs::path& file) {
   return outputFileProblemIn(file, nullptr);
 }
 
+namespace {
+
+// "" when a device or FIFO (`info` its stat) can be written through.
+std::string writtenThroughProblem(const fs::path& file, const struct stat& info) {
+  if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
+  if (::access(file.c_str(), W_OK) != 0) return "not writable: " + lastError();
+  return messagesProblem(info);
+}
+
+}  // namespace
+
 std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writable_folders) {
   if (std::string problem = outputNameProblem(file); !problem.empty()) return problem;
   // An open descriptor is written to itself, wherever it leads.
@@ -410,8 +425,7 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
   struct stat info {};
   // A device or FIFO is written through the name as given.
   if (::stat(file.c_str(), &info) == 0 && !S_ISREG(info.st_mode) && !S_ISDIR(info.st_mode)) {
-    if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
-    return ::access(file.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
+    return writtenThroughProblem(file, info);
   }
   const fs::path target = followLinks(file);
   const fs::path folder = folderOf(target);
@@ -422,10 +436,7 @@ std::string outputFileProblemIn(const fs::path& file, std::set<fs::path>* writab
   }
   if (::stat(target.c_str(), &info) == 0) {
     if (S_ISDIR(info.st_mode)) return "is a directory, not a file";
-    if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
-    if (!S_ISREG(info.st_mode)) {  // written through
-      return ::access(target.c_str(), W_OK) == 0 ? "" : "not writable: " + lastError();
-    }
+    if (!S_ISREG(info.st_mode)) return writtenThroughProblem(target, info);
     if (std::string problem = stickyReplaceProblem(target, info); !problem.empty()) return problem;
   } else if (errno != ENOENT) {
     return "cannot be reached: " + lastError();  // a symlink loop, a file as a folder
@@ -448,10 +459,18 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
       if (const std::string problem = descriptorProblem(descriptor); !problem.empty()) {
         fail(problem);
       }
-      fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);  // its offset and append mode shared
+      struct stat opened {};
+      // A terminal or other device has no offset to share: it gets a file
+      // description of its own, non-blocking (writeAll), so a reader that
+      // does not read cannot hold a stop.  Anything else shares the
+      // caller's offset and append mode.
+      if (::fstat(descriptor, &opened) == 0 && S_ISCHR(opened.st_mode)) {
+        const std::string reopened = "/proc/self/fd/" + std::to_string(descriptor);
+        fd_ = ::open(reopened.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+      }
+      if (fd_ < 0) fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);
       if (fd_ < 0) fail("cannot use descriptor " + std::to_string(descriptor) + ": " + lastError());
       // A regular file not appended to can be patched where this output began.
-      struct stat opened {};
       const off_t start = ::lseek(fd_, 0, SEEK_CUR);
       rewrite_base_ = ::fstat(fd_, &opened) == 0 && S_ISREG(opened.st_mode) &&
                               (::fcntl(fd_, F_GETFL) & O_APPEND) == 0 && start >= 0
@@ -468,6 +487,14 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
   if (exists && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
     fd_ = openWrittenThrough(path_, path_);  // the kernel follows what followLinks cannot
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
+    struct stat opened {};
+    if (::fstat(fd_, &opened) == 0) {
+      if (const std::string problem = messagesProblem(opened); !problem.empty()) {
+        ::close(fd_);
+        fd_ = -1;
+        fail(problem);
+      }
+    }
     rewrite_base_ = -1;
     return;
   }
@@ -538,8 +565,14 @@ void OutputFile::write(std::string_view bytes) {
   writeAll(fd_, bytes, path_.string(), [this] { fail("cannot write: " + lastError()); });
 }
 
+bool OutputFile::rewritable() const {
+  // Another holder of a shared descriptor may have set O_APPEND since it
+  // was opened, and a write at an offset would then land at the end.
+  return rewrite_base_ >= 0 && fd_ >= 0 && (::fcntl(fd_, F_GETFL) & O_APPEND) == 0;
+}
+
 void OutputFile::rewrite(std::uint64_t offset, std::string_view bytes) {
-  if (fd_ < 0 || !rewritable()) fail("cannot rewrite what is streamed or finished");
+  if (!rewritable()) fail("cannot rewrite what is streamed, appended to or finished");
   while (!bytes.empty()) {
     const ssize_t wrote =
         ::pwrite(fd_, bytes.data(), bytes.size(), static_cast<off_t>(rewrite_base_ + offset));
@@ -703,17 +736,23 @@ struct ManifestList {
   std::vector<std::string> entries;
 };
 
-ManifestList parseManifest(const std::string& text) {
+ManifestList parseManifest(std::string_view text) {
   ManifestList list;
-  std::istringstream manifest(text);
-  std::string line;
-  if (!std::getline(manifest, line) || line != OutputFolder::kManifestHeader) return list;
-  for (bool second = true; std::getline(manifest, line); second = false) {
-    if (line.starts_with(kWriterMark)) {
-      if (second) list.writer = line.substr(kWriterMark.size());
+  const auto next_line = [&text]() -> std::optional<std::string_view> {
+    if (text.empty()) return std::nullopt;
+    const std::size_t end = std::min(text.find('\n'), text.size());
+    const std::string_view line = text.substr(0, end);
+    text.remove_prefix(std::min(end + 1, text.size()));
+    return line;
+  };
+  if (next_line() != std::optional<std::string_view>(OutputFolder::kManifestHeader)) return list;
+  for (bool second = true; const std::optional<std::string_view> line = next_line();
+       second = false) {
+    if (line->starts_with(kWriterMark)) {
+      if (second) list.writer = line->substr(kWriterMark.size());
       continue;
     }
-    if (std::optional<std::string> entry = unescapeManifestEntry(line)) {
+    if (std::optional<std::string> entry = unescapeManifestEntry(*line)) {
       list.entries.push_back(std::move(*entry));
     }
   }
@@ -817,12 +856,18 @@ std::string OutputFolder::declare(const fs::path& path) {
              kManifestName + "), which this " + writer_ + " would remove: choose another folder";
     }
     if (std::string problem = enclosingRunProblem(); !problem.empty()) return problem;
+    if (std::string problem = previousOutputsProblem(safeEntries(previous)); !problem.empty()) {
+      return problem;
+    }
     writer_checked_ = true;
   }
   // Links first: the checks below try the folder by making a file there.
   if (std::string problem = linkProblem(path); !problem.empty()) return problem;
   if (std::string problem = outputFileProblemIn(path, &writable_folders_); !problem.empty()) {
     return problem;
+  }
+  if (const std::optional<fs::path> relative = inside(path)) {
+    if (std::string problem = innerListProblem(*relative); !problem.empty()) return problem;
   }
   const std::string id = identity(path);
   if (id == folder_identity_ || isAbove(id, folder_identity_)) {
@@ -904,8 +949,16 @@ bool removeInside(int folder, const fs::path& relative) {
   return removed;
 }
 
-// The list of outputs in `folder`, read without following a link ("" for none).
-std::string manifestTextIn(const fs::path& folder_path) {
+// The longest list a run writes: a million frames' keyframes, named.
+constexpr off_t kMostManifestBytes = off_t{64} << 20;
+
+// Whose lists are read (OutputFolder::manifestText, enclosingRunProblem).
+enum class ListOwner { kAnyone, kThisUser };
+
+// The list of outputs in `folder`, read without following a link ("" for
+// none): one larger than any list a run writes is none of this program's,
+// and kThisUser takes only the lists this user wrote.
+std::string manifestTextIn(const fs::path& folder_path, ListOwner owner = ListOwner::kAnyone) {
   const FolderHandle folder(folder_path);
   if (folder.fd < 0) return "";
   // Never through a link: a manifest someone linked elsewhere lists nothing.
@@ -914,10 +967,15 @@ std::string manifestTextIn(const fs::path& folder_path) {
   if (fd < 0) return "";
   std::string text;
   struct stat info {};
-  if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode)) {
+  if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode) && info.st_size <= kMostManifestBytes &&
+      (owner == ListOwner::kAnyone || info.st_uid == ::geteuid())) {
     char buffer[65536];
     ssize_t got = 0;
-    while ((got = ::read(fd, buffer, sizeof(buffer))) > 0) text.append(buffer, got);
+    while (text.size() <= static_cast<std::size_t>(kMostManifestBytes) &&
+           (got = ::read(fd, buffer, sizeof(buffer))) > 0) {
+      text.append(buffer, static_cast<std::size_t>(got));
+    }
+    if (text.size() > static_cast<std::size_t>(kMostManifestBytes)) text.clear();  // grew meanwhile
   }
   ::close(fd);
   return text;
@@ -935,12 +993,47 @@ std::string OutputFolder::enclosingRunProblem() const {
   for (fs::path above = folder.parent_path(); above.has_relative_path();
        above = above.parent_path()) {
     const std::string inside = folder.lexically_relative(above).string() + "/";
-    for (const std::string& entry : parseManifest(manifestTextIn(above)).entries) {
+    // Another user's list in a shared folder (/tmp) never refuses this one.
+    const std::string text = manifestTextIn(above, ListOwner::kThisUser);
+    for (const std::string& entry : parseManifest(text).entries) {
       if (entry.starts_with(inside)) {
         return "its folder " + folder_.string() + " holds outputs of the run folder " +
                above.string() + " (" + entry + "), which this " + writer_ +
                " would replace: choose another folder";
       }
+    }
+  }
+  return "";
+}
+
+std::string OutputFolder::innerListProblem(const fs::path& relative) const {
+  fs::path inner = folder_;
+  for (const fs::path& part : relative.parent_path()) {
+    inner /= part;
+    struct stat info {};
+    if (::lstat((inner / kManifestName).c_str(), &info) != 0) continue;
+    const std::string writer = parseManifest(manifestTextIn(inner)).writer;
+    return "its folder " + inner.string() + " holds the outputs of " +
+           (writer.empty() ? std::string("another run") : "`overlap " + writer + "`") +
+           " (listed in " + kManifestName + "), which this " + writer_ +
+           " would replace: choose another folder";
+  }
+  return "";
+}
+
+std::string OutputFolder::previousOutputsProblem(const std::set<std::string>& previous) const {
+  std::set<fs::path> inner_folders;
+  for (const std::string& entry : previous) {
+    const fs::path file = folder_ / entry;
+    struct stat info {};
+    if (::lstat(file.c_str(), &info) != 0 || !S_ISREG(info.st_mode)) continue;
+    // The next run removes or replaces every listed file: one it cannot is
+    // refused now, not kept unlisted at the end.
+    if (std::string problem = stickyReplaceProblem(file, info); !problem.empty()) {
+      return file.string() + ", an output of the last " + writer_ + " here, " + problem;
+    }
+    if (inner_folders.insert(fs::path(entry).parent_path()).second) {
+      if (std::string problem = innerListProblem(entry); !problem.empty()) return problem;
     }
   }
   return "";
@@ -987,12 +1080,17 @@ std::vector<std::string> OutputFolder::commit() {
     throw;
   }
   std::vector<std::string> removed;
+  std::set<std::string> listed = inside_;
   const FolderHandle folder(folder_);
   for (const std::string& entry : previous) {
     if (inside_.count(entry) > 0 || folder.fd < 0) continue;
-    if (removeInside(folder.fd, entry)) removed.push_back(entry);
+    if (removeInside(folder.fd, entry)) {
+      removed.push_back(entry);
+    } else if (struct stat info{}; ::lstat((folder_ / entry).c_str(), &info) == 0) {
+      listed.insert(entry);  // still there (a file the user may not remove): still listed
+    }
   }
-  writeManifest(inside_);
+  writeManifest(listed);
   return removed;
 }
 

@@ -30,8 +30,12 @@
 //     owner (where the process may give it) and permissions, never a
 //     set-ID bit.  A FIFO without a reader is
 //     waited for through interrupt.h's waitUntil() (said after a second,
-//     stopped by a signal); a write blocked on a slow reader is stopped by a
-//     signal too (Interrupted).
+//     stopped by a signal); a write to anything but a regular file waits for
+//     room in poll(), looking for a signal (Interrupted), as a reader that
+//     does not read would block it and the signal may reach another thread.
+//     A terminal named through a descriptor gets a non-blocking file
+//     description of its own (it has no offset to share).  An output
+//     written through that is standard error, however named, is refused.
 //   * A write that fails (disk full, I/O error, EPIPE from a reader that
 //     has gone: interrupt.h ignores SIGPIPE) throws OutputError naming
 //     the output; an output destroyed before it is published leaves nothing
@@ -46,7 +50,12 @@
 //     read through a link (declare() refuses one that is a FIFO or a
 //     folder, which would hang or fail the commit), and an entry is
 //     removed only if it is a regular file reached from the folder without
-//     following any link (openat, O_NOFOLLOW).
+//     following any link (openat, O_NOFOLLOW); one that cannot be removed
+//     stays listed.  declare() refuses, before any work, a listed file this
+//     user could not replace or remove (another's in a sticky folder) and a
+//     folder between this one and an output that holds a list of its own.
+//     A list larger than any a run writes (64 MiB) lists nothing, and the
+//     folders above are searched only for lists this user wrote.
 //   * Two outputs of one run never share a path: declare() refuses, before
 //     any work and however the names are spelled, a second name for a file
 //     already declared, a file that is the run folder, a folder above it or
@@ -139,8 +148,9 @@ class OutputFile {
   // WAV header's sizes).  Only for a rewritable() output.
   void rewrite(std::uint64_t offset, std::string_view bytes);
   // True for a temporary, and for a descriptor that is a regular file not
-  // opened for append (its start is where this output began).
-  bool rewritable() const { return rewrite_base_ >= 0; }
+  // appended to, now (its start is where this output began); false once
+  // finished.
+  bool rewritable() const;
   // Flushes and syncs the whole file and closes it, still under its
   // temporary name (nothing more for an output written through).
   void finish();
@@ -234,6 +244,13 @@ class OutputFolder {
   // Why the folder is no folder of its own, or "": a folder above it whose
   // list names files in it (a run's frames/), which this run would replace.
   std::string enclosingRunProblem() const;
+  // Why an output at `relative` is not this folder's own, or "": a folder
+  // between the two holds a list of its own (a capture's in a run's frames/).
+  std::string innerListProblem(const std::filesystem::path& relative) const;
+  // Why the last run's listed outputs `previous` cannot all be replaced or
+  // removed, or "": another user's file in a sticky folder, a file in a
+  // folder that now holds another list.
+  std::string previousOutputsProblem(const std::set<std::string>& previous) const;
   void writeManifest(const std::set<std::string>& entries) const;
 
   std::filesystem::path folder_;

@@ -3,13 +3,18 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <termios.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -377,7 +382,8 @@ TEST_F(OutputFileTest, AFolderHoldingAnotherRunsOutputsIsRefused) {
 }
 
 // An output that is the program's own standard error would have its
-// messages spliced in: refused; a terminal or /dev/null takes both.
+// messages spliced in: refused however it is named (a descriptor, a FIFO's
+// path); a terminal or /dev/null takes both.
 TEST_F(OutputFileTest, AnOutputThatIsStandardErrorIsRefused) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   const fs::path file = folder_ / "both.txt";
@@ -388,10 +394,18 @@ TEST_F(OutputFileTest, AnOutputThatIsStandardErrorIsRefused) {
         const bool refused =
             outputFileProblem("/dev/fd/" + std::to_string(fd)).find("is also standard error") !=
             std::string::npos;
+        // A FIFO named by its path is the same stream.
+        const fs::path fifo = folder_ / "both.fifo";
+        const int both = ::mkfifo(fifo.c_str(), 0600) == 0
+                             ? ::open(fifo.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC)
+                             : -1;
+        ::dup2(both, STDERR_FILENO);
+        const bool fifo_refused = both >= 0 && outputFileProblem(fifo).find(
+                                                   "is also standard error") != std::string::npos;
         const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
         ::dup2(null, STDERR_FILENO);
         const bool null_taken = outputFileProblem("/dev/fd/" + std::to_string(null)).empty();
-        std::exit(refused && null_taken ? 0 : 1);
+        std::exit(refused && fifo_refused && null_taken ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
 }
@@ -431,6 +445,137 @@ TEST_F(OutputFileTest, AnotherUsersFileInAStickyFolderIsRefusedBeforeAnyWork) {
         const std::string problem = outputFileProblem(theirs);
         std::exit(problem.find("sticky folder") != std::string::npos &&
                           outputFileProblem(sticky / "mine.txt").empty()
+                      ? 0
+                      : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+// A terminal no one reads blocks a write, and the stop signal may reach
+// another thread than the writer's: the write still stops, however the
+// terminal is named (its path, a descriptor).  A reader that reads, slowly,
+// gets every byte, through a descriptor left non-blocking too.
+TEST_F(OutputFileTest, AWriteToATerminalNoOneReadsStopsAtASignal) {
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) {
+    GTEST_SKIP() << "no pseudo-terminal here";
+  }
+  const std::string terminal = ::ptsname(master);
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  for (const bool by_descriptor : {false, true}) {
+    EXPECT_EXIT(
+        {
+          ::alarm(20);  // a write that never stops fails the test, not the suite
+          const int slave = ::open(terminal.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+          const fs::path name = by_descriptor ? "/dev/fd/" + std::to_string(slave) : terminal;
+          std::atomic<bool> stopped = false;
+          std::thread writer([&] {
+            try {
+              OutputFile out(name);
+              out.write(std::string(std::size_t{1} << 20, 'x'));
+            } catch (const Interrupted&) {
+              stopped = true;
+            }
+          });
+          std::this_thread::sleep_for(std::chrono::milliseconds(300));
+          interrupt_detail::received.store(SIGTERM);
+          writer.join();
+          std::exit(stopped ? 0 : 1);
+        },
+        ::testing::ExitedWithCode(0), "");
+  }
+  EXPECT_EXIT(
+      {
+        ::alarm(20);
+        const int slave = ::open(terminal.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+        termios raw{};
+        ::tcgetattr(slave, &raw);
+        ::cfmakeraw(&raw);
+        ::tcsetattr(slave, TCSANOW, &raw);
+        const std::size_t size = std::size_t{1} << 18;
+        std::size_t got = 0;
+        std::thread reader([&] {
+          char buffer[3000];
+          while (got < size) {
+            pollfd ready{master, POLLIN, 0};
+            if (::poll(&ready, 1, 2000) <= 0) return;
+            const ssize_t read = ::read(master, buffer, sizeof(buffer));
+            if (read <= 0) return;
+            got += static_cast<std::size_t>(read);
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          }
+        });
+        OutputFile out("/dev/fd/" + std::to_string(slave));
+        out.write(std::string(size, 'x'));
+        out.finish();
+        reader.join();
+        std::exit(got == size ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+  ::close(master);
+}
+
+// A folder between a run folder and an output that holds a list of its own
+// (a capture's in the run's frames/) is not the run's: refused before any
+// work, as the capture is refused inside the run's frames/.
+TEST_F(OutputFileTest, AFolderInsideHoldingAnotherListIsRefused) {
+  {
+    OutputFolder capture(folder_ / "frames", "capture");
+    ASSERT_EQ(capture.declare(folder_ / "frames" / "scene4_frame0000.png"), "");
+    fs::create_directories(folder_ / "frames");
+    capture.open(folder_ / "frames" / "scene4_frame0000.png").write("capture's");
+    capture.commit();
+  }
+  OutputFolder run(folder_, "run");
+  const std::string problem = run.declare(folder_ / "frames" / "scene4_frame0000.png");
+  EXPECT_NE(problem.find("holds the outputs of `overlap capture`"), std::string::npos) << problem;
+  EXPECT_EQ(textOf(folder_ / "frames" / "scene4_frame0000.png"), "capture's");
+}
+
+// The lists above a folder are read only where this user wrote them and
+// only as large as a list a run writes: another user's list in a shared
+// folder, or a file of gigabytes, neither refuses nor stalls a run below.
+TEST_F(OutputFileTest, ListsAboveAreTheUsersOwnAndBounded) {
+  const fs::path inner = folder_ / "res";
+  const fs::path list = folder_ / OutputFolder::kManifestName;
+  std::ofstream(list) << OutputFolder::kManifestHeader << "\n\\writer run\nres/frames.csv\n";
+  EXPECT_NE(OutputFolder(inner).declare(inner / "frames.csv").find("holds outputs of the run"),
+            std::string::npos);
+  ASSERT_EQ(::truncate(list.c_str(), off_t{1} << 27), 0);  // sparse: no room taken
+  EXPECT_EQ(OutputFolder(inner).declare(inner / "frames.csv"), "");
+  if (::geteuid() != 0) return;
+  ASSERT_EQ(::truncate(list.c_str(), 0), 0);
+  std::ofstream(list) << OutputFolder::kManifestHeader << "\n\\writer run\nres/frames.csv\n";
+  ASSERT_EQ(::chown(list.c_str(), 5678, 5678), 0);
+  EXPECT_EQ(OutputFolder(inner).declare(inner / "frames.csv"), "");
+}
+
+// The next run removes or replaces every file the last one listed: one it
+// cannot (another user's in a sticky folder) is refused before any work,
+// never kept unlisted at the end.
+TEST_F(OutputFileTest, ALastRunsFileThisUserCannotRemoveIsRefusedBeforeAnyWork) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to make another user's file";
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const fs::path sticky = folder_ / "sticky";
+  fs::create_directory(sticky);
+  ASSERT_EQ(::chmod(sticky.c_str(), 01777), 0);
+  {
+    OutputFolder run(sticky);
+    ASSERT_EQ(run.declare(sticky / "frames.csv"), "");
+    ASSERT_EQ(run.declare(sticky / "sound.wav"), "");
+    run.open(sticky / "frames.csv").write("frame\n");
+    run.open(sticky / "sound.wav").write("RIFF");
+    run.commit();
+  }
+  for (const char* name : {"frames.csv", OutputFolder::kManifestName}) {
+    ASSERT_EQ(::chown((sticky / name).c_str(), 1234, 1234), 0);
+  }
+  EXPECT_EXIT(
+      {
+        if (::setgid(1234) != 0 || ::setuid(1234) != 0) std::exit(2);
+        const std::string problem = OutputFolder(sticky).declare(sticky / "frames.csv");
+        std::exit(problem.find("sound.wav") != std::string::npos &&
+                          problem.find("sticky folder") != std::string::npos
                       ? 0
                       : 1);
       },

@@ -1,7 +1,9 @@
 #include "audio_ai_stubs/wav_writer.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
@@ -164,6 +166,32 @@ TEST(WavWriter, WritesThroughAFifoWithAStreamingHeader) {
   ASSERT_EQ(received.size(), WavWriter::kHeaderBytes + 4u);
   EXPECT_EQ(readU32(received, 4), 0xFFFFFFFFu);
   EXPECT_EQ(readU16(received, WavWriter::kHeaderBytes), 16384u);
+}
+
+// A file reached through a descriptor is patched where the WAV began; until
+// then, and where another holder of the descriptor has since made it
+// append-only, its header says "until the stream ends": what was written
+// as it went stays readable, and no header lands at the end.
+TEST(WavWriter, ADescriptorsFileSaysUntilTheStreamEndsUntilPatched) {
+  const std::filesystem::path path = scratchFile("descriptor");
+  for (const bool appended_later : {false, true}) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    ASSERT_GE(fd, 0);
+    {
+      OutputFile file("/dev/fd/" + std::to_string(fd));
+      ASSERT_TRUE(file.rewritable());
+      WavWriter writer(file);
+      writer.appendStereo(std::vector<float>{0.5f, -0.5f});
+      EXPECT_EQ(readU32(readBytes(path), 4), 0xFFFFFFFFu);  // stopped here: still readable
+      if (appended_later) ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_APPEND);
+      writer.close();
+      file.publish();
+    }
+    ::close(fd);
+    const std::vector<unsigned char> bytes = readBytes(path);
+    ASSERT_EQ(bytes.size(), WavWriter::kHeaderBytes + 4u) << appended_later;
+    EXPECT_EQ(readU32(bytes, 4), appended_later ? 0xFFFFFFFFu : WavWriter::kHeaderBytes - 8 + 4u);
+  }
 }
 
 TEST(WavWriter, MixAtAnotherSampleRateIsRefused) {
