@@ -73,7 +73,7 @@ report=("${study[@]}" --no-runs)
 # is still as made, never a folder another submission or a study has written into
 # meanwhile; shards submitted without their report job are cancelled; once the report
 # job is submitted, a stop stops the waiting only.
-phase="" made="" array="" report_job="" sbatch_pid="" ids=""
+phase="" made="" array="" report_job="" sbatch_pid="" ids="" notices=""
 undo_made() {  # MADE: "LEVELS SLURM LOCK" as the folder's check printed it
   [[ -n "$made" ]] || return 0
   PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
@@ -103,7 +103,12 @@ report_id() {  # the report job's id, once its sbatch has printed it (a whole li
   [[ -n "$report_job" ]]
 }
 stopped() {
+  # No errexit in here: a command that fails (a kill of an sbatch the same stop has
+  # ended already, a scancel refused) must not end the stop before its line and its
+  # exit status; every way out of here is the exit of its own.
+  set +e
   trap - INT TERM HUP
+  [[ -z $notices ]] || exec 2>&3  # the lines below to stderr, not where bash's notices go
   local i
   if [[ $phase == report ]]; then  # its sbatch is submitting: wait a little for its word
     for ((i = 0; i < 100; i++)); do
@@ -171,11 +176,32 @@ sh_quoted() {
   for word in "$@"; do words+=("'${word//\'/\'\\\'\'}'"); done
   printf '%s' "${words[*]}"
 }
+signal_name() {  # the signal of an exit status past 128 (a command ended by it)
+  local name
+  name="$(kill -l "$(($1 - 128))" 2> /dev/null)" || name="$(($1 - 128))"
+  echo "SIG$name"
+}
 phase=shards
+status=0
 # shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
 array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
   --output="$out/slurm/shard-%a.log" --chdir="$repo" \
-  --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")"
+  --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")" || status=$?
+# Its --parsable line is the array's id (and ";cluster"): anything else and no report job
+# is submitted (its --dependency=afterok: would name no job, or another); of what was made
+# for --out, what nothing else has written into is removed, as a stop's.
+if [[ $status -gt 128 ]]; then
+  undo_made
+  echo "study_slurm: sbatch was ended by $(signal_name "$status") (exit $status) while submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2; exit 1
+elif [[ $status -ne 0 ]]; then
+  undo_made
+  echo "study_slurm: sbatch refused the shards (exit $status); nothing submitted" >&2; exit 1
+elif ! [[ "${array%%;*}" =~ ^[0-9]+$ ]]; then
+  undo_made
+  printed="${array//$'\n'/\\n}"; printed="${printed//$'\r'/\\r}"
+  [[ ${#printed} -le 200 ]] || printed="${printed:0:200}..."
+  echo "study_slurm: sbatch printed no job id for the shards (${array:+it printed: }${printed:-it printed nothing}); see squeue --name overlap-study" >&2; exit 1
+fi
 array="${array%%;*}"
 phase=report
 echo "study_slurm: shards: job $array, $shards tasks, logs in $shown_out/slurm/shard-N.log"
@@ -186,20 +212,30 @@ echo "study_slurm: shards: job $array, $shards tasks, logs in $shown_out/slurm/s
 ids="$(mktemp "${TMPDIR:-/tmp}/study_slurm.XXXXXX")" || exit 1
 trap 'rm -f -- "$ids"' EXIT
 buffered=(); command -v stdbuf > /dev/null && buffered=(stdbuf -oL)  # the id at once
-# shellcheck disable=SC2086
-"${buffered[@]}" sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
-  --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
-  --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")" > "$ids" &
-sbatch_pid=$!
-until report_id || ! kill -0 "$sbatch_pid" 2> /dev/null; do sleep 0.1; done
-if report_id && [[ ${#wait[@]} -gt 0 ]]; then
-  phase=waiting
-  echo "study_slurm: report: job $report_job, when every shard has ended well: $shown_out/REPORT.md; waiting for it to end"
-fi
-status=0; wait "$sbatch_pid" || status=$?
+# From its start to its wait, bash's own stderr (fd 2) is /dev/null and the real one fd 3
+# (sbatch's, this script's lines): an sbatch ended by a signal is said below in a line of
+# this script's, not also in bash's notice "line N: PID Killed  stdbuf -oL sbatch ...".
+status=0
+{
+  notices=yes
+  # shellcheck disable=SC2086
+  "${buffered[@]}" sbatch --parsable "${wait[@]}" $extra_sbatch --dependency="afterok:$array" \
+    --kill-on-invalid-dep=yes --job-name=overlap-study-report --output="$out/slurm/report.log" \
+    --chdir="$repo" --wrap="$(sh_quoted "${report[@]}")" > "$ids" 2>&3 3>&- &
+  sbatch_pid=$!
+  until report_id || ! kill -0 "$sbatch_pid" 2> /dev/null; do sleep 0.1; done
+  if report_id && [[ ${#wait[@]} -gt 0 ]]; then
+    phase=waiting
+    echo "study_slurm: report: job $report_job, when every shard has ended well: $shown_out/REPORT.md; waiting for it to end"
+  fi
+  wait "$sbatch_pid" || status=$?
+} 3>&2 2> /dev/null
+notices=""
 report_id || true
 trap - INT TERM HUP
-if [[ -z "$report_job" ]]; then
+if [[ -z "$report_job" && $status -gt 128 ]]; then
+  echo "study_slurm: sbatch was ended by $(signal_name "$status") (exit $status) while submitting the report job; the shards' job $array is submitted: see squeue --name overlap-study-report, and scancel $array if it lists no report job" >&2; exit 1
+elif [[ -z "$report_job" ]]; then
   echo "study_slurm: sbatch refused the report job; the shards' job $array runs without it (scancel $array, or submit the report: ${report[*]})" >&2; exit 1
 elif [[ ${#wait[@]} -eq 0 ]]; then
   [[ $status -eq 0 ]] || { echo "study_slurm: sbatch submitted the report job $report_job, then exited $status; see squeue -j $report_job" >&2; exit 1; }
@@ -207,6 +243,9 @@ elif [[ ${#wait[@]} -eq 0 ]]; then
 elif [[ $status -eq 0 ]]; then
   echo "study_slurm: report: job $report_job ended well: $shown_out/REPORT.md"
 else
-  echo "study_slurm: the report job $report_job ended with exit status $status (or never ran: a shard failed); see $shown_out/slurm/report.log and sacct -j $array,$report_job" >&2
+  # (sbatch --wait ended by a signal gives 128 + N too, as a job so ended does)
+  ended=""
+  [[ $status -le 128 ]] || ended="; or sbatch ended by $(signal_name "$status") while waiting: squeue -j $report_job shows whether the job goes on"
+  echo "study_slurm: the report job $report_job ended with exit status $status (or never ran: a shard failed${ended}); see $shown_out/slurm/report.log and sacct -j $array,$report_job" >&2
   exit "$status"
 fi

@@ -12,6 +12,14 @@ study.CASE, tests/study/CMakeLists.txt):
                                   both jobs named as going on, nothing cancelled
   slurm_missing_option_value_one_line   a missing or empty option value: one line of
                                   the script's own, exit 2, nothing made
+  slurm_group_stop_says_what_goes_on   a stop while --wait waits or the report job is
+                                  submitted, to the script or its group (sbatch ended
+                                  too): 128 + N and its one line, never errexit's 1
+  slurm_shards_job_id_checked     the shards' sbatch printing no job id (nothing, a
+                                  sentence, two lines): exit 1, one line, no report job,
+                                  the --out made removed
+  slurm_sbatch_failure_one_line   an sbatch refusing or killed: one line of the script's
+                                  own (exit 1), no bash notice, the --out made removed
   gpu_resume_archive_checked_before_unpacking   gpu_check.sh --study: a resume archive
                                   with a link, an absolute or '..' name is refused (exit
                                   2, one line) before an earlier run is touched, nothing
@@ -71,12 +79,25 @@ def one_line_exit(result, code: int, *words, prefix: str = "") -> None:
 def fake_slurm(work: pathlib.Path) -> tuple:
     """sbatch records its argv (calls/callN), prints job 4242+N; with --wait it sleeps
     FAKE_WAIT_S (1) and exits FAKE_WAIT_RC (0), the job's status as sbatch(1) says.
-    scancel appends its argv to scancel.log."""
+    The shards' call (call0) prints FAKE_SHARDS_PRINTS instead of its id where that is
+    set, then exits FAKE_SHARDS_RC (0; an error line first where it is not 0); call N
+    ends by SIGKILL before it prints anything where FAKE_KILLED is N, after its id where
+    FAKE_KILLED_AFTER_ID is N; it sleeps FAKE_SLOW_S (3) before its id where FAKE_SLOW is
+    N.  scancel appends its argv to scancel.log."""
     calls = work / "calls"
     calls.mkdir()
-    env = fake_sbatch(work, f"n=$(ls '{calls}' | wc -l)\nprintf '%s\\n' \"$@\" > '{calls}'/call$n\n"
-                      "echo $((4242 + n))\n"
-                      "for a; do [ \"$a\" = --wait ] && { trap 'kill $!; exit 143' TERM; "
+    env = fake_sbatch(work, f"n=$(ls '{calls}' | wc -l)\n"
+                      f"printf '%s\\n' \"$@\" > '{calls}'/call$n\n"
+                      "[ \"${FAKE_KILLED-}\" = $n ] && kill -9 $$\n"
+                      "[ \"${FAKE_SLOW-}\" = $n ] && sleep \"${FAKE_SLOW_S:-3}\"\n"
+                      "if [ $n = 0 ] && [ -n \"${FAKE_SHARDS_PRINTS+set}\" ]; then\n"
+                      "  printf '%s' \"$FAKE_SHARDS_PRINTS\"; else echo $((4242 + n)); fi\n"
+                      "[ \"${FAKE_KILLED_AFTER_ID-}\" = $n ] && kill -9 $$\n"
+                      "if [ $n = 0 ] && [ \"${FAKE_SHARDS_RC:-0}\" != 0 ]; then\n"
+                      "  echo 'sbatch: error: Batch job submission failed' >&2\n"
+                      "  exit \"$FAKE_SHARDS_RC\"; fi\n"
+                      "for a; do [ \"$a\" = --wait ] && { "
+                      "trap 'kill $! 2> /dev/null; exit 143' TERM; "
                       "sleep \"${FAKE_WAIT_S:-1}\" & wait $!; "
                       "exit \"${FAKE_WAIT_RC:-0}\"; }; done\nexit 0")
     scancel = work / "bin" / "scancel"
@@ -216,6 +237,135 @@ def case_slurm_missing_option_value_one_line(args) -> None:
         check(result.stderr.startswith("study_slurm: "), f"{words}: {result.stderr!r}")
         one_line_exit(result, 2, named)
         check(not any(calls.iterdir()) and not os.path.lexists(out), f"{words}: went on")
+
+
+def case_slurm_group_stop_says_what_goes_on(args) -> None:
+    """SIGTERM, SIGHUP and SIGINT while --wait waits for the report job, to
+    study_slurm.sh alone and to its whole process group (which ends the fake sbatch
+    --wait too, before the trap's own kill): exit 128 + N, one line naming both jobs as
+    going on, nothing cancelled; never the trap ended early by errexit (exit 1, no word).
+    The same stops while the report job's sbatch submits: to the script alone, it waits
+    for the id, then the same line; a TERM or HUP to the group, which ends sbatch before
+    its id, cancels the shards' job and says so."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    said, shown = work / "stderr", work / "stdout"
+    for waiting, fake in [(True, {"FAKE_WAIT_S": "30"}), (False, {"FAKE_SLOW": "1"})]:
+        for sig, group in [(sig, group) for group in (False, True)
+                           for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)]:
+            # (an INT to the group reaches no sbatch: bash starts its & jobs with INT ignored)
+            goes_on = waiting or not group or sig == signal.SIGINT
+            words = ["4242", "4243", "go on"] if goes_on else ["4242", "is cancelled"]
+            shutil.rmtree(calls)
+            calls.mkdir()
+            (work / "scancel.log").unlink(missing_ok=True)
+            # Files, not pipes: a fake's orphaned sleep holds none; a session of its own,
+            # so that the group's signal reaches this test not.
+            with open(said, "w") as stderr_file, open(shown, "w") as stdout_file:
+                process = subprocess.Popen(slurm_command(args, work / "st", "--wait"),
+                                           stdout=stdout_file, stderr=stderr_file,
+                                           env={**env, **fake}, start_new_session=True)
+            try:
+                deadline = time.monotonic() + 90
+                while (("waiting for it to end" not in shown.read_text() if waiting else
+                        not (calls / "call1").exists()) and
+                       process.poll() is None and time.monotonic() < deadline):
+                    time.sleep(0.05)
+                time.sleep(0.3)  # into the wait for sbatch (--wait, or its submission)
+                if group:
+                    os.killpg(process.pid, sig)
+                else:
+                    process.send_signal(sig)
+                process.wait(timeout=60)
+            finally:
+                try:
+                    os.killpg(process.pid, signal.SIGKILL)  # what the fake left running
+                except ProcessLookupError:
+                    pass
+            stderr = said.read_text()
+            lines = [line for line in stderr.splitlines() if line.startswith("study_slurm:")]
+            to = (f"{sig.name} to the {'group' if group else 'script alone'} while "
+                  f"{'waiting' if waiting else 'the report job is submitted'}")
+            check(process.returncode == 128 + sig and len(lines) == 1 and
+                  all(word in lines[0] for word in words),
+                  f"{to}: exit {process.returncode}:\n{stderr}")
+            log = work / "scancel.log"
+            cancelled = log.read_text() if log.exists() else ""
+            check(cancelled == ("" if goes_on else "4242\n"), f"{to}: cancelled {cancelled!r}")
+
+
+def case_slurm_shards_job_id_checked(args) -> None:
+    """The shards' sbatch exits 0 but prints no job id, a line that is not one or two
+    lines: exit 1, one line saying so with what it printed, no report job submitted (no
+    --dependency=afterok: on no id), the --out this call made removed."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    for printed in ["", "Submitted batch job 4243\n", "4242\n4243\n", "4242x\n"]:
+        shutil.rmtree(calls)
+        calls.mkdir()
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env={**env, "FAKE_SHARDS_PRINTS": printed}, timeout=120)
+        one_line_exit(result, 1, "sbatch printed no job id for the shards",
+                      "squeue --name overlap-study", prefix="study_slurm:")
+        words = printed.rstrip("\n").replace("\n", "\\n")
+        check(words in result.stderr, f"{printed!r}: what sbatch printed not said: "
+              f"{result.stderr!r}")
+        check(sorted(path.name for path in calls.iterdir()) == ["call0"],
+              f"{printed!r}: the report job submitted: "
+              f"{[path.read_text() for path in sorted(calls.iterdir())][1:]}")
+        check(not os.path.lexists(out), f"{printed!r}: --out left: "
+              f"{sorted(p.name for p in out.rglob('*'))}")
+
+
+def case_slurm_sbatch_failure_one_line(args) -> None:
+    """The shards' sbatch refusing (exit 1) or ended by SIGKILL: exit 1, one line of the
+    script's own (no set -e end on sbatch's line alone, no 137), the --out this call made
+    removed, no report job; the report job's sbatch ended by SIGKILL, before or after
+    its id: exit 1, one line naming the shards' job, and no bash notice ('line N: ...
+    Killed') beside it."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+
+    def own_lines_only(result) -> bool:  # the study's check's lines, then the script's
+        return all(line.startswith(("study:", "study_slurm:"))
+                   for line in result.stderr.splitlines())
+
+    def submit(more, *words, **fake):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        result = subprocess.run(slurm_command(args, out, *more), capture_output=True,
+                                text=True, env={**env, **fake}, timeout=120)
+        one_line_exit(result, 1, *words, prefix="study_slurm:")
+        return result
+
+    result = submit([], "sbatch refused the shards (exit 1); nothing submitted",
+                    FAKE_SHARDS_PRINTS="", FAKE_SHARDS_RC="1")
+    check("sbatch: error:" in result.stderr, f"sbatch's own line lost: {result.stderr!r}")
+    check(sorted(path.name for path in calls.iterdir()) == ["call0"], "submitted on")
+    check(not os.path.lexists(out), "a refused submission left its --out")
+    result = submit([], "SIGKILL", "shards", "squeue --name overlap-study", FAKE_KILLED="0")
+    check(own_lines_only(result),
+          f"not the script's own line alone: {result.stderr!r}")
+    check(sorted(path.name for path in calls.iterdir()) == ["call0"], "submitted on")
+    check(not os.path.lexists(out), "a killed sbatch's --out left")
+    for more in ([], ["--wait"]):
+        result = submit(more, "SIGKILL", "report job", "4242", FAKE_KILLED="1")
+        check(own_lines_only(result),
+              f"{more}: not the script's own line alone: {result.stderr!r}")
+        check((out / "slurm").is_dir(), f"{more}: the shards' logs folder removed")
+    result = submit([], "report job 4243", FAKE_KILLED_AFTER_ID="1")
+    check(own_lines_only(result),
+          f"killed after its id: not the script's own line alone: {result.stderr!r}")
+    # --wait: 128 + N is the job's status or sbatch's end by a signal; the line says both.
+    shutil.rmtree(calls)
+    calls.mkdir()
+    result = subprocess.run(slurm_command(args, out, "--wait"), capture_output=True, text=True,
+                            env={**env, "FAKE_KILLED_AFTER_ID": "1"}, timeout=120)
+    one_line_exit(result, 137, "report job 4243", "SIGKILL", prefix="study_slurm:")
+    check(own_lines_only(result),
+          f"--wait, killed after its id: not the script's own line alone: {result.stderr!r}")
 
 
 # --- gpu_check.sh --dry-run in a scratch checkout ---------------------------------------
