@@ -44,7 +44,7 @@ std::vector<unsigned char> header(int sample_rate, std::uint32_t data_bytes) {
 
 WavWriter::WavWriter(OutputFile& file, int sample_rate) : file_(file), sample_rate_(sample_rate) {
   if (sample_rate_ <= 0) fail("sample rate " + std::to_string(sample_rate_) + " must be positive");
-  // "Until it ends" (0xFFFFFFFF) until close() patches the sizes: what a
+  // "Until it ends" (the largest sizes) until close() patches them: what a
   // stop leaves of a file written as it went, and a stream that cannot be
   // patched, stay readable.
   const std::vector<unsigned char> placeholder = header(sample_rate_, kStreamingDataBytes);

@@ -2,7 +2,8 @@
 // file, so a run's sound can be listened to and compared byte for byte.
 //
 // It writes into a OutputFile the caller owns and publishes.  The header
-// is written first with its data size 0xFFFFFFFF, "until the stream ends",
+// is written first with its sizes the largest (the RIFF size 0xFFFFFFFF,
+// the data size 0xFFFFFFFF - 36): "until the stream ends",
 // as streaming WAV writers do, and patched by close() where the output is
 // rewritable(), which finishes the file (still under its temporary name
 // until published).  So a FIFO or device, and a descriptor's file stopped

@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -102,6 +103,14 @@ std::string messagesProblem(const struct stat& output) {
            "(2>FILE) or name the file itself";
   }
   return "";
+}
+
+// True for a device whose every open makes a new one: the pty multiplexer
+// (/dev/ptmx, and devpts' own ptmx), whose descriptors are pty masters.
+bool makesANewDeviceAtEachOpen(dev_t device) {
+  constexpr unsigned kTtyAuxMajor = 5;  // Linux's devices.txt: /dev/tty, /dev/console, /dev/ptmx
+  constexpr unsigned kPtmxMinor = 2;
+  return major(device) == kTtyAuxMajor && minor(device) == kPtmxMinor;
 }
 
 // "" when descriptor `fd` (descriptorReached's) can take an output.
@@ -462,11 +471,19 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
       struct stat opened {};
       // A terminal or other device has no offset to share: it gets a file
       // description of its own, non-blocking (writeAll), so a reader that
-      // does not read cannot hold a stop.  Anything else shares the
-      // caller's offset and append mode.
-      if (::fstat(descriptor, &opened) == 0 && S_ISCHR(opened.st_mode)) {
+      // does not read cannot hold a stop.  Not a device that makes a new
+      // one at each open (a pty's master side, /dev/ptmx), nor one that
+      // reopens as another: those, and anything else, share the caller's
+      // description, its offset and append mode.
+      if (::fstat(descriptor, &opened) == 0 && S_ISCHR(opened.st_mode) &&
+          !makesANewDeviceAtEachOpen(opened.st_rdev)) {
         const std::string reopened = "/proc/self/fd/" + std::to_string(descriptor);
         fd_ = ::open(reopened.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+        struct stat again {};
+        if (fd_ >= 0 && (::fstat(fd_, &again) != 0 || again.st_rdev != opened.st_rdev)) {
+          ::close(fd_);
+          fd_ = -1;
+        }
       }
       if (fd_ < 0) fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);
       if (fd_ < 0) fail("cannot use descriptor " + std::to_string(descriptor) + ": " + lastError());

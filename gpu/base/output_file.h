@@ -34,7 +34,8 @@
 //     room in poll(), looking for a signal (Interrupted), as a reader that
 //     does not read would block it and the signal may reach another thread.
 //     A terminal named through a descriptor gets a non-blocking file
-//     description of its own (it has no offset to share).  An output
+//     description of its own (it has no offset to share), unless reopening
+//     it makes another device (a pty's master side reopens /dev/ptmx).  An output
 //     written through that is standard error, however named, is refused.
 //   * A write that fails (disk full, I/O error, EPIPE from a reader that
 //     has gone: interrupt.h ignores SIGPIPE) throws OutputError naming

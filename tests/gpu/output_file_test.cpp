@@ -515,6 +515,39 @@ TEST_F(OutputFileTest, AWriteToATerminalNoOneReadsStopsAtASignal) {
   ::close(master);
 }
 
+// A pty's master side, reopened, would be a new pty no one reads (/dev/ptmx):
+// named through its descriptor, it is written through that descriptor, and
+// the terminal on its other side gets every byte.
+TEST_F(OutputFileTest, APtyMasterNamedThroughItsDescriptorReachesItsTerminal) {
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) {
+    GTEST_SKIP() << "no pseudo-terminal here";
+  }
+  const int terminal = ::open(::ptsname(master), O_RDONLY | O_NOCTTY | O_CLOEXEC);
+  ASSERT_GE(terminal, 0);
+  termios raw{};
+  ::tcgetattr(terminal, &raw);
+  ::cfmakeraw(&raw);
+  ::tcsetattr(terminal, TCSANOW, &raw);
+  const std::string bytes(2000, 'x');
+  {
+    OutputFile out("/dev/fd/" + std::to_string(master));
+    out.write(bytes);
+    out.finish();
+  }
+  std::string got;
+  char buffer[4096];
+  for (pollfd ready{terminal, POLLIN, 0};
+       got.size() < bytes.size() && ::poll(&ready, 1, 2000) > 0;) {
+    const ssize_t read = ::read(terminal, buffer, sizeof(buffer));
+    if (read <= 0) break;
+    got.append(buffer, static_cast<std::size_t>(read));
+  }
+  EXPECT_EQ(got, bytes);
+  ::close(terminal);
+  ::close(master);
+}
+
 // A folder between a run folder and an output that holds a list of its own
 // (a capture's in the run's frames/) is not the run's: refused before any
 // work, as the capture is refused inside the run's frames/.
