@@ -13,6 +13,7 @@
 
 #include "engine/program/usage_error.h"
 #include "gpu/base/interrupt.h"
+#include "gpu/base/standard_streams.h"
 
 namespace overlap::engine {
 std::string oneLine(std::string_view message) {
@@ -95,13 +96,7 @@ namespace {
 
 // Writes `text` to stderr without allocating.
 void writeToStderr(const char* text) {
-  for (std::size_t left = std::strlen(text); left > 0;) {
-    const ssize_t wrote = ::write(STDERR_FILENO, text, left);
-    if (wrote < 0 && errno == EINTR) continue;
-    if (wrote <= 0) return;
-    text += wrote;
-    left -= static_cast<std::size_t>(wrote);
-  }
+  writeMessage(text, std::strlen(text));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "engine/program/wording.h"
+#include "gpu/base/standard_streams.h"
 
 namespace overlap::engine {
 namespace {
@@ -60,11 +61,7 @@ class Line {
   }
   void print() {
     bytes_[size_++] = '\n';
-    for (std::size_t sent = 0; sent < size_;) {
-      const ssize_t wrote = ::write(STDERR_FILENO, bytes_ + sent, size_ - sent);
-      if (wrote <= 0 && errno != EINTR) return;
-      if (wrote > 0) sent += static_cast<std::size_t>(wrote);
-    }
+    writeMessage(bytes_, size_);
   }
 
  private:

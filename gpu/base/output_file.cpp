@@ -3,10 +3,12 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +17,7 @@
 #include <cstring>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <system_error>
 
@@ -104,6 +107,9 @@ std::string messagesProblem(const struct stat& output) {
   }
   return "";
 }
+
+constexpr const char* kNewDeviceAtEachOpen =
+    "is the pty multiplexer: each open makes a new terminal, which no one reads";
 
 // True for a device whose every open makes a new one: the pty multiplexer
 // (/dev/ptmx, and devpts' own ptmx), whose descriptors are pty masters.
@@ -225,22 +231,70 @@ void syncFolder(const fs::path& folder) {
   ::close(fd);
 }
 
+// Wakes a thread's blocking write every tenth of a second while it lives:
+// a timer aimed at the thread sends it a signal whose handler does nothing,
+// installed without SA_RESTART, so a write blocked on a device returns
+// EINTR (or what it wrote) and its loop can look for a stop.  A device
+// cannot be polled for room instead: its poll() may never say so
+// (/dev/random), or say so for less than a write takes (a terminal).
+class WakeupTimer {
+ public:
+  WakeupTimer() {
+    static const int wakeup = [] {
+      const int number = SIGRTMIN + 7;  // no library here uses it
+      struct sigaction action {};
+      action.sa_handler = [](int) {};
+      sigemptyset(&action.sa_mask);
+      action.sa_flags = 0;
+      ::sigaction(number, &action, nullptr);
+      return number;
+    }();
+    sigset_t only{};
+    sigemptyset(&only);
+    sigaddset(&only, wakeup);
+    ::pthread_sigmask(SIG_UNBLOCK, &only, &saved_mask_);
+    sigevent event{};
+    event.sigev_notify = SIGEV_THREAD_ID;
+    event.sigev_signo = wakeup;
+    event._sigev_un._tid = ::gettid();  // glibc 2.36 names no sigev_notify_thread_id
+    armed_ = ::timer_create(CLOCK_MONOTONIC, &event, &timer_) == 0;
+    const itimerspec every{{0, kTenthNs}, {0, kTenthNs}};
+    if (armed_) ::timer_settime(timer_, 0, &every, nullptr);
+  }
+  ~WakeupTimer() {
+    if (armed_) ::timer_delete(timer_);  // a wakeup still pending lands here, harmlessly
+    ::pthread_sigmask(SIG_SETMASK, &saved_mask_, nullptr);
+  }
+  WakeupTimer(const WakeupTimer&) = delete;
+  WakeupTimer& operator=(const WakeupTimer&) = delete;
+
+ private:
+  static constexpr long kTenthNs = 100'000'000;
+  timer_t timer_{};
+  bool armed_ = false;
+  sigset_t saved_mask_{};
+};
+
 // Writes every byte; `name` is the output's, for the message of a signal
 // that stops a write blocked on a slow reader.  Anything but a regular file
-// (a pipe, FIFO, socket, terminal or other device) may wait on its reader:
-// it is written a pipe buffer at a time, each once poll() says it has room,
-// looking for a stop signal every tenth of a second, and a non-blocking
-// descriptor's EAGAIN waits the same way.  A reader that never reads would
-// otherwise block the write for good, and the signal may reach another
-// thread, so no EINTR comes (a blocked write in the sound job kept a run
-// from stopping).
+// may wait on its reader, who may never read, and the stop signal may reach
+// another thread than the writer's, so no EINTR would come (a blocked write
+// in the sound job kept a run from stopping).  So a pipe, FIFO or socket is
+// written a pipe buffer at a time, each once poll() says it has room; a
+// device (a terminal) is written under a WakeupTimer; a non-blocking
+// descriptor's EAGAIN waits in poll(); and each wait looks for a stop
+// signal every tenth of a second.
 void writeAll(int fd, std::string_view bytes, const std::string& name,
               const std::function<void()>& on_error) {
   struct stat info {};
-  const bool may_block = ::fstat(fd, &info) == 0 && !S_ISREG(info.st_mode);
+  const bool known = ::fstat(fd, &info) == 0;
+  const bool pollable = known && (S_ISFIFO(info.st_mode) || S_ISSOCK(info.st_mode));
+  const bool device = known && !pollable && !S_ISREG(info.st_mode);
+  std::optional<WakeupTimer> wakeups;
+  if (device) wakeups.emplace();
   while (!bytes.empty()) {
     std::size_t chunk = bytes.size();
-    if (may_block) {
+    if (pollable) {
       pollfd room{fd, POLLOUT, 0};
       const int ready = ::poll(&room, 1, 100);
       if (pendingInterrupt() != 0) stopIfInterrupted("the write to " + name);
@@ -252,12 +306,18 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
       stopIfInterrupted("the write to " + name);
       continue;
     }
-    if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && may_block) continue;
+    if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+      pollfd room{fd, POLLOUT, 0};
+      ::poll(&room, 1, 100);
+      stopIfInterrupted("the write to " + name);
+      continue;
+    }
     if (wrote <= 0) {
       if (wrote == 0) errno = EIO;
       on_error();
     }
     bytes.remove_prefix(static_cast<std::size_t>(wrote));
+    if (device) stopIfInterrupted("the write to " + name);
   }
 }
 
@@ -322,13 +382,19 @@ int openWrittenThrough(const fs::path& target, const fs::path& shown) {
   waitUntil(
       [&](int timeout_ms) {
         fd = ::open(target.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-        if (fd >= 0 || errno != ENXIO) return true;  // ENXIO: a FIFO with no reader yet
+        if (fd >= 0 || errno != ENXIO) return true;
+        // ENXIO: a FIFO with no reader yet, or a device that is not there
+        // (/dev/tty without a terminal), which no wait brings.
+        struct stat info {};
+        if (::stat(target.c_str(), &info) != 0 || !S_ISFIFO(info.st_mode)) return true;
         ::poll(nullptr, 0, timeout_ms);
         return false;
       },
       "waiting for a reader to open " + shown.string(),
       "the wait for a reader of " + shown.string());
-  return fd;  // left non-blocking: its file description is this output's alone (writeAll)
+  // Blocking again: writeAll waits for room its own way.
+  if (fd >= 0) ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  return fd;
 }
 
 // A manifest entry: a plain relative path that stays inside the folder.
@@ -418,10 +484,18 @@ std::string outputFileProblem(const fs::path& file) {
 
 namespace {
 
-// "" when a device or FIFO (`info` its stat) can be written through.
+// "" when a device or FIFO (`info` its stat) can be written through.  A
+// device is opened once to try it (/dev/tty without a terminal is no
+// device: ENXIO), never kept: the output opens it again.
 std::string writtenThroughProblem(const fs::path& file, const struct stat& info) {
   if (S_ISSOCK(info.st_mode)) return "is a socket, which no program can open as a file";
   if (::access(file.c_str(), W_OK) != 0) return "not writable: " + lastError();
+  if (S_ISCHR(info.st_mode)) {
+    if (makesANewDeviceAtEachOpen(info.st_rdev)) return kNewDeviceAtEachOpen;
+    const int trial = ::open(file.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (trial < 0) return "cannot be opened: " + lastError();
+    ::close(trial);
+  }
   return messagesProblem(info);
 }
 
@@ -468,24 +542,11 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
       if (const std::string problem = descriptorProblem(descriptor); !problem.empty()) {
         fail(problem);
       }
+      // The caller's own description, never the file reopened: a device
+      // may reopen as another (/dev/tty is the opener's terminal, a pty's
+      // master side reopens /dev/ptmx, a new pty).
       struct stat opened {};
-      // A terminal or other device has no offset to share: it gets a file
-      // description of its own, non-blocking (writeAll), so a reader that
-      // does not read cannot hold a stop.  Not a device that makes a new
-      // one at each open (a pty's master side, /dev/ptmx), nor one that
-      // reopens as another: those, and anything else, share the caller's
-      // description, its offset and append mode.
-      if (::fstat(descriptor, &opened) == 0 && S_ISCHR(opened.st_mode) &&
-          !makesANewDeviceAtEachOpen(opened.st_rdev)) {
-        const std::string reopened = "/proc/self/fd/" + std::to_string(descriptor);
-        fd_ = ::open(reopened.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-        struct stat again {};
-        if (fd_ >= 0 && (::fstat(fd_, &again) != 0 || again.st_rdev != opened.st_rdev)) {
-          ::close(fd_);
-          fd_ = -1;
-        }
-      }
-      if (fd_ < 0) fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);
+      fd_ = ::fcntl(descriptor, F_DUPFD_CLOEXEC, 0);
       if (fd_ < 0) fail("cannot use descriptor " + std::to_string(descriptor) + ": " + lastError());
       // A regular file not appended to can be patched where this output began.
       const off_t start = ::lseek(fd_, 0, SEEK_CUR);
@@ -502,6 +563,9 @@ OutputFile::OutputFile(fs::path path, FinalLink link)
   if (exists && S_ISDIR(info.st_mode)) fail("is a directory, not a file");
   if (exists && S_ISSOCK(info.st_mode)) fail("is a socket, which no program can open as a file");
   if (exists && !S_ISREG(info.st_mode) && !S_ISLNK(info.st_mode)) {
+    if (S_ISCHR(info.st_mode) && makesANewDeviceAtEachOpen(info.st_rdev)) {
+      fail(kNewDeviceAtEachOpen);
+    }
     fd_ = openWrittenThrough(path_, path_);  // the kernel follows what followLinks cannot
     if (fd_ < 0) fail("cannot open for writing: " + lastError());
     struct stat opened {};

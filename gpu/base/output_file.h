@@ -30,13 +30,16 @@
 //     owner (where the process may give it) and permissions, never a
 //     set-ID bit.  A FIFO without a reader is
 //     waited for through interrupt.h's waitUntil() (said after a second,
-//     stopped by a signal); a write to anything but a regular file waits for
-//     room in poll(), looking for a signal (Interrupted), as a reader that
-//     does not read would block it and the signal may reach another thread.
-//     A terminal named through a descriptor gets a non-blocking file
-//     description of its own (it has no offset to share), unless reopening
-//     it makes another device (a pty's master side reopens /dev/ptmx).  An output
-//     written through that is standard error, however named, is refused.
+//     stopped by a signal); a write to anything but a regular file looks
+//     for a signal every tenth of a second while it waits (Interrupted), as
+//     a reader that does not read would block it and the signal may reach
+//     another thread: a pipe, FIFO or socket is polled for room, a device
+//     (a terminal) is woken by a timer signal aimed at the writing thread.
+//     A descriptor is written through itself, never reopened (/dev/tty
+//     reopens as the opener's terminal).  An output written through that is
+//     standard error, however named, is refused, and so are /dev/ptmx
+//     (each open makes a new terminal) and a device that cannot be opened
+//     (/dev/tty without a terminal), before any work.
 //   * A write that fails (disk full, I/O error, EPIPE from a reader that
 //     has gone: interrupt.h ignores SIGPIPE) throws OutputError naming
 //     the output; an output destroyed before it is published leaves nothing

@@ -15,12 +15,27 @@
 //   * An open descriptor is left as it is.  If /dev/null cannot be opened
 //     (a chroot without it, no descriptor left), the program exits 127 at
 //     once, writing nothing: there is nowhere safe to write.
+//   * Every message goes to standard error through writeMessage(), which
+//     holdStandardStreams() also gives std::cerr and stdio's stderr.  A message never
+//     holds a stop: a terminal stopped with Ctrl-S, or a reader of stderr
+//     that does not read, blocks a write, and the stop's own line would
+//     then never be written and the process never end.  So once a stop
+//     signal has come (interrupt.h), a message waits for room at most a
+//     second in all, in poll(), and what does not fit is dropped.
+//     Async-signal-safe: progress lines are written from a signal handler.
 // Plain POSIX: no Bullet here.
 #pragma once
 
+#include <cstddef>
+
 namespace overlap {
 
-// Gives every closed standard descriptor /dev/null (see above).
+// Gives every closed standard descriptor /dev/null, and std::cerr
+// writeMessage() (see above).
 void holdStandardStreams();
+
+// Writes `size` bytes of a message to standard error (see above); a write
+// that fails drops the message: there is nowhere else to say so.
+void writeMessage(const char* bytes, std::size_t size);
 
 }  // namespace overlap

@@ -165,6 +165,27 @@ TEST_F(SignalsCliTest, AStopEndsARunBlockedOnAReaderThatNeverReads) {
   ::close(held);
 }
 
+// Standard error that takes nothing more (a FIFO full, a terminal stopped
+// with Ctrl-S): a message blocked on it, and the stop's own line, never hold
+// a stop; the run ends with the stop's status, its outputs unpublished.
+TEST_F(SignalsCliTest, AStopEndsARunWhoseStandardErrorTakesNothing) {
+  const fs::path messages = fifo("messages.fifo");
+  const int held = ::open(messages.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);  // never read
+  ASSERT_GE(held, 0);
+  const std::string filler(4096, 'x');
+  while (::write(held, filler.data(), filler.size()) > 0) {
+  }
+  Started run("run --objects 20 --frames 100000 --capture-every 0 --no-wav --out " +
+                  (out_ / "blocked").string(),
+              messages);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // its first message blocked
+  run.signal(SIGTERM);
+  ASSERT_TRUE(run.endsWithin(std::chrono::seconds(15)));
+  EXPECT_TRUE(exitedWith(run.wait(), 143));
+  EXPECT_FALSE(fs::exists(out_ / "blocked"));
+  ::close(held);
+}
+
 // SIGHUP stops a run like SIGTERM; a run clears the temporaries that
 // a killed run of the program left (dead writer), and nothing else: not a
 // live writer's, not a file of another pattern.

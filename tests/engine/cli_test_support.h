@@ -144,6 +144,19 @@ class Started {
     pid_ = 0;
     return status_;
   }
+  // True once the process has ended (wait() then gives its status), false
+  // if it is still running after `most`.
+  bool endsWithin(std::chrono::milliseconds most) {
+    for (auto waited = std::chrono::milliseconds(0); pid_ > 0 && waited < most;
+         waited += std::chrono::milliseconds(100)) {
+      if (::waitpid(pid_, &status_, WNOHANG) == pid_) {
+        pid_ = 0;
+        return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return pid_ == 0;
+  }
   std::string stderrText() const { return fileText(err_); }
 
  private:

@@ -548,6 +548,44 @@ TEST_F(OutputFileTest, APtyMasterNamedThroughItsDescriptorReachesItsTerminal) {
   ::close(master);
 }
 
+// A device is written as it is, whatever its poll() says (/dev/random never
+// says it has room), by name and through a descriptor; one that no open can
+// serve is refused before any work: /dev/ptmx (each open a new terminal no
+// one reads), /dev/tty without a terminal (no device), never waited for.
+TEST_F(OutputFileTest, DevicesAreWrittenAsTheyAreOrRefusedBeforeAnyWork) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        ::alarm(20);  // a write or an open that waits for good fails the test
+        bool written = true;
+        if (::access("/dev/random", W_OK) == 0) {
+          OutputFile by_name("/dev/random");
+          by_name.write(std::string(1 << 16, 'x'));
+          by_name.finish();
+          const int fd = ::open("/dev/random", O_WRONLY | O_CLOEXEC);
+          OutputFile by_descriptor("/dev/fd/" + std::to_string(fd));
+          by_descriptor.write(std::string(1 << 16, 'x'));
+          by_descriptor.finish();
+          written = by_name.writtenThrough() && by_descriptor.writtenThrough();
+        }
+        const bool ptmx_refused =
+            !fs::exists("/dev/ptmx") ||
+            outputFileProblem("/dev/ptmx").find("pty multiplexer") != std::string::npos;
+        ::setsid();  // no controlling terminal from here
+        bool tty_refused = true;
+        if (fs::exists("/dev/tty")) {
+          tty_refused = outputFileProblem("/dev/tty").find("cannot be opened") != std::string::npos;
+          try {
+            OutputFile tty("/dev/tty");
+            tty_refused = false;
+          } catch (const OutputError&) {
+          }
+        }
+        std::exit(written && ptmx_refused && tty_refused ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
 // A folder between a run folder and an output that holds a list of its own
 // (a capture's in the run's frames/) is not the run's: refused before any
 // work, as the capture is refused inside the run's frames/.
