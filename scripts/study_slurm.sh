@@ -68,106 +68,6 @@ confirm=()
 study=("$python" "$repo/scripts/study.py" --profile "$profile" --out "$out" "$@")
 shard=("${study[@]}" "${confirm[@]}" --runs-only)
 report=("${study[@]}" --no-runs)
-# A stop from here on says what was made and submitted (phase): before the shards are
-# submitted, what this script made (the folders, slurm/ and the lock) is removed if it
-# is still as made, never a folder another submission or a study has written into
-# meanwhile; shards submitted without their report job are cancelled; once the report
-# job is submitted, a stop stops the waiting only.
-phase="" made="" array="" report_job="" sbatch_pid="" ids="" notices=""
-undo_made() {  # MADE: "LEVELS SLURM LOCK" as the folder's check printed it
-  [[ -n "$made" ]] || return 0
-  PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
-from study_out_folder import LOCK_NAME
-out, (levels, slurm, lock) = pathlib.Path(sys.argv[1]), map(int, sys.argv[2].split())
-try:
-    names = set(os.listdir(out))
-    logs = out / "slurm"
-    if lock and names <= {LOCK_NAME, "slurm"} and (out / LOCK_NAME).stat().st_size == 0 \
-            and not (logs.is_dir() and not logs.is_symlink() and os.listdir(logs)):
-        (out / LOCK_NAME).unlink()
-    if slurm:
-        logs.rmdir()
-except OSError:
-    pass
-for _ in range(levels):  # each folder made, from --out up: only while empty
-    try:
-        out.rmdir()
-    except OSError:
-        break
-    out = out.parent' "$out" "$made" 2> /dev/null || true
-}
-report_id() {  # the report job's id, once its sbatch has printed it (a whole line)
-  local line=""
-  [[ -z "$report_job" && -n "$ids" ]] && IFS= read -r line < "$ids" &&
-    [[ "${line%%;*}" =~ ^[0-9]+$ ]] && report_job="${line%%;*}"
-  [[ -n "$report_job" ]]
-}
-stopped() {
-  # No errexit in here: a command that fails (a kill of an sbatch the same stop has
-  # ended already, a scancel refused) must not end the stop before its line and its
-  # exit status; every way out of here is the exit of its own.
-  set +e
-  trap - INT TERM HUP
-  [[ -z $notices ]] || exec 2>&3  # the lines below to stderr, not where bash's notices go
-  local i
-  if [[ $phase == report ]]; then  # its sbatch is submitting: wait a little for its word
-    for ((i = 0; i < 100; i++)); do
-      report_id && break; kill -0 "$sbatch_pid" 2> /dev/null || { report_id; break; }; sleep 0.1
-    done
-    if report_id; then phase=waiting
-    elif kill -0 "$sbatch_pid" 2> /dev/null; then
-      kill "$sbatch_pid" 2> /dev/null
-      echo "study_slurm: stopped by SIG$1 while sbatch was submitting the report job; the shards' job $array is submitted: see squeue --name overlap-study-report, and scancel $array if it lists no report job" >&2
-      exit $((128 + $2))
-    else phase=shards_only
-    fi
-  fi
-  case $phase in
-    shards)
-      echo "study_slurm: stopped by SIG$1 while sbatch was submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2 ;;
-    shards_only)
-      command -v scancel > /dev/null && scancel "$array" 2> /dev/null
-      echo "study_slurm: stopped by SIG$1; the shards' job $array, submitted without its report job, is cancelled (or cancel it: scancel $array)" >&2 ;;
-    waiting)
-      kill "$sbatch_pid" 2> /dev/null
-      echo "study_slurm: stopped by SIG$1${wait:+ while waiting for the report job}; both jobs are submitted and go on (the shards' job $array, the report job $report_job: scancel $array $report_job stops them)" >&2 ;;
-    *)
-      undo_made
-      echo "study_slurm: stopped by SIG$1; nothing submitted${made:+ (of what this script made for --out, what nothing else has written into is removed)}" >&2 ;;
-  esac
-  exit $((128 + $2))
-}
-trap 'stopped INT 2' INT
-trap 'stopped TERM 15' TERM
-trap 'stopped HUP 1' HUP
-# The study's own checks of every option, --out and its log (study.py --check-only, as a
-# shard and the report job would start), before anything is made or submitted: a bad value
-# is one line and exit 2 here, not a failure of every task on the cluster.
-# From the checkout, where the jobs start: a relative path among the options must mean there
-# what it will mean in the jobs.
-(cd "$repo" && "${shard[@]}" --shard "1/$shards" --check-only) || exit $?
-(cd "$repo" && "${report[@]}" --check-only) || exit $?
-# --out is a study's folder, as study.py takes it (study_out_folder.py): refused
-# if it holds a user's files; else its logs folder and the lock that marks it.
-made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
-from study_out_folder import LOCK_NAME, foreign_folder_problem
-from script_cli import one_line
-out = pathlib.Path(sys.argv[1])
-if problem := foreign_folder_problem(out):
-    sys.exit(f"study_slurm: --out {one_line(out)}: {problem}")
-levels, here = 0, out  # what is made here, printed for a stop to undo: no more
-while not os.path.lexists(here):
-    levels, here = levels + 1, here.parent
-slurm = not os.path.lexists(out / "slurm")
-lock = not os.path.lexists(out / LOCK_NAME)
-try:
-    (out / "slurm").mkdir(parents=True, exist_ok=True)
-    (out / LOCK_NAME).touch()
-except OSError as error:
-    sys.exit(f"study_slurm: --out {one_line(out)}: {one_line(error.strerror or error)}")
-finally:
-    print(levels, int(slurm), int(lock))' \
-  "$out")" || { made="${made:-}"; undo_made; exit 2; }
 # Words for the jobs' /bin/sh (sbatch --wrap: "a simple sh shell script"): each in single
 # quotes, a ' as '\'' -- every byte as it is, in any locale (bash's printf %q writes $'...',
 # which sh reads as a $ and a quoted word).
@@ -181,36 +81,252 @@ signal_name() {  # the signal of an exit status past 128 (a command ended by it)
   name="$(kill -l "$(($1 - 128))" 2> /dev/null)" || name="$(($1 - 128))"
   echo "SIG$name"
 }
+# A stop from here on says what was made and submitted (phase): before the shards are
+# submitted, what this script made (the folders, slurm/ and the lock) is removed if it
+# is still as made, never a folder another submission or a study has written into
+# meanwhile; shards submitted without their report job are cancelled; once the report
+# job is submitted, a stop stops the waiting only.
+# Each submission claims --out in slurm/submission-PID (a line saying whose) before its
+# shards' sbatch, and once the shards' job is submitted keeps slurm/job-ID (the same for
+# the user): a submission that fails or is stopped removes its own claim only, and the
+# folders only where no other submission's claim or job is in slurm/.
+phase="" made="" array="" report_job="" sbatch_pid="" ids="" said="" notices=""
+shards_started="" id_read=""
+claim="submission-$$"
+# What this submission made for --out ("LEVELS SLURM LOCK" as the folder's check printed
+# it: the folders made from --out up, whether slurm/ and the lock were made), undone: its
+# claim; the lock and slurm/ only while nothing else is in them (another submission's
+# claim or job, a shard's log, a study's file); each folder only while empty.
+undo_py='def undo(out, levels, slurm, lock, claim):
+    logs = out / "slurm"
+    try:
+        (logs / claim).unlink()
+    except OSError:
+        pass
+    try:
+        if slurm:
+            logs.rmdir()
+        if lock and set(os.listdir(out)) <= ({LOCK_NAME} if slurm else {LOCK_NAME, "slurm"}) \
+                and (out / LOCK_NAME).stat().st_size == 0 \
+                and not (logs.is_dir() and not logs.is_symlink() and os.listdir(logs)):
+            (out / LOCK_NAME).unlink()
+    except OSError:
+        pass
+    for _ in range(levels):  # each folder made, from --out up: only while empty
+        try:
+            out.rmdir()
+        except OSError:
+            break
+        out = out.parent
+'
+undo_made() {
+  [[ -n "$made" ]] || return 0
+  PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
+from study_out_folder import LOCK_NAME
+'"$undo_py"'
+undo(pathlib.Path(sys.argv[1]), *map(int, sys.argv[2].split()), sys.argv[3])' \
+    "$out" "$made" "$claim" 2> /dev/null || true
+}
+# A job id as sbatch --parsable prints it: the whole of what it printed is one line "N" or
+# "N;cluster", N at most 20 digits, no NUL byte (read from its file, not through $(...),
+# which drops a NUL); FILE [running]: while its sbatch runs, only a line it has ended.
+id_pattern='^[0-9]{1,20}(;[^[:space:]]*)?$'
+read_id() {
+  local text=""
+  ! IFS= read -r -d '' text < "$1" || return 1  # read to its end, or a NUL byte: no id
+  [[ ${2-} != running || $text == *$'\n' ]] || return 1
+  text="${text%$'\n'}"
+  [[ $text =~ $id_pattern ]] || return 1
+  id_read="${text%%;*}"
+}
+printed() {  # FILE: what sbatch printed, on one line of at most 200 characters
+  local text
+  text="$(tr '\000' '\001' < "$1" 2> /dev/null)"
+  text="${text//$'\001'/\\0}"; text="${text//$'\n'/\\n}"; text="${text//$'\r'/\\r}"
+  [[ ${#text} -le 200 ]] || text="${text:0:200}..."
+  printf '%s' "${text:+it printed: }${text:-it printed nothing}"
+}
+report_id() {  # the report job's id, once its sbatch has printed it ([ended]: sbatch has)
+  [[ -z "$report_job" && -n "$ids" ]] && read_id "$ids" "${1:-running}" && report_job="$id_read"
+  [[ -n "$report_job" ]]
+}
+record_job() {  # the shards' job $array, kept in slurm/ for the user and other submissions
+  [[ -n $made ]] || return 0
+  { printf 'the shards job %s (%s tasks) of study_slurm.sh, submitted %s from %s (pid %s)\n' \
+      "$array" "$shards" "$(date '+%F %T')" "$(hostname 2> /dev/null || echo '?')" "$$" \
+      > "$out/slurm/job-$array"; } 2> /dev/null && rm -f -- "$out/slurm/$claim"
+}
+cancelled() {  # JOB: scancel it, and say what came of it
+  local said_back bounded=() status
+  command -v timeout > /dev/null && bounded=(timeout -k 1 10)
+  if ! command -v scancel > /dev/null; then
+    echo "is NOT cancelled (scancel is not on PATH): cancel it with scancel $1"
+  elif said_back="$("${bounded[@]}" scancel "$1" 2>&1)"; then
+    echo "is cancelled"
+  else
+    status=$?; said_back="${said_back//$'\n'/ }"
+    echo "is NOT cancelled (scancel exited $status${said_back:+: $said_back}): cancel it with scancel $1"
+  fi
+}
+stopped() {
+  # No errexit in here: a command that fails (a kill of an sbatch the same stop has
+  # ended already, a scancel refused) must not end the stop before its line and its
+  # exit status; every way out of here is the exit of its own.  A second stop is ignored
+  # (this one is bounded: at most about 10 s), so that its line and its cleanup complete.
+  set +e
+  trap '' INT TERM HUP
+  [[ -z $notices ]] || exec 2>&3  # the lines below to stderr, not where bash's notices go
+  local i nothing=""
+  if [[ $phase == shards ]]; then  # bash runs this once the shards' sbatch has ended
+    if [[ -n $shards_started ]] && read_id "$said"; then
+      array="$id_read"; record_job; phase=shards_only
+    else
+      phase=""; [[ -z $shards_started ]] || nothing=" (sbatch printed no job id for the shards)"
+    fi
+  fi
+  if [[ $phase == report ]]; then  # its sbatch is submitting: wait a little for its word
+    for ((i = 0; i < 100; i++)); do
+      report_id && break; kill -0 "$sbatch_pid" 2> /dev/null || { report_id ended; break; }; sleep 0.1
+    done
+    if report_id ended; then phase=waiting
+    elif kill -0 "$sbatch_pid" 2> /dev/null; then
+      kill "$sbatch_pid" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1 while sbatch was submitting the report job; the shards' job $array is submitted: see squeue --name overlap-study-report, and scancel $array if it lists no report job" >&2
+      exit $((128 + $2))
+    else phase=shards_only
+    fi
+  fi
+  case $phase in
+    shards_only)
+      echo "study_slurm: stopped by SIG$1; the shards' job $array, submitted without its report job, $(cancelled "$array")" >&2 ;;
+    waiting)
+      kill "$sbatch_pid" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1${wait:+ while waiting for the report job}; both jobs are submitted and go on (the shards' job $array, the report job $report_job: scancel $array $report_job stops them)" >&2 ;;
+    *)
+      undo_made
+      echo "study_slurm: stopped by SIG$1; nothing submitted$nothing${made:+ (of what this script made for --out, what nothing else has written into is removed)}" >&2 ;;
+  esac
+  exit $((128 + $2))
+}
+trap 'stopped INT 2' INT
+trap 'stopped TERM 15' TERM
+trap 'stopped HUP 1' HUP
+# The study's own checks of every option, --out and its log (study.py --check-only, as a
+# shard and the report job would start), before anything is made or submitted: a bad value
+# is one line and exit 2 here, not a failure of every task on the cluster.
+# From the checkout, where the jobs start: a relative path among the options must mean there
+# what it will mean in the jobs.
+(cd "$repo" && "${shard[@]}" --shard "1/$shards" --check-only) || exit $?
+(cd "$repo" && "${report[@]}" --check-only) || exit $?
+# The temporaries (what each sbatch prints), made and written to once before anything is
+# made or submitted: a TMPDIR missing, full or read-only is one line here, not a shards'
+# job submitted without its report job.
+temporary() {
+  local made_here
+  made_here="$(mktemp "${TMPDIR:-/tmp}/study_slurm.XXXXXX" 2>&1)" && [[ -f $made_here ]] &&
+    { echo id > "$made_here" && : > "$made_here"; } 2> /dev/null && { echo "$made_here"; return 0; }
+  if [[ -f $made_here ]]; then rm -f -- "$made_here"; made_here="cannot be written to"; fi
+  echo "study_slurm: no temporary file for what sbatch prints in ${TMPDIR:-/tmp} (${made_here//$'\n'/ }); nothing submitted (set TMPDIR to a writable folder)" >&2
+  return 1
+}
+trap 'rm -f -- ${ids:+"$ids"} ${said:+"$said"}' EXIT
+said="$(temporary)" || { undo_made; exit 1; }
+ids="$(temporary)" || { undo_made; exit 1; }
+# --out is a study's folder, as study.py takes it (study_out_folder.py): refused
+# if it holds a user's files; else its logs folder, the lock that marks it and this
+# submission's claim.  A stop while it makes them (the same stop to this script's group):
+# it removes what it made before it has printed what it made.
+made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, signal, sys
+STOPS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+class Stopped(BaseException):
+    pass
+def stop(number, frame):
+    for each in STOPS:
+        signal.signal(each, signal.SIG_IGN)
+    raise Stopped(number)
+for each in STOPS:
+    if signal.getsignal(each) != signal.SIG_IGN:
+        signal.signal(each, stop)
+'"$undo_py"'
+try:
+    from study_out_folder import LOCK_NAME, foreign_folder_problem
+    from script_cli import one_line
+    out, claim = pathlib.Path(sys.argv[1]), sys.argv[2]
+    if out.is_symlink() and not out.exists():
+        sys.exit(f"study_slurm: --out {one_line(out)}: a link to {one_line(os.readlink(out))}, "
+                 "which does not exist")
+    if problem := foreign_folder_problem(out):
+        sys.exit(f"study_slurm: --out {one_line(out)}: {problem}")
+    levels, here = 0, out  # what is made here, printed for a stop to undo: no more
+    while not os.path.lexists(here):
+        levels, here = levels + 1, here.parent
+    slurm = not os.path.lexists(out / "slurm")
+    lock = not os.path.lexists(out / LOCK_NAME)
+    try:
+        (out / "slurm").mkdir(parents=True, exist_ok=True)
+        (out / LOCK_NAME).touch()
+        (out / "slurm" / claim).write_text(sys.argv[3])
+        for each in STOPS:  # printed, it is the script that undoes it
+            signal.signal(each, signal.SIG_IGN)
+        print(levels, int(slurm), int(lock), flush=True)
+    except OSError as error:
+        undo(out, levels, slurm, lock, claim)
+        sys.exit(f"study_slurm: --out {one_line(out)}: {one_line(error.strerror or error)}")
+    except Stopped as stopped:
+        undo(out, levels, slurm, lock, claim)
+        sys.exit(128 + stopped.args[0])
+except Stopped as stopped:
+    sys.exit(128 + stopped.args[0])' \
+  "$out" "$claim" "a submission of study_slurm.sh (pid $$ on $(hostname 2> /dev/null || echo '?'), $(date '+%F %T')) is submitting its shards' job into this folder; remove this file if no such submission runs
+")" || {
+  status=$?
+  [[ $status -le 128 ]] && exit 2
+  echo "study_slurm: the check of --out was ended by $(signal_name "$status"); nothing submitted (what it made for --out is removed)" >&2
+  exit "$status"
+}
 phase=shards
 status=0
-# shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
-array="$(sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
-  --output="$out/slurm/shard-%a.log" --chdir="$repo" \
-  --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards")" || status=$?
+# bash's own stderr /dev/null while it runs, sbatch's the real one (fd 3): an sbatch ended
+# by a signal is said below in a line of this script's, not in bash's notice as well.
+{
+  notices=yes shards_started=yes
+  # shellcheck disable=SC2086  # --sbatch holds several options, split on purpose
+  sbatch --parsable $extra_sbatch --array="1-$shards" --job-name=overlap-study \
+    --output="$out/slurm/shard-%a.log" --chdir="$repo" \
+    --wrap="$(sh_quoted "${shard[@]}") --shard \$SLURM_ARRAY_TASK_ID/$shards" \
+    > "$said" 2>&3 3>&- || status=$?
+} 3>&2 2> /dev/null
+notices=""
 # Its --parsable line is the array's id (and ";cluster"): anything else and no report job
 # is submitted (its --dependency=afterok: would name no job, or another); of what was made
-# for --out, what nothing else has written into is removed, as a stop's.
-if [[ $status -gt 128 ]]; then
+# for --out, what nothing else has written into is removed, as a stop's.  An id printed
+# is a job submitted, whatever sbatch's exit status after it.
+if read_id "$said"; then
+  array="$id_read"
+  record_job
+  if [[ $status -gt 128 ]]; then
+    echo "study_slurm: sbatch printed the shards' job $array, then was ended by $(signal_name "$status") (exit $status); the job is taken as submitted (squeue -j $array shows it)" >&2
+  elif [[ $status -ne 0 ]]; then
+    echo "study_slurm: sbatch printed the shards' job $array, then exited $status; the job is taken as submitted (squeue -j $array shows it)" >&2
+  fi
+else
+  trap '' INT TERM HUP  # what was made is removed, and this said, whatever stop comes now
   undo_made
-  echo "study_slurm: sbatch was ended by $(signal_name "$status") (exit $status) while submitting the shards: see squeue --name overlap-study, and scancel what it lists" >&2; exit 1
-elif [[ $status -ne 0 ]]; then
-  undo_made
-  echo "study_slurm: sbatch refused the shards (exit $status); nothing submitted" >&2; exit 1
-elif ! [[ "${array%%;*}" =~ ^[0-9]+$ ]]; then
-  undo_made
-  printed="${array//$'\n'/\\n}"; printed="${printed//$'\r'/\\r}"
-  [[ ${#printed} -le 200 ]] || printed="${printed:0:200}..."
-  echo "study_slurm: sbatch printed no job id for the shards (${array:+it printed: }${printed:-it printed nothing}); see squeue --name overlap-study" >&2; exit 1
+  if [[ $status -gt 128 ]]; then
+    echo "study_slurm: sbatch was ended by $(signal_name "$status") (exit $status) while submitting the shards, before it printed a job id; taken as nothing submitted (squeue --name overlap-study lists this user's study jobs, should one be there all the same)" >&2
+  elif [[ $status -ne 0 ]]; then
+    echo "study_slurm: sbatch refused the shards (exit $status); nothing submitted" >&2
+  else
+    echo "study_slurm: sbatch printed no job id for the shards ($(printed "$said")); see squeue --name overlap-study" >&2
+  fi
+  exit 1
 fi
-array="${array%%;*}"
 phase=report
 echo "study_slurm: shards: job $array, $shards tasks, logs in $shown_out/slurm/shard-N.log"
 # The report job's sbatch runs in the background, its --parsable line (the job's id, which
 # sbatch prints on submitting, before --wait waits) read from a file: a stop while it
 # waits is handled at once, knowing the job is submitted, and its exit status is the
 # job's own (sbatch(1): with --wait, the submitted job's exit code).
-ids="$(mktemp "${TMPDIR:-/tmp}/study_slurm.XXXXXX")" || exit 1
-trap 'rm -f -- "$ids"' EXIT
 buffered=(); command -v stdbuf > /dev/null && buffered=(stdbuf -oL)  # the id at once
 # From its start to its wait, bash's own stderr (fd 2) is /dev/null and the real one fd 3
 # (sbatch's, this script's lines): an sbatch ended by a signal is said below in a line of
@@ -231,12 +347,14 @@ status=0
   wait "$sbatch_pid" || status=$?
 } 3>&2 2> /dev/null
 notices=""
-report_id || true
+report_id ended || true
 trap - INT TERM HUP
 if [[ -z "$report_job" && $status -gt 128 ]]; then
   echo "study_slurm: sbatch was ended by $(signal_name "$status") (exit $status) while submitting the report job; the shards' job $array is submitted: see squeue --name overlap-study-report, and scancel $array if it lists no report job" >&2; exit 1
+elif [[ -z "$report_job" && $status -eq 0 ]]; then
+  echo "study_slurm: sbatch exited 0 for the report job but printed no job id ($(printed "$ids")): it may be submitted all the same; see squeue --name overlap-study-report before submitting it again (the shards' job $array is submitted)" >&2; exit 1
 elif [[ -z "$report_job" ]]; then
-  echo "study_slurm: sbatch refused the report job; the shards' job $array runs without it (scancel $array, or submit the report: ${report[*]})" >&2; exit 1
+  echo "study_slurm: sbatch refused the report job (exit $status); the shards' job $array runs without it (scancel $array, or submit the report: $(sh_quoted "${report[@]}"))" >&2; exit 1
 elif [[ ${#wait[@]} -eq 0 ]]; then
   [[ $status -eq 0 ]] || { echo "study_slurm: sbatch submitted the report job $report_job, then exited $status; see squeue -j $report_job" >&2; exit 1; }
   echo "study_slurm: report: job $report_job, when every shard has ended well: $shown_out/REPORT.md"

@@ -1217,7 +1217,9 @@ def case_slurm_checks_before_submitting(args) -> None:
 def case_slurm_stop_says_what_was_submitted(args) -> None:
     """A stop signal to study_slurm.sh says what it had done: during the study's check,
     nothing made and nothing submitted (exit 143, one line of its own); while sbatch
-    submits the shards, which job to look for (sbatch faked, slow)."""
+    submits the shards, the job it submitted, once it has ended (bash runs the trap then),
+    to cancel (sbatch faked, slow; no scancel here: named as not cancelled, with the
+    scancel to run)."""
     work = args.out
     started = work / "sbatch_started"
     env = fake_sbatch(work, f"touch {started}\nsleep 3\necho 4242")
@@ -1235,7 +1237,8 @@ def case_slurm_stop_says_what_was_submitted(args) -> None:
     _, stderr = process.communicate(timeout=60)
     lines = [line for line in stderr.splitlines() if line.startswith("study_slurm:")]
     check(process.returncode == 128 + signal.SIGTERM and len(lines) == 1 and
-          "while sbatch was submitting the shards" in lines[0],
+          "the shards' job 4242" in lines[0] and "scancel 4242" in lines[0] and
+          "squeue" not in lines[0],
           f"SIGTERM during sbatch: exit {process.returncode}:\n{stderr}")
     # Before anything is made: the fresh --out is gone.
     shutil.rmtree(out, ignore_errors=True)

@@ -20,6 +20,19 @@ study.CASE, tests/study/CMakeLists.txt):
                                   the --out made removed
   slurm_sbatch_failure_one_line   an sbatch refusing or killed: one line of the script's
                                   own (exit 1), no bash notice, the --out made removed
+  slurm_stop_while_shards_submit_cancels_them   a stop to the script while the shards'
+                                  sbatch runs: its job (known once sbatch ended) cancelled
+  slurm_failed_submission_keeps_anothers_out   a failing submission removes no --out
+                                  another submission into it went through with
+  slurm_temporary_made_before_submitting   no temporary: one line, nothing submitted
+  slurm_cancel_failure_said       scancel refusing or missing: the job named NOT cancelled
+  slurm_second_stop_waits_for_the_first   a second stop during the trap: its line all
+                                  the same
+  slurm_group_stop_while_out_is_made   a group stop while --out is made: none left
+  slurm_report_id_unread_is_not_refused   the report's sbatch exiting 0 with no id read:
+                                  not named refused, squeue named to look for it
+  slurm_shards_id_then_failure_is_submitted   an id printed, then a failure: submitted
+  slurm_job_id_is_the_whole_output   a NUL, a second line, 21 digits: no job id
   gpu_resume_archive_checked_before_unpacking   gpu_check.sh --study: a resume archive
                                   with a link, an absolute or '..' name is refused (exit
                                   2, one line) before an earlier run is touched, nothing
@@ -77,21 +90,27 @@ def one_line_exit(result, code: int, *words, prefix: str = "") -> None:
 # --- study_slurm.sh against a faked Slurm ---------------------------------------------
 
 def fake_slurm(work: pathlib.Path) -> tuple:
-    """sbatch records its argv (calls/callN), prints job 4242+N; with --wait it sleeps
-    FAKE_WAIT_S (1) and exits FAKE_WAIT_RC (0), the job's status as sbatch(1) says.
-    The shards' call (call0) prints FAKE_SHARDS_PRINTS instead of its id where that is
-    set, then exits FAKE_SHARDS_RC (0; an error line first where it is not 0); call N
-    ends by SIGKILL before it prints anything where FAKE_KILLED is N, after its id where
-    FAKE_KILLED_AFTER_ID is N; it sleeps FAKE_SLOW_S (3) before its id where FAKE_SLOW is
-    N.  scancel appends its argv to scancel.log."""
+    """sbatch records its argv (calls/callN, or in FAKE_CALLS where that is set), prints
+    job 4242+N; with --wait it sleeps FAKE_WAIT_S (1) and exits FAKE_WAIT_RC (0), the
+    job's status as sbatch(1) says.  The shards' call (call0) prints FAKE_SHARDS_PRINTS
+    instead of its id where that is set (FAKE_SHARDS_FORMAT: a printf format, for a NUL),
+    then exits FAKE_SHARDS_RC (0; an error line first where it is not 0); the report's
+    (call1) prints FAKE_REPORT_PRINTS where that is set; call N ends by SIGKILL before it
+    prints anything where FAKE_KILLED is N, after its id where FAKE_KILLED_AFTER_ID is N;
+    it sleeps FAKE_SLOW_S (3) before its id where FAKE_SLOW is N.  scancel appends its argv
+    to scancel.log, then exits FAKE_SCANCEL_RC (0; an error line first where it is not 0)."""
     calls = work / "calls"
     calls.mkdir()
-    env = fake_sbatch(work, f"n=$(ls '{calls}' | wc -l)\n"
-                      f"printf '%s\\n' \"$@\" > '{calls}'/call$n\n"
+    env = fake_sbatch(work, f"c=\"${{FAKE_CALLS:-{calls}}}\"; n=$(ls \"$c\" | wc -l)\n"
+                      "printf '%s\\n' \"$@\" > \"$c\"/call$n\n"
                       "[ \"${FAKE_KILLED-}\" = $n ] && kill -9 $$\n"
                       "[ \"${FAKE_SLOW-}\" = $n ] && sleep \"${FAKE_SLOW_S:-3}\"\n"
-                      "if [ $n = 0 ] && [ -n \"${FAKE_SHARDS_PRINTS+set}\" ]; then\n"
-                      "  printf '%s' \"$FAKE_SHARDS_PRINTS\"; else echo $((4242 + n)); fi\n"
+                      "if [ $n = 0 ] && [ -n \"${FAKE_SHARDS_FORMAT+set}\" ]; then\n"
+                      "  printf \"$FAKE_SHARDS_FORMAT\"\n"
+                      "elif [ $n = 0 ] && [ -n \"${FAKE_SHARDS_PRINTS+set}\" ]; then\n"
+                      "  printf '%s' \"$FAKE_SHARDS_PRINTS\"\n"
+                      "elif [ $n = 1 ] && [ -n \"${FAKE_REPORT_PRINTS+set}\" ]; then\n"
+                      "  printf '%s' \"$FAKE_REPORT_PRINTS\"; else echo $((4242 + n)); fi\n"
                       "[ \"${FAKE_KILLED_AFTER_ID-}\" = $n ] && kill -9 $$\n"
                       "if [ $n = 0 ] && [ \"${FAKE_SHARDS_RC:-0}\" != 0 ]; then\n"
                       "  echo 'sbatch: error: Batch job submission failed' >&2\n"
@@ -101,7 +120,10 @@ def fake_slurm(work: pathlib.Path) -> tuple:
                       "sleep \"${FAKE_WAIT_S:-1}\" & wait $!; "
                       "exit \"${FAKE_WAIT_RC:-0}\"; }; done\nexit 0")
     scancel = work / "bin" / "scancel"
-    scancel.write_text(f"#!/bin/sh\necho \"$@\" >> '{work}/scancel.log'\n")
+    scancel.write_text(f"#!/bin/sh\necho \"$@\" >> '{work}/scancel.log'\n"
+                       "[ \"${FAKE_SCANCEL_RC:-0}\" = 0 ] || { echo \"scancel: error: Kill job "
+                       "error on job id $1: Access/permission denied\" >&2; "
+                       "exit \"$FAKE_SCANCEL_RC\"; }\n")
     scancel.chmod(0o755)
     return env, calls
 
@@ -366,6 +388,262 @@ def case_slurm_sbatch_failure_one_line(args) -> None:
     one_line_exit(result, 137, "report job 4243", "SIGKILL", prefix="study_slurm:")
     check(own_lines_only(result),
           f"--wait, killed after its id: not the script's own line alone: {result.stderr!r}")
+
+
+def slurm_stopped(args, out, fake, env, until, sig, group=False, again=None, more=()):
+    """study_slurm.sh run in a session of its own (stdout, stderr to files), `sig` sent to
+    it (or its group) once `until()` holds, `again` 1 s later where given: (exit, stderr,
+    scancel.log's text)."""
+    work = args.out
+    said, shown = work / "stderr", work / "stdout"
+    (work / "scancel.log").unlink(missing_ok=True)
+    with open(said, "w") as stderr_file, open(shown, "w") as stdout_file:
+        process = subprocess.Popen(slurm_command(args, out, *more), stdout=stdout_file,
+                                   stderr=stderr_file, env={**env, **fake},
+                                   start_new_session=True)
+    try:
+        deadline = time.monotonic() + 90
+        while not until() and process.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.3)
+        for each in (sig, again):
+            if each is None:
+                continue
+            try:
+                os.killpg(process.pid, each) if group else process.send_signal(each)
+            except ProcessLookupError:
+                pass
+            time.sleep(1)
+        process.wait(timeout=60)
+    finally:
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    log = work / "scancel.log"
+    return process.returncode, said.read_text(), log.read_text() if log.exists() else ""
+
+
+def own_line(stderr: str) -> list:
+    return [line for line in stderr.splitlines() if line.startswith("study_slurm:")]
+
+
+def case_slurm_stop_while_shards_submit_cancels_them(args) -> None:
+    """A stop (INT, TERM, HUP) to study_slurm.sh alone while the shards' sbatch submits:
+    bash runs the trap once sbatch has ended, with its id: the shards' job is cancelled
+    and named, exit 128 + N, no 'squeue --name overlap-study' to scancel from.  Sent
+    to the group (sbatch ended before its id): nothing submitted, the --out made removed."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        for group in (False, True):
+            shutil.rmtree(calls)
+            calls.mkdir()
+            shutil.rmtree(out, ignore_errors=True)
+            code, stderr, cancelled = slurm_stopped(
+                args, out, {"FAKE_SLOW": "0", "FAKE_SLOW_S": "2"}, env,
+                lambda: (calls / "call0").exists(), sig, group)
+            to = f"{sig.name} to the {'group' if group else 'script'}"
+            lines = own_line(stderr)
+            check(code == 128 + sig and len(lines) == 1 and "squeue" not in lines[0],
+                  f"{to}: exit {code}:\n{stderr}")
+            if group:
+                check("nothing submitted" in lines[0] and not cancelled and
+                      not os.path.lexists(out), f"{to}: {stderr} {cancelled!r}")
+            else:
+                check("4242" in lines[0] and "is cancelled" in lines[0] and
+                      cancelled == "4242\n", f"{to}: {stderr} cancelled {cancelled!r}")
+            check(sorted(path.name for path in calls.iterdir()) == ["call0"],
+                  f"{to}: the report job submitted")
+
+
+def case_slurm_failed_submission_keeps_anothers_out(args) -> None:
+    """Submission A makes --out, its shards' sbatch is slow and then refuses (or prints
+    no id); meanwhile submission B into the same --out goes through: A exits 1, and
+    B's --out (the lock, slurm/ with B's job kept there) is still there."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "shared"
+    calls_b = work / "calls_b"
+    for fake in ({"FAKE_SHARDS_RC": "1", "FAKE_SHARDS_PRINTS": ""}, {"FAKE_SHARDS_PRINTS": ""}):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        shutil.rmtree(calls_b, ignore_errors=True)
+        calls_b.mkdir()
+        shutil.rmtree(out, ignore_errors=True)
+        a = subprocess.Popen(slurm_command(args, out), stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True,
+                             env={**env, **fake, "FAKE_SLOW": "0", "FAKE_SLOW_S": "4"})
+        deadline = time.monotonic() + 60
+        while not (calls / "call0").exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        b = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                           env={**env, "FAKE_CALLS": str(calls_b)}, timeout=60)
+        _, a_said = a.communicate(timeout=60)
+        check(b.returncode == 0 and a.returncode == 1, f"{fake}: A exit {a.returncode}, "
+              f"B exit {b.returncode}:\n{a_said}\n{b.stderr}")
+        check((out / ".study.lock").is_file() and (out / "slurm" / "job-4242").is_file(),
+              f"{fake}: B's --out removed by A's failure: "
+              f"{sorted(p.name for p in out.rglob('*')) if out.exists() else 'gone'}")
+
+
+def case_slurm_temporary_made_before_submitting(args) -> None:
+    """TMPDIR missing (no temporary for what sbatch prints): one line saying so, exit 1,
+    nothing submitted, no --out made."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                            env={**env, "TMPDIR": str(work / "no_such_folder")}, timeout=120)
+    one_line_exit(result, 1, "temporary", "nothing submitted", prefix="study_slurm:")
+    check(not any(calls.iterdir()), "submitted without a temporary")
+    check(not os.path.lexists(out), "--out left")
+
+
+def case_slurm_cancel_failure_said(args) -> None:
+    """A stop to the group while the report job's sbatch submits (its id never printed):
+    scancel refusing, or missing from PATH: the shards' job named as NOT cancelled, with
+    scancel's error and the scancel to run; a working scancel: 'is cancelled'."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    fake = {"FAKE_SLOW": "1", "FAKE_SLOW_S": "5"}
+
+    def stop(more):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        return slurm_stopped(args, out, {**fake, **more}, env,
+                             lambda: (calls / "call1").exists(), signal.SIGTERM, group=True)
+
+    code, stderr, cancelled = stop({"FAKE_SCANCEL_RC": "1"})
+    lines = own_line(stderr)
+    check(code == 143 and len(lines) == 1 and "NOT cancelled" in lines[0] and
+          "Access/permission denied" in lines[0] and "scancel 4242" in lines[0] and
+          cancelled == "4242\n", f"scancel refusing: exit {code}:\n{stderr}")
+    scancel = work / "bin" / "scancel"
+    scancel.rename(work / "scancel.away")
+    try:
+        if shutil.which("scancel", path=env["PATH"]) is None:
+            code, stderr, cancelled = stop({})
+            lines = own_line(stderr)
+            check(code == 143 and len(lines) == 1 and "NOT cancelled" in lines[0] and
+                  "scancel 4242" in lines[0], f"no scancel: exit {code}:\n{stderr}")
+    finally:
+        (work / "scancel.away").rename(scancel)
+    code, stderr, cancelled = stop({})
+    check(code == 143 and "is cancelled" in stderr and cancelled == "4242\n",
+          f"scancel working: exit {code}:\n{stderr}")
+
+
+def case_slurm_second_stop_waits_for_the_first(args) -> None:
+    """A SIGTERM (or SIGHUP) to study_slurm.sh while the report job's sbatch submits, a
+    second one 1 s later while the trap waits for its id: the trap's line all the same
+    (both jobs named as going on), exit 128 + N of the first."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        code, stderr, cancelled = slurm_stopped(
+            args, work / "st", {"FAKE_SLOW": "1", "FAKE_SLOW_S": "4"}, env,
+            lambda: (calls / "call1").exists(), sig, again=sig)
+        lines = own_line(stderr)
+        check(code == 128 + sig and len(lines) == 1 and "4243" in lines[0] and
+              "go on" in lines[0] and not cancelled, f"{sig.name} twice: exit {code}:\n{stderr}")
+
+
+def case_slurm_group_stop_while_out_is_made(args) -> None:
+    """A stop to the group while the folder check makes --out (slow storage: a sleep after
+    its lock is made, before it has said what it made): exit 128 + N, 'nothing
+    submitted', and no folder of it left."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    site, made = work / "site", work / "made"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(
+        "import os, pathlib, time\n"
+        "_touch = pathlib.Path.touch\n"
+        "def touch(self, *args, **kwargs):\n"
+        "    _touch(self, *args, **kwargs)\n"
+        f"    open({str(made)!r}, 'w').close()\n"
+        "    time.sleep(3)\n"
+        "pathlib.Path.touch = touch\n")
+    slow = work / "slowpy"
+    slow.write_text(f"#!/bin/sh\nPYTHONPATH=\"${{PYTHONPATH:+$PYTHONPATH:}}{site}\" "
+                    f"exec {PYTHON} \"$@\"\n")
+    slow.chmod(0o755)
+    out = work / "new" / "deep"
+    for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):
+        made.unlink(missing_ok=True)
+        code, stderr, _ = slurm_stopped(args, out, {"PYTHON": str(slow)}, env, made.exists,
+                                        sig, group=True)
+        lines = own_line(stderr)
+        check(code == 128 + sig and len(lines) == 1 and "nothing submitted" in lines[0] and
+              "Traceback" not in stderr, f"{sig.name}: exit {code}:\n{stderr}")
+        check(not os.path.lexists(work / "new"), f"{sig.name}: left "
+              f"{sorted(str(p.relative_to(work)) for p in (work / 'new').rglob('*'))}")
+        check(not any(calls.iterdir()), f"{sig.name}: submitted")
+
+
+def case_slurm_report_id_unread_is_not_refused(args) -> None:
+    """The report's sbatch exits 0 but prints no id it reads ('4243\\r\\n', nothing): exit
+    1, one line naming squeue --name overlap-study-report to look for it, never
+    'refused'; an sbatch refusing (exit 1) is still 'refused', its advice in sh quoting."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    for printed in ["4243\r\n", ""]:
+        shutil.rmtree(calls)
+        calls.mkdir()
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env={**env, "FAKE_REPORT_PRINTS": printed}, timeout=120)
+        one_line_exit(result, 1, "squeue --name overlap-study-report", "4242",
+                      prefix="study_slurm:")
+        check(not any("refused" in line for line in own_line(result.stderr)),
+              f"{printed!r}: named refused: {result.stderr}")
+
+
+def case_slurm_shards_id_then_failure_is_submitted(args) -> None:
+    """The shards' sbatch prints its id, then exits 1 or is killed: the job is taken as
+    submitted, its report job submitted after it (afterok on it), a line with sbatch's
+    status, slurm/ kept."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    for fake, said in [({"FAKE_SHARDS_PRINTS": "4242\n", "FAKE_SHARDS_RC": "1"}, "exited 1"),
+                       ({"FAKE_KILLED_AFTER_ID": "0"}, "SIGKILL")]:
+        shutil.rmtree(calls)
+        calls.mkdir()
+        shutil.rmtree(out, ignore_errors=True)
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env={**env, **fake}, timeout=120)
+        check((calls / "call1").exists() and
+              "--dependency=afterok:4242" in (calls / "call1").read_text(),
+              f"{fake}: no report job after the shards' 4242:\n{result.stderr}")
+        check(any("4242" in line and said in line for line in own_line(result.stderr)) and
+              "nothing submitted" not in result.stderr, f"{fake}: {result.stderr}")
+        check((out / "slurm").is_dir(), f"{fake}: the shards' logs folder removed")
+
+
+def case_slurm_job_id_is_the_whole_output(args) -> None:
+    """The shards' id only where all sbatch printed is one line of up to 20 digits (and
+    ';cluster'): '12 NUL 3', '4242;c' then a line, 21 digits: 'printed no job id', no
+    report job, no bash warning ('line N:')."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    for printed in ["12\\0003\\n", "4242;c\\n9999\\n", "1" * 21 + "\\n"]:
+        shutil.rmtree(calls)
+        calls.mkdir()
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env={**env, "FAKE_SHARDS_FORMAT": printed}, timeout=120)
+        one_line_exit(result, 1, "sbatch printed no job id for the shards",
+                      prefix="study_slurm:")
+        check("line " not in result.stderr and "warning" not in result.stderr,
+              f"{printed!r}: {result.stderr}")
+        check(sorted(path.name for path in calls.iterdir()) == ["call0"],
+              f"{printed!r}: the report job submitted")
 
 
 # --- gpu_check.sh --dry-run in a scratch checkout ---------------------------------------
