@@ -2,7 +2,8 @@
 
 #include <chrono>
 #include <cstdio>
-#include <regex>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "engine/program/usage_error.h"
@@ -32,8 +33,22 @@ FrameCapture::FrameCapture(OutputFolder& outputs, const std::filesystem::path& f
     : outputs_(outputs), folder_(folder), renderer_(width, height, mode) {}
 
 bool isKeyframeName(const std::string& name) {
-  static const std::regex keyframe(R"(scene[0-9]+_frame[0-9]{4,}\.png)");
-  return std::regex_match(name, keyframe);
+  // scene[0-9]+_frame[0-9]{4,}.png, read by hand (std::regex recurses per
+  // character: a long name from a list would overflow the stack).
+  const auto digits = [&name](std::size_t at) {
+    std::size_t end = at;
+    while (end < name.size() && name[end] >= '0' && name[end] <= '9') ++end;
+    return end - at;
+  };
+  constexpr std::string_view kScene = "scene", kFrame = "_frame", kPng = ".png";
+  if (!name.starts_with(kScene)) return false;
+  const std::size_t scene_digits = digits(kScene.size());
+  const std::size_t frame_at = kScene.size() + scene_digits;
+  if (scene_digits == 0 || name.compare(frame_at, kFrame.size(), kFrame) != 0) return false;
+  const std::size_t frame_digits = digits(frame_at + kFrame.size());
+  return frame_digits >= 4 &&
+         name.size() == frame_at + kFrame.size() + frame_digits + kPng.size() &&
+         name.ends_with(kPng);
 }
 
 std::string pngName(int scene, int frame) {

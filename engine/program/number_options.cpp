@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <regex>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 namespace overlap::engine {
@@ -20,27 +20,79 @@ std::string shown(double value) {
   return text;
 }
 
+// A value as a message shows it: cut short past 40 characters, with its
+// length, so a refusal stays one readable line.
+std::string shownValue(const std::string& text) {
+  constexpr std::size_t kMostShown = 40;
+  if (text.size() <= kMostShown) return text;
+  return text.substr(0, kMostShown / 2) + "... (" + std::to_string(text.size()) + " characters)";
+}
+
+// The numbers' spellings, read by hand: std::regex matches recursively, a
+// frame per character, and a value of some 50,000 digits overflowed the
+// stack (a crash where a refusal was due).
+class Spelling {
+ public:
+  explicit Spelling(const std::string& text) : text_(text) {}
+  bool sign() { return take("+-"); }
+  bool take(std::string_view any) {
+    if (at_ < text_.size() && any.find(text_[at_]) != std::string_view::npos) {
+      ++at_;
+      return true;
+    }
+    return false;
+  }
+  std::size_t digits() {  // how many were taken
+    const std::size_t start = at_;
+    while (at_ < text_.size() && text_[at_] >= '0' && text_[at_] <= '9') ++at_;
+    return at_ - start;
+  }
+  bool wholePart() {  // "0" or a digit 1-9 and more: "010" would be read as octal
+    if (take("0")) return true;
+    return take("123456789") && (digits(), true);
+  }
+  bool exponent() {  // nothing, or [eE][+-]?[0-9]+
+    if (!take("eE")) return true;
+    sign();
+    return digits() > 0;
+  }
+  bool ended() const { return at_ == text_.size(); }
+
+ private:
+  const std::string& text_;
+  std::size_t at_ = 0;
+};
+
 bool isWhole(const std::string& text) {
-  static const std::regex kWhole("[+-]?(0|[1-9][0-9]*)");  // "010" would be read as octal
-  return std::regex_match(text, kWhole);
+  Spelling spelling(text);
+  spelling.sign();
+  return spelling.wholePart() && spelling.ended();
 }
 
 bool isDecimal(const std::string& text) {
   // "010" and "00.5" are refused as whole numbers are: a leading zero only before '.' or alone.
-  static const std::regex kDecimal(
-      "[+-]?((0|[1-9][0-9]*)(\\.[0-9]*)?|\\.[0-9]+)([eE][+-]?[0-9]+)?");
-  return std::regex_match(text, kDecimal);
+  Spelling spelling(text);
+  spelling.sign();
+  if (spelling.wholePart()) {
+    if (spelling.take(".")) spelling.digits();
+  } else if (!spelling.take(".") || spelling.digits() == 0) {
+    return false;
+  }
+  return spelling.exponent() && spelling.ended();
 }
 
 // "010", "-007.5": a number written with a leading zero (which some readers
 // take as octal), refused with a message of its own.
 bool hasLeadingZero(const std::string& text) {
-  static const std::regex kLeadingZero("[+-]?0[0-9][0-9]*(\\.[0-9]*)?([eE][+-]?[0-9]+)?");
-  return std::regex_match(text, kLeadingZero);
+  Spelling spelling(text);
+  spelling.sign();
+  if (!spelling.take("0") || spelling.digits() == 0) return false;
+  if (spelling.take(".")) spelling.digits();
+  return spelling.exponent() && spelling.ended();
 }
 
 std::string leadingZeroProblem(const std::string& text) {
-  return text + " has a leading zero (write it without)";
+  return shownValue(text) + " has a leading zero (write it without)";
 }
 
 // "" when `text` is a whole number in [lo, hi], else the message.
@@ -48,7 +100,7 @@ template <typename Int>
 std::string wholeProblem(const std::string& text, Int lo, Int hi) {
   if (text.empty()) return "an empty value is not a number";
   if (hasLeadingZero(text)) return leadingZeroProblem(text);
-  if (!isWhole(text)) return text + " is not a whole number";
+  if (!isWhole(text)) return shownValue(text) + " is not a whole number";
   const bool negative = text[0] == '-';
   const std::string digits = text.substr(text[0] == '+' || negative ? 1 : 0);
   std::uint64_t magnitude = 0;
@@ -57,18 +109,19 @@ std::string wholeProblem(const std::string& text, Int lo, Int hi) {
   const bool huge = error == std::errc::result_out_of_range;
   if (negative && magnitude != 0) {
     // Below any lo >= 0; otherwise compared as a signed number.
-    if constexpr (std::is_unsigned_v<Int>) return text + " must be at least " + std::to_string(lo);
+    if constexpr (std::is_unsigned_v<Int>)
+      return shownValue(text) + " must be at least " + std::to_string(lo);
     if (huge || magnitude > static_cast<std::uint64_t>(std::numeric_limits<Int>::max()) ||
         -static_cast<std::int64_t>(magnitude) < static_cast<std::int64_t>(lo)) {
-      return text + " must be at least " + std::to_string(lo);
+      return shownValue(text) + " must be at least " + std::to_string(lo);
     }
     return "";
   }
   if (huge || magnitude > static_cast<std::uint64_t>(hi)) {
-    return text + " must be at most " + std::to_string(hi);
+    return shownValue(text) + " must be at most " + std::to_string(hi);
   }
   if (magnitude < static_cast<std::uint64_t>(std::max<Int>(lo, 0))) {
-    return text + " must be at least " + std::to_string(lo);
+    return shownValue(text) + " must be at least " + std::to_string(lo);
   }
   return "";
 }
@@ -100,15 +153,17 @@ CLI::Validator realNumberIn(double lo, double hi, bool above_lo) {
         if (hasLeadingZero(text)) return leadingZeroProblem(text);
         if (!isDecimal(text)) {
           const double value = std::strtod(text.c_str(), nullptr);
-          return text + (std::isnan(value) || std::isinf(value) ? " is not a finite number"
-                                                                : " is not a number");
+          return shownValue(text) + (std::isnan(value) || std::isinf(value)
+                                         ? " is not a finite number"
+                                         : " is not a number");
         }
         errno = 0;
         const double value = std::strtod(text.c_str(), nullptr);
-        if (errno == ERANGE && std::abs(value) > 1) return text + " must be at most " + shown(hi);
-        if (above_lo && !(value > lo)) return text + " must be above " + shown(lo);
-        if (value < lo) return text + " must be at least " + shown(lo);
-        if (value > hi) return text + " must be at most " + shown(hi);
+        if (errno == ERANGE && std::abs(value) > 1)
+          return shownValue(text) + " must be at most " + shown(hi);
+        if (above_lo && !(value > lo)) return shownValue(text) + " must be above " + shown(lo);
+        if (value < lo) return shownValue(text) + " must be at least " + shown(lo);
+        if (value > hi) return shownValue(text) + " must be at most " + shown(hi);
         return "";
       },
       (above_lo ? "(" : "[") + shown(lo) + ", " + shown(hi) + "]");

@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "engine/program/wording.h"
+#include "gpu/base/interrupt.h"
 #include "gpu/base/standard_streams.h"
 
 namespace overlap::engine {
@@ -61,6 +62,7 @@ class Line {
   }
   void print() {
     bytes_[size_++] = '\n';
+    if (pendingInterrupt() != 0) return;  // the stop's own line comes next
     writeMessage(bytes_, size_);
   }
 

@@ -1,9 +1,13 @@
 #include "gpu/base/standard_streams.h"
 
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <initializer_list>
@@ -37,6 +41,11 @@ ssize_t writeCookie(void* /*cookie*/, const char* bytes, std::size_t size) {
   return static_cast<ssize_t>(size);
 }
 
+// The time messages have waited for room since a stop came, all together:
+// once a second, every later message is dropped at once (progress lines
+// come from a timer's signal each second, and would each wait anew).
+std::atomic<int> waited_after_a_stop_ms{0};
+
 }  // namespace
 
 void holdStandardStreams() {
@@ -60,27 +69,27 @@ void holdStandardStreams() {
 }
 
 void writeMessage(const char* bytes, std::size_t size) {
-  constexpr int kMostWaitAfterAStopMs = 1000;
+  constexpr int kMostWaitAfterAStopMs = 1000;  // for all the messages, on every thread
   constexpr int kLookEveryMs = 100;
-  int waited_ms = 0;
+  // What waits for room, and whose poll() says when there is: a pipe, FIFO,
+  // socket or terminal, written a pipe buffer at a time once there is room.
+  struct stat info {};
+  const bool may_wait = ::fstat(STDERR_FILENO, &info) == 0 &&
+                        (S_ISFIFO(info.st_mode) || S_ISSOCK(info.st_mode) ||
+                         (S_ISCHR(info.st_mode) && ::isatty(STDERR_FILENO) == 1));
   while (size > 0) {
-    if (pendingInterrupt() != 0) {
-      if (waited_ms >= kMostWaitAfterAStopMs) return;
+    const bool stopping = pendingInterrupt() != 0;
+    if (stopping && waited_after_a_stop_ms.load() >= kMostWaitAfterAStopMs) return;
+    if (may_wait || stopping) {
       pollfd room{STDERR_FILENO, POLLOUT, 0};
-      const int ready = ::poll(&room, 1, kLookEveryMs);
-      if (ready <= 0) {
-        waited_ms += kLookEveryMs;
+      if (::poll(&room, 1, kLookEveryMs) <= 0) {
+        if (pendingInterrupt() != 0) waited_after_a_stop_ms.fetch_add(kLookEveryMs);
         continue;
       }
     }
-    const ssize_t wrote = ::write(STDERR_FILENO, bytes, size);
-    if (wrote < 0 && errno == EINTR) continue;
-    if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-      pollfd room{STDERR_FILENO, POLLOUT, 0};
-      ::poll(&room, 1, kLookEveryMs);
-      if (pendingInterrupt() != 0) waited_ms += kLookEveryMs;
-      continue;
-    }
+    const std::size_t chunk = may_wait ? std::min<std::size_t>(size, PIPE_BUF) : size;
+    const ssize_t wrote = ::write(STDERR_FILENO, bytes, chunk);
+    if (wrote < 0 && (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)) continue;
     if (wrote <= 0) return;
     bytes += wrote;
     size -= static_cast<std::size_t>(wrote);

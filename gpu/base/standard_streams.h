@@ -19,9 +19,11 @@
 //     holdStandardStreams() also gives std::cerr and stdio's stderr.  A message never
 //     holds a stop: a terminal stopped with Ctrl-S, or a reader of stderr
 //     that does not read, blocks a write, and the stop's own line would
-//     then never be written and the process never end.  So once a stop
-//     signal has come (interrupt.h), a message waits for room at most a
-//     second in all, in poll(), and what does not fit is dropped.
+//     then never be written and the process never end.  So a pipe, FIFO,
+//     socket or terminal is written once poll() says it has room, looking
+//     for a stop every tenth of a second, and once a stop signal has come
+//     (interrupt.h) the messages wait for room at most a second in all,
+//     on every thread together; what does not fit is dropped.
 //     Async-signal-safe: progress lines are written from a signal handler.
 // Plain POSIX: no Bullet here.
 #pragma once

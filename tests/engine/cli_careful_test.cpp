@@ -212,6 +212,9 @@ TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
       {"record --objects 3abc" + out, "--objects: 3abc is not a whole number"},
       {"record --objects \"\"" + out, "--objects: an empty value is not a number"},
       {"record --objects 0x10" + out, "--objects: 0x10 is not a whole number"},
+      {"record --seed " + std::string(60000, '1') + out, "(60000 characters) must be at most"},
+      {"record --wall-min " + std::string(60000, '9') + out, "(60000 characters) must be at most"},
+      {"record --objects 1" + std::string(60000, 'x') + out, "(60001 characters) is not a whole"},
       {"capture --size 32x24 --capture-size 32x24" + out, "--size and --capture-size"},
       {"bogus", "unknown subcommand 'bogus'; the subcommands are run, record, pairs"},
   };

@@ -166,24 +166,40 @@ TEST_F(SignalsCliTest, AStopEndsARunBlockedOnAReaderThatNeverReads) {
 }
 
 // Standard error that takes nothing more (a FIFO full, a terminal stopped
-// with Ctrl-S): a message blocked on it, and the stop's own line, never hold
-// a stop; the run ends with the stop's status, its outputs unpublished.
+// with Ctrl-S), from the first message or after some (progress lines come
+// each second from a timer): the messages blocked on it, and the stop's own
+// line, never hold a stop; the run ends with the stop's status, its outputs
+// unpublished.
 TEST_F(SignalsCliTest, AStopEndsARunWhoseStandardErrorTakesNothing) {
-  const fs::path messages = fifo("messages.fifo");
-  const int held = ::open(messages.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);  // never read
-  ASSERT_GE(held, 0);
-  const std::string filler(4096, 'x');
-  while (::write(held, filler.data(), filler.size()) > 0) {
+  for (const bool read_at_first : {false, true}) {
+    const fs::path messages = fifo(read_at_first ? "later.fifo" : "first.fifo");
+    const int held = ::open(messages.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    ASSERT_GE(held, 0);
+    const auto fill = [held] {  // from here on, no one reads
+      const std::string filler(4096, 'x');
+      while (::write(held, filler.data(), filler.size()) > 0) {
+      }
+    };
+    if (!read_at_first) fill();
+    Started run("run --objects 20 --frames 100000 --capture-every 0 --no-wav --out " +
+                    (out_ / "blocked").string(),
+                messages);
+    if (read_at_first) {  // its first messages and progress lines are read
+      char drained[4096];
+      for (int i = 0; i < 30; ++i) {
+        while (::read(held, drained, sizeof(drained)) > 0) {
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      }
+      fill();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // a progress line blocked
+    run.signal(SIGTERM);
+    ASSERT_TRUE(run.endsWithin(std::chrono::seconds(15))) << "read at first: " << read_at_first;
+    EXPECT_TRUE(exitedWith(run.wait(), 143)) << "read at first: " << read_at_first;
+    EXPECT_FALSE(fs::exists(out_ / "blocked"));
+    ::close(held);
   }
-  Started run("run --objects 20 --frames 100000 --capture-every 0 --no-wav --out " +
-                  (out_ / "blocked").string(),
-              messages);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // its first message blocked
-  run.signal(SIGTERM);
-  ASSERT_TRUE(run.endsWithin(std::chrono::seconds(15)));
-  EXPECT_TRUE(exitedWith(run.wait(), 143));
-  EXPECT_FALSE(fs::exists(out_ / "blocked"));
-  ::close(held);
 }
 
 // SIGHUP stops a run like SIGTERM; a run clears the temporaries that
