@@ -86,13 +86,18 @@ signal_name() {  # the signal of an exit status past 128 (a command ended by it)
 # is still as made, never a folder another submission or a study has written into
 # meanwhile; shards submitted without their report job are cancelled; once the report
 # job is submitted, a stop stops the waiting only.
-# Each submission claims --out in slurm/submission-PID (a line saying whose) before its
-# shards' sbatch, and once the shards' job is submitted keeps slurm/job-ID (the same for
-# the user): a submission that fails or is stopped removes its own claim only, and the
-# folders only where no other submission's claim or job is in slurm/.
+# Each submission claims --out in slurm/submission-HOST-PID (a line saying whose, then the
+# line of what it made) before its shards' sbatch, and once the shards' job is submitted
+# keeps slurm/job-ID (the same for the user): a submission that fails or is stopped removes
+# its own claim only, and the folders only where no other submission's claim or job is in
+# slurm/.  The host in the name too: two login nodes may give two submissions one PID.
 phase="" made="" array="" report_job="" sbatch_pid="" ids="" said="" notices=""
 shards_started="" id_read=""
-claim="submission-$$"
+host="$(hostname 2> /dev/null)" || host=""
+host="${host:-?}"
+claim="submission-${host//[^A-Za-z0-9._-]/_}-$$"
+claim_text="a submission of study_slurm.sh (pid $$ on $host, $(date '+%F %T')) is submitting its shards' job into this folder; remove this file if no such submission runs
+"
 # What this submission made for --out ("LEVELS SLURM LOCK" as the folder's check printed
 # it: the folders made from --out up, whether slurm/ and the lock were made), undone: its
 # claim; the lock and slurm/ only while nothing else is in them (another submission's
@@ -119,6 +124,16 @@ undo_py='def undo(out, levels, slurm, lock, claim):
             break
         out = out.parent
 '
+# A stop after the folder check's Python has said what it made, before bash has assigned
+# it to made: the same line, from this submission's own claim (its text, then "made ...").
+made_from_claim() {
+  local text
+  [[ -z "$made" ]] || return 0
+  text="$(cat -- "$out/slurm/$claim" 2> /dev/null)" || return 0
+  [[ $text == "${claim_text}made "* ]] || return 0
+  text="${text#"${claim_text}made "}"
+  [[ $text =~ ^[0-9]+\ [01]\ [01]$ ]] && made="$text"
+}
 undo_made() {
   [[ -n "$made" ]] || return 0
   PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, sys
@@ -150,33 +165,54 @@ report_id() {  # the report job's id, once its sbatch has printed it ([ended]: s
   [[ -z "$report_job" && -n "$ids" ]] && read_id "$ids" "${1:-running}" && report_job="$id_read"
   [[ -n "$report_job" ]]
 }
-record_job() {  # the shards' job $array, kept in slurm/ for the user and other submissions
+# The shards' job $array, kept in slurm/ for the user and other submissions, and the claim
+# removed; else (slurm/ gone, the storage full) unrecorded says why, and the claim stays.
+# Only the write's own error is redirected (to $(...)): a stop meanwhile says its line on
+# the script's stderr.
+unrecorded=""
+record_job() {
+  local when why
+  unrecorded=""
   [[ -n $made ]] || return 0
-  { printf 'the shards job %s (%s tasks) of study_slurm.sh, submitted %s from %s (pid %s)\n' \
-      "$array" "$shards" "$(date '+%F %T')" "$(hostname 2> /dev/null || echo '?')" "$$" \
-      > "$out/slurm/job-$array"; } 2> /dev/null && rm -f -- "$out/slurm/$claim"
-}
-cancelled() {  # JOB: scancel it, and say what came of it
-  local said_back bounded=() status
-  command -v timeout > /dev/null && bounded=(timeout -k 1 10)
-  if ! command -v scancel > /dev/null; then
-    echo "is NOT cancelled (scancel is not on PATH): cancel it with scancel $1"
-  elif said_back="$("${bounded[@]}" scancel "$1" 2>&1)"; then
-    echo "is cancelled"
-  else
-    status=$?; said_back="${said_back//$'\n'/ }"
-    echo "is NOT cancelled (scancel exited $status${said_back:+: $said_back}): cancel it with scancel $1"
+  when="$(date '+%F %T' 2> /dev/null)" || when="?"
+  if why="$(printf 'the shards job %s (%s tasks) of study_slurm.sh, submitted %s from %s (pid %s)\n' \
+      "$array" "$shards" "$when" "$host" "$$" 2>&1 > "$out/slurm/job-$array")"; then
+    rm -f -- "$out/slurm/$claim" 2> /dev/null
+    return 0
   fi
+  why="${why//$'\n'/ }"; why="${why##*: }"
+  unrecorded="its record $shown_out/slurm/job-$array could not be written (${why:-no reason given})"
+  return 1
+}
+# JOB: scancel it, and say what came of it.  At most 10 s, timeout(1) or not: scancel in
+# the background (its words in $said, read by now), killed if it has not ended by then.
+cancelled() {
+  local said_back status i pid
+  if ! command -v scancel > /dev/null; then
+    echo "is NOT cancelled (scancel is not on PATH): cancel it with scancel $1"; return
+  fi
+  scancel "$1" > "$said" 2>&1 &
+  pid=$!
+  for ((i = 0; i < 100; i++)); do kill -0 "$pid" 2> /dev/null || break; sleep 0.1; done
+  if kill -0 "$pid" 2> /dev/null; then
+    kill -KILL "$pid" 2> /dev/null; wait "$pid" 2> /dev/null
+    echo "is NOT cancelled (scancel did not answer in 10 s): cancel it with scancel $1"; return
+  fi
+  status=0; wait "$pid" 2> /dev/null || status=$?
+  if [[ $status -eq 0 ]]; then echo "is cancelled"; return; fi
+  said_back="$(cat -- "$said" 2> /dev/null)"; said_back="${said_back//$'\n'/ }"
+  echo "is NOT cancelled (scancel exited $status${said_back:+: $said_back}): cancel it with scancel $1"
 }
 stopped() {
   # No errexit in here: a command that fails (a kill of an sbatch the same stop has
   # ended already, a scancel refused) must not end the stop before its line and its
   # exit status; every way out of here is the exit of its own.  A second stop is ignored
-  # (this one is bounded: at most about 10 s), so that its line and its cleanup complete.
+  # (this one is bounded: at most about 20 s, 10 for the report's sbatch to print its id,
+  # 10 for scancel), so that its line and its cleanup complete.
   set +e
   trap '' INT TERM HUP
   [[ -z $notices ]] || exec 2>&3  # the lines below to stderr, not where bash's notices go
-  local i nothing=""
+  local i nothing="" result
   if [[ $phase == shards ]]; then  # bash runs this once the shards' sbatch has ended
     if [[ -n $shards_started ]] && read_id "$said"; then
       array="$id_read"; record_job; phase=shards_only
@@ -197,12 +233,15 @@ stopped() {
     fi
   fi
   case $phase in
-    shards_only)
-      echo "study_slurm: stopped by SIG$1; the shards' job $array, submitted without its report job, $(cancelled "$array")" >&2 ;;
+    shards_only)  # cancelled, its record goes: no later failure keeps --out for it
+      result="$(cancelled "$array")"
+      [[ $result != "is cancelled" ]] || rm -f -- "$out/slurm/job-$array" 2> /dev/null
+      echo "study_slurm: stopped by SIG$1; the shards' job $array, submitted without its report job, $result${unrecorded:+ ($unrecorded)}" >&2 ;;
     waiting)
       kill "$sbatch_pid" 2> /dev/null
       echo "study_slurm: stopped by SIG$1${wait:+ while waiting for the report job}; both jobs are submitted and go on (the shards' job $array, the report job $report_job: scancel $array $report_job stops them)" >&2 ;;
     *)
+      made_from_claim
       undo_made
       echo "study_slurm: stopped by SIG$1; nothing submitted$nothing${made:+ (of what this script made for --out, what nothing else has written into is removed)}" >&2 ;;
   esac
@@ -223,7 +262,7 @@ trap 'stopped HUP 1' HUP
 # job submitted without its report job.
 temporary() {
   local made_here
-  made_here="$(mktemp "${TMPDIR:-/tmp}/study_slurm.XXXXXX" 2>&1)" && [[ -f $made_here ]] &&
+  made_here="$(mktemp -- "${TMPDIR:-/tmp}/study_slurm.XXXXXX" 2>&1)" && [[ -f $made_here ]] &&
     { echo id > "$made_here" && : > "$made_here"; } 2> /dev/null && { echo "$made_here"; return 0; }
   if [[ -f $made_here ]]; then rm -f -- "$made_here"; made_here="cannot be written to"; fi
   echo "study_slurm: no temporary file for what sbatch prints in ${TMPDIR:-/tmp} (${made_here//$'\n'/ }); nothing submitted (set TMPDIR to a writable folder)" >&2
@@ -235,8 +274,11 @@ ids="$(temporary)" || { undo_made; exit 1; }
 # --out is a study's folder, as study.py takes it (study_out_folder.py): refused
 # if it holds a user's files; else its logs folder, the lock that marks it and this
 # submission's claim.  A stop while it makes them (the same stop to this script's group):
-# it removes what it made before it has printed what it made.
-made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, signal, sys
+# it removes what it made before it has printed what it made; the line it prints is in the
+# claim as well, for a stop that comes before bash has read it.  Claims of submissions
+# from this host that no longer run: one line each way, removed only where the PID is no
+# process at all (ESRCH), else named for the user to remove.
+made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, re, signal, sys
 STOPS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 class Stopped(BaseException):
     pass
@@ -247,6 +289,53 @@ def stop(number, frame):
 for each in STOPS:
     if signal.getsignal(each) != signal.SIG_IGN:
         signal.signal(each, stop)
+CLAIMED = re.compile(r"a submission of study_slurm\.sh \(pid ([0-9]{1,20}) on (.*), "
+                     r"[0-9]{4}-[0-9]{2}-[0-9]{2} [0-9]{2}:[0-9]{2}:[0-9]{2}\) is submitting ")
+def stale_claims(out, host, one_line):
+    logs, gone, named = out / "slurm", [], []
+    try:
+        names = sorted(os.listdir(logs)) if logs.is_dir() and not logs.is_symlink() else []
+    except OSError:
+        names = []
+    for name in names:
+        try:
+            first = (logs / name).read_text(errors="replace").split("\n", 1)[0]
+        except OSError:
+            continue
+        match = CLAIMED.match(first) if name.startswith("submission-") else None
+        if not match or match.group(2) != host:
+            continue  # another host: not for this one to judge
+        pid = int(match.group(1))
+        try:
+            if pid == 0:
+                raise ValueError(pid)  # kill(0, 0) is this group, no process of its own
+            os.kill(pid, 0)
+        except ProcessLookupError:  # no such process, for certain
+            try:
+                (logs / name).unlink()
+                gone.append(f"slurm/{name} (pid {pid})")
+            except OSError:
+                named.append(f"slurm/{name} (pid {pid}, which is no process)")
+            continue
+        except PermissionError:
+            pass  # a process all the same, of another user
+        except (OverflowError, ValueError):
+            named.append(f"slurm/{name} (pid {pid}, which is no process)")
+            continue
+        try:
+            words = pathlib.Path(f"/proc/{pid}/cmdline").read_bytes()
+        except OSError:
+            continue  # cannot tell: taken as running
+        if b"study_slurm" not in words:
+            named.append(f"slurm/{name} (pid {pid} is another program)")
+    comma = ", "
+    if gone:
+        print(f"study_slurm: --out {one_line(out)}: removed the claims of submissions from "
+              f"this host that no longer run: {one_line(comma.join(gone))}", file=sys.stderr)
+    if named:
+        print(f"study_slurm: --out {one_line(out)}: claimed by submissions from this host "
+              f"that do not run: {one_line(comma.join(named))}; remove each such file if no "
+              "such submission runs", file=sys.stderr)
 '"$undo_py"'
 try:
     from study_out_folder import LOCK_NAME, foreign_folder_problem
@@ -257,6 +346,7 @@ try:
                  "which does not exist")
     if problem := foreign_folder_problem(out):
         sys.exit(f"study_slurm: --out {one_line(out)}: {problem}")
+    stale_claims(out, sys.argv[4], one_line)
     levels, here = 0, out  # what is made here, printed for a stop to undo: no more
     while not os.path.lexists(here):
         levels, here = levels + 1, here.parent
@@ -265,7 +355,7 @@ try:
     try:
         (out / "slurm").mkdir(parents=True, exist_ok=True)
         (out / LOCK_NAME).touch()
-        (out / "slurm" / claim).write_text(sys.argv[3])
+        (out / "slurm" / claim).write_text(f"{sys.argv[3]}made {levels} {int(slurm)} {int(lock)}\n")
         for each in STOPS:  # printed, it is the script that undoes it
             signal.signal(each, signal.SIG_IGN)
         print(levels, int(slurm), int(lock), flush=True)
@@ -277,8 +367,7 @@ try:
         sys.exit(128 + stopped.args[0])
 except Stopped as stopped:
     sys.exit(128 + stopped.args[0])' \
-  "$out" "$claim" "a submission of study_slurm.sh (pid $$ on $(hostname 2> /dev/null || echo '?'), $(date '+%F %T')) is submitting its shards' job into this folder; remove this file if no such submission runs
-")" || {
+  "$out" "$claim" "$claim_text" "$host")" || {
   status=$?
   [[ $status -le 128 ]] && exit 2
   echo "study_slurm: the check of --out was ended by $(signal_name "$status"); nothing submitted (what it made for --out is removed)" >&2
@@ -303,7 +392,8 @@ notices=""
 # is a job submitted, whatever sbatch's exit status after it.
 if read_id "$said"; then
   array="$id_read"
-  record_job
+  record_job ||
+    echo "study_slurm: the shards' job $array is submitted, but $unrecorded; its report job is submitted all the same" >&2
   if [[ $status -gt 128 ]]; then
     echo "study_slurm: sbatch printed the shards' job $array, then was ended by $(signal_name "$status") (exit $status); the job is taken as submitted (squeue -j $array shows it)" >&2
   elif [[ $status -ne 0 ]]; then

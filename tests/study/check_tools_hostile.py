@@ -33,6 +33,18 @@ study.CASE, tests/study/CMakeLists.txt):
                                   not named refused, squeue named to look for it
   slurm_shards_id_then_failure_is_submitted   an id printed, then a failure: submitted
   slurm_job_id_is_the_whole_output   a NUL, a second line, 21 digits: no job id
+  slurm_unwritten_job_record_goes_on   slurm/ removed while the shards' sbatch runs, or
+                                  another login node's submission with the same PID: the
+                                  shards' job named, its report job submitted, exit 0
+  slurm_stop_while_job_is_recorded   a stop while slurm/job-ID is written: its line, the
+                                  job cancelled, its record and the claim removed
+  slurm_cancel_bounded_without_timeout   a scancel that hangs, timeout(1) on PATH or not:
+                                  'did not answer in 10 s' within the bound
+  slurm_stop_once_out_is_said_undoes_it   a group stop after the folder check printed
+                                  what it made, before bash read it: none left
+  slurm_stale_claims_named        claims of submissions from this host that do not run:
+                                  removed where the PID is no process, else named
+  slurm_temporary_folder_like_an_option   TMPDIR=-dash (a relative folder): it works
   gpu_resume_archive_checked_before_unpacking   gpu_check.sh --study: a resume archive
                                   with a link, an absolute or '..' name is refused (exit
                                   2, one line) before an earlier run is touched, nothing
@@ -97,8 +109,10 @@ def fake_slurm(work: pathlib.Path) -> tuple:
     then exits FAKE_SHARDS_RC (0; an error line first where it is not 0); the report's
     (call1) prints FAKE_REPORT_PRINTS where that is set; call N ends by SIGKILL before it
     prints anything where FAKE_KILLED is N, after its id where FAKE_KILLED_AFTER_ID is N;
-    it sleeps FAKE_SLOW_S (3) before its id where FAKE_SLOW is N.  scancel appends its argv
-    to scancel.log, then exits FAKE_SCANCEL_RC (0; an error line first where it is not 0)."""
+    it sleeps FAKE_SLOW_S (3) before its id where FAKE_SLOW is N; once call N has printed,
+    WORK/doneN exists.  scancel appends its argv to scancel.log, sleeps FAKE_SCANCEL_SLOW
+    seconds where that is set, then exits FAKE_SCANCEL_RC (0; an error line first where it
+    is not 0)."""
     calls = work / "calls"
     calls.mkdir()
     env = fake_sbatch(work, f"c=\"${{FAKE_CALLS:-{calls}}}\"; n=$(ls \"$c\" | wc -l)\n"
@@ -111,6 +125,7 @@ def fake_slurm(work: pathlib.Path) -> tuple:
                       "  printf '%s' \"$FAKE_SHARDS_PRINTS\"\n"
                       "elif [ $n = 1 ] && [ -n \"${FAKE_REPORT_PRINTS+set}\" ]; then\n"
                       "  printf '%s' \"$FAKE_REPORT_PRINTS\"; else echo $((4242 + n)); fi\n"
+                      f": > '{work}/done'$n\n"
                       "[ \"${FAKE_KILLED_AFTER_ID-}\" = $n ] && kill -9 $$\n"
                       "if [ $n = 0 ] && [ \"${FAKE_SHARDS_RC:-0}\" != 0 ]; then\n"
                       "  echo 'sbatch: error: Batch job submission failed' >&2\n"
@@ -121,6 +136,7 @@ def fake_slurm(work: pathlib.Path) -> tuple:
                       "exit \"${FAKE_WAIT_RC:-0}\"; }; done\nexit 0")
     scancel = work / "bin" / "scancel"
     scancel.write_text(f"#!/bin/sh\necho \"$@\" >> '{work}/scancel.log'\n"
+                       "[ -z \"${FAKE_SCANCEL_SLOW-}\" ] || sleep \"$FAKE_SCANCEL_SLOW\"\n"
                        "[ \"${FAKE_SCANCEL_RC:-0}\" = 0 ] || { echo \"scancel: error: Kill job "
                        "error on job id $1: Access/permission denied\" >&2; "
                        "exit \"$FAKE_SCANCEL_RC\"; }\n")
@@ -644,6 +660,205 @@ def case_slurm_job_id_is_the_whole_output(args) -> None:
               f"{printed!r}: {result.stderr}")
         check(sorted(path.name for path in calls.iterdir()) == ["call0"],
               f"{printed!r}: the report job submitted")
+
+
+def fake_command(work: pathlib.Path, folder: str, name: str, body: str) -> pathlib.Path:
+    """WORK/FOLDER/NAME, an sh script running `body`: a folder to put first on PATH."""
+    where = work / folder
+    where.mkdir(exist_ok=True)
+    (where / name).write_text(f"#!/bin/sh\n{body}\n")
+    (where / name).chmod(0o755)
+    return where
+
+
+def case_slurm_unwritten_job_record_goes_on(args) -> None:
+    """The shards' job submitted, its record slurm/job-ID not written: slurm/ removed while
+    the shards' sbatch runs, or (two login nodes, one PID: each submission in a PID
+    namespace of its own, each with its own host name) the other submission's failure
+    removing what it took for its own claim: exit 0, a line naming the job and the record
+    not written (or the record kept), the report job submitted after it."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    a = subprocess.Popen(slurm_command(args, out), stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True,
+                         env={**env, "FAKE_SLOW": "0", "FAKE_SLOW_S": "2"})
+    deadline = time.monotonic() + 60
+    while not (calls / "call0").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    shutil.rmtree(out / "slurm")
+    _, said = a.communicate(timeout=60)
+    check(a.returncode == 0 and any("4242" in line and "could not be written" in line
+                                    for line in own_line(said)),
+          f"slurm/ removed: exit {a.returncode}:\n{said}")
+    check((calls / "call1").exists() and
+          "--dependency=afterok:4242" in (calls / "call1").read_text(),
+          f"slurm/ removed: no report job after the shards' 4242:\n{said}")
+    unshare = next((words for words in (["unshare", "-pf"], ["unshare", "-rpf"])
+                    if shutil.which("unshare") and
+                    subprocess.run([*words, "true"], capture_output=True).returncode == 0), None)
+    if unshare is None:
+        print("(no PID namespace here: two submissions with one PID not run)")
+        return
+    shutil.rmtree(out)
+    started = []
+    for node, fake in (("a", {"FAKE_SHARDS_RC": "1", "FAKE_SHARDS_PRINTS": "",
+                              "FAKE_SLOW": "0", "FAKE_SLOW_S": "1.5"}),
+                       ("b", {"FAKE_SLOW": "0", "FAKE_SLOW_S": "3"})):
+        node_calls = work / f"calls_{node}"
+        node_calls.mkdir()
+        named = fake_command(work, f"host_{node}", "hostname", f"echo login-{node}")
+        started.append(subprocess.Popen(
+            [*unshare, "bash", "-c", ':; "$@"; exit $?', "-", *slurm_command(args, out)],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+            env={**env, **fake, "FAKE_CALLS": str(node_calls), "PATH": f"{named}:{env['PATH']}"}))
+        deadline = time.monotonic() + 60
+        while not (node_calls / "call0").exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+    (a, b), said = started, [each.communicate(timeout=60)[1] for each in started]
+    check(a.returncode == 1 and b.returncode == 0 and (out / "slurm" / "job-4242").is_file() and
+          (out / ".study.lock").is_file(), f"one PID on two nodes: A exit {a.returncode}, B exit "
+          f"{b.returncode}, left {sorted(p.name for p in out.rglob('*')) if out.exists() else 'none'}:"
+          f"\n{said[0]}\n{said[1]}")
+
+
+def case_slurm_stop_while_job_is_recorded(args) -> None:
+    """A SIGTERM to study_slurm.sh (or its group) while it writes the shards' job record (a
+    slow date(1) once the shards' sbatch has printed): exit 143, one line naming the job
+    cancelled, on the script's stderr; the job's record and the claim removed."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out, started = work / "st", work / "date_started"
+    slow = fake_command(work, "slowdate", "date",
+                        f"[ -e '{work}/done0' ] && {{ : > '{started}'; sleep 2; }}\n"
+                        f"exec {shutil.which('date')} \"$@\"")
+    env = {**env, "PATH": f"{env['PATH'].split(':', 1)[0]}:{slow}:{env['PATH'].split(':', 1)[1]}"}
+    for group in (False, True):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        shutil.rmtree(out, ignore_errors=True)
+        for each in (work / "done0", started):
+            each.unlink(missing_ok=True)
+        code, stderr, cancelled = slurm_stopped(args, out, {}, env, started.exists,
+                                                signal.SIGTERM, group)
+        to = f"to the {'group' if group else 'script'}"
+        lines = own_line(stderr)
+        check(code == 143 and len(lines) == 1 and "4242" in lines[0] and
+              "is cancelled" in lines[0] and cancelled == "4242\n",
+              f"{to}: exit {code}, scancel {cancelled!r}:\n{stderr}")
+        left = sorted(p.name for p in (out / "slurm").iterdir()) if (out / "slurm").is_dir() else []
+        check(not left, f"{to}: left in slurm/: {left}")
+
+
+def case_slurm_cancel_bounded_without_timeout(args) -> None:
+    """A stop to the group while the report job's sbatch submits, scancel hanging for 40 s,
+    with timeout(1) on PATH and without: within about 10 s of scancel, exit 143, one line
+    naming the shards' job NOT cancelled, 'scancel did not answer in 10 s'."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    bare = work / "notimeout"  # every command on PATH but timeout
+    bare.mkdir()
+    for folder in env["PATH"].split(":"):
+        if not os.path.isdir(folder):
+            continue
+        for name in os.listdir(folder):
+            if name != "timeout" and not os.path.lexists(bare / name):
+                (bare / name).symlink_to(pathlib.Path(folder) / name)
+    fake = {"FAKE_SLOW": "1", "FAKE_SLOW_S": "5", "FAKE_SCANCEL_SLOW": "40"}
+    for path in (env["PATH"], f"{work / 'bin'}:{bare}"):
+        shutil.rmtree(calls)
+        calls.mkdir()
+        began = time.monotonic()
+        code, stderr, cancelled = slurm_stopped(args, work / "st", {**fake, "PATH": path}, env,
+                                                lambda: (calls / "call1").exists(),
+                                                signal.SIGTERM, group=True)
+        took = time.monotonic() - began
+        lines = own_line(stderr)
+        to = "no timeout" if path != env["PATH"] else "timeout on PATH"
+        check(code == 143 and took < 25 and len(lines) == 1 and "NOT cancelled" in lines[0] and
+              "scancel did not answer in 10 s" in lines[0] and "scancel 4242" in lines[0],
+              f"{to}: exit {code} after {took:.1f} s:\n{stderr}")
+
+
+def case_slurm_stop_once_out_is_said_undoes_it(args) -> None:
+    """A stop to the group after the folder check's Python has made --out and printed what
+    it made, before bash has read it (a PYTHON whose output is held back: slow storage,
+    then the stop): exit 128 + N, 'nothing submitted' with what was made removed, and no
+    folder of it left."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    said, held = work / "said", work / "held"
+    slow = fake_command(work, "slowpy", "python",
+                        "case \"$*\" in *foreign_folder_problem*)\n"
+                        f"  {PYTHON} \"$@\" > '{held}'; status=$?\n"
+                        f"  : > '{said}'; sleep 3; cat '{held}'; exit $status ;;\n"
+                        f"esac\nexec {PYTHON} \"$@\"")
+    out = work / "new" / "deep"
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+        said.unlink(missing_ok=True)
+        code, stderr, _ = slurm_stopped(args, out, {"PYTHON": str(slow / "python")}, env,
+                                        said.exists, sig, group=True)
+        lines = own_line(stderr)
+        check(code == 128 + sig and len(lines) == 1 and "nothing submitted" in lines[0] and
+              "is removed" in lines[0], f"{sig.name}: exit {code}:\n{stderr}")
+        check(not os.path.lexists(work / "new"), f"{sig.name}: left "
+              f"{sorted(str(p.relative_to(work)) for p in (work / 'new').rglob('*'))}")
+        check(not any(calls.iterdir()), f"{sig.name}: submitted")
+
+
+def case_slurm_stale_claims_named(args) -> None:
+    """Claims in slurm/ of submissions from this host that do not run: the one whose PID is
+    no process is removed, the one whose PID is another program kept; each named in a line
+    of its own; another host's claim kept and not named.  The submission goes through."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    named = fake_command(work, "host", "hostname", "echo login-here")
+    env = {**env, "PATH": f"{named}:{env['PATH']}"}
+    out = work / "st"
+    first = subprocess.run(slurm_command(args, out), capture_output=True, text=True, env=env,
+                           timeout=120)
+    check(first.returncode == 0, f"a first submission: exit {first.returncode}:\n{first.stderr}")
+    ended = subprocess.Popen(["true"])
+    ended.wait()
+    other = subprocess.Popen(["sleep", "60"])
+    try:
+        claims = {}
+        for name, pid, host in (("gone", ended.pid, "login-here"), ("other", other.pid, "login-here"),
+                                ("elsewhere", ended.pid, "login-there")):
+            claims[name] = out / "slurm" / f"submission-{host}-{pid}"
+            claims[name].write_text(
+                f"a submission of study_slurm.sh (pid {pid} on {host}, 2024-01-02 03:04:05) is "
+                "submitting its shards' job into this folder; remove this file if no such "
+                "submission runs\nmade 0 1 1\n")
+        shutil.rmtree(calls)
+        calls.mkdir()
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env=env, timeout=120)
+    finally:
+        other.kill()
+        other.wait()
+    lines = own_line(result.stderr)
+    check(result.returncode == 0, f"exit {result.returncode}:\n{result.stderr}")
+    gone = [line for line in lines if claims["gone"].name in line]
+    kept = [line for line in lines if claims["other"].name in line]
+    check(len(gone) == 1 and "removed" in gone[0] and not claims["gone"].exists(),
+          f"a claim whose PID is no process: {result.stderr}")
+    check(len(kept) == 1 and "remove" in kept[0] and claims["other"].exists(),
+          f"a claim whose PID is another program: {result.stderr}")
+    check(claims["elsewhere"].exists() and claims["elsewhere"].name not in result.stderr,
+          f"another host's claim: {result.stderr}")
+
+
+def case_slurm_temporary_folder_like_an_option(args) -> None:
+    """TMPDIR=-dash, a relative folder whose name starts with a dash: exit 0, both jobs
+    submitted (mktemp not reading it as its options)."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    (work / "-dash").mkdir()
+    result = subprocess.run(slurm_command(args, work / "st"), capture_output=True, text=True,
+                            env={**env, "TMPDIR": "-dash"}, cwd=work, timeout=120)
+    check(result.returncode == 0 and (calls / "call1").exists(),
+          f"exit {result.returncode}:\n{result.stderr}")
 
 
 # --- gpu_check.sh --dry-run in a scratch checkout ---------------------------------------
