@@ -86,7 +86,7 @@ signal_name() {  # the signal of an exit status past 128 (a command ended by it)
 # is still as made, never a folder another submission or a study has written into
 # meanwhile; shards submitted without their report job are cancelled; once the report
 # job is submitted, a stop stops the waiting only.
-# Each submission claims --out in slurm/submission-HOST-PID (a line saying whose, then the
+# Each submission claims --out in slurm/submission-HOST-PID-RANDOM (a line saying whose, then the
 # line of what it made) before its shards' sbatch, and once the shards' job is submitted
 # keeps slurm/job-ID (the same for the user): a submission that fails or is stopped removes
 # its own claim only, and the folders only where no other submission's claim or job is in
@@ -95,7 +95,8 @@ phase="" made="" array="" report_job="" sbatch_pid="" ids="" said="" notices=""
 shards_started="" id_read=""
 host="$(hostname 2> /dev/null)" || host=""
 host="${host:-?}"
-claim="submission-${host//[^A-Za-z0-9._-]/_}-$$"
+# (and a random word: two PID namespaces of one host may give two submissions one PID)
+claim="submission-${host//[^A-Za-z0-9._-]/_}-$$-${SRANDOM:-$RANDOM}"
 claim_text="a submission of study_slurm.sh (pid $$ on $host, $(date '+%F %T')) is submitting its shards' job into this folder; remove this file if no such submission runs
 "
 # What this submission made for --out ("LEVELS SLURM LOCK" as the folder's check printed
@@ -129,7 +130,10 @@ undo_py='def undo(out, levels, slurm, lock, claim):
 made_from_claim() {
   local text
   [[ -z "$made" ]] || return 0
-  text="$(cat -- "$out/slurm/$claim" 2> /dev/null)" || return 0
+  # This user's own regular file only (never a FIFO's wait, nor another user's edit), read
+  # as far as a claim goes.
+  [[ -f "$out/slurm/$claim" && ! -L "$out/slurm/$claim" && -O "$out/slurm/$claim" ]] || return 0
+  text="$(head -c 4096 -- "$out/slurm/$claim" 2> /dev/null)" || return 0
   [[ $text == "${claim_text}made "* ]] || return 0
   text="${text#"${claim_text}made "}"
   [[ $text =~ ^[0-9]+\ [01]\ [01]$ ]] && made="$text"
@@ -278,7 +282,7 @@ ids="$(temporary)" || { undo_made; exit 1; }
 # claim as well, for a stop that comes before bash has read it.  Claims of submissions
 # from this host that no longer run: one line each way, removed only where the PID is no
 # process at all (ESRCH), else named for the user to remove.
-made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, re, signal, sys
+made="$(PYTHONPATH="$repo/scripts" "$python" -c 'import os, pathlib, re, signal, stat, sys
 STOPS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 class Stopped(BaseException):
     pass
@@ -298,11 +302,18 @@ def stale_claims(out, host, one_line):
     except OSError:
         names = []
     for name in names:
-        try:
-            first = (logs / name).read_text(errors="replace").split("\n", 1)[0]
+        if not name.startswith("submission-"):
+            continue
+        try:  # a claim is a small regular file: never a link, FIFO or device read whole
+            fd = os.open(logs / name, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+            try:
+                first = (os.read(fd, 4096) if stat.S_ISREG(os.fstat(fd).st_mode) else b"")
+            finally:
+                os.close(fd)
         except OSError:
             continue
-        match = CLAIMED.match(first) if name.startswith("submission-") else None
+        first = first.decode(errors="replace").split("\n", 1)[0]
+        match = CLAIMED.match(first)
         if not match or match.group(2) != host:
             continue  # another host: not for this one to judge
         pid = int(match.group(1))

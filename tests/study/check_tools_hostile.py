@@ -45,6 +45,8 @@ study.CASE, tests/study/CMakeLists.txt):
   slurm_stale_claims_named        claims of submissions from this host that do not run:
                                   removed where the PID is no process, else named
   slurm_temporary_folder_like_an_option   TMPDIR=-dash (a relative folder): it works
+  slurm_odd_files_in_slurm_not_read   a FIFO and a link to /dev/zero among the claims:
+                                  the submission goes through, neither read
   gpu_resume_archive_checked_before_unpacking   gpu_check.sh --study: a resume archive
                                   with a link, an absolute or '..' name is refused (exit
                                   2, one line) before an earlier run is touched, nothing
@@ -847,6 +849,29 @@ def case_slurm_stale_claims_named(args) -> None:
           f"a claim whose PID is another program: {result.stderr}")
     check(claims["elsewhere"].exists() and claims["elsewhere"].name not in result.stderr,
           f"another host's claim: {result.stderr}")
+
+
+def case_slurm_odd_files_in_slurm_not_read(args) -> None:
+    """A FIFO and a link to /dev/zero in slurm/, named as claims: the stale-claim check reads
+    only a claim's regular file, so the submission neither hangs nor reads memory full."""
+    work = args.out
+    env, calls = fake_slurm(work)
+    out = work / "st"
+    first = subprocess.run(slurm_command(args, out), capture_output=True, text=True, env=env,
+                           timeout=120)
+    check(first.returncode == 0, f"a first submission: exit {first.returncode}:\n{first.stderr}")
+    os.mkfifo(out / "slurm" / "submission-fifo")
+    (out / "slurm" / "submission-zero").symlink_to("/dev/zero")
+    shutil.rmtree(calls)
+    calls.mkdir()
+    try:
+        result = subprocess.run(slurm_command(args, out), capture_output=True, text=True,
+                                env=env, timeout=60)
+    except subprocess.TimeoutExpired:
+        check(False, "a FIFO among the claims held the submission for a minute")
+    check(result.returncode == 0 and (calls / "call1").exists(),
+          f"exit {result.returncode}:\n{result.stderr}")
+    check("Traceback" not in result.stderr, f"a traceback:\n{result.stderr}")
 
 
 def case_slurm_temporary_folder_like_an_option(args) -> None:
