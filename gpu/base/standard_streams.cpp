@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <poll.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -73,6 +74,17 @@ void writeMessage(const char* bytes, std::size_t size) {
   constexpr int kLookEveryMs = 100;
   // What waits for room, and whose poll() says when there is: a pipe, FIFO,
   // socket or terminal, written a pipe buffer at a time once there is room.
+  // A standard error no write can reach (read-only, as holdStandardStreams
+  // leaves a closed one; a listening socket) drops the message at once: its
+  // poll() would never say there is room.
+  const int flags = ::fcntl(STDERR_FILENO, F_GETFL);
+  int listening = 0;
+  socklen_t length = sizeof(listening);
+  if (flags < 0 || (flags & O_ACCMODE) == O_RDONLY ||
+      (::getsockopt(STDERR_FILENO, SOL_SOCKET, SO_ACCEPTCONN, &listening, &length) == 0 &&
+       listening != 0)) {
+    return;
+  }
   struct stat info {};
   const bool may_wait = ::fstat(STDERR_FILENO, &info) == 0 &&
                         (S_ISFIFO(info.st_mode) || S_ISSOCK(info.st_mode) ||

@@ -23,7 +23,9 @@
 //     socket or terminal is written once poll() says it has room, looking
 //     for a stop every tenth of a second, and once a stop signal has come
 //     (interrupt.h) the messages wait for room at most a second in all,
-//     on every thread together; what does not fit is dropped.
+//     on every thread together; what does not fit is dropped.  A standard
+//     error no write can reach (read-only, a listening socket) drops each
+//     message at once, as a failed write does.
 //     Async-signal-safe: progress lines are written from a signal handler.
 // Plain POSIX: no Bullet here.
 #pragma once

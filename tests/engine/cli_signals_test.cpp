@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -200,6 +201,24 @@ TEST_F(SignalsCliTest, AStopEndsARunWhoseStandardErrorTakesNothing) {
     EXPECT_FALSE(fs::exists(out_ / "blocked"));
     ::close(held);
   }
+}
+
+// Standard error that no write can reach (a FIFO's read end, `2< f.fifo`,
+// its writer still there): the messages are dropped at once, as a failed
+// write drops them, and the run goes on; it never waits for room that
+// cannot come.
+TEST_F(SignalsCliTest, AStandardErrorNoWriteCanReachIsNotWaitedFor) {
+  const fs::path messages = fifo("read_end.fifo");
+  const int writer = ::open(messages.c_str(), O_RDWR | O_CLOEXEC);  // no EOF, no hangup
+  ASSERT_GE(writer, 0);
+  const std::string command = "timeout 20 " + std::string(OVERLAP_BINARY) +
+                              " run --objects 20 --frames 2 --capture-every 0 --no-wav --out " +
+                              (out_ / "reached").string() + " 2< " + messages.string();
+  const int status = std::system(command.c_str());
+  ::close(writer);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "124: it waited for room on stderr";
+  EXPECT_TRUE(fs::exists(out_ / "reached" / "frames.csv"));
 }
 
 // SIGHUP stops a run like SIGTERM; a run clears the temporaries that
