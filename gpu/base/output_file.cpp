@@ -292,24 +292,31 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
   const bool device = known && !pollable && !S_ISREG(info.st_mode);
   std::optional<WakeupTimer> wakeups;
   if (device) wakeups.emplace();
+  // The stop's message is built only when a signal came.
+  const auto stopIfAsked = [&name] {
+    if (pendingInterrupt() != 0) stopIfInterrupted("the write to " + name);
+  };
+  // False when the tenth of a second ended with no room (or a signal).
+  const auto waitForRoom = [fd, &stopIfAsked] {
+    pollfd room{fd, POLLOUT, 0};
+    const int ready = ::poll(&room, 1, 100);
+    const bool interrupted = ready < 0 && errno == EINTR;
+    stopIfAsked();
+    return ready != 0 && !interrupted;
+  };
   while (!bytes.empty()) {
     std::size_t chunk = bytes.size();
     if (pollable) {
-      pollfd room{fd, POLLOUT, 0};
-      const int ready = ::poll(&room, 1, 100);
-      if (pendingInterrupt() != 0) stopIfInterrupted("the write to " + name);
-      if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
+      if (!waitForRoom()) continue;
       chunk = std::min<std::size_t>(chunk, PIPE_BUF);
     }
     const ssize_t wrote = ::write(fd, bytes.data(), chunk);
     if (wrote < 0 && errno == EINTR) {
-      stopIfInterrupted("the write to " + name);
+      stopIfAsked();
       continue;
     }
     if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-      pollfd room{fd, POLLOUT, 0};
-      ::poll(&room, 1, 100);
-      stopIfInterrupted("the write to " + name);
+      waitForRoom();
       continue;
     }
     if (wrote <= 0) {
@@ -317,7 +324,7 @@ void writeAll(int fd, std::string_view bytes, const std::string& name,
       on_error();
     }
     bytes.remove_prefix(static_cast<std::size_t>(wrote));
-    if (device) stopIfInterrupted("the write to " + name);
+    if (device) stopIfAsked();
   }
 }
 

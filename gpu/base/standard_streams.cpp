@@ -101,7 +101,14 @@ void writeMessage(const char* bytes, std::size_t size) {
     }
     const std::size_t chunk = may_wait ? std::min<std::size_t>(size, PIPE_BUF) : size;
     const ssize_t wrote = ::write(STDERR_FILENO, bytes, chunk);
-    if (wrote < 0 && (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)) continue;
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {  // non-blocking: wait, not spin
+      pollfd room{STDERR_FILENO, POLLOUT, 0};
+      if (::poll(&room, 1, kLookEveryMs) <= 0 && pendingInterrupt() != 0) {
+        waited_after_a_stop_ms.fetch_add(kLookEveryMs);
+      }
+      continue;
+    }
     if (wrote <= 0) return;
     bytes += wrote;
     size -= static_cast<std::size_t>(wrote);

@@ -40,6 +40,25 @@ int entries(const fs::path& folder) {
   return count;
 }
 
+// A pseudo-terminal's master side, ready to open its slave; -1 where the
+// machine has none.
+int openPtyMaster() {
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master >= 0 && (::grantpt(master) != 0 || ::unlockpt(master) != 0)) {
+    ::close(master);
+    return -1;
+  }
+  return master;
+}
+
+// A terminal that passes every byte as it is (no newline turned into two).
+void makeRaw(int terminal) {
+  termios raw{};
+  ::tcgetattr(terminal, &raw);
+  ::cfmakeraw(&raw);
+  ::tcsetattr(terminal, TCSANOW, &raw);
+}
+
 class OutputFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -49,6 +68,14 @@ class OutputFileTest : public ::testing::Test {
     fs::create_directories(folder_);
   }
   void TearDown() override { fs::remove_all(folder_); }
+  // A folder anyone may write, where only a file's owner (or root) may
+  // rename or remove it, as /tmp.
+  fs::path stickyFolder() const {
+    const fs::path sticky = folder_ / "sticky";
+    fs::create_directory(sticky);
+    EXPECT_EQ(::chmod(sticky.c_str(), 01777), 0);
+    return sticky;
+  }
   fs::path folder_;
 };
 
@@ -432,9 +459,7 @@ TEST_F(OutputFileTest, AStopNamesWhatWasWrittenAsItWent) {
 TEST_F(OutputFileTest, AnotherUsersFileInAStickyFolderIsRefusedBeforeAnyWork) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to make another user's file";
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  const fs::path sticky = folder_ / "sticky";
-  fs::create_directory(sticky);
-  ASSERT_EQ(::chmod(sticky.c_str(), 01777), 0);
+  const fs::path sticky = stickyFolder();
   const fs::path theirs = sticky / "theirs.txt";
   std::ofstream(theirs) << "theirs";
   ASSERT_EQ(::chmod(theirs.c_str(), 0666), 0);
@@ -456,10 +481,8 @@ TEST_F(OutputFileTest, AnotherUsersFileInAStickyFolderIsRefusedBeforeAnyWork) {
 // terminal is named (its path, a descriptor).  A reader that reads, slowly,
 // gets every byte, through a descriptor left non-blocking too.
 TEST_F(OutputFileTest, AWriteToATerminalNoOneReadsStopsAtASignal) {
-  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) {
-    GTEST_SKIP() << "no pseudo-terminal here";
-  }
+  const int master = openPtyMaster();
+  if (master < 0) GTEST_SKIP() << "no pseudo-terminal here";
   const std::string terminal = ::ptsname(master);
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   for (const bool by_descriptor : {false, true}) {
@@ -488,10 +511,7 @@ TEST_F(OutputFileTest, AWriteToATerminalNoOneReadsStopsAtASignal) {
       {
         ::alarm(20);
         const int slave = ::open(terminal.c_str(), O_WRONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-        termios raw{};
-        ::tcgetattr(slave, &raw);
-        ::cfmakeraw(&raw);
-        ::tcsetattr(slave, TCSANOW, &raw);
+        makeRaw(slave);
         const std::size_t size = std::size_t{1} << 18;
         std::size_t got = 0;
         std::thread reader([&] {
@@ -519,16 +539,11 @@ TEST_F(OutputFileTest, AWriteToATerminalNoOneReadsStopsAtASignal) {
 // named through its descriptor, it is written through that descriptor, and
 // the terminal on its other side gets every byte.
 TEST_F(OutputFileTest, APtyMasterNamedThroughItsDescriptorReachesItsTerminal) {
-  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
-  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) {
-    GTEST_SKIP() << "no pseudo-terminal here";
-  }
+  const int master = openPtyMaster();
+  if (master < 0) GTEST_SKIP() << "no pseudo-terminal here";
   const int terminal = ::open(::ptsname(master), O_RDONLY | O_NOCTTY | O_CLOEXEC);
   ASSERT_GE(terminal, 0);
-  termios raw{};
-  ::tcgetattr(terminal, &raw);
-  ::cfmakeraw(&raw);
-  ::tcsetattr(terminal, TCSANOW, &raw);
+  makeRaw(terminal);
   const std::string bytes(2000, 'x');
   {
     OutputFile out("/dev/fd/" + std::to_string(master));
@@ -627,9 +642,7 @@ TEST_F(OutputFileTest, ListsAboveAreTheUsersOwnAndBounded) {
 TEST_F(OutputFileTest, ALastRunsFileThisUserCannotRemoveIsRefusedBeforeAnyWork) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to make another user's file";
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  const fs::path sticky = folder_ / "sticky";
-  fs::create_directory(sticky);
-  ASSERT_EQ(::chmod(sticky.c_str(), 01777), 0);
+  const fs::path sticky = stickyFolder();
   {
     OutputFolder run(sticky);
     ASSERT_EQ(run.declare(sticky / "frames.csv"), "");
