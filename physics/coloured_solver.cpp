@@ -5,66 +5,69 @@
 #include <BulletDynamics/Dynamics/btRigidBody.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
+#include <numeric>
 #include <unordered_map>
+#include <utility>
 
 namespace overlap::physics {
 namespace {
 
 constexpr int kUnconverted = -1;  // a body only the serial pass may convert
+constexpr int kPending = -2;      // a manifold's bucket, until its bodies are converted
 
 }  // namespace
 
-std::string colouringProblem(const ContactColouring& colouring) {
+std::string batchProblem(const ContactBatches& batches) {
   const auto isCopy = [&](int id) {
-    return id >= colouring.first_copy && id < colouring.first_copy + colouring.copies;
+    return id >= batches.first_copy && id < batches.first_copy + batches.copies;
   };
-  for (int batch = 0; batch < colouring.batches(); ++batch) {
-    const int begin = colouring.batch_begin[static_cast<std::size_t>(batch)];
-    const int end = colouring.batch_begin[static_cast<std::size_t>(batch) + 1];
-    const bool overflow = colouring.overflow && batch == colouring.batches() - 1;
+  const auto pieces = static_cast<int>(batches.piece_begin.size()) - 1;
+  if (batches.batches() > 0 &&
+      (batches.batch_piece.front() != 0 || batches.batch_piece.back() != pieces ||
+       batches.piece_begin.front() != 0 ||
+       batches.piece_begin.back() != static_cast<int>(batches.manifolds.size()) ||
+       !std::is_sorted(batches.batch_piece.begin(), batches.batch_piece.end()) ||
+       !std::is_sorted(batches.piece_begin.begin(), batches.piece_begin.end()))) {
+    return "the batches' pieces do not cover the manifolds in order";
+  }
+  for (int batch = 0; batch < batches.batches(); ++batch) {
+    const int first_piece = batches.batch_piece[static_cast<std::size_t>(batch)];
+    const int end_piece = batches.batch_piece[static_cast<std::size_t>(batch) + 1];
     const std::string where = "batch " + std::to_string(batch) + ": ";
-    if (overflow) {
-      // One piece, in manifold order: it may touch a body more than once.
-      if (colouring.copies < 1) return where + "the overflow batch has no fixed-body copy";
-      for (int m = begin; m < end; ++m) {
-        const auto& manifold = colouring.manifolds[static_cast<std::size_t>(m)];
-        for (const int id : {manifold.body_a, manifold.body_b}) {
-          if (id == colouring.fixed_body) return where + "a row names the shared fixed body";
-          if (isCopy(id) && id != colouring.first_copy)
-            return where + "the overflow batch's one piece uses copy " + std::to_string(id);
-        }
-      }
-      continue;
-    }
-    // Which manifold of the batch last named each body, and from which piece.
+    // Which piece of the batch named each moving body (a piece is serial: it
+    // may name a body more than once).
     std::unordered_map<int, int> named_by;
-    for (int m = begin; m < end; ++m) {
-      const auto& manifold = colouring.manifolds[static_cast<std::size_t>(m)];
-      const int piece = (m - begin) / colouring.manifolds_per_piece;
-      for (const int id : {manifold.body_a, manifold.body_b}) {
-        if (id == colouring.fixed_body) return where + "a row names the shared fixed body";
-        if (isCopy(id)) {
-          if (id != colouring.first_copy + piece)
-            return where + "piece " + std::to_string(piece) + " writes fixed-body copy " +
-                   std::to_string(id - colouring.first_copy) + ", another piece's";
-          continue;
+    for (int piece = first_piece; piece < end_piece; ++piece) {
+      const int k = piece - first_piece;  // the piece's place in its batch
+      for (int m = batches.piece_begin[static_cast<std::size_t>(piece)];
+           m < batches.piece_begin[static_cast<std::size_t>(piece) + 1]; ++m) {
+        const auto& manifold = batches.manifolds[static_cast<std::size_t>(m)];
+        for (const int id : {manifold.body_a, manifold.body_b}) {
+          if (id == batches.fixed_body) return where + "a row names the shared fixed body";
+          if (isCopy(id)) {
+            if (id != batches.first_copy + k)
+              return where + "piece " + std::to_string(k) + " writes fixed-body copy " +
+                     std::to_string(id - batches.first_copy) + ", another piece's";
+            continue;
+          }
+          const bool moving = id < batches.moving_bodies ||
+                              (id >= batches.first_kinematic && id < batches.first_copy);
+          if (!moving) return where + "a row names solver body " + std::to_string(id) + ", unknown";
+          const auto [it, fresh] = named_by.emplace(id, k);
+          if (!fresh && it->second != k)
+            return where + "pieces " + std::to_string(it->second) + " and " + std::to_string(k) +
+                   " both hold moving body " + std::to_string(id);
         }
-        const bool moving = id < colouring.moving_bodies ||
-                            (id >= colouring.first_kinematic && id < colouring.first_copy);
-        if (!moving) return where + "a row names solver body " + std::to_string(id) + ", unknown";
-        const auto [it, fresh] = named_by.emplace(id, m);
-        if (!fresh)
-          return where + "manifolds " + std::to_string(it->second) + " and " + std::to_string(m) +
-                 " both hold moving body " + std::to_string(id);
       }
     }
   }
   return "";
 }
 
-ColouredConstraintSolver::ColouredConstraintSolver(TaskSystem& tasks, int colours)
-    : tasks_(tasks), colours_(std::clamp(colours, 0, kColours)), crew_jobs_(tasks.makeGroup()) {}
+ColouredConstraintSolver::ColouredConstraintSolver(TaskSystem& tasks, Split split)
+    : tasks_(tasks), split_(split), crew_jobs_(tasks.makeGroup()) {}
 
 btScalar ColouredConstraintSolver::solveGroup(btCollisionObject** bodies, int numBodies,
                                               btPersistentManifold** manifolds, int numManifolds,
@@ -139,8 +142,27 @@ void ColouredConstraintSolver::collectManifolds(btPersistentManifold** manifolds
       ++touching;
     }
     cached.numTouchingContacts = touching;
+    bucket_[m] = kPending;
+    const int a = cached.solverBodyIds[0];
+    const int b = cached.solverBodyIds[1];
+    if (a != kUnconverted && b != kUnconverted) classify(static_cast<int>(m));
   }
   if (unconverted) piece_unconverted_[first / kItemsPerPiece] = 1;
+}
+
+void ColouredConstraintSolver::classify(int m) {
+  btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+  const int a = cached.solverBodyIds[0];
+  const int b = cached.solverBodyIds[1];
+  // Bullet's serial solver makes no rows between two bodies that cannot move.
+  if (m_tmpSolverBodyPool[a].internalGetInvMass().fuzzyZero() &&
+      m_tmpSolverBodyPool[b].internalGetInvMass().fuzzyZero()) {
+    cached.numTouchingContacts = 0;
+  }
+  // No rows: any index will do (the rows are laid out piece by piece).
+  cached.contactIndex = 0;
+  cached.rollingFrictionIndex = 0;
+  bucket_[static_cast<std::size_t>(m)] = cached.numTouchingContacts > 0 ? bucketOf(a, b) : -1;
 }
 
 namespace {
@@ -157,8 +179,103 @@ int rollingRows(const btSequentialImpulseConstraintSolverMt::btContactManifoldCa
 
 }  // namespace
 
-void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds, int numManifolds,
-                                               const btContactSolverInfo& info) {
+namespace {
+
+// A float's place in IEEE-754's total order, as an integer (NaNs included),
+// so that a comparison on it is a strict weak order for any position.
+std::int32_t totalOrderKey(btScalar value) {
+  const auto bits = std::bit_cast<std::int32_t>(value);
+  return bits < 0 ? bits ^ 0x7fffffff : bits;
+}
+
+}  // namespace
+
+void ColouredConstraintSolver::splitRegions() {
+  const int moving = m_fixedBodyId;
+  region_keys_.resize(static_cast<std::size_t>(moving));
+  crew_->forEachPiece(
+      static_cast<std::size_t>(moving), kItemsPerPiece, [this](std::size_t first, std::size_t end) {
+        for (std::size_t id = first; id < end; ++id) {
+          const btVector3& origin =
+              m_tmpSolverBodyPool[static_cast<int>(id)].m_worldTransform.getOrigin();
+          region_keys_[id] = {
+              origin,
+              {totalOrderKey(origin.x()), totalOrderKey(origin.y()), totalOrderKey(origin.z())},
+              static_cast<int>(id)};
+        }
+      });
+  // Level after level, each part halved at the median of its widest axis,
+  // the parts of a level in parallel (each writes only its own keys).
+  part_begin_.assign({0, moving});
+  for (int level = 0; level < kRegionLevels; ++level) {
+    const std::size_t parts = part_begin_.size() - 1;
+    crew_->forEachPiece(parts, 1, [this](std::size_t first, std::size_t end) {
+      for (std::size_t part = first; part < end; ++part) {
+        const auto begin = region_keys_.begin() + part_begin_[part];
+        const auto stop = region_keys_.begin() + part_begin_[part + 1];
+        if (stop - begin < 2) continue;
+        btVector3 low(BT_LARGE_FLOAT, BT_LARGE_FLOAT, BT_LARGE_FLOAT);
+        btVector3 high = -low;
+        for (auto key = begin; key != stop; ++key) {
+          low.setMin(key->origin);
+          high.setMax(key->origin);
+        }
+        const int axis = (high - low).maxAxis();
+        std::nth_element(begin, begin + (stop - begin) / 2, stop,
+                         [axis](const RegionKey& x, const RegionKey& y) {
+                           return x.key[axis] < y.key[axis] ||
+                                  (x.key[axis] == y.key[axis] && x.body < y.body);
+                         });
+      }
+    });
+    std::vector<int>& halves = part_halves_;
+    halves.clear();
+    for (std::size_t part = 0; part < parts; ++part) {
+      const int lo = part_begin_[part];
+      halves.push_back(lo);
+      halves.push_back(lo + (part_begin_[part + 1] - lo) / 2);
+    }
+    halves.push_back(moving);
+    std::swap(part_begin_, halves);
+  }
+  for (int region = 0; region < kRegions; ++region) {
+    for (int i = part_begin_[static_cast<std::size_t>(region)];
+         i < part_begin_[static_cast<std::size_t>(region) + 1]; ++i) {
+      body_region_[static_cast<std::size_t>(region_keys_[static_cast<std::size_t>(i)].body)] =
+          region;
+    }
+  }
+}
+
+int ColouredConstraintSolver::bucketOf(int a, int b) const {
+  if (split_ == Split::kNone) return 0;
+  const auto regionOf = [&](int id) {
+    return id < m_fixedBodyId ? body_region_[static_cast<std::size_t>(id)] : -1;
+  };
+  if (a == m_fixedBodyId || b == m_fixedBodyId) {
+    const int region = regionOf(a == m_fixedBodyId ? b : a);
+    return region >= 0 ? kFirstWallBucket + region : kSerialBucket;
+  }
+  const int region_a = regionOf(a);
+  const int region_b = regionOf(b);
+  if (region_a < 0 || region_b < 0) return kSerialBucket;  // kinematic: one piece
+  if (region_a == region_b) return region_a;
+  // The first split between them (region bit kRegionLevels - 1 - level), and
+  // the part of the regions it halved.
+  const int level = kRegionLevels - std::bit_width(static_cast<unsigned>(region_a ^ region_b));
+  const int low = std::min(region_a, region_b);
+  const int high = std::max(region_a, region_b);
+  const int part = low >> (kRegionLevels - level);
+  if (level == kRegionLevels - 1) return acrossFirstBucket(level, false) + part;
+  // The halves' next split: the pieces of a batch share no body.
+  const int next_bit = kRegionLevels - 2 - level;
+  const int low_side = (low >> next_bit) & 1;
+  const int high_side = (high >> next_bit) & 1;
+  return acrossFirstBucket(level, low_side != high_side) + (part << 1) + low_side;
+}
+
+void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, int numManifolds,
+                                              const btContactSolverInfo& info) {
   const auto count = static_cast<std::size_t>(numManifolds);
   // Kinematic bodies (and any moving body the group left out) get their
   // solver bodies here, in manifold order, as Bullet's serial solver gives them.
@@ -172,135 +289,127 @@ void ColouredConstraintSolver::colourManifolds(btPersistentManifold** manifolds,
                                                                 : manifolds[m]->getBody1());
         cached.solverBodyIds[side] = getOrInitSolverBody(*object, info.m_timeStep);
       }
+      if (bucket_[static_cast<std::size_t>(m)] == kPending) classify(m);
     }
   }
   const int bodies = m_tmpSolverBodyPool.size();
-  colouring_.moving_bodies = m_fixedBodyId;
-  colouring_.fixed_body = m_fixedBodyId;
-  colouring_.first_kinematic = m_fixedBodyId + 1;
-  colouring_.first_copy = bodies;
-  colouring_.manifolds_per_piece = kManifoldsPerPiece;
+  batches_.moving_bodies = m_fixedBodyId;
+  batches_.fixed_body = m_fixedBodyId;
+  batches_.first_kinematic = m_fixedBodyId + 1;
+  batches_.first_copy = bodies;
+  const bool split = split_ == Split::kRegions;
+  batches_.regions = split ? kRegions : 0;
+  const int buckets = split ? kBuckets : 1;
 
-  // Each manifold's rows and colour, in manifold order.
-  body_colours_.assign(static_cast<std::size_t>(bodies), 0);
-  batch_fill_.assign(kColours + 1, 0);
-  colour_rows_.assign(kColours + 1, 0);
-  colour_rolling_rows_.assign(kColours + 1, 0);
-  colour_.resize(count);
-  int used_colours = 0;
-  const auto touchesStatic = [&](const btContactManifoldCachedInfo& cached) {
-    return cached.solverBodyIds[0] == m_fixedBodyId || cached.solverBodyIds[1] == m_fixedBodyId;
-  };
-  // The lowest colour from `lowest` on that neither moving body holds.
-  const auto colourFrom = [&](int m, int lowest) {
-    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    const int a = cached.solverBodyIds[0];
-    const int b = cached.solverBodyIds[1];
-    const std::uint64_t held =
-        (a == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(a)]) |
-        (b == m_fixedBodyId ? 0 : body_colours_[static_cast<std::size_t>(b)]);
-    const std::uint64_t free = lowest >= kColours ? 0 : ~held & (~std::uint64_t{0} << lowest);
-    int colour = kColours;  // the overflow batch
-    if (free != 0 && std::countr_zero(free) < colours_) {
-      colour = std::countr_zero(free);
-      const std::uint64_t bit = std::uint64_t{1} << colour;
-      if (a != m_fixedBodyId) body_colours_[static_cast<std::size_t>(a)] |= bit;
-      if (b != m_fixedBodyId) body_colours_[static_cast<std::size_t>(b)] |= bit;
-      used_colours = std::max(used_colours, colour + 1);
+  // The order the buckets are filled in: unsplit, manifold order (Bullet's
+  // serial sweep); split, by first moving body (a counting sort, manifold
+  // order within a body), so that a piece solves a body's manifolds one
+  // after another, its solver body in cache.
+  manifold_order_.resize(count);
+  if (split) {
+    by_body_.assign(static_cast<std::size_t>(bodies) + 1, 0);
+    const auto sortBody = [&](const btContactManifoldCachedInfo& cached) {
+      const int a = cached.solverBodyIds[0];
+      return static_cast<std::size_t>(a == m_fixedBodyId ? cached.solverBodyIds[1] : a);
+    };
+    for (int m = 0; m < numManifolds; ++m) ++by_body_[sortBody(m_manifoldCachedInfoArray[m]) + 1];
+    for (std::size_t body = 1; body < by_body_.size(); ++body) by_body_[body] += by_body_[body - 1];
+    for (int m = 0; m < numManifolds; ++m) {
+      const std::size_t body = sortBody(m_manifoldCachedInfoArray[m]);
+      manifold_order_[static_cast<std::size_t>(by_body_[body]++)] = m;
     }
-    colour_[static_cast<std::size_t>(m)] = colour;
-    ++batch_fill_[static_cast<std::size_t>(colour)];
-    colour_rows_[static_cast<std::size_t>(colour)] += cached.numTouchingContacts;
-    colour_rolling_rows_[static_cast<std::size_t>(colour)] += rollingRows(cached);
-  };
-  // Pass 1: the row counts and the manifolds between two moving bodies; pass 2:
-  // the manifolds on a static body, in colours after those (so each sweep
-  // ends on the walls: physics/coloured_solver.h).
-  for (int m = 0; m < numManifolds; ++m) {
-    btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    const int a = cached.solverBodyIds[0];
-    const int b = cached.solverBodyIds[1];
-    // Bullet's serial solver makes no rows between two bodies that cannot move.
-    if (m_tmpSolverBodyPool[a].internalGetInvMass().fuzzyZero() &&
-        m_tmpSolverBodyPool[b].internalGetInvMass().fuzzyZero()) {
-      cached.numTouchingContacts = 0;
-    }
-    // No rows: any index will do (the rows are laid out below, batch by batch).
-    cached.contactIndex = 0;
-    cached.rollingFrictionIndex = 0;
-    colour_[static_cast<std::size_t>(m)] = -1;
-    if (cached.numTouchingContacts > 0 && !touchesStatic(cached)) colourFrom(m, 0);
-  }
-  const int first_static_colour = used_colours;
-  for (int m = 0; m < numManifolds; ++m) {
-    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    if (cached.numTouchingContacts > 0 && touchesStatic(cached)) {
-      colourFrom(m, first_static_colour);
-    }
+  } else {
+    std::iota(manifold_order_.begin(), manifold_order_.end(), 0);
   }
 
-  // The batches: the colours in order (each pass's greedy colouring leaves
-  // no colour empty), then the overflow batch if any manifold is in it.
-  colouring_.overflow = batch_fill_[kColours] > 0;
-  const int batches = used_colours + (colouring_.overflow ? 1 : 0);
-  colouring_.batch_begin.resize(static_cast<std::size_t>(batches) + 1);
-  int copies = 0;
-  int begin = 0;
+  bucket_fill_.assign(static_cast<std::size_t>(buckets), 0);
+  bucket_rows_.assign(static_cast<std::size_t>(buckets), 0);
+  bucket_rolling_rows_.assign(static_cast<std::size_t>(buckets), 0);
+  for (int m = 0; m < numManifolds; ++m) {
+    const int bucket = bucket_[static_cast<std::size_t>(m)];
+    if (bucket < 0) continue;
+    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+    ++bucket_fill_[static_cast<std::size_t>(bucket)];
+    bucket_rows_[static_cast<std::size_t>(bucket)] += cached.numTouchingContacts;
+    bucket_rolling_rows_[static_cast<std::size_t>(bucket)] += rollingRows(cached);
+  }
+
+  // The batches: runs of buckets, each bucket a piece, a batch with no
+  // manifold left out.  Each bucket's manifolds and rows follow the last
+  // bucket's, so that a sweep walks the row pools from front to back; the
+  // bucket counts become the scatter cursors.
+  std::vector<int>& piece_begin = batches_.piece_begin;
+  std::vector<int>& batch_piece = batches_.batch_piece;
+  piece_begin.clear();
+  batch_piece.clear();
+  batch_of_bucket_.assign(static_cast<std::size_t>(buckets), 0);
+  int position = 0;
   int row_begin = 0;
   int rolling_begin = 0;
-  for (int batch = 0; batch < batches; ++batch) {
-    const int colour = batch < used_colours ? batch : kColours;
-    const int size = batch_fill_[static_cast<std::size_t>(colour)];
-    colouring_.batch_begin[static_cast<std::size_t>(batch)] = begin;
-    batch_fill_[static_cast<std::size_t>(colour)] = begin;  // now the scatter cursor
-    // The batch's rows follow the last batch's, so that a sweep walks the
-    // row pools from front to back.
-    const int batch_rows = colour_rows_[static_cast<std::size_t>(colour)];
-    const int batch_rolling_rows = colour_rolling_rows_[static_cast<std::size_t>(colour)];
-    colour_rows_[static_cast<std::size_t>(colour)] = row_begin;
-    colour_rolling_rows_[static_cast<std::size_t>(colour)] = rolling_begin;
-    row_begin += batch_rows;
-    rolling_begin += batch_rolling_rows;
-    copies = std::max(copies, colour == kColours
-                                  ? 1
-                                  : static_cast<int>(pieceCount(static_cast<std::size_t>(size),
-                                                                kManifoldsPerPiece)));
-    begin += size;
-  }
-  colouring_.batch_begin[static_cast<std::size_t>(batches)] = begin;
-  colouring_.copies = copies;
-  batches_made_ += batches;
-
-  // Scatter in manifold order; a row against a static body names its
-  // piece's copy of the fixed body.
-  rows_.resize(static_cast<std::size_t>(begin));
-  colouring_.manifolds.resize(static_cast<std::size_t>(begin));
-  for (int m = 0; m < numManifolds; ++m) {
-    const int colour = colour_[static_cast<std::size_t>(m)];
-    if (colour < 0) continue;
-    const int position = batch_fill_[static_cast<std::size_t>(colour)]++;
-    btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    cached.contactIndex = colour_rows_[static_cast<std::size_t>(colour)];
-    colour_rows_[static_cast<std::size_t>(colour)] += cached.numTouchingContacts;
-    cached.rollingFrictionIndex = colour_rolling_rows_[static_cast<std::size_t>(colour)];
-    colour_rolling_rows_[static_cast<std::size_t>(colour)] += rollingRows(cached);
-    const int batch = colour == kColours ? batches - 1 : colour;
-    const int piece = colour == kColours
-                          ? 0
-                          : (position - colouring_.batch_begin[static_cast<std::size_t>(batch)]) /
-                                kManifoldsPerPiece;
-    for (int& id : cached.solverBodyIds) {
-      if (id == m_fixedBodyId) id = colouring_.first_copy + piece;
+  int copies = 0;
+  const auto addBatch = [&](int first_bucket, int end_bucket) {
+    int size = 0;
+    for (int bucket = first_bucket; bucket < end_bucket; ++bucket) {
+      size += bucket_fill_[static_cast<std::size_t>(bucket)];
     }
-    rows_[static_cast<std::size_t>(position)] = {cached.contactIndex, cached.numTouchingContacts};
-    colouring_.manifolds[static_cast<std::size_t>(position)] = {cached.solverBodyIds[0],
-                                                                cached.solverBodyIds[1]};
+    if (size == 0) return;
+    batch_piece.push_back(static_cast<int>(piece_begin.size()));
+    for (int bucket = first_bucket; bucket < end_bucket; ++bucket) {
+      const auto i = static_cast<std::size_t>(bucket);
+      batch_of_bucket_[i] = first_bucket;
+      piece_begin.push_back(position);
+      position += std::exchange(bucket_fill_[i], position);
+      row_begin += std::exchange(bucket_rows_[i], row_begin);
+      rolling_begin += std::exchange(bucket_rolling_rows_[i], rolling_begin);
+    }
+    copies = std::max(copies, end_bucket - first_bucket);
+  };
+  if (split) {
+    addBatch(0, kRegions);
+    addBatch(acrossFirstBucket(kRegionLevels - 1, false),
+             acrossFirstBucket(kRegionLevels - 2, false));
+    for (int level = kRegionLevels - 2; level >= 0; --level) {
+      for (const bool crossed : {false, true}) {
+        const int first = acrossFirstBucket(level, crossed);
+        addBatch(first, first + (2 << level));
+      }
+    }
+    addBatch(kSerialBucket, kSerialBucket + 1);
+    addBatch(kFirstWallBucket, kFirstWallBucket + kRegions);
+  } else {
+    addBatch(0, 1);
+  }
+  batch_piece.push_back(static_cast<int>(piece_begin.size()));
+  piece_begin.push_back(position);
+  batches_.copies = copies;
+  batches_made_ += batches_.batches();
+
+  // Scatter in that order; a row against a static body names its piece's
+  // copy of the fixed body (the piece's place in its batch).
+  rows_.resize(static_cast<std::size_t>(position));
+  batches_.manifolds.resize(static_cast<std::size_t>(position));
+  for (const int m : manifold_order_) {
+    const int bucket = bucket_[static_cast<std::size_t>(m)];
+    if (bucket < 0) continue;
+    const auto i = static_cast<std::size_t>(bucket);
+    const int place = bucket_fill_[i]++;
+    btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
+    cached.contactIndex = bucket_rows_[i];
+    bucket_rows_[i] += cached.numTouchingContacts;
+    cached.rollingFrictionIndex = bucket_rolling_rows_[i];
+    bucket_rolling_rows_[i] += rollingRows(cached);
+    const int copy = bucket - batch_of_bucket_[i];
+    for (int& id : cached.solverBodyIds) {
+      if (id == m_fixedBodyId) id = batches_.first_copy + copy;
+    }
+    rows_[static_cast<std::size_t>(place)] = {cached.contactIndex, cached.numTouchingContacts};
+    batches_.manifolds[static_cast<std::size_t>(place)] = {cached.solverBodyIds[0],
+                                                           cached.solverBodyIds[1]};
   }
   for (int copy = 0; copy < copies; ++copy) {
     initSolverBody(&m_tmpSolverBodyPool.expand(), nullptr, info.m_timeStep);
   }
   piece_residual_.resize(static_cast<std::size_t>(std::max(copies, 1)));
-  // Every manifold with rows has a colour, so the batches hold them all.
   sizeRowPools(row_begin, rolling_begin);
 }
 
@@ -328,16 +437,19 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
   }
   m_manifoldCachedInfoArray.resizeNoInitialize(numManifolds);
   piece_unconverted_.assign(pieceCount(count, kItemsPerPiece), 0);
+  body_region_.assign(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), -1);
+  if (split_ == Split::kRegions) splitRegions();
+  bucket_.resize(count);
   crew_->forEachPiece(count, kItemsPerPiece, [this, manifolds](std::size_t first, std::size_t end) {
     collectManifolds(manifolds, first, end);
   });
-  colourManifolds(manifolds, numManifolds, info);
+  batchManifolds(manifolds, numManifolds, info);
   // Each manifold writes its own rows (Bullet's allocation, by manifold).
   crew_->forEachPiece(count, kItemsPerPiece, [this](std::size_t first, std::size_t end) {
     internalAllocContactConstraints(&m_manifoldCachedInfoArray[static_cast<int>(first)],
                                     static_cast<int>(end - first));
   });
-  // The setup applies the warm-start impulses to the bodies: by colour.
+  // The setup applies the warm-start impulses to the bodies: batch by batch.
   sweep([this](int contact) {
     internalSetupContactConstraints(contact, *info_);
     return btScalar(0);
@@ -347,41 +459,37 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
 template <typename Row>
 btScalar ColouredConstraintSolver::sweepBatch(int batch, const Row& row) {
   const auto b = static_cast<std::size_t>(batch);
-  const int begin = colouring_.batch_begin[b];
-  const auto count = static_cast<std::size_t>(colouring_.batch_begin[b + 1] - begin);
-  const bool overflow = colouring_.overflow && batch == colouring_.batches() - 1;
-  // The overflow batch may touch a body twice: one piece, in manifold order.
-  const std::size_t grain = overflow ? count : static_cast<std::size_t>(kManifoldsPerPiece);
+  const int first_piece = batches_.batch_piece[b];
+  const auto pieces = static_cast<std::size_t>(batches_.batch_piece[b + 1] - first_piece);
   // One pointer captured: the loop body fits in std::function's own storage.
   struct Sweep {
     ColouredConstraintSolver* solver;
     const Row* row;
-    int begin;
-    std::size_t grain;
+    const int* piece_begin;  // the batch's first piece's
   };
-  const Sweep context{this, &row, begin, grain};
-  crew_->forEachPiece(count, grain, [&context](std::size_t first, std::size_t end) {
-    const RowRange* ranges = context.solver->rows_.data() + context.begin;
-    btScalar worst = 0;
-    for (std::size_t m = first; m < end; ++m) {
-      for (int contact = ranges[m].first, last = ranges[m].first + ranges[m].rows; contact < last;
-           ++contact) {
-        worst = btMax(worst, (*context.row)(contact));
+  const Sweep context{this, &row, batches_.piece_begin.data() + first_piece};
+  crew_->forEachPiece(pieces, 1, [&context](std::size_t first, std::size_t end) {
+    const RowRange* ranges = context.solver->rows_.data();
+    for (std::size_t piece = first; piece < end; ++piece) {
+      btScalar worst = 0;
+      for (int m = context.piece_begin[piece]; m < context.piece_begin[piece + 1]; ++m) {
+        for (int contact = ranges[m].first, last = ranges[m].first + ranges[m].rows; contact < last;
+             ++contact) {
+          worst = btMax(worst, (*context.row)(contact));
+        }
       }
+      context.solver->piece_residual_[piece] = worst;
     }
-    context.solver->piece_residual_[first / context.grain] = worst;
   });
   btScalar worst = 0;
-  for (std::size_t piece = 0, pieces = pieceCount(count, grain); piece < pieces; ++piece) {
-    worst = btMax(worst, piece_residual_[piece]);
-  }
+  for (std::size_t piece = 0; piece < pieces; ++piece) worst = btMax(worst, piece_residual_[piece]);
   return worst;
 }
 
 template <typename Row>
 btScalar ColouredConstraintSolver::sweep(const Row& row) {
   btScalar worst = 0;
-  for (int batch = 0; batch < colouring_.batches(); ++batch) {
+  for (int batch = 0; batch < batches_.batches(); ++batch) {
     worst = btMax(worst, sweepBatch(batch, row));
   }
   return worst;

@@ -9,47 +9,59 @@
 // and internalSetupContactConstraints, solved by the same row functions
 // (resolveSingleConstraintRowLowerLimit, ...Generic, resolveSplitPenetration-
 // Impulse) and written back by writeBackContacts and writeBackBodies.  What
-// changes is the order: Bullet's serial solver sweeps the rows in manifold
-// order; here each solveGroup call colours its manifolds, and the setup (it
-// applies the warm-start impulses) and every iteration run colour after
-// colour, the manifolds of one colour in parallel.  Debian's Bullet is not a
-// BT_THREADSAFE build, so btParallelFor (and with it Bullet's own Mt
-// solver) runs serially; these loops run on the task system instead.
+// changes is the order.  Bullet's serial solver sweeps the rows in manifold
+// order; here each solveGroup call splits the group's moving bodies into
+// kRegions regions and sweeps the manifolds in batches: the regions'
+// interiors, then the manifolds across each split (the last split's first),
+// then the walls.  A batch is made of pieces that share no moving body, run
+// in parallel; a piece is swept serially, Gauss-Seidel as Bullet sweeps.
+// The colours of a graph colouring are the batches' part here: one colour a
+// batch, its pieces a colour's disjoint sets.  (A colour for each manifold
+// put the two cores' solver bodies in each other's caches after every
+// colour: on this project's 2-core machine Bullet's row functions took 1.8x
+// the CPU time on two threads; a region's bodies stay on the thread that
+// sweeps it.)  Debian's Bullet is not a BT_THREADSAFE build, so btParallelFor
+// (and with it Bullet's own Mt solver) runs serially; these loops run on the
+// task system instead.  Bullet's own Mt solver batches its constraints alike
+// (btBatchedConstraints: phases of batches, each batch serial).
 //
 // Invariants, each with its reason:
-// - The colours depend on the manifolds alone (their order and bodies),
-//   never on the thread count: each manifold with a touching point takes,
-//   in manifold order, the lowest of kColours colours that neither of its
-//   moving bodies holds yet (greedy colouring), first the manifolds between
-//   two moving bodies, then those on a static body, in colours after all of
-//   theirs.  A manifold that finds none goes to the overflow batch, solved
-//   last in each sweep, in manifold order, in one piece.  So no coloured
-//   batch holds two constraints on one moving body, the manifolds of a batch
-//   touch disjoint bodies, and the order in which a batch's pieces run
-//   cannot change a bit of the result.
+// - The regions and batches depend on the group alone (its manifolds, their
+//   order and bodies, the bodies' positions), never on the thread count:
+//   kRegionLevels times, each part of the moving bodies is halved at the
+//   median of its widest axis (ties broken by solver body id, positions
+//   compared in IEEE-754's total order, NaN included).  A manifold between
+//   two bodies of one region is in that region's interior piece; one across
+//   a split is in the piece of the part that split halved (the parts of one
+//   split share no body); one on a static body in its moving body's
+//   region's wall piece; one on a kinematic body (no region) in the first
+//   split's one piece.  So no two pieces of a batch hold one moving body,
+//   and the order in which a batch's pieces run cannot change a bit of the
+//   result.  A piece sweeps its manifolds by first moving body (in manifold
+//   order for one body), so that a body's rows run one after another, its
+//   solver body in cache.
 // - The wall rows come last in each sweep, so that a sweep ends with every
-//   box's wall contacts met: mixed in with the box-box colours, a pile under
+//   box's wall contacts met: mixed in with the box-box rows, a pile under
 //   50 g pushed boxes into the walls (scene 4, 400 boxes: 18 boxes sunk
 //   where Bullet's serial order sank none; docs/results/solver_order_error.md).
 // - The static walls are never written: all static bodies share Bullet's one
 //   fixed solver body, and Bullet's SIMD row functions add (zero) impulses to
 //   it, so no row names it; a row against a static body names instead the
-//   fixed body's copy of its piece (pieces of kManifoldsPerPiece manifolds of
-//   a batch; copy k serves piece k of whichever batch runs), and no two live
-//   pieces write one copy.  The copies are fixed bodies as Bullet makes them
-//   (initSolverBody(nullptr)) and stay zero, as the shared one would.
-// - Kinematic bodies are coloured like moving ones (their solver bodies are
-//   written too).
+//   fixed body's copy of its piece (copy k serves piece k of whichever batch
+//   runs), and no two live pieces write one copy.  The copies are fixed
+//   bodies as Bullet makes them (initSolverBody(nullptr)) and stay zero, as
+//   the shared one would.
+// - Kinematic bodies are written by their rows too: they have no region, so
+//   their manifolds are in one piece.
 // - Joints (btTypedConstraint rows, none in the scenes) are converted and
 //   solved serially in Bullet's order, before the contacts of each sweep.
 // - The early stop (m_leastSquaresResidualThreshold) compares, as Bullet's
 //   serial solver does, the largest squared residual of the sweep.
-//   SOLVER_RANDMIZE_ORDER is not followed: the order is the colours'.
-// - The contact rows lie in the row pools in batch order (a batch's
-//   manifolds in manifold order), so that every sweep reads the pools from
-//   front to back: scene 4's 3500-box step took 0.90x as long on one
-//   thread as with the rows in manifold order, to the same bits
-//   (docs/results/coloured_solver_rows.csv).
+//   SOLVER_RANDMIZE_ORDER is not followed: the order is the batches'.
+// - The contact rows lie in the row pools in piece order, so that every
+//   sweep reads the pools from front to back: scene 4's 3500-box step took
+//   0.90x as long on one thread as with the rows in manifold order, to the
+//   same bits (docs/results/coloured_solver_rows.csv).
 // - No allocation per iteration: the per-solve arrays keep their capacity.
 // - Shared state outside the bodies and rows: Bullet's split-impulse row
 //   function counts its calls in a global int (gNumSplitImpulseRecoveries,
@@ -60,12 +72,14 @@
 //
 // Thread use: solveGroup runs on its caller and on the task system's
 // threads, which a crew holds for the call (physics/task_crew.h: the loops
-// are opened and joined by atomics, a hundred a solve); one solver serves
-// one world.
+// are opened and joined by atomics, six a sweep); one solver serves one
+// world.  With two threads, each runs the contiguous half of a batch's
+// pieces first: the first split's halves.
 #pragma once
 
 #include <BulletDynamics/ConstraintSolver/btSequentialImpulseConstraintSolverMt.h>
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -77,44 +91,50 @@
 
 namespace overlap::physics {
 
-// The coloured batches of the last solveGroup call, as the rows used them.
-struct ContactColouring {
+// The batches of the last solveGroup call, as the rows used them.
+struct ContactBatches {
   struct Manifold {
     int body_a;  // solver body ids, as the manifold's rows name them
     int body_b;
   };
-  std::vector<Manifold> manifolds;  // in batch order: batch after batch
-  std::vector<int> batch_begin;     // batch b: manifolds [batch_begin[b], batch_begin[b + 1])
-  bool overflow = false;            // the last batch is the overflow batch (one piece)
-  int manifolds_per_piece = 0;      // a coloured batch's pieces, from its first manifold
+  std::vector<Manifold> manifolds;  // in piece order: piece after piece
+  std::vector<int> piece_begin;     // piece p: manifolds [piece_begin[p], piece_begin[p + 1])
+  std::vector<int> batch_piece;     // batch b: pieces [batch_piece[b], batch_piece[b + 1])
+  int regions = 0;                  // 0: unsplit, one piece in manifold order
   int moving_bodies = 0;            // ids [0, moving_bodies) and [first_kinematic, first_copy)
   int fixed_body = -1;              // Bullet's shared fixed solver body
   int first_kinematic = 0;          // kinematic bodies' ids: [first_kinematic, first_copy)
   int first_copy = 0;  // the pieces' fixed-body copies: [first_copy, first_copy + copies)
   int copies = 0;
 
-  int batches() const { return batch_begin.empty() ? 0 : static_cast<int>(batch_begin.size()) - 1; }
+  int batches() const { return batch_piece.empty() ? 0 : static_cast<int>(batch_piece.size()) - 1; }
 };
 
-// "" when the colouring keeps the invariants above, else the first breach:
-// a coloured batch with two manifolds on one moving body, a row naming the
-// shared fixed body, a fixed-body copy written from two pieces of a batch, an
-// overflow batch of more than one piece.
-std::string colouringProblem(const ContactColouring& colouring);
+// "" when the batches keep the invariants above, else the first breach:
+// pieces that do not cover the manifolds in order, two pieces of a batch on
+// one moving body, a row naming the shared fixed body or an unknown body, a
+// fixed-body copy written from another piece than its own.
+std::string batchProblem(const ContactBatches& batches);
 
 class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolverMt {
  public:
-  static constexpr int kColours = 64;                 // one bit of a body's mask each
-  static constexpr int kManifoldsPerPiece = 32;       // a coloured batch's pieces
+  // Halvings of the moving bodies: 16 regions, one a thread of a 16-core
+  // host, all splits' pieces two to a thread or more on two cores.
+  static constexpr int kRegionLevels = 4;
+  static constexpr int kRegions = 1 << kRegionLevels;
+  static_assert(kRegionLevels >= 2, "the straight and crossed pieces need two splits");
   static constexpr std::size_t kItemsPerPiece = 256;  // bodies, manifolds, rows: the other loops
 
-  // `colours`: at most kColours; with 0 every manifold is in the overflow
-  // batch, and the sweep is Bullet's serial one, in manifold order.
-  explicit ColouredConstraintSolver(TaskSystem& tasks, int colours = kColours);
+  // kNone: one piece in manifold order, Bullet's serial sweep (for tests).
+  enum class Split { kRegions, kNone };
+  explicit ColouredConstraintSolver(TaskSystem& tasks, Split split = Split::kRegions);
 
+  // Whether the group's manifolds may come in any order that no thread
+  // count changes (split: the batches are the order), rather than Bullet's.
+  bool ordersItsOwnManifolds() const { return split_ == Split::kRegions; }
   // The last solveGroup call's batches.
-  const ContactColouring& lastColouring() const { return colouring_; }
-  // Coloured batches (the overflow batch included) made since construction.
+  const ContactBatches& lastBatches() const { return batches_; }
+  // Batches made since construction.
   std::int64_t batchesMade() const { return batches_made_; }
 
   // Bullet's solveGroup, with a crew of the task system's threads held for
@@ -153,13 +173,36 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // serial pass may convert (a kinematic body, or a moving one outside the
   // group's bodies).
   void collectManifolds(btPersistentManifold** manifolds, std::size_t first, std::size_t end);
-  // The serial pass: each manifold's first row and colour, then the batches
-  // and the pieces' fixed-body copies.
-  void colourManifolds(btPersistentManifold** manifolds, int numManifolds,
-                       const btContactSolverInfo& info);
-  // The row pools sized for the colouring (room to spare, as Bullet's Mt
+  // The serial pass: the regions, each manifold's piece and first row, then
+  // the batches and the pieces' fixed-body copies.
+  void batchManifolds(btPersistentManifold** manifolds, int numManifolds,
+                      const btContactSolverInfo& info);
+  // The row pools sized for the batches (room to spare, as Bullet's Mt
   // solver keeps, so that a growing pile does not reallocate every substep).
   void sizeRowPools(int contacts, int rolling_rows);
+  // body_region_ for the moving bodies: kRegionLevels halvings.
+  void splitRegions();
+  // Manifold m's bucket (and no rows between two bodies that cannot move),
+  // once both its bodies have solver bodies; each manifold writes its own.
+  void classify(int m);
+  // The bucket of a manifold between solver bodies a and b (below).
+  int bucketOf(int a, int b) const;
+  // The buckets, one a piece, in sweep order: each region's interior; the
+  // manifolds across each split, from the last split to the first; each
+  // region's walls.  Across the last split, a bucket for each part it halved;
+  // across an earlier one, a bucket for each part it halved and each half of
+  // that part's lower half (its next split), the pieces whose two halves' next
+  // splits agree first (straight), then those whose do not (crossed); one
+  // piece for the manifolds on a body of no region (kinematic).
+  static constexpr int acrossFirstBucket(int level, bool crossed) {
+    if (level == kRegionLevels - 1) return kRegions;
+    return kRegions + (1 << (kRegionLevels - 1)) + (1 << (kRegionLevels + 1)) - (1 << (level + 3)) +
+           (crossed ? 2 << level : 0);
+  }
+  static constexpr int kSerialBucket =
+      kRegions + (1 << (kRegionLevels - 1)) + (1 << (kRegionLevels + 1)) - 4;
+  static constexpr int kFirstWallBucket = kSerialBucket + 1;
+  static constexpr int kBuckets = kFirstWallBucket + kRegions;
   // Runs row(contact) for every row of batch `batch`'s manifolds, its pieces
   // on the task system; returns the largest of row's results.
   template <typename Row>
@@ -173,23 +216,34 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   btScalar solveRollingFrictionRows(int contact);
 
   TaskSystem& tasks_;
-  int colours_;
+  Split split_;
   std::unique_ptr<TaskGroup> crew_jobs_;       // the crews' helper jobs, late ones included
   TaskCrew* crew_ = nullptr;                   // the running solveGroup call's
   const btContactSolverInfo* info_ = nullptr;  // the running solveGroup call's
-  ContactColouring colouring_;
+  ContactBatches batches_;
   struct RowRange {
     int first;  // the manifold's first contact row
     int rows;
   };
-  std::vector<RowRange> rows_;               // batch order: each manifold's contact rows
-  std::vector<int> colour_;                  // per group manifold: its batch, -1 for none
-  std::vector<std::uint64_t> body_colours_;  // per solver body: the colours it holds
-  std::vector<int> batch_fill_;              // per colour: its count, then the scatter cursor
-  std::vector<int> colour_rows_;             // per colour: its contact rows, then their cursor
-  std::vector<int> colour_rolling_rows_;     // per colour: its rolling-friction rows, likewise
-  std::vector<btScalar> piece_residual_;     // per piece of the running sweep
-  std::vector<char> piece_unconverted_;      // per collect piece: a body left for the serial pass
+  std::vector<RowRange> rows_;       // piece order: each manifold's contact rows
+  std::vector<int> bucket_;          // per group manifold: its bucket, -1 for none
+  std::vector<int> by_body_;         // per solver body: its manifolds' counting-sort cursor
+  std::vector<int> manifold_order_;  // the group's manifolds by first moving body
+  std::vector<int> body_region_;     // per solver body: its region, -1 for none
+  struct RegionKey {
+    btVector3 origin;
+    std::array<std::int32_t, 3> key;  // origin's coordinates, in IEEE-754's total order
+    int body;
+  };
+  std::vector<RegionKey> region_keys_;    // the moving bodies, as the region split orders them
+  std::vector<int> part_begin_;           // the split's parts of region_keys_ at one level
+  std::vector<int> part_halves_;          // the next level's
+  std::vector<int> bucket_fill_;          // per bucket: its count, then the scatter cursor
+  std::vector<int> bucket_rows_;          // per bucket: its contact rows, then their cursor
+  std::vector<int> bucket_rolling_rows_;  // per bucket: its rolling-friction rows, likewise
+  std::vector<int> batch_of_bucket_;      // per bucket: its batch's first bucket
+  std::vector<btScalar> piece_residual_;  // per piece of the running sweep
+  std::vector<char> piece_unconverted_;   // per collect piece: a body left for the serial pass
   std::int64_t batches_made_ = 0;
 };
 

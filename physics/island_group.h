@@ -27,26 +27,40 @@
 //   them.  The early stop compares a group's largest residual with
 //   m_leastSquaresResidualThreshold; at its default 0 a stop means the
 //   rows no longer change anything, so later sweeps are no-ops there too.
-//   The coloured solver's wall colours start after the group's box colours
-//   (physics/coloured_solver.h): an island's colours shift together, and
-//   only a pile of more than 64 colours could differ (its overflow batch).
+//   This holds for Bullet's serial solver and for the coloured one unsplit;
+//   split, the coloured solver's regions halve the group's bodies, islands
+//   together (physics/coloured_solver.h), so its order is the group's own.
+// - In the dispatcher's order (ManifoldOrder::kDispatchers) the manifolds
+//   are those of Bullet's order, unsorted: the sort was the solver stage's
+//   largest serial part at 3500 boxes, and a solver whose order is its own
+//   needs only one that no thread count changes.
 // - Not modelled, so the caller runs Bullet's path: joints
 //   (btTypedConstraint, none in the scenes) and unsplit islands.
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
 
+#include <cstdint>
+#include <vector>
+
 namespace overlap::physics {
 
 class IslandGroup {
  public:
+  // The order of the group's manifolds: Bullet's (its sort by island and
+  // bodies), or the dispatcher's, filtered alike, for a solver whose order
+  // is its own and only needs one that no thread count changes (the
+  // coloured solver: physics/coloured_solver.h).  The bodies are in
+  // Bullet's order either way.
+  enum class ManifoldOrder { kBullets, kDispatchers };
+
   // Whether gather() models `world`'s islands (see the rules above).
   static bool models(btDiscreteDynamicsWorld& world);
 
   // Bullet's buildIslands and processIslands on `world`, after its
   // calculateSimulationIslands, with the solver's group gathered instead of
   // handed to the island callback.  Call once a substep.
-  void gather(btDiscreteDynamicsWorld& world);
+  void gather(btDiscreteDynamicsWorld& world, ManifoldOrder order = ManifoldOrder::kBullets);
 
   btCollisionObject** bodies() { return bodies_.size() == 0 ? nullptr : &bodies_[0]; }
   int bodyCount() const { return bodies_.size(); }
@@ -62,11 +76,22 @@ class IslandGroup {
     btPersistentManifold* manifold;
   };
 
+  // One manifold's key, its three parts packed into one integer in their order.
+  struct Packed {
+    std::uint64_t key;
+    btPersistentManifold* manifold;
+  };
+
   void wakeAndSleepIslands(btDiscreteDynamicsWorld& world);
-  void gatherManifolds(btDiscreteDynamicsWorld& world);
-  void gatherIslands(btDiscreteDynamicsWorld& world);
+  // keyed_ sorted as Bullet's quickSort sorts it, through packed keys, when
+  // they fit in 64 bits; false (keyed_ untouched) otherwise.
+  bool sortByPackedKeys();
+  void gatherManifolds(btDiscreteDynamicsWorld& world, ManifoldOrder order);
+  void gatherIslands(btDiscreteDynamicsWorld& world, ManifoldOrder order);
 
   btAlignedObjectArray<Keyed> keyed_;
+  btAlignedObjectArray<Packed> packed_;
+  std::vector<char> island_awake_;  // per island id, in the dispatcher's order
   btAlignedObjectArray<btCollisionObject*> bodies_;
   btAlignedObjectArray<btPersistentManifold*> manifolds_;
 };

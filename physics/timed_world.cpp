@@ -8,6 +8,7 @@
 #include "gpu/base/stopwatch.h"
 #include "physics/broadphase/ccd_query_broadphase.h"
 #include "physics/broadphase/pair_finder_broadphase.h"
+#include "physics/coloured_solver.h"
 #include "physics/parallel_dispatcher.h"
 
 namespace overlap::physics {
@@ -327,7 +328,11 @@ void TimedDynamicsWorld::solveIslands() {
   }
   btContactSolverInfo& info = getSolverInfo();
   m_constraintSolver->prepareSolve(getNumCollisionObjects(), m_dispatcher1->getNumManifolds());
-  island_group_.gather(*this);
+  // The coloured solver's order is its own: it needs no sort.
+  const auto* coloured = dynamic_cast<const ColouredConstraintSolver*>(m_constraintSolver);
+  island_group_.gather(*this, coloured != nullptr && coloured->ordersItsOwnManifolds()
+                                  ? IslandGroup::ManifoldOrder::kDispatchers
+                                  : IslandGroup::ManifoldOrder::kBullets);
   // The solver writes the velocities the record reads.
   awaitNarrowphaseRecord();
   m_constraintSolver->solveGroup(island_group_.bodies(), island_group_.bodyCount(),
@@ -460,12 +465,14 @@ void TimedDynamicsWorld::integrateTransforms(btScalar dt) {
   forEachIndex(count, kSweepsPerPiece, [&](int i) {
     moves_[static_cast<std::size_t>(i)] = integratedTransform(*m_nonStaticRigidBodies[i], dt);
   });
-  for (int i = 0; i < count; ++i) {
+  // Every sweep above has read the substep's transforms: now each body
+  // writes its own (proceedToTransform touches that body alone).
+  forEachIndex(count, kBodiesPerPiece, [&](int i) {
     btRigidBody& body = *m_nonStaticRigidBodies[i];
     if (body.isActive() && !body.isStaticOrKinematicObject()) {
       body.proceedToTransform(moves_[static_cast<std::size_t>(i)]);
     }
-  }
+  });
   // Bullet's speculative restitution pass is left out with the rest of its
   // integrateTransforms: it is off unless asked for, and nothing asks.
 }

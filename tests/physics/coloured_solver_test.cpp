@@ -26,9 +26,9 @@ const ColouredConstraintSolver* colouredSolverOf(PhysicsWorld& world) {
   return dynamic_cast<const ColouredConstraintSolver*>(world.bulletWorld().getConstraintSolver());
 }
 
-// Every frame's last batches, in every scene: no coloured batch holds two
-// manifolds on one moving body, no row names the shared fixed body, and each
-// fixed-body copy is written from one piece of a batch.
+// Every frame's last batches, in every scene: no two pieces of a batch hold
+// one moving body, no row names the shared fixed body, and each fixed-body
+// copy is written from one piece of a batch.
 TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) {
   for (int scene = 1; scene <= 4; ++scene) {
     WorldOptions options{"cpusap"};
@@ -40,16 +40,19 @@ TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) 
     int shared_pieces = 0;  // batches of more than one piece: the check has pieces to tell apart
     for (int frame = 0; frame < 40; ++frame) {
       world.stepFrame();
-      const ContactColouring& colouring = solver->lastColouring();
-      ASSERT_EQ(colouringProblem(colouring), "") << "scene " << scene << ", frame " << frame;
-      for (const ContactColouring::Manifold& manifold : colouring.manifolds) {
-        wall_rows +=
-            manifold.body_a >= colouring.first_copy || manifold.body_b >= colouring.first_copy;
+      const ContactBatches& batches = solver->lastBatches();
+      ASSERT_EQ(batchProblem(batches), "") << "scene " << scene << ", frame " << frame;
+      for (const ContactBatches::Manifold& manifold : batches.manifolds) {
+        wall_rows += manifold.body_a >= batches.first_copy || manifold.body_b >= batches.first_copy;
       }
-      for (int batch = 0; batch < colouring.batches(); ++batch) {
-        shared_pieces += colouring.batch_begin[static_cast<std::size_t>(batch) + 1] -
-                             colouring.batch_begin[static_cast<std::size_t>(batch)] >
-                         colouring.manifolds_per_piece;
+      for (int batch = 0; batch < batches.batches(); ++batch) {
+        int filled = 0;  // the batch's pieces that hold a manifold
+        for (int piece = batches.batch_piece[static_cast<std::size_t>(batch)];
+             piece < batches.batch_piece[static_cast<std::size_t>(batch) + 1]; ++piece) {
+          filled += batches.piece_begin[static_cast<std::size_t>(piece) + 1] >
+                    batches.piece_begin[static_cast<std::size_t>(piece)];
+        }
+        shared_pieces += filled > 1;
       }
     }
     EXPECT_GT(wall_rows, 0) << "scene " << scene << ": no box met a wall";
@@ -59,34 +62,38 @@ TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) 
 
 // The check itself finds each breach.
 TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
-  ContactColouring colouring;
-  colouring.manifolds_per_piece = 2;
-  colouring.moving_bodies = 10;
-  colouring.fixed_body = 10;
-  colouring.first_kinematic = 11;
-  colouring.first_copy = 11;
-  colouring.copies = 2;
-  // Batch 0: pieces {0, 1} and {2}; batch 1: {3}.
-  colouring.manifolds = {{0, 1}, {2, 11}, {3, 12}, {4, 5}};
-  colouring.batch_begin = {0, 3, 4};
-  ASSERT_EQ(colouringProblem(colouring), "");
+  ContactBatches batches;
+  batches.moving_bodies = 10;
+  batches.fixed_body = 10;
+  batches.first_kinematic = 11;
+  batches.first_copy = 11;
+  batches.copies = 2;
+  // Batch 0: pieces {0, 1} and {2}; batch 1: {3}.  A piece is serial: its
+  // manifolds may share a body.
+  batches.manifolds = {{0, 1}, {1, 11}, {3, 12}, {4, 5}};
+  batches.piece_begin = {0, 2, 3, 4};
+  batches.batch_piece = {0, 2, 3};
+  ASSERT_EQ(batchProblem(batches), "");
 
-  ContactColouring shared_body = colouring;
+  ContactBatches shared_body = batches;
   shared_body.manifolds[2] = {1, 12};
-  EXPECT_NE(colouringProblem(shared_body).find("both hold moving body 1"), std::string::npos);
+  EXPECT_NE(batchProblem(shared_body).find("both hold moving body 1"), std::string::npos);
 
-  ContactColouring fixed_body = colouring;
+  ContactBatches fixed_body = batches;
   fixed_body.manifolds[3] = {4, 10};
-  EXPECT_NE(colouringProblem(fixed_body).find("shared fixed body"), std::string::npos);
+  EXPECT_NE(batchProblem(fixed_body).find("shared fixed body"), std::string::npos);
 
-  ContactColouring copy_of_another_piece = colouring;
+  ContactBatches copy_of_another_piece = batches;
   copy_of_another_piece.manifolds[2] = {3, 11};
-  EXPECT_NE(colouringProblem(copy_of_another_piece).find("another piece's"), std::string::npos);
+  EXPECT_NE(batchProblem(copy_of_another_piece).find("another piece's"), std::string::npos);
 
-  ContactColouring overflow = colouring;
-  overflow.overflow = true;
-  overflow.manifolds[3] = {4, 12};
-  EXPECT_NE(colouringProblem(overflow).find("overflow"), std::string::npos);
+  ContactBatches copy_of_a_later_piece = batches;
+  copy_of_a_later_piece.manifolds[3] = {4, 12};
+  EXPECT_NE(batchProblem(copy_of_a_later_piece).find("another piece's"), std::string::npos);
+
+  ContactBatches gap = batches;
+  gap.piece_begin = {0, 2, 3, 3};
+  EXPECT_NE(batchProblem(gap).find("do not cover"), std::string::npos);
 }
 
 // The world solves with the coloured solver unless told otherwise, and with
@@ -113,10 +120,10 @@ TEST(ColouredSolver, IsSelectableBesideTheSerialDefault) {
   EXPECT_NE(coloured.stateHash(), serial.stateHash());
 }
 
-// The colours only reorder Bullet's sweep: with none (every manifold in the
-// overflow batch, in manifold order) the coloured solver's setup, rows and
-// write-back give Bullet's serial solver's state bit for bit.
-TEST(ColouredSolver, WithoutColoursIsBulletsSerialSolverBitForBit) {
+// The batches only reorder Bullet's sweep: unsplit (one piece, in manifold
+// order) the coloured solver's setup, rows and write-back give Bullet's
+// serial solver's state bit for bit.
+TEST(ColouredSolver, UnsplitIsBulletsSerialSolverBitForBit) {
   for (const SolverMode mode : {SolverMode::kPile, SolverMode::kBullet}) {
     for (int scene = 1; scene <= 4; ++scene) {
       WorldOptions options{"cpusap"};
@@ -124,17 +131,17 @@ TEST(ColouredSolver, WithoutColoursIsBulletsSerialSolverBitForBit) {
       options.solver_order = SolverOrder::kSerial;
       PhysicsWorld serial(smallScene(scene, 200), options);
       PhysicsWorld uncoloured(smallScene(scene, 200), options);
-      ColouredConstraintSolver overflow_only(defaultTaskSystem(), 0);
-      uncoloured.bulletWorld().setConstraintSolver(&overflow_only);
+      ColouredConstraintSolver unsplit(defaultTaskSystem(), ColouredConstraintSolver::Split::kNone);
+      uncoloured.bulletWorld().setConstraintSolver(&unsplit);
       for (int frame = 0; frame < 30; ++frame) {
         serial.stepFrame();
         uncoloured.stepFrame();
         ASSERT_EQ(serial.stateHash(), uncoloured.stateHash())
             << "scene " << scene << ", solver " << solverModeName(mode) << ", frame " << frame;
       }
-      EXPECT_GT(overflow_only.batchesMade(), 0);
-      EXPECT_TRUE(overflow_only.lastColouring().overflow ||
-                  overflow_only.lastColouring().batches() == 0);
+      EXPECT_GT(unsplit.batchesMade(), 0);
+      EXPECT_EQ(unsplit.lastBatches().regions, 0);
+      EXPECT_LE(unsplit.lastBatches().batches(), 1);
     }
   }
 }
