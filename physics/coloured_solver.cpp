@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <numeric>
 #include <unordered_map>
 #include <utility>
 
@@ -207,7 +206,12 @@ void ColouredConstraintSolver::splitRegions() {
   // Level after level, each part halved at the median of its widest axis,
   // the parts of a level in parallel (each writes only its own keys).
   part_begin_.assign({0, moving});
-  for (int level = 0; level < kRegionLevels; ++level) {
+  // As many halvings as leave kBodiesPerRegion bodies a region or more, up
+  // to kRegionLevels: a smaller pile's regions would be a few boxes each.
+  int levels = 0;
+  while (levels < kRegionLevels && (moving >> (levels + 1)) >= kBodiesPerRegion) ++levels;
+  batches_.regions = 1 << levels;
+  for (int level = 0; level < levels; ++level) {
     const std::size_t parts = part_begin_.size() - 1;
     crew_->forEachPiece(parts, 1, [this](std::size_t first, std::size_t end) {
       for (std::size_t part = first; part < end; ++part) {
@@ -238,11 +242,13 @@ void ColouredConstraintSolver::splitRegions() {
     halves.push_back(moving);
     std::swap(part_begin_, halves);
   }
-  for (int region = 0; region < kRegions; ++region) {
-    for (int i = part_begin_[static_cast<std::size_t>(region)];
-         i < part_begin_[static_cast<std::size_t>(region) + 1]; ++i) {
+  // Part p is region p << (kRegionLevels - levels): the splits not made
+  // leave no manifold across them.
+  for (int part = 0; part < batches_.regions; ++part) {
+    for (int i = part_begin_[static_cast<std::size_t>(part)];
+         i < part_begin_[static_cast<std::size_t>(part) + 1]; ++i) {
       body_region_[static_cast<std::size_t>(region_keys_[static_cast<std::size_t>(i)].body)] =
-          region;
+          part << (kRegionLevels - levels);
     }
   }
 }
@@ -276,7 +282,6 @@ int ColouredConstraintSolver::bucketOf(int a, int b) const {
 
 void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, int numManifolds,
                                               const btContactSolverInfo& info) {
-  const auto count = static_cast<std::size_t>(numManifolds);
   // Kinematic bodies (and any moving body the group left out) get their
   // solver bodies here, in manifold order, as Bullet's serial solver gives them.
   if (std::find(piece_unconverted_.begin(), piece_unconverted_.end(), 1) !=
@@ -298,29 +303,8 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   batches_.first_kinematic = m_fixedBodyId + 1;
   batches_.first_copy = bodies;
   const bool split = split_ == Split::kRegions;
-  batches_.regions = split ? kRegions : 0;
+  if (!split) batches_.regions = 0;
   const int buckets = split ? kBuckets : 1;
-
-  // The order the buckets are filled in: unsplit, manifold order (Bullet's
-  // serial sweep); split, by first moving body (a counting sort, manifold
-  // order within a body), so that a piece solves a body's manifolds one
-  // after another, its solver body in cache.
-  manifold_order_.resize(count);
-  if (split) {
-    by_body_.assign(static_cast<std::size_t>(bodies) + 1, 0);
-    const auto sortBody = [&](const btContactManifoldCachedInfo& cached) {
-      const int a = cached.solverBodyIds[0];
-      return static_cast<std::size_t>(a == m_fixedBodyId ? cached.solverBodyIds[1] : a);
-    };
-    for (int m = 0; m < numManifolds; ++m) ++by_body_[sortBody(m_manifoldCachedInfoArray[m]) + 1];
-    for (std::size_t body = 1; body < by_body_.size(); ++body) by_body_[body] += by_body_[body - 1];
-    for (int m = 0; m < numManifolds; ++m) {
-      const std::size_t body = sortBody(m_manifoldCachedInfoArray[m]);
-      manifold_order_[static_cast<std::size_t>(by_body_[body]++)] = m;
-    }
-  } else {
-    std::iota(manifold_order_.begin(), manifold_order_.end(), 0);
-  }
 
   bucket_fill_.assign(static_cast<std::size_t>(buckets), 0);
   bucket_rows_.assign(static_cast<std::size_t>(buckets), 0);
@@ -384,11 +368,11 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   batches_.copies = copies;
   batches_made_ += batches_.batches();
 
-  // Scatter in that order; a row against a static body names its piece's
-  // copy of the fixed body (the piece's place in its batch).
+  // Scatter in manifold order; a row against a static body names its
+  // piece's copy of the fixed body (the piece's place in its batch).
   rows_.resize(static_cast<std::size_t>(position));
   batches_.manifolds.resize(static_cast<std::size_t>(position));
-  for (const int m : manifold_order_) {
+  for (int m = 0; m < numManifolds; ++m) {
     const int bucket = bucket_[static_cast<std::size_t>(m)];
     if (bucket < 0) continue;
     const auto i = static_cast<std::size_t>(bucket);

@@ -10,7 +10,7 @@
 // (resolveSingleConstraintRowLowerLimit, ...Generic, resolveSplitPenetration-
 // Impulse) and written back by writeBackContacts and writeBackBodies.  What
 // changes is the order.  Bullet's serial solver sweeps the rows in manifold
-// order; here each solveGroup call splits the group's moving bodies into
+// order; here each solveGroup call splits the group's moving bodies into up to
 // kRegions regions and sweeps the manifolds in batches: the regions'
 // interiors, then the manifolds across each split (the last split's first),
 // then the walls.  A batch is made of pieces that share no moving body, run
@@ -27,19 +27,21 @@
 //
 // Invariants, each with its reason:
 // - The regions and batches depend on the group alone (its manifolds, their
-//   order and bodies, the bodies' positions), never on the thread count:
-//   kRegionLevels times, each part of the moving bodies is halved at the
-//   median of its widest axis (ties broken by solver body id, positions
-//   compared in IEEE-754's total order, NaN included).  A manifold between
-//   two bodies of one region is in that region's interior piece; one across
-//   a split is in the piece of the part that split halved (the parts of one
-//   split share no body); one on a static body in its moving body's
-//   region's wall piece; one on a kinematic body (no region) in the first
-//   split's one piece.  So no two pieces of a batch hold one moving body,
-//   and the order in which a batch's pieces run cannot change a bit of the
-//   result.  A piece sweeps its manifolds by first moving body (in manifold
-//   order for one body), so that a body's rows run one after another, its
-//   solver body in cache.
+//   order and bodies, the bodies' positions), never on the thread count.
+//   Each part of the moving bodies is halved at the median of its widest
+//   axis (ties broken by solver body id, positions compared in IEEE-754's
+//   total order, NaN included), kRegionLevels times or while a region keeps
+//   kBodiesPerRegion bodies.  A manifold between two bodies of one region is
+//   in that region's interior piece; one across a split in a piece of the
+//   part that split halved: for the last split a piece a part, for an
+//   earlier one a piece for each part and each half of its lower half's next
+//   split, those whose halves' next splits agree (straight) in one batch,
+//   the others (crossed) in the next.  One on a static body is in its moving
+//   body's region's wall piece; one on a kinematic body (no region) in a
+//   piece of its own.  So no two pieces of a batch hold one moving body, and
+//   the order in which a batch's pieces run cannot change a bit of the
+//   result.  A piece sweeps its manifolds in the group's order (Bullet's:
+//   physics/island_group.h).
 // - The wall rows come last in each sweep, so that a sweep ends with every
 //   box's wall contacts met: mixed in with the box-box rows, a pile under
 //   50 g pushed boxes into the walls (scene 4, 400 boxes: 18 boxes sunk
@@ -52,7 +54,7 @@
 //   bodies as Bullet makes them (initSolverBody(nullptr)) and stay zero, as
 //   the shared one would.
 // - Kinematic bodies are written by their rows too: they have no region, so
-//   their manifolds are in one piece.
+//   their manifolds are in one piece, swept after the splits' batches.
 // - Joints (btTypedConstraint rows, none in the scenes) are converted and
 //   solved serially in Bullet's order, before the contacts of each sweep.
 // - The early stop (m_leastSquaresResidualThreshold) compares, as Bullet's
@@ -100,11 +102,11 @@ struct ContactBatches {
   std::vector<Manifold> manifolds;  // in piece order: piece after piece
   std::vector<int> piece_begin;     // piece p: manifolds [piece_begin[p], piece_begin[p + 1])
   std::vector<int> batch_piece;     // batch b: pieces [batch_piece[b], batch_piece[b + 1])
-  int regions = 0;                  // 0: unsplit, one piece in manifold order
-  int moving_bodies = 0;            // ids [0, moving_bodies) and [first_kinematic, first_copy)
-  int fixed_body = -1;              // Bullet's shared fixed solver body
-  int first_kinematic = 0;          // kinematic bodies' ids: [first_kinematic, first_copy)
-  int first_copy = 0;  // the pieces' fixed-body copies: [first_copy, first_copy + copies)
+  int regions = 0;  // the regions made (1 to kRegions); 0: unsplit, one piece in manifold order
+  int moving_bodies = 0;    // ids [0, moving_bodies) and [first_kinematic, first_copy)
+  int fixed_body = -1;      // Bullet's shared fixed solver body
+  int first_kinematic = 0;  // kinematic bodies' ids: [first_kinematic, first_copy)
+  int first_copy = 0;       // the pieces' fixed-body copies: [first_copy, first_copy + copies)
   int copies = 0;
 
   int batches() const { return batch_piece.empty() ? 0 : static_cast<int>(batch_piece.size()) - 1; }
@@ -122,6 +124,10 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // host, all splits' pieces two to a thread or more on two cores.
   static constexpr int kRegionLevels = 4;
   static constexpr int kRegions = 1 << kRegionLevels;
+  // The fewest moving bodies a region holds: fewer halvings for smaller
+  // groups (a 150-box pile in 16 regions of 9 boxes slept later, or not at
+  // all, than in fewer).
+  static constexpr int kBodiesPerRegion = 200;
   static_assert(kRegionLevels >= 2, "the straight and crossed pieces need two splits");
   static constexpr std::size_t kItemsPerPiece = 256;  // bodies, manifolds, rows: the other loops
 
@@ -129,9 +135,6 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   enum class Split { kRegions, kNone };
   explicit ColouredConstraintSolver(TaskSystem& tasks, Split split = Split::kRegions);
 
-  // Whether the group's manifolds may come in any order that no thread
-  // count changes (split: the batches are the order), rather than Bullet's.
-  bool ordersItsOwnManifolds() const { return split_ == Split::kRegions; }
   // The last solveGroup call's batches.
   const ContactBatches& lastBatches() const { return batches_; }
   // Batches made since construction.
@@ -225,11 +228,9 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
     int first;  // the manifold's first contact row
     int rows;
   };
-  std::vector<RowRange> rows_;       // piece order: each manifold's contact rows
-  std::vector<int> bucket_;          // per group manifold: its bucket, -1 for none
-  std::vector<int> by_body_;         // per solver body: its manifolds' counting-sort cursor
-  std::vector<int> manifold_order_;  // the group's manifolds by first moving body
-  std::vector<int> body_region_;     // per solver body: its region, -1 for none
+  std::vector<RowRange> rows_;    // piece order: each manifold's contact rows
+  std::vector<int> bucket_;       // per group manifold: its bucket, -1 for none
+  std::vector<int> body_region_;  // per solver body: its region, -1 for none
   struct RegionKey {
     btVector3 origin;
     std::array<std::int32_t, 3> key;  // origin's coordinates, in IEEE-754's total order

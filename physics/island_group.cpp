@@ -21,10 +21,10 @@ bool IslandGroup::models(btDiscreteDynamicsWorld& world) {
   return world.getNumConstraints() == 0 && world.getSimulationIslandManager()->getSplitIslands();
 }
 
-void IslandGroup::gather(btDiscreteDynamicsWorld& world, ManifoldOrder order) {
+void IslandGroup::gather(btDiscreteDynamicsWorld& world) {
   wakeAndSleepIslands(world);
-  gatherManifolds(world, order);
-  gatherIslands(world, order);
+  gatherManifolds(world);
+  gatherIslands(world);
 }
 
 // buildIslands' first half: the union-find sorted, then each island's sleep.
@@ -61,7 +61,7 @@ void IslandGroup::wakeAndSleepIslands(btDiscreteDynamicsWorld& world) {
 }
 
 // buildIslands' second half and processIslands' sort.
-void IslandGroup::gatherManifolds(btDiscreteDynamicsWorld& world, ManifoldOrder order) {
+void IslandGroup::gatherManifolds(btDiscreteDynamicsWorld& world) {
   btDispatcher& dispatcher = *world.getDispatcher();
   const bool deterministic = world.getDispatchInfo().m_deterministicOverlappingPairs;
   keyed_.resize(0);
@@ -86,7 +86,6 @@ void IslandGroup::gatherManifolds(btDiscreteDynamicsWorld& world, ManifoldOrder 
     keyed_.push_back({islandOf(*manifold), first->getBroadphaseHandle()->m_uniqueId,
                       second->getBroadphaseHandle()->m_uniqueId, manifold});
   }
-  if (order == ManifoldOrder::kDispatchers) return;
   if (deterministic) {
     if (!sortByPackedKeys()) {
       keyed_.quickSort([](const Keyed& lhs, const Keyed& rhs) {
@@ -124,6 +123,7 @@ bool IslandGroup::sortByPackedKeys() {
   const int first_shift = second_bits;
   const int island_shift = first_shift + bits(max_first);
   if (island_shift + bits(max_island) > 64) return false;
+  if (count == 0) return true;
   packed_.resizeNoInitialize(count);
   for (int m = 0; m < count; ++m) {
     const Keyed& keyed = keyed_[m];
@@ -148,15 +148,13 @@ bool IslandGroup::sortByPackedKeys() {
 
 // processIslands' walk: each island with an awake body, its bodies and its
 // run of the sorted manifolds.
-void IslandGroup::gatherIslands(btDiscreteDynamicsWorld& world, ManifoldOrder order) {
+void IslandGroup::gatherIslands(btDiscreteDynamicsWorld& world) {
   btUnionFind& islands = world.getSimulationIslandManager()->getUnionFind();
   btCollisionObjectArray& objects = world.getCollisionObjectArray();
   bodies_.resize(0);
   manifolds_.resize(0);
   const int elements = islands.getNumElements();
   const int count = keyed_.size();
-  const bool bullets = order == ManifoldOrder::kBullets;
-  if (!bullets) island_awake_.assign(static_cast<std::size_t>(elements), 0);
   int next_manifold = 0;
   for (int begin = 0, end = 0; begin < elements; begin = end) {
     const int island = islands.getElement(begin).m_id;
@@ -166,14 +164,6 @@ void IslandGroup::gatherIslands(btDiscreteDynamicsWorld& world, ManifoldOrder or
       btCollisionObject* object = objects[islands.getElement(end).m_sz];
       bodies_.push_back(object);
       if (object->isActive()) sleeping = false;
-    }
-    if (!bullets) {
-      // An island is a union-find root: an element's index.
-      if (!sleeping && island >= 0 && island < elements) {
-        island_awake_[static_cast<std::size_t>(island)] = 1;
-      }
-      if (sleeping) bodies_.resize(first_body);
-      continue;
     }
     int run_end = next_manifold;
     if (next_manifold < count && keyed_[next_manifold].island == island) {
@@ -187,14 +177,6 @@ void IslandGroup::gatherIslands(btDiscreteDynamicsWorld& world, ManifoldOrder or
       for (int m = next_manifold; m < run_end; ++m) manifolds_.push_back(keyed_[m].manifold);
     }
     next_manifold = run_end;
-  }
-  if (bullets) return;
-  // The dispatcher's order: the manifolds of the awake islands, as gathered.
-  for (int m = 0; m < count; ++m) {
-    const int island = keyed_[m].island;
-    if (island >= 0 && island < elements && island_awake_[static_cast<std::size_t>(island)] != 0) {
-      manifolds_.push_back(keyed_[m].manifold);
-    }
   }
 }
 

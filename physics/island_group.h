@@ -16,8 +16,12 @@
 //   with Bullet's conditions (contacts, a body awake, a response), and
 //   sorted by Bullet's own quickSort (btAlignedObjectArray::quickSort) on
 //   Bullet's deterministic key (island, first body's proxy id, second's):
-//   the key is read once per manifold, and the same comparisons on the same
-//   sequence give the same permutation, ties included.
+//   the key is read once per manifold and packed into one integer, and the
+//   same comparisons on the same sequence give the same permutation, ties
+//   included.  Where no two keys tie (CCD's predictive manifolds share
+//   their pair's key), the order depends on the pairs alone, not on the
+//   dispatcher's manifold array (whose releases swap): every broadphase that
+//   finds the same pairs gives the same physics, with either solver.
 // - The bodies are in Bullet's order: island after island, each island's
 //   in the union-find's order, every body of an island with an awake body.
 // - One group solves to the bits of Bullet's batches: no two islands share
@@ -30,10 +34,6 @@
 //   This holds for Bullet's serial solver and for the coloured one unsplit;
 //   split, the coloured solver's regions halve the group's bodies, islands
 //   together (physics/coloured_solver.h), so its order is the group's own.
-// - In the dispatcher's order (ManifoldOrder::kDispatchers) the manifolds
-//   are those of Bullet's order, unsorted: the sort was the solver stage's
-//   largest serial part at 3500 boxes, and a solver whose order is its own
-//   needs only one that no thread count changes.
 // - Not modelled, so the caller runs Bullet's path: joints
 //   (btTypedConstraint, none in the scenes) and unsplit islands.
 #pragma once
@@ -41,26 +41,18 @@
 #include <btBulletDynamicsCommon.h>
 
 #include <cstdint>
-#include <vector>
 
 namespace overlap::physics {
 
 class IslandGroup {
  public:
-  // The order of the group's manifolds: Bullet's (its sort by island and
-  // bodies), or the dispatcher's, filtered alike, for a solver whose order
-  // is its own and only needs one that no thread count changes (the
-  // coloured solver: physics/coloured_solver.h).  The bodies are in
-  // Bullet's order either way.
-  enum class ManifoldOrder { kBullets, kDispatchers };
-
   // Whether gather() models `world`'s islands (see the rules above).
   static bool models(btDiscreteDynamicsWorld& world);
 
   // Bullet's buildIslands and processIslands on `world`, after its
   // calculateSimulationIslands, with the solver's group gathered instead of
   // handed to the island callback.  Call once a substep.
-  void gather(btDiscreteDynamicsWorld& world, ManifoldOrder order = ManifoldOrder::kBullets);
+  void gather(btDiscreteDynamicsWorld& world);
 
   btCollisionObject** bodies() { return bodies_.size() == 0 ? nullptr : &bodies_[0]; }
   int bodyCount() const { return bodies_.size(); }
@@ -86,12 +78,11 @@ class IslandGroup {
   // keyed_ sorted as Bullet's quickSort sorts it, through packed keys, when
   // they fit in 64 bits; false (keyed_ untouched) otherwise.
   bool sortByPackedKeys();
-  void gatherManifolds(btDiscreteDynamicsWorld& world, ManifoldOrder order);
-  void gatherIslands(btDiscreteDynamicsWorld& world, ManifoldOrder order);
+  void gatherManifolds(btDiscreteDynamicsWorld& world);
+  void gatherIslands(btDiscreteDynamicsWorld& world);
 
   btAlignedObjectArray<Keyed> keyed_;
   btAlignedObjectArray<Packed> packed_;
-  std::vector<char> island_awake_;  // per island id, in the dispatcher's order
   btAlignedObjectArray<btCollisionObject*> bodies_;
   btAlignedObjectArray<btPersistentManifold*> manifolds_;
 };

@@ -8,7 +8,6 @@
 #include "gpu/base/stopwatch.h"
 #include "physics/broadphase/ccd_query_broadphase.h"
 #include "physics/broadphase/pair_finder_broadphase.h"
-#include "physics/coloured_solver.h"
 #include "physics/parallel_dispatcher.h"
 
 namespace overlap::physics {
@@ -328,11 +327,7 @@ void TimedDynamicsWorld::solveIslands() {
   }
   btContactSolverInfo& info = getSolverInfo();
   m_constraintSolver->prepareSolve(getNumCollisionObjects(), m_dispatcher1->getNumManifolds());
-  // The coloured solver's order is its own: it needs no sort.
-  const auto* coloured = dynamic_cast<const ColouredConstraintSolver*>(m_constraintSolver);
-  island_group_.gather(*this, coloured != nullptr && coloured->ordersItsOwnManifolds()
-                                  ? IslandGroup::ManifoldOrder::kDispatchers
-                                  : IslandGroup::ManifoldOrder::kBullets);
+  island_group_.gather(*this);
   // The solver writes the velocities the record reads.
   awaitNarrowphaseRecord();
   m_constraintSolver->solveGroup(island_group_.bodies(), island_group_.bodyCount(),

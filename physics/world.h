@@ -44,14 +44,13 @@ struct WorldOptions {
   CcdMode ccd = CcdMode::kAuto;  // Bullet's swept-sphere CCD: none, chooseCcdBodies(), every box
   SleepMode sleep = SleepMode::kScene;    // Bullet's deactivation, sleepAllowed()
   SolverMode solver = SolverMode::kPile;  // Bullet's contact solver, solverSettings()
-  // The contact solver's sweep: coloured batches on the task system, or
-  // Bullet's serial solver (physics/coloured_solver.h).
-  // Serial by default: on this project's 2-core machine it is the faster on
-  // one thread and level with the coloured sweep on two
-  // (docs/results/thread_scaling.csv); the coloured sweep is for more cores,
-  // not measured yet.  A pile sleeps with either order
-  // (docs/results/solver_order_sleep.csv).
-  SolverOrder solver_order = SolverOrder::kSerial;
+  // The contact solver's sweep: batches on the task system, or Bullet's
+  // serial solver (physics/coloured_solver.h).  Coloured by default: on
+  // this project's 2-core machine the two take the same time on one thread
+  // and the coloured sweep the less on two (docs/results/thread_scaling.csv);
+  // its error next to Bullet's is in docs/results/solver_order_error.md, and
+  // a pile sleeps with either order (docs/results/solver_order_sleep.csv).
+  SolverOrder solver_order = SolverOrder::kColoured;
   // The threads the step's parallel parts and a CPU search run on; it must
   // outlive the world.  Null: defaultTaskSystem().
   TaskSystem* tasks = nullptr;

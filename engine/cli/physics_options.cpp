@@ -59,9 +59,9 @@ void PhysicsOptions::addTo(CLI::App& command, bool substeps_only) {
       ->capture_default_str();
   command
       .add_option("--solver-order", solver_order_,
-                  "the contact solver's sweep: coloured (colour after colour, each colour on "
-                  "every thread; the same state for any --threads) or serial (Bullet's own, in "
-                  "manifold order)")
+                  "the contact solver's sweep: coloured (regions of boxes in batches, a batch's "
+                  "regions on every thread; the same state for any --threads) or serial "
+                  "(Bullet's own, in manifold order, on one thread)")
       ->check(parsedBy(physics::parseSolverOrder, "coloured|serial"))
       ->capture_default_str();
   command

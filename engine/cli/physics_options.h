@@ -36,7 +36,7 @@ class PhysicsOptions {
   std::string ccd_ = "auto";
   std::string sleep_ = "scene";
   std::string solver_ = "pile";
-  std::string solver_order_ = "serial";
+  std::string solver_order_ = "coloured";
   std::string narrowphase_ = "beside-search";
 };
 

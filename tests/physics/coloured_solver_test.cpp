@@ -99,10 +99,9 @@ TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
 // The world solves with the coloured solver unless told otherwise, and with
 // Bullet's serial one when told: the two sweep in different orders, so
 // their piles differ, both finite and contained.
-TEST(ColouredSolver, IsSelectableBesideTheSerialDefault) {
+TEST(ColouredSolver, IsTheDefaultAndBulletsSerialSolverIsSelectable) {
   const SceneConfig config = smallScene(4, 300);
-  WorldOptions coloured_options{"cpusap"};
-  coloured_options.solver_order = SolverOrder::kColoured;
+  const WorldOptions coloured_options{"cpusap"};
   PhysicsWorld coloured(config, coloured_options);
   WorldOptions serial_options{"cpusap"};
   serial_options.solver_order = SolverOrder::kSerial;

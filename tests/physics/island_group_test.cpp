@@ -1,15 +1,13 @@
 // Bullet's islands solved as one group (physics/island_group.h): the world
 // steps to the bits of Bullet's own btDiscreteDynamicsWorld, whose island
 // callback solves them in batches, with Bullet's serial solver and with the
-// coloured one unsplit, through islands that fall asleep, wake, and are
-// woken by a kinematic body; in the dispatcher's order the group holds the
-// same manifolds.
+// coloured one unsplit (split, its regions span islands), through islands
+// that fall asleep, wake, and are woken by a kinematic body.
 #include "physics/island_group.h"
 
 #include <btBulletDynamicsCommon.h>
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <memory>
@@ -157,43 +155,6 @@ INSTANTIATE_TEST_SUITE_P(Solvers, IslandGroupTest,
                                                   ? "BulletsSerialSolver"
                                                   : "UnsplitColouredSolver");
                          });
-
-// The dispatcher's order (the coloured solver's) gathers Bullet's bodies and
-// manifolds, the manifolds in the dispatcher's order, step after step
-// through sleep and waking.  (A second gather of one step's islands finds
-// what the first found: its sleep and waking are done.)
-TEST(IslandGroup, TheDispatchersOrderHoldsBulletsManifoldsInThatOrder) {
-  World world(false, Solver::kBullet);
-  int compared = 0;
-  for (int step = 0; step < 400; ++step) {
-    world.step(step);
-    IslandGroup bullets;
-    bullets.gather(*world.world, IslandGroup::ManifoldOrder::kBullets);
-    IslandGroup dispatchers;
-    dispatchers.gather(*world.world, IslandGroup::ManifoldOrder::kDispatchers);
-    const auto sorted = [](auto** items, int count) {
-      std::vector<const void*> all(items, items + count);
-      std::sort(all.begin(), all.end());
-      return all;
-    };
-    ASSERT_EQ(sorted(bullets.bodies(), bullets.bodyCount()),
-              sorted(dispatchers.bodies(), dispatchers.bodyCount()))
-        << "step " << step;
-    ASSERT_EQ(sorted(bullets.manifolds(), bullets.manifoldCount()),
-              sorted(dispatchers.manifolds(), dispatchers.manifoldCount()))
-        << "step " << step;
-    btDispatcher& dispatcher = *world.world->getDispatcher();
-    int last = -1;
-    for (int m = 0; m < dispatchers.manifoldCount(); ++m) {
-      int index = 0;
-      while (dispatcher.getManifoldByIndexInternal(index) != dispatchers.manifolds()[m]) ++index;
-      ASSERT_GT(index, last) << "step " << step << ": manifold " << m << " out of order";
-      last = index;
-    }
-    compared += dispatchers.manifoldCount() > 1;
-  }
-  EXPECT_GT(compared, 100);
-}
 
 }  // namespace
 }  // namespace overlap::physics
