@@ -176,14 +176,16 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // serial pass may convert (a kinematic body, or a moving one outside the
   // group's bodies).
   void collectManifolds(btPersistentManifold** manifolds, std::size_t first, std::size_t end);
-  // The serial pass: the regions, each manifold's piece and first row, then
-  // the batches and the pieces' fixed-body copies.
+  // The serial pass: the solver bodies left for it and their manifolds'
+  // buckets, then the batches, each manifold's place and first row, and the
+  // pieces' fixed-body copies.
   void batchManifolds(btPersistentManifold** manifolds, int numManifolds,
                       const btContactSolverInfo& info);
   // The row pools sized for the batches (room to spare, as Bullet's Mt
   // solver keeps, so that a growing pile does not reallocate every substep).
   void sizeRowPools(int contacts, int rolling_rows);
-  // body_region_ for the moving bodies: kRegionLevels halvings.
+  // body_region_ for the moving bodies, and batches_.regions: up to
+  // kRegionLevels halvings, while a region keeps kBodiesPerRegion.
   void splitRegions();
   // Manifold m's bucket (and no rows between two bodies that cannot move),
   // once both its bodies have solver bodies; each manifold writes its own.
@@ -228,8 +230,8 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
     int first;  // the manifold's first contact row
     int rows;
   };
-  std::vector<RowRange> rows_;    // piece order: each manifold's contact rows
-  std::vector<int> bucket_;       // per group manifold: its bucket, -1 for none
+  std::vector<RowRange> rows_;  // piece order: each manifold's contact rows
+  std::vector<int> bucket_;     // per group manifold: its bucket, -1 for none, -2 until classified
   std::vector<int> body_region_;  // per solver body: its region, -1 for none
   struct RegionKey {
     btVector3 origin;

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "physics/world.h"
 #include "tests/physics/thread_count_states.h"
@@ -94,6 +95,25 @@ TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
   ContactBatches gap = batches;
   gap.piece_begin = {0, 2, 3, 3};
   EXPECT_NE(batchProblem(gap).find("do not cover"), std::string::npos);
+}
+
+// The splits stop while a region keeps kBodiesPerRegion bodies: one region
+// for a small pile (Bullet's order), more as the pile grows, and the regions
+// are the moving bodies split in equal halves.
+TEST(ColouredSolver, RegionsKeepTheFewestBodiesARegion) {
+  for (const auto& [objects, regions] : {std::pair{150, 1}, {450, 2}, {850, 4}}) {
+    WorldOptions options{"cpusap"};
+    PhysicsWorld world(smallScene(4, objects), options);
+    const ColouredConstraintSolver* solver = colouredSolverOf(world);
+    ASSERT_NE(solver, nullptr);
+    world.stepFrame();
+    EXPECT_EQ(solver->lastBatches().regions, regions) << objects << " boxes";
+    if (regions > 1) {
+      EXPECT_GE(solver->lastBatches().moving_bodies,
+                regions * ColouredConstraintSolver::kBodiesPerRegion)
+          << objects << " boxes";
+    }
+  }
 }
 
 // The world solves with the coloured solver unless told otherwise, and with
