@@ -189,7 +189,7 @@ std::int32_t totalOrderKey(btScalar value) {
 
 }  // namespace
 
-void ColouredConstraintSolver::splitRegions() {
+int ColouredConstraintSolver::splitRegions() {
   const int moving = m_fixedBodyId;
   region_keys_.resize(static_cast<std::size_t>(moving));
   crew_->forEachPiece(
@@ -210,7 +210,7 @@ void ColouredConstraintSolver::splitRegions() {
   // to kRegionLevels: a smaller pile's regions would be a few boxes each.
   int levels = 0;
   while (levels < kRegionLevels && (moving >> (levels + 1)) >= kBodiesPerRegion) ++levels;
-  batches_.regions = 1 << levels;
+  const int regions = 1 << levels;
   for (int level = 0; level < levels; ++level) {
     const std::size_t parts = part_begin_.size() - 1;
     crew_->forEachPiece(parts, 1, [this](std::size_t first, std::size_t end) {
@@ -244,13 +244,14 @@ void ColouredConstraintSolver::splitRegions() {
   }
   // Part p is region p << (kRegionLevels - levels): the splits not made
   // leave no manifold across them.
-  for (int part = 0; part < batches_.regions; ++part) {
+  for (int part = 0; part < regions; ++part) {
     for (int i = part_begin_[static_cast<std::size_t>(part)];
          i < part_begin_[static_cast<std::size_t>(part) + 1]; ++i) {
       body_region_[static_cast<std::size_t>(region_keys_[static_cast<std::size_t>(i)].body)] =
           part << (kRegionLevels - levels);
     }
   }
+  return regions;
 }
 
 int ColouredConstraintSolver::bucketOf(int a, int b) const {
@@ -303,7 +304,6 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   batches_.first_kinematic = m_fixedBodyId + 1;
   batches_.first_copy = bodies;
   const bool split = split_ == Split::kRegions;
-  if (!split) batches_.regions = 0;
   const int buckets = split ? kBuckets : 1;
 
   bucket_fill_.assign(static_cast<std::size_t>(buckets), 0);
@@ -422,7 +422,7 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
   m_manifoldCachedInfoArray.resizeNoInitialize(numManifolds);
   piece_unconverted_.assign(pieceCount(count, kItemsPerPiece), 0);
   body_region_.assign(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), -1);
-  if (split_ == Split::kRegions) splitRegions();
+  batches_.regions = split_ == Split::kRegions ? splitRegions() : 0;
   bucket_.resize(count);
   crew_->forEachPiece(count, kItemsPerPiece, [this, manifolds](std::size_t first, std::size_t end) {
     collectManifolds(manifolds, first, end);

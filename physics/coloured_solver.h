@@ -184,9 +184,9 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // The row pools sized for the batches (room to spare, as Bullet's Mt
   // solver keeps, so that a growing pile does not reallocate every substep).
   void sizeRowPools(int contacts, int rolling_rows);
-  // body_region_ for the moving bodies, and batches_.regions: up to
-  // kRegionLevels halvings, while a region keeps kBodiesPerRegion.
-  void splitRegions();
+  // body_region_ for the moving bodies: up to kRegionLevels halvings, while
+  // a region keeps kBodiesPerRegion.  Returns the regions made.
+  int splitRegions();
   // Manifold m's bucket (and no rows between two bodies that cannot move),
   // once both its bodies have solver bodies; each manifold writes its own.
   void classify(int m);
