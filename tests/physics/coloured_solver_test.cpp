@@ -62,7 +62,7 @@ TEST(ColouredSolver, NoBatchSharesAMovingBodyOrWritesTheFixedBodyFromTwoPieces) 
 }
 
 // The check itself finds each breach.
-TEST(ColouredSolver, ColouringCheckFindsEachBreach) {
+TEST(ColouredSolver, BatchCheckFindsEachBreach) {
   ContactBatches batches;
   batches.moving_bodies = 10;
   batches.fixed_body = 10;
