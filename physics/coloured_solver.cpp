@@ -146,8 +146,14 @@ void ColouredConstraintSolver::collectManifolds(btPersistentManifold** manifolds
     const int b = cached.solverBodyIds[1];
     if (a != kUnconverted && b != kUnconverted) classify(static_cast<int>(m));
   }
-  if (unconverted) piece_unconverted_[first / kItemsPerPiece] = 1;
+  const std::size_t piece = first / kItemsPerPiece;
+  if (unconverted) {
+    piece_unconverted_[piece] = 1;  // counted once the serial pass has classified it
+  } else {
+    countPiece(piece, first, end);
+  }
 }
+
 
 void ColouredConstraintSolver::classify(int m) {
   btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
@@ -254,6 +260,20 @@ int ColouredConstraintSolver::splitRegions() {
   return regions;
 }
 
+void ColouredConstraintSolver::countPiece(std::size_t piece, std::size_t first, std::size_t end) {
+  BucketCount* counts = piece_counts_.data() + piece * kBuckets;
+  std::fill(counts, counts + kBuckets, BucketCount{});
+  for (std::size_t m = first; m < end; ++m) {
+    const int bucket = bucket_[m];
+    if (bucket < 0) continue;
+    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[static_cast<int>(m)];
+    BucketCount& count = counts[bucket];
+    ++count.manifolds;
+    count.rows += cached.numTouchingContacts;
+    count.rolling_rows += rollingRows(cached);
+  }
+}
+
 int ColouredConstraintSolver::bucketOf(int a, int b) const {
   if (split_ == Split::kNone) return 0;
   const auto regionOf = [&](int id) {
@@ -285,6 +305,8 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
                                               const btContactSolverInfo& info) {
   // Kinematic bodies (and any moving body the group left out) get their
   // solver bodies here, in manifold order, as Bullet's serial solver gives them.
+  const auto count = static_cast<std::size_t>(numManifolds);
+  const std::size_t pieces = pieceCount(count, kItemsPerPiece);
   if (std::find(piece_unconverted_.begin(), piece_unconverted_.end(), 1) !=
       piece_unconverted_.end()) {
     for (int m = 0; m < numManifolds; ++m) {
@@ -297,6 +319,10 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
       }
       if (bucket_[static_cast<std::size_t>(m)] == kPending) classify(m);
     }
+    for (std::size_t piece = 0; piece < pieces; ++piece) {
+      if (piece_unconverted_[piece] == 0) continue;
+      countPiece(piece, piece * kItemsPerPiece, std::min(count, (piece + 1) * kItemsPerPiece));
+    }
   }
   const int bodies = m_tmpSolverBodyPool.size();
   batches_.moving_bodies = m_fixedBodyId;
@@ -306,22 +332,21 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   const bool split = split_ == Split::kRegions;
   const int buckets = split ? kBuckets : 1;
 
-  bucket_fill_.assign(static_cast<std::size_t>(buckets), 0);
-  bucket_rows_.assign(static_cast<std::size_t>(buckets), 0);
-  bucket_rolling_rows_.assign(static_cast<std::size_t>(buckets), 0);
-  for (int m = 0; m < numManifolds; ++m) {
-    const int bucket = bucket_[static_cast<std::size_t>(m)];
-    if (bucket < 0) continue;
-    const btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    ++bucket_fill_[static_cast<std::size_t>(bucket)];
-    bucket_rows_[static_cast<std::size_t>(bucket)] += cached.numTouchingContacts;
-    bucket_rolling_rows_[static_cast<std::size_t>(bucket)] += rollingRows(cached);
+  bucket_counts_.assign(static_cast<std::size_t>(buckets), BucketCount{});
+  for (std::size_t piece = 0; piece < pieces; ++piece) {
+    const BucketCount* counts = piece_counts_.data() + piece * kBuckets;
+    for (int bucket = 0; bucket < buckets; ++bucket) {
+      BucketCount& total = bucket_counts_[static_cast<std::size_t>(bucket)];
+      total.manifolds += counts[bucket].manifolds;
+      total.rows += counts[bucket].rows;
+      total.rolling_rows += counts[bucket].rolling_rows;
+    }
   }
 
   // The batches: runs of buckets, each bucket a piece, a batch with no
   // manifold left out.  Each bucket's manifolds and rows follow the last
   // bucket's, so that a sweep walks the row pools from front to back; the
-  // bucket counts become the scatter cursors.
+  // bucket counts become the buckets' starts.
   std::vector<int>& piece_begin = batches_.piece_begin;
   std::vector<int>& batch_piece = batches_.batch_piece;
   piece_begin.clear();
@@ -334,7 +359,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   const auto addBatch = [&](int first_bucket, int end_bucket) {
     int size = 0;
     for (int bucket = first_bucket; bucket < end_bucket; ++bucket) {
-      size += bucket_fill_[static_cast<std::size_t>(bucket)];
+      size += bucket_counts_[static_cast<std::size_t>(bucket)].manifolds;
     }
     if (size == 0) return;
     batch_piece.push_back(static_cast<int>(piece_begin.size()));
@@ -342,9 +367,10 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
       const auto i = static_cast<std::size_t>(bucket);
       batch_of_bucket_[i] = first_bucket;
       piece_begin.push_back(position);
-      position += std::exchange(bucket_fill_[i], position);
-      row_begin += std::exchange(bucket_rows_[i], row_begin);
-      rolling_begin += std::exchange(bucket_rolling_rows_[i], rolling_begin);
+      BucketCount& total = bucket_counts_[i];
+      position += std::exchange(total.manifolds, position);
+      row_begin += std::exchange(total.rows, row_begin);
+      rolling_begin += std::exchange(total.rolling_rows, rolling_begin);
     }
     copies = std::max(copies, end_bucket - first_bucket);
   };
@@ -368,33 +394,51 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   batches_.copies = copies;
   batches_made_ += batches_.batches();
 
-  // Scatter in manifold order; a row against a static body names its
-  // piece's copy of the fixed body (the piece's place in its batch).
+  // Each collect piece's cursors: its bucket's start, after the earlier
+  // pieces' manifolds and rows there.
+  for (int bucket = 0; bucket < buckets; ++bucket) {
+    BucketCount next = bucket_counts_[static_cast<std::size_t>(bucket)];
+    for (std::size_t piece = 0; piece < pieces; ++piece) {
+      BucketCount& counts = piece_counts_[piece * kBuckets + static_cast<std::size_t>(bucket)];
+      const BucketCount own = std::exchange(counts, next);
+      next.manifolds += own.manifolds;
+      next.rows += own.rows;
+      next.rolling_rows += own.rolling_rows;
+    }
+  }
   rows_.resize(static_cast<std::size_t>(position));
   batches_.manifolds.resize(static_cast<std::size_t>(position));
-  for (int m = 0; m < numManifolds; ++m) {
-    const int bucket = bucket_[static_cast<std::size_t>(m)];
-    if (bucket < 0) continue;
-    const auto i = static_cast<std::size_t>(bucket);
-    const int place = bucket_fill_[i]++;
-    btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
-    cached.contactIndex = bucket_rows_[i];
-    bucket_rows_[i] += cached.numTouchingContacts;
-    cached.rollingFrictionIndex = bucket_rolling_rows_[i];
-    bucket_rolling_rows_[i] += rollingRows(cached);
-    const int copy = bucket - batch_of_bucket_[i];
-    for (int& id : cached.solverBodyIds) {
-      if (id == m_fixedBodyId) id = batches_.first_copy + copy;
-    }
-    rows_[static_cast<std::size_t>(place)] = {cached.contactIndex, cached.numTouchingContacts};
-    batches_.manifolds[static_cast<std::size_t>(place)] = {cached.solverBodyIds[0],
-                                                           cached.solverBodyIds[1]};
-  }
+  crew_->forEachPiece(count, kItemsPerPiece, [this](std::size_t first, std::size_t end) {
+    scatterPiece(first / kItemsPerPiece, first, end);
+  });
   for (int copy = 0; copy < copies; ++copy) {
     initSolverBody(&m_tmpSolverBodyPool.expand(), nullptr, info.m_timeStep);
   }
   piece_residual_.resize(static_cast<std::size_t>(std::max(copies, 1)));
   sizeRowPools(row_begin, rolling_begin);
+}
+
+// A row against a static body names its piece's copy of the fixed body
+// (the piece's place in its batch).
+void ColouredConstraintSolver::scatterPiece(std::size_t piece, std::size_t first, std::size_t end) {
+  BucketCount* cursors = piece_counts_.data() + piece * kBuckets;
+  for (std::size_t m = first; m < end; ++m) {
+    const int bucket = bucket_[m];
+    if (bucket < 0) continue;
+    BucketCount& cursor = cursors[bucket];
+    btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[static_cast<int>(m)];
+    const auto place = static_cast<std::size_t>(cursor.manifolds++);
+    cached.contactIndex = cursor.rows;
+    cursor.rows += cached.numTouchingContacts;
+    cached.rollingFrictionIndex = cursor.rolling_rows;
+    cursor.rolling_rows += rollingRows(cached);
+    const int copy = bucket - batch_of_bucket_[static_cast<std::size_t>(bucket)];
+    for (int& id : cached.solverBodyIds) {
+      if (id == m_fixedBodyId) id = batches_.first_copy + copy;
+    }
+    rows_[place] = {cached.contactIndex, cached.numTouchingContacts};
+    batches_.manifolds[place] = {cached.solverBodyIds[0], cached.solverBodyIds[1]};
+  }
 }
 
 void ColouredConstraintSolver::sizeRowPools(int contacts, int rolling_rows) {
@@ -421,6 +465,7 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
   }
   m_manifoldCachedInfoArray.resizeNoInitialize(numManifolds);
   piece_unconverted_.assign(pieceCount(count, kItemsPerPiece), 0);
+  piece_counts_.resize(pieceCount(count, kItemsPerPiece) * kBuckets);
   body_region_.assign(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), -1);
   batches_.regions = split_ == Split::kRegions ? splitRegions() : 0;
   bucket_.resize(count);

@@ -176,11 +176,17 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // serial pass may convert (a kinematic body, or a moving one outside the
   // group's bodies).
   void collectManifolds(btPersistentManifold** manifolds, std::size_t first, std::size_t end);
-  // The serial pass: the solver bodies left for it and their manifolds'
-  // buckets, then the batches, each manifold's place and first row, and the
-  // pieces' fixed-body copies.
+  // Collect piece `piece`'s manifolds [first, end) counted by bucket.
+  void countPiece(std::size_t piece, std::size_t first, std::size_t end);
+  // The solver bodies left for the serial pass and their manifolds' buckets;
+  // the batches from the buckets' counts (serial); then each manifold's place
+  // and first row (a collect piece at a time, on the crew: each piece starts
+  // at its own cursors, so the places are those of one pass in manifold
+  // order); the pieces' fixed-body copies.
   void batchManifolds(btPersistentManifold** manifolds, int numManifolds,
                       const btContactSolverInfo& info);
+  // Collect piece `piece`'s manifolds [first, end) put in their places.
+  void scatterPiece(std::size_t piece, std::size_t first, std::size_t end);
   // The row pools sized for the batches (room to spare, as Bullet's Mt
   // solver keeps, so that a growing pile does not reallocate every substep).
   void sizeRowPools(int contacts, int rolling_rows);
@@ -238,15 +244,21 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
     std::array<std::int32_t, 3> key;  // origin's coordinates, in IEEE-754's total order
     int body;
   };
-  std::vector<RegionKey> region_keys_;    // the moving bodies, as the region split orders them
-  std::vector<int> part_begin_;           // the split's parts of region_keys_ at one level
-  std::vector<int> part_halves_;          // the next level's
-  std::vector<int> bucket_fill_;          // per bucket: its count, then the scatter cursor
-  std::vector<int> bucket_rows_;          // per bucket: its contact rows, then their cursor
-  std::vector<int> bucket_rolling_rows_;  // per bucket: its rolling-friction rows, likewise
-  std::vector<int> batch_of_bucket_;      // per bucket: its batch's first bucket
-  std::vector<btScalar> piece_residual_;  // per piece of the running sweep
-  std::vector<char> piece_unconverted_;   // per collect piece: a body left for the serial pass
+  std::vector<RegionKey> region_keys_;  // the moving bodies, as the region split orders them
+  std::vector<int> part_begin_;         // the split's parts of region_keys_ at one level
+  std::vector<int> part_halves_;        // the next level's
+  // Manifolds, contact rows and rolling-friction rows: counts, then the
+  // places where the next of them go.
+  struct BucketCount {
+    int manifolds = 0;
+    int rows = 0;
+    int rolling_rows = 0;
+  };
+  std::vector<BucketCount> piece_counts_;   // per collect piece, kBuckets each: its own
+  std::vector<BucketCount> bucket_counts_;  // per bucket: the pieces' sum, then its start
+  std::vector<int> batch_of_bucket_;        // per bucket: its batch's first bucket
+  std::vector<btScalar> piece_residual_;    // per piece of the running sweep
+  std::vector<char> piece_unconverted_;     // per collect piece: a body left for the serial pass
   std::int64_t batches_made_ = 0;
 };
 
