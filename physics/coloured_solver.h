@@ -74,7 +74,7 @@
 //
 // Thread use: solveGroup runs on its caller and on the task system's
 // threads, which a crew holds for the call (physics/task_crew.h: the loops
-// are opened and joined by atomics, six a sweep); one solver serves one
+// are opened and joined by atomics, one a batch); one solver serves one
 // world.  With two threads, each runs the contiguous half of a batch's
 // pieces first: the first split's halves.
 #pragma once
