@@ -154,7 +154,6 @@ void ColouredConstraintSolver::collectManifolds(btPersistentManifold** manifolds
   }
 }
 
-
 void ColouredConstraintSolver::classify(int m) {
   btContactManifoldCachedInfo& cached = m_manifoldCachedInfoArray[m];
   const int a = cached.solverBodyIds[0];
@@ -336,10 +335,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   for (std::size_t piece = 0; piece < pieces; ++piece) {
     const BucketCount* counts = piece_counts_.data() + piece * kBuckets;
     for (int bucket = 0; bucket < buckets; ++bucket) {
-      BucketCount& total = bucket_counts_[static_cast<std::size_t>(bucket)];
-      total.manifolds += counts[bucket].manifolds;
-      total.rows += counts[bucket].rows;
-      total.rolling_rows += counts[bucket].rolling_rows;
+      bucket_counts_[static_cast<std::size_t>(bucket)].add(counts[bucket]);
     }
   }
 
@@ -400,10 +396,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
     BucketCount next = bucket_counts_[static_cast<std::size_t>(bucket)];
     for (std::size_t piece = 0; piece < pieces; ++piece) {
       BucketCount& counts = piece_counts_[piece * kBuckets + static_cast<std::size_t>(bucket)];
-      const BucketCount own = std::exchange(counts, next);
-      next.manifolds += own.manifolds;
-      next.rows += own.rows;
-      next.rolling_rows += own.rolling_rows;
+      next.add(std::exchange(counts, next));
     }
   }
   rows_.resize(static_cast<std::size_t>(position));

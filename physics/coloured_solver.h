@@ -253,6 +253,11 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
     int manifolds = 0;
     int rows = 0;
     int rolling_rows = 0;
+    void add(const BucketCount& other) {
+      manifolds += other.manifolds;
+      rows += other.rows;
+      rolling_rows += other.rolling_rows;
+    }
   };
   std::vector<BucketCount> piece_counts_;   // per collect piece, kBuckets each: its own
   std::vector<BucketCount> bucket_counts_;  // per bucket: the pieces' sum, then its start
