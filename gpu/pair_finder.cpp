@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "gpu/base/shown_value.h"
 #include "gpu/base/stopwatch.h"
 
 namespace overlap::finders {
@@ -79,7 +80,7 @@ const PairFinderRow& pairFinderRow(std::string_view name, std::span<const PairFi
   for (const PairFinderRow& row : table) {
     if (row.name == name) return row;
   }
-  throw std::invalid_argument("pair finder: unknown name '" + std::string(name) + "'");
+  throw std::invalid_argument("pair finder: unknown name '" + shownValue(name) + "'");
 }
 
 std::unique_ptr<PairFinder> makePairFinder(std::string_view name, TaskSystem& tasks,

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "gpu/base/shown_value.h"
+
 namespace overlap::physics {
 namespace {
 
@@ -42,7 +44,7 @@ Mode parseMode(const NamedMode<Mode> (&table)[N], const std::string& text) {
     if (text == entry.name) return entry.mode;
     names += (names.empty() ? "" : ", ") + std::string(entry.name);
   }
-  throw std::invalid_argument("'" + text + "' is not one of " + names);
+  throw std::invalid_argument("'" + shownValue(text) + "' is not one of " + names);
 }
 
 template <typename Mode, std::size_t N>
@@ -65,7 +67,7 @@ int parseSubsteps(const std::string& text) {
   const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), k);
   if (error != std::errc() || end != digits.data() + digits.size() || digits.empty() ||
       digits[0] == '0' || k < 1 || k > kMostSubsteps) {
-    throw std::invalid_argument("'" + text + "' is neither auto nor a K in 1.." +
+    throw std::invalid_argument("'" + shownValue(text) + "' is neither auto nor a K in 1.." +
                                 std::to_string(kMostSubsteps));
   }
   return k;

@@ -10,6 +10,7 @@
 #include "engine/program/program_runner.h"
 #include "engine/program/usage_error.h"
 #include "gpu/base/interrupt.h"
+#include "gpu/base/shown_value.h"
 #include "overlap_build_info.h"
 
 namespace overlap::engine {
@@ -43,7 +44,7 @@ void requireKnownSubcommand(const CLI::App& app, int argc, char** argv) {
   }
   if (argc < 2) throw UsageError("a subcommand is required: " + names + " (see --help)");
   if (argv[1][0] != '-' && !known) {
-    throw UsageError("unknown subcommand '" + std::string(argv[1]) + "'; the subcommands are " +
+    throw UsageError("unknown subcommand '" + shownValue(argv[1]) + "'; the subcommands are " +
                      names + " (see --help)");
   }
 }
@@ -55,7 +56,7 @@ void refuseWordsBesideListAlgos(int argc, char** argv) {
   if (std::find(words.begin(), words.end(), "--list-algos") == words.end()) return;
   for (const std::string_view word : words) {
     if (word != "--list-algos" && word != "--json") {
-      throw UsageError("--list-algos takes nothing but --json; '" + std::string(word) +
+      throw UsageError("--list-algos takes nothing but --json; '" + shownValue(word) +
                        "' would be ignored");
     }
   }

@@ -9,6 +9,7 @@
 #include "engine/cli/frame_capture.h"
 #include "engine/cli/physics_options.h"
 #include "engine/cli/world_setup.h"
+#include "engine/program/choice_options.h"
 #include "engine/program/list_options.h"
 #include "engine/program/number_options.h"
 #include "engine/program/option_conflicts.h"
@@ -99,7 +100,7 @@ void addCaptureCommand(CLI::App& app) {
   // The name this option had before run and capture agreed on one; hidden.
   options->old_size_option = command->add_option("--size", options->size)->group("");
   command->add_option("--colour", options->colour, "colour boxes by size class or by contact")
-      ->check(CLI::IsMember({"size", "contact"}))
+      ->check(oneOf({"size", "contact"}))
       ->capture_default_str();
   addAlgorithmOption(*command, options->algorithm);
   options->physics.addTo(*command);

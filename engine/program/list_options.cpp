@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <string_view>
 
+#include "gpu/base/shown_value.h"
+
 namespace overlap::engine {
 namespace {
 
@@ -31,7 +33,7 @@ T converted(const std::string& text) {
 }
 
 template <typename T>
-std::string shownValue(const T& value) {
+std::string defaultText(const T& value) {
   if constexpr (std::is_same_v<T, std::string>) {
     return value;
   } else {
@@ -53,7 +55,7 @@ std::vector<T> parseList(const std::string& option, const std::vector<std::strin
       std::string entry(trimmed(rest.substr(0, comma)));
       if (entry.empty()) {
         throw CLI::ValidationError(shownName(option),
-                                   "\"" + text +
+                                   "\"" + shownValue(text) +
                                        "\" has an empty item (items are separated by "
                                        "single commas)");
       }
@@ -63,9 +65,10 @@ std::vector<T> parseList(const std::string& option, const std::vector<std::strin
       const T value = converted<T>(entry);
       if (const auto same = std::find(values.begin(), values.end(), value); same != values.end()) {
         const std::string& first = given[static_cast<std::size_t>(same - values.begin())];
-        throw CLI::ValidationError(
-            shownName(option),
-            entry + (entry == first ? "" : " (" + first + ")") + " is listed twice");
+        throw CLI::ValidationError(shownName(option),
+                                   shownValue(entry) +
+                                       (entry == first ? "" : " (" + shownValue(first) + ")") +
+                                       " is listed twice");
       }
       values.push_back(value);
       given.push_back(entry);
@@ -80,7 +83,7 @@ template <typename T>
 CLI::Option* addListOption(CLI::App& command, const std::string& name, std::vector<T>& values,
                            CLI::Validator item, const std::string& description) {
   std::string shown;
-  for (const T& value : values) shown += (shown.empty() ? "" : ",") + shownValue(value);
+  for (const T& value : values) shown += (shown.empty() ? "" : ",") + defaultText(value);
   CLI::Option* option = command.add_option_function<std::vector<std::string>>(
       name,
       [&values, name, item](const std::vector<std::string>& texts) {

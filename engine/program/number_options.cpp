@@ -11,6 +11,8 @@
 #include <string_view>
 #include <type_traits>
 
+#include "gpu/base/shown_value.h"
+
 namespace overlap::engine {
 namespace {
 
@@ -18,14 +20,6 @@ std::string shown(double value) {
   char text[32];
   std::snprintf(text, sizeof(text), "%g", value);
   return text;
-}
-
-// A value as a message shows it: cut short past 40 characters, with its
-// length, so a refusal stays one readable line.
-std::string shownValue(const std::string& text) {
-  constexpr std::size_t kMostShown = 40;
-  if (text.size() <= kMostShown) return text;
-  return text.substr(0, kMostShown / 2) + "... (" + std::to_string(text.size()) + " characters)";
 }
 
 // The numbers' spellings, read by hand: std::regex matches recursively, a

@@ -13,6 +13,7 @@
 
 #include "engine/program/usage_error.h"
 #include "gpu/base/interrupt.h"
+#include "gpu/base/shown_value.h"
 #include "gpu/base/standard_streams.h"
 
 namespace overlap::engine {
@@ -37,6 +38,32 @@ std::string oneLine(std::string_view message) {
 
 namespace {
 
+// CLI11's list of the words nobody took ("The following arguments were not
+// expected: a b"), each word as shownValue shows it and the first few only:
+// the words are the user's, of any length and number.
+std::string extrasText(const std::string& text) {
+  constexpr std::string_view kListStart = "expected: ";
+  constexpr int kMostListed = 4;
+  const std::size_t start = text.find(kListStart);
+  if (start == std::string::npos) return text;
+  std::string shown = text.substr(0, start + kListStart.size());
+  std::string_view rest = std::string_view(text).substr(start + kListStart.size());
+  int listed = 0;
+  int left = 0;
+  while (!rest.empty()) {
+    const std::size_t space = rest.find(' ');
+    const std::string_view word = rest.substr(0, space);
+    if (listed < kMostListed) {
+      shown += (listed == 0 ? "" : " ") + shownValue(word);
+      ++listed;
+    } else {
+      ++left;
+    }
+    rest = space == std::string_view::npos ? std::string_view() : rest.substr(space + 1);
+  }
+  return left == 0 ? shown : shown + " and " + std::to_string(left) + " more";
+}
+
 // CLI11's words for a parse error, in the project's where they are its
 // own jargon: "--objects: At Most 1 required but received 2".
 // (Read by hand: std::regex matches recursively, and a 50,000-character
@@ -44,6 +71,7 @@ namespace {
 std::string parseErrorText(const CLI::ParseError& error) {
   constexpr std::string_view kRepeated = ": At Most 1 required but received ";
   const std::string text = error.what();
+  if (dynamic_cast<const CLI::ExtrasError*>(&error) != nullptr) return extrasText(text);
   const std::size_t mark = text.rfind(kRepeated);
   if (mark == std::string::npos) return text;
   const std::string count = text.substr(mark + kRepeated.size());

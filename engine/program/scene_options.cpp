@@ -9,6 +9,7 @@
 #include <string_view>
 #include <tuple>
 
+#include "engine/program/choice_options.h"
 #include "engine/program/number_options.h"
 #include "engine/program/usage_error.h"
 #include "physics/broadphase/broadphase_factory.h"
@@ -163,8 +164,8 @@ void checkBroadphaseCapacity(std::string_view option, std::string_view algorithm
 }
 
 CLI::Validator broadphaseNameCheck() {
-  return CLI::IsMember(std::vector<std::string>(physics::broadphaseNames().begin(),
-                                                physics::broadphaseNames().end()));
+  return oneOf(std::vector<std::string>(physics::broadphaseNames().begin(),
+                                        physics::broadphaseNames().end()));
 }
 
 std::string broadphaseNameList() {

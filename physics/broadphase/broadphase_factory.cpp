@@ -14,6 +14,7 @@
 #include <type_traits>
 
 #include "gpu/base/interrupt.h"
+#include "gpu/base/shown_value.h"
 #include "physics/broadphase/bulk_pair_cache.h"
 #include "physics/broadphase/ccd_query_broadphase.h"
 #include "physics/broadphase/growing_sweep_and_prune.h"
@@ -211,7 +212,7 @@ const BroadphaseInfo& BroadphaseCatalogue::info(std::string_view name) const {
   for (const BroadphaseInfo& info : entries_) {
     if (info.name == name) return info;
   }
-  throw std::invalid_argument("algo: unknown broadphase '" + std::string(name) + "'");
+  throw std::invalid_argument("algo: unknown broadphase '" + shownValue(name) + "'");
 }
 
 std::string broadphaseCapacityProblem(std::string_view name, int objects, int reserved) {

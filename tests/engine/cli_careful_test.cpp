@@ -182,6 +182,7 @@ TEST_F(CarefulCliTest, FailedWritesExit1NamingTheOutput) {
 // in one short line naming the option (both, for a conflict).
 TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
   const std::string out = " --out " + out_.string();
+  const std::string huge(60000, 'x');
   fs::create_directories(out_ / "dirs" / "summary.json");
   fs::create_directories(out_ / "dirs2" / "frames.csv");
   const std::vector<std::pair<std::string, std::string>> bad = {
@@ -217,6 +218,18 @@ TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
       {"record --objects 1" + std::string(60000, 'x') + out, "(60001 characters) is not a whole"},
       {"capture --size 32x24 --capture-size 32x24" + out, "--size and --capture-size"},
       {"bogus", "unknown subcommand 'bogus'; the subcommands are run, record, pairs"},
+      // Every echoed value is cut short, whatever parses it.
+      {"run --solver-order " + huge + out, "(60000 characters)' is not one of coloured, serial"},
+      {"run --ccd " + huge + out, "(60000 characters)' is not one of off, auto, all"},
+      {"run --substeps " + huge + out, "(60000 characters) is not a whole number"},
+      {"run --algo " + huge + out, "--algo: xxxxxxxxxxxxxxxxxxxx... (60000 characters) is not one"},
+      {"capture --colour " + huge + out, "(60000 characters) is not one of size, contact"},
+      {"capture --keyframes 1,," + huge + out, "(60003 characters)\" has an empty item"},
+      {"capture --keyframes 7" + huge + ",7" + huge + out, "(60001 characters) is not a whole"},
+      {"run " + huge + out, "not expected: xxxxxxxxxxxxxxxxxxxx... (60000 characters)"},
+      {"run --" + huge + " a b c d e f" + out, " and 3 more"},
+      {huge, "unknown subcommand 'xxxxxxxxxxxxxxxxxxxx... (60000 characters)'"},
+      {"--list-algos " + huge, "'xxxxxxxxxxxxxxxxxxxx... (60000 characters)' would be ignored"},
   };
   for (const auto& [args, message] : bad) {
     const Result result = runOverlap(args);
