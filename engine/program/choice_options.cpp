@@ -17,7 +17,8 @@ CLI::Validator oneOf(std::vector<std::string> names) {
   return CLI::Validator(
       [names = std::move(names), listed](const std::string& text) -> std::string {
         if (std::find(names.begin(), names.end(), text) != names.end()) return {};
-        return shownValue(text) + " is not one of " + listed;
+        return (text.empty() ? std::string("an empty value") : shownValue(text)) +
+               " is not one of " + listed;
       },
       "{" + braced + "}");
 }

@@ -223,6 +223,7 @@ TEST_F(CarefulCliTest, BadValuesAreRefusedInOneLineBeforeAnyWork) {
       {"run --ccd " + huge + out, "(60000 characters)' is not one of off, auto, all"},
       {"run --substeps " + huge + out, "(60000 characters) is not a whole number"},
       {"run --algo " + huge + out, "--algo: xxxxxxxxxxxxxxxxxxxx... (60000 characters) is not one"},
+      {"run --algo \"\"" + out, "--algo: an empty value is not one of bf, sap"},
       {"capture --colour " + huge + out, "(60000 characters) is not one of size, contact"},
       {"capture --keyframes 1,," + huge + out, "(60003 characters)\" has an empty item"},
       {"capture --keyframes 7" + huge + ",7" + huge + out, "(60001 characters) is not a whole"},
