@@ -16,6 +16,17 @@ namespace {
 constexpr int kUnconverted = -1;  // a body only the serial pass may convert
 constexpr int kPending = -2;      // a manifold's bucket, until its bodies are converted
 
+// A sweep's range function of row(contact), for each contact in order: the
+// largest of its results.
+template <typename Row>
+auto eachContact(Row row) {
+  return [row](int first, int end) {
+    btScalar worst = 0;
+    for (int contact = first; contact < end; ++contact) worst = btMax(worst, row(contact));
+    return worst;
+  };
+}
+
 }  // namespace
 
 std::string batchProblem(const ContactBatches& batches) {
@@ -96,15 +107,19 @@ btScalar ColouredConstraintSolver::solveGroupCacheFriendlySetup(
       bodies, numBodies, manifolds, numManifolds, constraints, numConstraints, info, debugDrawer);
 }
 
-// Solver body i is group body i; the shared fixed body comes after them.
+// The solver bodies are the group's, region after region (each region's in
+// the group's order), then the shared fixed body.
 void ColouredConstraintSolver::convertBodies(btCollisionObject** bodies, int numBodies,
                                              const btContactSolverInfo& info) {
   m_tmpSolverBodyPool.resizeNoInitialize(numBodies + 1);
   m_fixedBodyId = numBodies;
   initSolverBody(&m_tmpSolverBodyPool[m_fixedBodyId], nullptr, info.m_timeStep);
+  batches_.regions = split_ == Split::kRegions ? splitRegions(bodies, numBodies) : 0;
+  if (batches_.regions == 0) body_region_.clear();
+  btCollisionObject** ordered = batches_.regions > 0 ? solver_bodies_.data() : bodies;
   crew_->forEachPiece(static_cast<std::size_t>(numBodies), kItemsPerPiece,
-                      [this, bodies](std::size_t first, std::size_t end) {
-                        internalConvertBodies(bodies, static_cast<int>(first),
+                      [this, ordered](std::size_t first, std::size_t end) {
+                        internalConvertBodies(ordered, static_cast<int>(first),
                                               static_cast<int>(end), *info_);
                       });
 }
@@ -194,27 +209,28 @@ std::int32_t totalOrderKey(btScalar value) {
 
 }  // namespace
 
-int ColouredConstraintSolver::splitRegions() {
-  const int moving = m_fixedBodyId;
-  region_keys_.resize(static_cast<std::size_t>(moving));
-  crew_->forEachPiece(
-      static_cast<std::size_t>(moving), kItemsPerPiece, [this](std::size_t first, std::size_t end) {
-        for (std::size_t id = first; id < end; ++id) {
-          const btVector3& origin =
-              m_tmpSolverBodyPool[static_cast<int>(id)].m_worldTransform.getOrigin();
-          region_keys_[id] = {
-              origin,
-              {totalOrderKey(origin.x()), totalOrderKey(origin.y()), totalOrderKey(origin.z())},
-              static_cast<int>(id)};
-        }
-      });
+int ColouredConstraintSolver::splitRegions(btCollisionObject** bodies, int numBodies) {
+  const auto moving = static_cast<std::size_t>(numBodies);
+  region_keys_.resize(moving);
+  // A body's position as initSolverBody gives its solver body.
+  crew_->forEachPiece(moving, kItemsPerPiece, [this, bodies](std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+      const btVector3 origin = btRigidBody::upcast(bodies[i]) != nullptr
+                                   ? bodies[i]->getWorldTransform().getOrigin()
+                                   : btVector3(0, 0, 0);
+      region_keys_[i] = {
+          origin,
+          {totalOrderKey(origin.x()), totalOrderKey(origin.y()), totalOrderKey(origin.z())},
+          static_cast<int>(i)};
+    }
+  });
   // Level after level, each part halved at the median of its widest axis,
   // the parts of a level in parallel (each writes only its own keys).
-  part_begin_.assign({0, moving});
+  part_begin_.assign({0, numBodies});
   // As many halvings as leave kBodiesPerRegion bodies a region or more, up
   // to kRegionLevels: a smaller pile's regions would be a few boxes each.
   int levels = 0;
-  while (levels < kRegionLevels && (moving >> (levels + 1)) >= kBodiesPerRegion) ++levels;
+  while (levels < kRegionLevels && (numBodies >> (levels + 1)) >= kBodiesPerRegion) ++levels;
   const int regions = 1 << levels;
   for (int level = 0; level < levels; ++level) {
     const std::size_t parts = part_begin_.size() - 1;
@@ -244,18 +260,29 @@ int ColouredConstraintSolver::splitRegions() {
       halves.push_back(lo);
       halves.push_back(lo + (part_begin_[part + 1] - lo) / 2);
     }
-    halves.push_back(moving);
+    halves.push_back(numBodies);
     std::swap(part_begin_, halves);
   }
   // Part p is region p << (kRegionLevels - levels): the splits not made
-  // leave no manifold across them.
-  for (int part = 0; part < regions; ++part) {
-    for (int i = part_begin_[static_cast<std::size_t>(part)];
-         i < part_begin_[static_cast<std::size_t>(part) + 1]; ++i) {
-      body_region_[static_cast<std::size_t>(region_keys_[static_cast<std::size_t>(i)].body)] =
-          part << (kRegionLevels - levels);
-    }
-  }
+  // leave no manifold across them.  Its bodies, in the group's order, take
+  // the solver bodies after the earlier parts'.
+  solver_bodies_.resize(moving);
+  body_region_.resize(moving);
+  crew_->forEachPiece(
+      static_cast<std::size_t>(regions), 1,
+      [this, bodies, levels](std::size_t first, std::size_t end) {
+        for (std::size_t part = first; part < end; ++part) {
+          const int begin = part_begin_[part];
+          const int stop = part_begin_[part + 1];
+          std::sort(region_keys_.begin() + begin, region_keys_.begin() + stop,
+                    [](const RegionKey& x, const RegionKey& y) { return x.body < y.body; });
+          for (int id = begin; id < stop; ++id) {
+            const auto i = static_cast<std::size_t>(id);
+            solver_bodies_[i] = bodies[region_keys_[i].body];
+            body_region_[i] = static_cast<int>(part) << (kRegionLevels - levels);
+          }
+        }
+      });
   return regions;
 }
 
@@ -347,6 +374,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   std::vector<int>& batch_piece = batches_.batch_piece;
   piece_begin.clear();
   batch_piece.clear();
+  piece_rows_.clear();
   batch_of_bucket_.assign(static_cast<std::size_t>(buckets), 0);
   int position = 0;
   int row_begin = 0;
@@ -363,6 +391,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
       const auto i = static_cast<std::size_t>(bucket);
       batch_of_bucket_[i] = first_bucket;
       piece_begin.push_back(position);
+      piece_rows_.push_back(row_begin);
       BucketCount& total = bucket_counts_[i];
       position += std::exchange(total.manifolds, position);
       row_begin += std::exchange(total.rows, row_begin);
@@ -387,6 +416,7 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
   }
   batch_piece.push_back(static_cast<int>(piece_begin.size()));
   piece_begin.push_back(position);
+  piece_rows_.push_back(row_begin);
   batches_.copies = copies;
   batches_made_ += batches_.batches();
 
@@ -399,7 +429,6 @@ void ColouredConstraintSolver::batchManifolds(btPersistentManifold** manifolds, 
       next.add(std::exchange(counts, next));
     }
   }
-  rows_.resize(static_cast<std::size_t>(position));
   batches_.manifolds.resize(static_cast<std::size_t>(position));
   crew_->forEachPiece(count, kItemsPerPiece, [this](std::size_t first, std::size_t end) {
     scatterPiece(first / kItemsPerPiece, first, end);
@@ -429,7 +458,6 @@ void ColouredConstraintSolver::scatterPiece(std::size_t piece, std::size_t first
     for (int& id : cached.solverBodyIds) {
       if (id == m_fixedBodyId) id = batches_.first_copy + copy;
     }
-    rows_[place] = {cached.contactIndex, cached.numTouchingContacts};
     batches_.manifolds[place] = {cached.solverBodyIds[0], cached.solverBodyIds[1]};
   }
 }
@@ -459,8 +487,9 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
   m_manifoldCachedInfoArray.resizeNoInitialize(numManifolds);
   piece_unconverted_.assign(pieceCount(count, kItemsPerPiece), 0);
   piece_counts_.resize(pieceCount(count, kItemsPerPiece) * kBuckets);
-  body_region_.assign(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), -1);
-  batches_.regions = split_ == Split::kRegions ? splitRegions() : 0;
+  // The joints' and kinematic bodies' solver bodies (after the fixed one)
+  // are in no region.
+  body_region_.resize(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), -1);
   bucket_.resize(count);
   crew_->forEachPiece(count, kItemsPerPiece, [this, manifolds](std::size_t first, std::size_t end) {
     collectManifolds(manifolds, first, end);
@@ -472,35 +501,28 @@ void ColouredConstraintSolver::convertContacts(btPersistentManifold** manifolds,
                                     static_cast<int>(end - first));
   });
   // The setup applies the warm-start impulses to the bodies: batch by batch.
-  sweep([this](int contact) {
+  sweep(eachContact([this](int contact) {
     internalSetupContactConstraints(contact, *info_);
     return btScalar(0);
-  });
+  }));
 }
 
-template <typename Row>
-btScalar ColouredConstraintSolver::sweepBatch(int batch, const Row& row) {
+template <typename Rows>
+btScalar ColouredConstraintSolver::sweepBatch(int batch, const Rows& rows) {
   const auto b = static_cast<std::size_t>(batch);
   const int first_piece = batches_.batch_piece[b];
   const auto pieces = static_cast<std::size_t>(batches_.batch_piece[b + 1] - first_piece);
-  // One pointer captured: the loop body fits in std::function's own storage.
+  // Pointers captured: the loop body fits in std::function's own storage.
   struct Sweep {
-    ColouredConstraintSolver* solver;
-    const Row* row;
-    const int* piece_begin;  // the batch's first piece's
+    btScalar* residual;
+    const Rows* rows;
+    const int* piece_rows;  // the batch's first piece's
   };
-  const Sweep context{this, &row, batches_.piece_begin.data() + first_piece};
+  const Sweep context{piece_residual_.data(), &rows, piece_rows_.data() + first_piece};
   crew_->forEachPiece(pieces, 1, [&context](std::size_t first, std::size_t end) {
-    const RowRange* ranges = context.solver->rows_.data();
     for (std::size_t piece = first; piece < end; ++piece) {
-      btScalar worst = 0;
-      for (int m = context.piece_begin[piece]; m < context.piece_begin[piece + 1]; ++m) {
-        for (int contact = ranges[m].first, last = ranges[m].first + ranges[m].rows; contact < last;
-             ++contact) {
-          worst = btMax(worst, (*context.row)(contact));
-        }
-      }
-      context.solver->piece_residual_[piece] = worst;
+      context.residual[piece] =
+          (*context.rows)(context.piece_rows[piece], context.piece_rows[piece + 1]);
     }
   });
   btScalar worst = 0;
@@ -508,34 +530,51 @@ btScalar ColouredConstraintSolver::sweepBatch(int batch, const Row& row) {
   return worst;
 }
 
-template <typename Row>
-btScalar ColouredConstraintSolver::sweep(const Row& row) {
+template <typename Rows>
+btScalar ColouredConstraintSolver::sweep(const Rows& rows) {
   btScalar worst = 0;
   for (int batch = 0; batch < batches_.batches(); ++batch) {
-    worst = btMax(worst, sweepBatch(batch, row));
+    worst = btMax(worst, sweepBatch(batch, rows));
   }
   return worst;
 }
 
-btScalar ColouredConstraintSolver::solveContactRow(int contact) {
-  const btSolverConstraint& row = m_tmpSolverContactConstraintPool[contact];
-  const btScalar residual = resolveSingleConstraintRowLowerLimit(
-      m_tmpSolverBodyPool[row.m_solverBodyIdA], m_tmpSolverBodyPool[row.m_solverBodyIdB], row);
-  return residual * residual;
+// The hot loops call Bullet's row function through the pointer that its
+// resolve... members call, with the pools' bases read once.
+btScalar ColouredConstraintSolver::solveContactRows(int first, int end,
+                                                    btSingleConstraintRowSolver solve) {
+  if (first == end) return 0;
+  btSolverBody* const bodies = &m_tmpSolverBodyPool[0];
+  const btSolverConstraint* const rows = &m_tmpSolverContactConstraintPool[0];
+  btScalar worst = 0;
+  for (int contact = first; contact < end; ++contact) {
+    const btSolverConstraint& row = rows[contact];
+    const btScalar residual = solve(bodies[row.m_solverBodyIdA], bodies[row.m_solverBodyIdB], row);
+    worst = btMax(worst, residual * residual);
+  }
+  return worst;
 }
 
-// Bullet's friction rows of one contact, bounded by its normal impulse.
-btScalar ColouredConstraintSolver::solveFrictionRows(int contact) {
-  const btScalar total = m_tmpSolverContactConstraintPool[contact].m_appliedImpulse;
-  if (!(total > btScalar(0))) return 0;
+btScalar ColouredConstraintSolver::solveFrictionRows(int first, int end) {
+  if (first == end) return 0;
+  btSolverBody* const bodies = &m_tmpSolverBodyPool[0];
+  const btSolverConstraint* const contacts = &m_tmpSolverContactConstraintPool[0];
+  btSolverConstraint* const rows = &m_tmpSolverContactFrictionConstraintPool[0];
+  const int directions = m_numFrictionDirections;
+  const btSingleConstraintRowSolver solve = m_resolveSingleConstraintRowGeneric;
   btScalar worst = 0;
-  for (int f = contact * m_numFrictionDirections, end = f + m_numFrictionDirections; f < end; ++f) {
-    btSolverConstraint& row = m_tmpSolverContactFrictionConstraintPool[f];
-    row.m_lowerLimit = -(row.m_friction * total);
-    row.m_upperLimit = row.m_friction * total;
-    const btScalar residual = resolveSingleConstraintRowGeneric(
-        m_tmpSolverBodyPool[row.m_solverBodyIdA], m_tmpSolverBodyPool[row.m_solverBodyIdB], row);
-    worst = btMax(worst, residual * residual);
+  for (int contact = first; contact < end; ++contact) {
+    // Bounded by the contact's normal impulse.
+    const btScalar total = contacts[contact].m_appliedImpulse;
+    if (!(total > btScalar(0))) continue;
+    for (int f = contact * directions, last = f + directions; f < last; ++f) {
+      btSolverConstraint& row = rows[f];
+      row.m_lowerLimit = -(row.m_friction * total);
+      row.m_upperLimit = row.m_friction * total;
+      const btScalar residual =
+          solve(bodies[row.m_solverBodyIdA], bodies[row.m_solverBodyIdB], row);
+      worst = btMax(worst, residual * residual);
+    }
   }
   return worst;
 }
@@ -567,11 +606,8 @@ void ColouredConstraintSolver::solveGroupCacheFriendlySplitImpulseIterations(
     const btContactSolverInfo& info, btIDebugDraw* /*debugDrawer*/) {
   if (!info.m_splitImpulse) return;
   for (int iteration = 0; iteration < info.m_numIterations; ++iteration) {
-    const btScalar worst = sweep([this](int contact) {
-      const btSolverConstraint& row = m_tmpSolverContactConstraintPool[contact];
-      const btScalar residual = resolveSplitPenetrationImpulse(
-          m_tmpSolverBodyPool[row.m_solverBodyIdA], m_tmpSolverBodyPool[row.m_solverBodyIdB], row);
-      return residual * residual;
+    const btScalar worst = sweep([this](int first, int end) {
+      return solveContactRows(first, end, m_resolveSplitPenetrationImpulse);
     });
     if (worst <= info.m_leastSquaresResidualThreshold || iteration >= info.m_numIterations - 1) {
       break;
@@ -603,17 +639,22 @@ btScalar ColouredConstraintSolver::solveSingleIteration(
                                             info.m_timeStep);
   }
   if (info.m_solverMode & SOLVER_INTERLEAVE_CONTACT_AND_FRICTION_CONSTRAINTS) {
-    return btMax(worst, sweep([this](int contact) {
+    return btMax(worst, sweep(eachContact([this](int contact) {
                    // The contact's normal row first: its impulse bounds the friction.
-                   const btScalar normal = solveContactRow(contact);
-                   const btScalar friction = solveFrictionRows(contact);
+                   const btScalar normal = solveContactRows(contact, contact + 1,
+                                                            m_resolveSingleConstraintRowLowerLimit);
+                   const btScalar friction = solveFrictionRows(contact, contact + 1);
                    return btMax(normal, btMax(friction, solveRollingFrictionRows(contact)));
-                 }));
+                 })));
   }
-  worst = btMax(worst, sweep([this](int contact) { return solveContactRow(contact); }));
-  worst = btMax(worst, sweep([this](int contact) { return solveFrictionRows(contact); }));
+  worst = btMax(worst, sweep([this](int first, int end) {
+                  return solveContactRows(first, end, m_resolveSingleConstraintRowLowerLimit);
+                }));
+  worst = btMax(worst, sweep([this](int first, int end) { return solveFrictionRows(first, end); }));
   if (m_tmpSolverContactRollingFrictionConstraintPool.size() > 0) {
-    worst = btMax(worst, sweep([this](int contact) { return solveRollingFrictionRows(contact); }));
+    worst = btMax(
+        worst,
+        sweep(eachContact([this](int contact) { return solveRollingFrictionRows(contact); })));
   }
   return worst;
 }

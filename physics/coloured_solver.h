@@ -29,9 +29,9 @@
 // - The regions and batches depend on the group alone (its manifolds, their
 //   order and bodies, the bodies' positions), never on the thread count.
 //   Each part of the moving bodies is halved at the median of its widest
-//   axis (ties broken by solver body id, positions compared in IEEE-754's
-//   total order, NaN included), kRegionLevels times or while a region keeps
-//   kBodiesPerRegion bodies.  A manifold between two bodies of one region is
+//   axis (ties broken by the body's place in the group, positions compared
+//   in IEEE-754's total order, NaN included), kRegionLevels times or while
+//   a region keeps kBodiesPerRegion bodies.  A manifold between two bodies of one region is
 //   in that region's interior piece; one across a split in a piece of the
 //   part that split halved: for the last split a piece a part, for an
 //   earlier one a piece for each part and each half of its lower half's next
@@ -63,7 +63,14 @@
 // - The contact rows lie in the row pools in piece order, so that every
 //   sweep reads the pools from front to back: scene 4's 3500-box step took
 //   0.90x as long on one thread as with the rows in manifold order, to the
-//   same bits (docs/results/coloured_solver_rows.csv).
+//   same bits (docs/results/coloured_solver_rows.csv).  A piece's rows are
+//   one range of the pools, swept in one loop that calls Bullet's row
+//   function through the pointer its resolve... members call.
+// - The solver bodies are numbered region by region, each region's bodies
+//   in the group's order, so that a piece's bodies lie together in the body
+//   pool and, on two threads, each core's in its own cache lines.  The
+//   numbers name the bodies and nothing else: the bits are those of the
+//   group's order (docs/results/coloured_solver_bodies.csv).
 // - No allocation per iteration: the per-solve arrays keep their capacity.
 // - Shared state outside the bodies and rows: Bullet's split-impulse row
 //   function counts its calls in a global int (gNumSplitImpulseRecoveries,
@@ -190,9 +197,10 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   // The row pools sized for the batches (room to spare, as Bullet's Mt
   // solver keeps, so that a growing pile does not reallocate every substep).
   void sizeRowPools(int contacts, int rolling_rows);
-  // body_region_ for the moving bodies: up to kRegionLevels halvings, while
-  // a region keeps kBodiesPerRegion.  Returns the regions made.
-  int splitRegions();
+  // The group's bodies split into regions: up to kRegionLevels halvings,
+  // while a region keeps kBodiesPerRegion; solver_bodies_ and body_region_
+  // for them.  Returns the regions made.
+  int splitRegions(btCollisionObject** bodies, int numBodies);
   // Manifold m's bucket (and no rows between two bodies that cannot move),
   // once both its bodies have solver bodies; each manifold writes its own.
   void classify(int m);
@@ -214,16 +222,20 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
       kRegions + (1 << (kRegionLevels - 1)) + (1 << (kRegionLevels + 1)) - 4;
   static constexpr int kFirstWallBucket = kSerialBucket + 1;
   static constexpr int kBuckets = kFirstWallBucket + kRegions;
-  // Runs row(contact) for every row of batch `batch`'s manifolds, its pieces
-  // on the task system; returns the largest of row's results.
-  template <typename Row>
-  btScalar sweepBatch(int batch, const Row& row);
+  // Runs rows(first, end) on each of batch `batch`'s pieces' contact rows
+  // (a piece's rows are one range of the pools), its pieces on the task
+  // system; returns the largest of the results.
+  template <typename Rows>
+  btScalar sweepBatch(int batch, const Rows& rows);
   // sweepBatch over every batch in order.
-  template <typename Row>
-  btScalar sweep(const Row& row);
+  template <typename Rows>
+  btScalar sweep(const Rows& rows);
 
-  btScalar solveContactRow(int contact);
-  btScalar solveFrictionRows(int contact);
+  // Each returns the largest squared residual of the rows of contacts
+  // [first, end): their contact rows solved by `solve` (Bullet's lower-limit
+  // or split-impulse row function), their friction rows.
+  btScalar solveContactRows(int first, int end, btSingleConstraintRowSolver solve);
+  btScalar solveFrictionRows(int first, int end);
   btScalar solveRollingFrictionRows(int contact);
 
   TaskSystem& tasks_;
@@ -232,13 +244,11 @@ class ColouredConstraintSolver final : public btSequentialImpulseConstraintSolve
   TaskCrew* crew_ = nullptr;                   // the running solveGroup call's
   const btContactSolverInfo* info_ = nullptr;  // the running solveGroup call's
   ContactBatches batches_;
-  struct RowRange {
-    int first;  // the manifold's first contact row
-    int rows;
-  };
-  std::vector<RowRange> rows_;  // piece order: each manifold's contact rows
-  std::vector<int> bucket_;     // per group manifold: its bucket, -1 for none, -2 until classified
+  std::vector<int> piece_rows_;  // piece p: contact rows [piece_rows_[p], piece_rows_[p + 1])
+  std::vector<int> bucket_;      // per group manifold: its bucket, -1 for none, -2 until classified
   std::vector<int> body_region_;  // per solver body: its region, -1 for none
+  // Split: the group's bodies in solver body order, region after region.
+  std::vector<btCollisionObject*> solver_bodies_;
   struct RegionKey {
     btVector3 origin;
     std::array<std::int32_t, 3> key;  // origin's coordinates, in IEEE-754's total order
