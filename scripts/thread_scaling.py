@@ -6,7 +6,10 @@ build's and an older commit's) with the options common to all (--common) and
 its own (OPTIONS, e.g. "--threads 2"). The configurations run one after
 another, round after round (--rounds), so a change of load hits them alike.
 Each run's figure is the median physics_ms of its frames from --skip on; a
-configuration's is the median over its rounds. One CSV row per run, then the
+configuration's is the median over its rounds. Each run also gives its
+physics time per substep (the frames' physics_ms over their substeps, from --skip
+on: the step's speed where two solvers' piles take different substeps) and its
+state hash (a change that keeps the bits shows it). One CSV row per run, then the
 ratio of each configuration to the first, on the terminal and in the CSV's
 '#' lines (each on one line: a newline or other control character in a binary's
 name, an option or a run's machine text is written escaped); the load is
@@ -70,15 +73,21 @@ def check_out(out: pathlib.Path) -> None:
 
 
 def run_once(binary: str, options: list, skip: int) -> tuple:
-    """(the median physics_ms of the run's frames from `skip` on, the machine and commit
-    its summary names)."""
+    """(the run's CSV row past round and config, the machine and commit its summary
+    names), over its frames from `skip` on."""
     with tempfile.TemporaryDirectory() as work:
         out = pathlib.Path(work) / "run"
-        machine = run_summary(binary, out, options)["machine"]
+        summary = run_summary(binary, out, options)
         frames = read_csv(out / "frames.csv")[skip:]
         if not frames:
             raise BadInput(f"--skip {skip}: the run has no frame after it")
-        return statistics.median(float(row["physics_ms"]) for row in frames), machine
+        substeps = sum(int(row["substeps"]) for row in frames)
+        physics = sum(float(row["physics_ms"]) for row in frames)
+        row = {"physics_ms": f"{statistics.median(float(r['physics_ms']) for r in frames):.2f}",
+               "substeps": substeps,
+               "per_substep_ms": f"{physics / substeps:.3f}" if substeps else "",
+               "state_hash": summary.get("state_hash", "")}
+        return row, summary["machine"]
 
 
 def main() -> None:
@@ -108,9 +117,10 @@ def main() -> None:
         machines = {}
         for round_ in range(args.rounds):
             for label, binary, options in configs:
-                ms, machines[label] = run_once(binary, common + options, args.skip)
-                rows.append({"round": round_, "config": label, "physics_ms": f"{ms:.2f}"})
-                print(f"round {round_ + 1}/{args.rounds} {label}: {ms:.1f} ms", flush=True)
+                row, machines[label] = run_once(binary, common + options, args.skip)
+                rows.append({"round": round_, "config": label, **row})
+                print(f"round {round_ + 1}/{args.rounds} {label}: {row['physics_ms']} ms, "
+                      f"{row['per_substep_ms']} ms a substep", flush=True)
         load_after = os.getloadavg()[0]
     except BadInput as error:
         print(f"{parser.prog}: {error}", file=sys.stderr)
@@ -119,13 +129,23 @@ def main() -> None:
         print(f"{parser.prog}: {one_line(' '.join(error.cmd))} exited {error.returncode}; "
               "nothing written", file=sys.stderr)
         sys.exit(2 if error.returncode == 2 else 1)  # 2: overlap refused an option
-    medians = {label: statistics.median(float(r["physics_ms"]) for r in rows
-                                        if r["config"] == label) for label, _, _ in configs}
+    def median_of(column: str) -> dict:
+        return {label: statistics.median(float(r[column]) for r in rows
+                                         if r["config"] == label and r[column] != "")
+                for label, _, _ in configs}
+    medians = median_of("physics_ms")
+    per_substep = median_of("per_substep_ms")
     base = configs[0][0]
     summary = [f"{label} {ms:.1f} ms ({ms / medians[base]:.2f}x {base})"
                for label, ms in medians.items()]
+    substep_summary = [f"{label} {ms:.3f} ms ({ms / per_substep[base]:.3f}x {base})"
+                       for label, ms in per_substep.items()]
+    hashes = ["{} {}".format(label, " ".join(sorted({r["state_hash"] for r in rows
+                                                     if r["config"] == label})))
+              for label, _, _ in configs]
     machine = machines[base]
-    lines = [f"# what: median physics_ms of frames {args.skip}+ per run, configurations "
+    lines = [f"# what: per run, over frames {args.skip}+: the median physics_ms, the "
+             "substeps, physics ms per substep and the state hash; configurations "
              "interleaved round by round",
              f"# machine: {machine['cpu']}, {machine['hardware_threads']} hardware threads, "
              f"GPU: {machine['gpu']}; {machine['compiler']}, {machine['build_type']}",
@@ -135,9 +155,12 @@ def main() -> None:
              f"# common options: {' '.join(common)}",
              "# configs: " + "; ".join(f"{label}={pathlib.Path(binary).name} {' '.join(o)}"
                                        for label, binary, o in configs),
-             "# medians: " + "; ".join(summary)]
+             "# medians: " + "; ".join(summary),
+             "# per substep: " + "; ".join(substep_summary),
+             "# state hashes: " + "; ".join(hashes)]
     table = io.StringIO(newline="")
-    writer = csv.DictWriter(table, fieldnames=["round", "config", "physics_ms"])
+    writer = csv.DictWriter(table, fieldnames=["round", "config", "physics_ms", "substeps",
+                                               "per_substep_ms", "state_hash"])
     writer.writeheader()
     writer.writerows(rows)
     # Each '#' line on one line, whatever a name, an option or a run's machine text holds
@@ -145,6 +168,8 @@ def main() -> None:
     write_atomically(args.out, "".join(f"{one_line(line)}\n" for line in lines) +
                      table.getvalue())
     print(f"load {load_before:.2f} -> {load_after:.2f}; " + "; ".join(summary))
+    print("per substep: " + "; ".join(substep_summary))
+    print("state hashes: " + "; ".join(hashes))
     print(f"wrote {args.out}")
 
 

@@ -982,7 +982,8 @@ def case_thread_scaling_provenance_stays_comments(args) -> None:
     before the header is a '#' line (the medians among them)."""
     sys.path.insert(0, str(args.scripts))
     from results_files import provenance, read_csv
-    odd = args.out / "ov\nround,config,physics_ms"
+    header_line = "round,config,physics_ms,substeps,per_substep_ms,state_hash"
+    odd = args.out / f"ov\n{header_line}"
     odd.symlink_to(args.overlap)
     csv_path = args.out / "ts.csv"
     result = subprocess.run(
@@ -994,7 +995,7 @@ def case_thread_scaling_provenance_stays_comments(args) -> None:
     rows = read_csv(csv_path)
     check([row["config"] for row in rows] == ["t1"], f"the rows read back: {rows}")
     lines = csv_path.read_text().splitlines()
-    header = lines.index("round,config,physics_ms")
+    header = lines.index(header_line)
     check(all(line.startswith("#") for line in lines[:header]), f"not '#': {lines[:header]}")
     check("medians" in provenance(csv_path) and "configs" in provenance(csv_path),
           f"provenance lost: {provenance(csv_path)}")
