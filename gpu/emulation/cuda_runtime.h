@@ -15,7 +15,13 @@
 // - Device and pinned allocations start as garbage (0xA5 bytes); copies,
 //   memsets, frees and a kernel's pointer arguments are checked against the
 //   live allocations, and a violation aborts naming the call site.
-// - Launch limits give cudaErrorInvalidConfiguration through cudaGetLastError.
+// - Launch limits give cudaErrorInvalidConfiguration through cudaGetLastError,
+//   and a launch whose threads' stacks (their local memory) cannot be mapped,
+//   the address space full, cudaErrorMemoryAllocation, as a GPU that cannot
+//   allocate a launch's local memory; either launches nothing.
+// - The emulation's own memory running out while it runs a grid makes the
+//   call that waited for it return cudaErrorMemoryAllocation; no call throws
+//   (cudaFree is called from destructors).
 // - Stream capture records what is enqueued on the capturing stream (copies,
 //   memsets, launches, external event records) as a graph; a launched graph
 //   enqueues it all again, checking its pointers anew.  While a thread

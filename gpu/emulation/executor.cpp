@@ -23,7 +23,10 @@
 #include <cstdlib>
 #include <exception>
 #include <mutex>
+#include <new>
+#include <optional>
 #include <sstream>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -56,7 +59,8 @@ void finishSwitch(void*, const void**, std::size_t*) {}
 
 // A fiber stack with an inaccessible guard page below it, so an overflow
 // faults instead of writing into the next stack.  Kept in a pool: a launch
-// takes one per thread of a block and gives them back.
+// maps what its grid will take (reserveStacks), and each block runner takes
+// one per thread of a block and gives them back.
 struct Stack {
   void* bottom;  // lowest usable address
   std::size_t size;
@@ -64,26 +68,39 @@ struct Stack {
 
 class StackPool {
  public:
-  Stack take() {
-    {
-      const std::lock_guard lock(mutex_);
-      if (!free_.empty()) {
-        const Stack stack = free_.back();
-        free_.pop_back();
-        return stack;
-      }
+  // Maps stacks until `count` are free; false if the address space is full.
+  bool reserve(std::size_t count) {
+    const std::lock_guard lock(mutex_);
+    try {
+      free_.reserve(count);  // so that no stack mapped is lost to a failing push_back
+    } catch (const std::bad_alloc&) {
+      return false;
     }
     const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-    void* memory = mmap(nullptr, kStackBytes + page, PROT_READ | PROT_WRITE,
-                        MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
-    if (memory == MAP_FAILED || mprotect(memory, page, PROT_NONE) != 0) {
-      fail("cannot map a fiber stack");
+    while (free_.size() < count) {
+      void* memory = mmap(nullptr, kStackBytes + page, PROT_READ | PROT_WRITE,
+                          MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+      if (memory == MAP_FAILED) return false;
+      if (mprotect(memory, page, PROT_NONE) != 0) {
+        munmap(memory, kStackBytes + page);
+        return false;
+      }
+      free_.push_back(Stack{static_cast<char*>(memory) + page, kStackBytes});
     }
-    return Stack{static_cast<char*>(memory) + page, kStackBytes};
+    return true;
   }
-  void give(const std::vector<Stack>& stacks) {
+  Stack take() {
     const std::lock_guard lock(mutex_);
-    free_.insert(free_.end(), stacks.begin(), stacks.end());
+    if (free_.empty()) fail("a grid ran without the fiber stacks its launch reserved");
+    const Stack stack = free_.back();
+    free_.pop_back();
+    return stack;
+  }
+  // Never allocates (a runner gives its stacks back as it ends): every stack
+  // was once in free_, so its capacity holds them all.
+  void give(const Stack& stack) {
+    const std::lock_guard lock(mutex_);
+    free_.push_back(stack);
   }
 
  private:
@@ -159,9 +176,7 @@ class BlockRunner {
     for (Lane& lane : lanes_) lane.stack = stackPool().take();
   }
   ~BlockRunner() {
-    std::vector<Stack> stacks;
-    for (const Lane& lane : lanes_) stacks.push_back(lane.stack);
-    stackPool().give(stacks);
+    for (const Lane& lane : lanes_) stackPool().give(lane.stack);
   }
   BlockRunner(const BlockRunner&) = delete;
   BlockRunner& operator=(const BlockRunner&) = delete;
@@ -455,22 +470,69 @@ int workerThreadCount() {
   return count;
 }
 
+namespace {
+
+std::uint64_t blocksOf(const KernelLaunch& launch) {
+  return static_cast<std::uint64_t>(launch.grid.x) * launch.grid.y * launch.grid.z;
+}
+
+// The OS threads that run a grid's blocks, the caller's included.
+std::size_t runnersOf(const KernelLaunch& launch) {
+  return static_cast<std::size_t>(
+      std::min<std::uint64_t>(blocksOf(launch), static_cast<std::uint64_t>(workerThreadCount())));
+}
+
+}  // namespace
+
+bool reserveStacks(const KernelLaunch& launch) {
+  const std::size_t lanes =
+      static_cast<std::size_t>(launch.block.x) * launch.block.y * launch.block.z;
+  return stackPool().reserve(lanes * runnersOf(launch));
+}
+
 void runGrid(const KernelLaunch& launch) {
-  const std::uint64_t blocks =
-      static_cast<std::uint64_t>(launch.grid.x) * launch.grid.y * launch.grid.z;
+  const std::uint64_t blocks = blocksOf(launch);
   std::atomic<std::uint64_t> next{0};
-  auto work = [&] {
-    BlockRunner runner(launch);
+  // The emulation's own memory running out: a helper with no runner runs no
+  // block (the others run them all); a block cut short fails the grid, its
+  // error raised on the caller's thread once every thread has ended.
+  std::mutex failure_mutex;
+  std::exception_ptr failure;
+  const auto runBlocks = [&](BlockRunner& runner) {
     BlockRunner::t_runner = &runner;
-    for (std::uint64_t block = next++; block < blocks; block = next++) runner.run(block);
+    try {
+      for (std::uint64_t block = next++; block < blocks; block = next++) runner.run(block);
+    } catch (...) {
+      next = blocks;
+      const std::lock_guard lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+    }
     BlockRunner::t_runner = nullptr;
   };
-  const auto helpers = static_cast<std::size_t>(
-      std::min<std::uint64_t>(blocks, static_cast<std::uint64_t>(workerThreadCount())) - 1);
+  const auto help = [&] {
+    std::optional<BlockRunner> runner;
+    try {
+      runner.emplace(launch);
+    } catch (const std::bad_alloc&) {
+      return;
+    }
+    runBlocks(*runner);
+  };
+  const std::size_t helpers = runnersOf(launch) - 1;
   std::vector<std::jthread> threads;
   threads.reserve(helpers);
-  for (std::size_t i = 0; i < helpers; ++i) threads.emplace_back(work);
-  work();
+  try {
+    for (std::size_t i = 0; i < helpers; ++i) threads.emplace_back(help);
+  } catch (const std::system_error&) {
+    // No OS thread to be had (the address space is full): the blocks run on
+    // the threads made, the caller's at least, to the same result.
+  }
+  {
+    BlockRunner runner(launch);  // throws, the helpers then joined, if it cannot be made
+    runBlocks(runner);
+  }
+  threads.clear();  // joined
+  if (failure) std::rethrow_exception(failure);
 }
 
 }  // namespace overlap::cuda_emulation::detail

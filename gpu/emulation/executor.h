@@ -21,7 +21,13 @@ std::string where(const std::source_location& site);
 // hardware thread), fixed at first use.
 int workerThreadCount();
 
-// Runs every block of a validated launch and returns when all are done.
+// Maps into the pool the fiber stacks that `launch`'s grid will take, so
+// that a grid that runs never maps one; false when the address space is full
+// (the launch then fails, as on a GPU that cannot allocate its local memory).
+bool reserveStacks(const KernelLaunch& launch);
+
+// Runs every block of a validated launch whose stacks are reserved, and
+// returns when all are done.
 void runGrid(const KernelLaunch& launch);
 
 }  // namespace overlap::cuda_emulation::detail

@@ -30,6 +30,7 @@
 #include <iterator>
 #include <map>
 #include <mutex>
+#include <new>
 #include <set>
 #include <utility>
 #include <vector>
@@ -155,7 +156,7 @@ class Runtime {
     std::memset(pointer, kGarbage, found->second.bytes);
     allocations_.erase(found);
     std::free(pointer);
-    return cudaSuccess;
+    return waited();
   }
 
   // The allocation [pointer, pointer + bytes) lies in, if any; aborts when it
@@ -258,11 +259,28 @@ class Runtime {
     while (target.completed < sequence) {
       CudaEmulationStream::Operation operation = std::move(target.pending.front());
       target.pending.pop_front();
-      for (const auto& [other, other_sequence] : operation.after) runUntil(*other, other_sequence);
-      operation.run();
-      ++target.completed;
+      // Done even if it throws (the emulation's own memory run out): the
+      // error leaves the call that waited, and the queue stays consistent.
+      struct Completed {
+        std::uint64_t& count;
+        ~Completed() { ++count; }
+      } completed{target.completed};
+      try {
+        for (const auto& [other, other_sequence] : operation.after) {
+          runUntil(*other, other_sequence);
+        }
+        operation.run();
+      } catch (const std::bad_alloc&) {
+        // The emulation's own memory ran out running it (a grid's block
+        // runners, say): the call that waited returns the error.
+        if (deferred_ == cudaSuccess) deferred_ = cudaErrorMemoryAllocation;
+      }
     }
   }
+
+  // The error of the work the running call waited for, once (runUntil never
+  // throws: CUDA's calls return their errors, and cudaFree runs in destructors).
+  cudaError_t waited() { return std::exchange(deferred_, cudaSuccess); }
 
   void synchronizeAll() {
     runUntil(legacy_, legacy_.enqueued);
@@ -320,6 +338,7 @@ class Runtime {
   std::set<CudaEmulationGraph*> graphs_;
   std::set<CudaEmulationGraphExec*> execs_;
   std::uint64_t fail_creation_in_ = 0;  // creations until the injected failure; 0: none
+  cudaError_t deferred_ = cudaSuccess;  // of the work run since the last waited()
 };
 
 Runtime& runtime() {
@@ -388,7 +407,7 @@ cudaError_t copy(void* to, const void* from, std::size_t bytes, cudaMemcpyKind k
     return cudaSuccess;
   }
   copyOn(rt, *target, to, from, bytes, kind, blocking, call, site);
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 void fillOn(Runtime& rt, CudaEmulationStream& target, void* to, int value, std::size_t bytes,
@@ -416,7 +435,7 @@ cudaError_t fill(void* to, int value, std::size_t bytes, cudaStream_t handle, bo
     return cudaSuccess;
   }
   fillOn(rt, *target, to, value, bytes, blocking, call, site);
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 // An event's record on `target`: its timestamp when the stream reaches it.
@@ -456,6 +475,12 @@ void enqueueLaunch(KernelLaunch launch) {
       !validDims(launch.grid, 0x7FFFFFFFu, 65535, 65535) ||
       launch.shared_bytes > kMaxSharedBytesPerBlock) {
     record(cudaErrorInvalidConfiguration);
+    return;
+  }
+  // The fiber stacks, mapped now: a grid that runs never runs short of them
+  // (the pool keeps them, so a captured launch has its own at replay).
+  if (!reserveStacks(launch)) {
+    record(cudaErrorMemoryAllocation);
     return;
   }
   const auto launchOn = [&rt](CudaEmulationStream& on, const KernelLaunch& checked) {
@@ -524,7 +549,7 @@ cudaError_t cudaDeviceSynchronize(CudaSite) {
   const std::lock_guard lock(rt.mutex);
   if (cudaError_t refused; refusedWhileThisThreadCaptures(refused)) return refused;
   rt.synchronizeAll();
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 cudaError_t cudaGetLastError() {
@@ -616,7 +641,7 @@ cudaError_t cudaStreamDestroy(cudaStream_t stream) {
     return record(cudaErrorInvalidResourceHandle);
   }
   rt.destroyStream(stream);
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 cudaError_t cudaStreamSynchronize(cudaStream_t stream, CudaSite) {
@@ -628,7 +653,7 @@ cudaError_t cudaStreamSynchronize(cudaStream_t stream, CudaSite) {
   if (target == nullptr) return record(cudaErrorInvalidResourceHandle);
   if (target->capture != nullptr) return refuseWhileCapturing(*target);
   rt.runUntil(*target, target->enqueued);
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 // Waiting is what runs work here, so a query runs it too: a polling loop ends.
@@ -715,7 +740,7 @@ cudaError_t cudaEventSynchronize(cudaEvent_t event, CudaSite) {
   const std::lock_guard lock(rt.mutex);
   if (!rt.known(event)) return record(cudaErrorInvalidResourceHandle);
   if (event->recorded && event->stream != nullptr) rt.runUntil(*event->stream, event->sequence);
-  return cudaSuccess;
+  return record(rt.waited());
 }
 
 cudaError_t cudaEventQuery(cudaEvent_t event, CudaSite site) {

@@ -4,9 +4,14 @@
 // Emulation build only.
 #include <cuda_runtime.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <vector>
 
 #include "gpu/emulation/api_counters.h"
@@ -50,6 +55,50 @@ TEST(CudaEmulationRuntime, DeviceAndPinnedMemoryStartAsGarbage) {
   EXPECT_TRUE(allGarbage(pinned, 1000));
   cudaFree(device);
   cudaFreeHost(pinned);
+}
+
+// The process's mapped address space, in bytes (/proc/self/statm's first field).
+std::size_t mappedBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::size_t pages = 0;
+  statm >> pages;
+  return pages * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+// --- a launch without room for its fibers' stacks ----------------------------
+
+TEST_F(CudaEmulationRuntimeDeathTest, ALaunchWithNoRoomForItsStacksIsOutOfMemoryAndRunsNothing) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer maps its own memory under the limit";
+#endif
+  EXPECT_EXIT(
+      {
+        int* flag = nullptr;
+        cudaMalloc(reinterpret_cast<void**>(&flag), sizeof(int));
+        cudaMemset(flag, 0, sizeof(int));
+        int host = -1;
+        cudaMemcpy(&host, flag, sizeof(int), cudaMemcpyDeviceToHost);
+        // The address space as it is and 8 MiB: a 1024-thread block's
+        // stacks take 64 KiB a thread.
+        rlimit limit{};
+        getrlimit(RLIMIT_AS, &limit);
+        const rlimit before = limit;
+        limit.rlim_cur = mappedBytes() + (8u << 20);
+        setrlimit(RLIMIT_AS, &limit);
+        setFlag<<<1, 1024>>>(flag);
+        const cudaError_t refused = cudaGetLastError();
+        cudaMemcpy(&host, flag, sizeof(int), cudaMemcpyDeviceToHost);
+        const int ran_refused = host;
+        // With the room back the same launch runs.
+        setrlimit(RLIMIT_AS, &before);
+        setFlag<<<1, 1024>>>(flag);
+        const cudaError_t launched = cudaGetLastError();
+        cudaMemcpy(&host, flag, sizeof(int), cudaMemcpyDeviceToHost);
+        std::fprintf(stderr, "%s ran %d; then %s ran %d\n", cudaGetErrorName(refused), ran_refused,
+                     cudaGetErrorName(launched), host);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(0), "cudaErrorMemoryAllocation ran 0; then cudaSuccess ran 1");
 }
 
 // --- lazy streams --------------------------------------------------------------
