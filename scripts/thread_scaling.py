@@ -130,16 +130,22 @@ def main() -> None:
               "nothing written", file=sys.stderr)
         sys.exit(2 if error.returncode == 2 else 1)  # 2: overlap refused an option
     def median_of(column: str) -> dict:
-        return {label: statistics.median(float(r[column]) for r in rows
-                                         if r["config"] == label and r[column] != "")
-                for label, _, _ in configs}
-    medians = median_of("physics_ms")
-    per_substep = median_of("per_substep_ms")
+        """Each configuration's median of `column` (None where no run has one)."""
+        medians = {}
+        for label, _, _ in configs:
+            values = [float(r[column]) for r in rows if r["config"] == label and r[column] != ""]
+            medians[label] = statistics.median(values) if values else None
+        return medians
+
     base = configs[0][0]
-    summary = [f"{label} {ms:.1f} ms ({ms / medians[base]:.2f}x {base})"
-               for label, ms in medians.items()]
-    substep_summary = [f"{label} {ms:.3f} ms ({ms / per_substep[base]:.3f}x {base})"
-                       for label, ms in per_substep.items()]
+
+    def ratios(medians: dict, digits: int) -> list:
+        return [f"{label} n/a" if ms is None else
+                f"{label} {ms:.{digits}f} ms" + (f" ({ms / medians[base]:.{digits}f}x {base})"
+                                                 if medians[base] else "")
+                for label, ms in medians.items()]
+    summary = ratios(median_of("physics_ms"), 2)
+    substep_summary = ratios(median_of("per_substep_ms"), 3)
     hashes = ["{} {}".format(label, " ".join(sorted({r["state_hash"] for r in rows
                                                      if r["config"] == label})))
               for label, _, _ in configs]
