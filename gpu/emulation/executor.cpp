@@ -19,8 +19,11 @@
 #include <algorithm>
 #include <atomic>
 #include <boost/context/detail/fcontext.hpp>
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <mutex>
 #include <new>
@@ -68,26 +71,49 @@ struct Stack {
 
 class StackPool {
  public:
-  // Maps stacks until `count` are free; false if the address space is full.
-  bool reserve(std::size_t count) {
+  // Maps stacks until `count` are free, or as many as the address space
+  // (or the kernel's count of mappings: each stack and its guard page take
+  // two) allows; false if fewer than `least` are then free.  Past a failure
+  // that still left `least`, the pool holds no more than it did then and
+  // later calls stop there: a grid that asks for more runs on fewer threads
+  // instead of mapping the whole address space again at each launch.
+  bool reserve(std::size_t count, std::size_t least) {
     const std::lock_guard lock(mutex_);
+    count = std::max(std::min(count, most_), least);
     try {
       free_.reserve(count);  // so that no stack mapped is lost to a failing push_back
     } catch (const std::bad_alloc&) {
-      return false;
+      return free_.size() >= least;
     }
     const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    const std::size_t held = free_.size();
     while (free_.size() < count) {
       void* memory = mmap(nullptr, kStackBytes + page, PROT_READ | PROT_WRITE,
                           MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
-      if (memory == MAP_FAILED) return false;
-      if (mprotect(memory, page, PROT_NONE) != 0) {
+      if (memory != MAP_FAILED && mprotect(memory, page, PROT_NONE) != 0) {
         munmap(memory, kStackBytes + page);
-        return false;
+        memory = MAP_FAILED;
+      }
+      if (memory == MAP_FAILED) {
+        // Give back what this call mapped past `least`, or all it mapped if
+        // that is short of `least` (the launch fails; a later one tries
+        // anew): the rest of the process needs mappings too.
+        const bool enough = free_.size() >= least;
+        while (free_.size() > (enough ? std::max(held, least) : held)) {
+          munmap(static_cast<char*>(free_.back().bottom) - page, kStackBytes + page);
+          free_.pop_back();
+        }
+        if (enough) most_ = free_.size();
+        return enough;
       }
       free_.push_back(Stack{static_cast<char*>(memory) + page, kStackBytes});
     }
     return true;
+  }
+  // The stacks free between grids: all the pool holds.
+  std::size_t held() {
+    const std::lock_guard lock(mutex_);
+    return free_.size();
   }
   Stack take() {
     const std::lock_guard lock(mutex_);
@@ -106,6 +132,7 @@ class StackPool {
  private:
   std::mutex mutex_;
   std::vector<Stack> free_;
+  std::size_t most_ = SIZE_MAX;  // the most stacks the pool may hold (see reserve)
 };
 
 StackPool& stackPool() {
@@ -461,8 +488,12 @@ void fail(const std::string& message) {
 int workerThreadCount() {
   static const int count = [] {
     if (const char* text = std::getenv("OVERLAP_CUDA_EMULATION_THREADS")) {
-      const int requested = std::atoi(text);
-      if (requested >= 1 && requested <= 256) return requested;
+      int requested = 0;
+      const char* end = text + std::strlen(text);
+      const auto [stop, error] = std::from_chars(text, end, requested);
+      if (error == std::errc() && stop == end && requested >= 1 && requested <= 256) {
+        return requested;
+      }
       fail(std::string("OVERLAP_CUDA_EMULATION_THREADS=") + text + " is not a count of 1 to 256");
     }
     return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -482,12 +513,15 @@ std::size_t runnersOf(const KernelLaunch& launch) {
       std::min<std::uint64_t>(blocksOf(launch), static_cast<std::uint64_t>(workerThreadCount())));
 }
 
+std::size_t lanesOf(const KernelLaunch& launch) {
+  return static_cast<std::size_t>(launch.block.x) * launch.block.y * launch.block.z;
+}
+
 }  // namespace
 
 bool reserveStacks(const KernelLaunch& launch) {
-  const std::size_t lanes =
-      static_cast<std::size_t>(launch.block.x) * launch.block.y * launch.block.z;
-  return stackPool().reserve(lanes * runnersOf(launch));
+  const std::size_t lanes = lanesOf(launch);
+  return stackPool().reserve(lanes * runnersOf(launch), lanes);
 }
 
 void runGrid(const KernelLaunch& launch) {
@@ -518,12 +552,14 @@ void runGrid(const KernelLaunch& launch) {
     }
     runBlocks(*runner);
   };
-  const std::size_t helpers = runnersOf(launch) - 1;
+  // As many runners as the pool holds stacks for (reserveStacks saw to one).
+  const std::size_t runners =
+      std::max<std::size_t>(1, std::min(runnersOf(launch), stackPool().held() / lanesOf(launch)));
   std::vector<std::jthread> threads;
-  threads.reserve(helpers);
   try {
-    for (std::size_t i = 0; i < helpers; ++i) threads.emplace_back(help);
-  } catch (const std::system_error&) {
+    threads.reserve(runners - 1);
+    for (std::size_t i = 1; i < runners; ++i) threads.emplace_back(help);
+  } catch (const std::exception&) {
     // No OS thread to be had (the address space is full): the blocks run on
     // the threads made, the caller's at least, to the same result.
   }

@@ -101,6 +101,36 @@ TEST_F(CudaEmulationRuntimeDeathTest, ALaunchWithNoRoomForItsStacksIsOutOfMemory
       ::testing::ExitedWithCode(0), "cudaErrorMemoryAllocation ran 0; then cudaSuccess ran 1");
 }
 
+TEST_F(CudaEmulationRuntimeDeathTest, AGridWithRoomForFewerThreadsRunsWholeOnTheThreadsItHas) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer maps its own memory under the limit";
+#endif
+  EXPECT_EXIT(
+      {
+        // 256 OS threads of 1024 fibers each would map 16 GiB of stacks.
+        setenv("OVERLAP_CUDA_EMULATION_THREADS", "256", 1);
+        constexpr int kCount = 256 * 1024;
+        int* values = nullptr;
+        cudaMalloc(reinterpret_cast<void**>(&values), kCount * sizeof(int));
+        cudaMemset(values, 0, kCount * sizeof(int));
+        rlimit limit{};
+        getrlimit(RLIMIT_AS, &limit);
+        limit.rlim_cur = mappedBytes() + (256u << 20);  // room for a few runners' stacks
+        setrlimit(RLIMIT_AS, &limit);
+        addOne<<<256, 1024>>>(values, kCount);
+        const cudaError_t launched = cudaGetLastError();
+        std::vector<int> host(kCount, -1);
+        const cudaError_t copied =
+            cudaMemcpy(host.data(), values, kCount * sizeof(int), cudaMemcpyDeviceToHost);
+        int ones = 0;
+        for (const int value : host) ones += value == 1 ? 1 : 0;
+        std::fprintf(stderr, "%s %s %d of %d\n", cudaGetErrorName(launched),
+                     cudaGetErrorName(copied), ones, kCount);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(0), "cudaSuccess cudaSuccess 262144 of 262144");
+}
+
 // --- lazy streams --------------------------------------------------------------
 
 TEST(CudaEmulationRuntime, StreamWorkRunsOnlyWhenWaitedFor) {
