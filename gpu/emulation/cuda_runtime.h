@@ -16,9 +16,10 @@
 //   memsets, frees and a kernel's pointer arguments are checked against the
 //   live allocations, and a violation aborts naming the call site.
 // - Launch limits give cudaErrorInvalidConfiguration through cudaGetLastError,
-//   and a launch whose threads' stacks (their local memory) cannot be mapped,
-//   the address space full, cudaErrorMemoryAllocation, as a GPU that cannot
-//   allocate a launch's local memory; either launches nothing.
+//   and a launch that cannot map one block's thread stacks (their local
+//   memory; the address space full) cudaErrorMemoryAllocation, as a GPU that
+//   cannot allocate a launch's local memory; either launches nothing.  With
+//   room for fewer, the grid runs whole on fewer OS threads.
 // - The emulation's own memory running out while it runs a grid makes the
 //   call that waited for it return cudaErrorMemoryAllocation; no call throws
 //   (cudaFree is called from destructors).

@@ -21,13 +21,16 @@ std::string where(const std::source_location& site);
 // hardware thread), fixed at first use.
 int workerThreadCount();
 
-// Maps into the pool the fiber stacks that `launch`'s grid will take, so
-// that a grid that runs never maps one; false when the address space is full
-// (the launch then fails, as on a GPU that cannot allocate its local memory).
+// Maps into the pool the fiber stacks that `launch`'s grid will take, one
+// block's for each OS thread that runs it, or as many as the address space
+// allows, so that a grid that runs never maps one; false when not even one
+// block's fit (the launch then fails, as on a GPU that cannot allocate its
+// local memory).
 bool reserveStacks(const KernelLaunch& launch);
 
-// Runs every block of a validated launch whose stacks are reserved, and
-// returns when all are done.
+// Runs every block of a validated launch whose stacks are reserved, on as
+// many OS threads as the pool holds stacks for, and returns when all are
+// done.
 void runGrid(const KernelLaunch& launch);
 
 }  // namespace overlap::cuda_emulation::detail
