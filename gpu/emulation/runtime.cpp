@@ -259,12 +259,7 @@ class Runtime {
     while (target.completed < sequence) {
       CudaEmulationStream::Operation operation = std::move(target.pending.front());
       target.pending.pop_front();
-      // Done even if it throws (the emulation's own memory run out): the
-      // error leaves the call that waited, and the queue stays consistent.
-      struct Completed {
-        std::uint64_t& count;
-        ~Completed() { ++count; }
-      } completed{target.completed};
+      ++target.completed;  // counted before it runs: whatever it throws, it is done
       try {
         for (const auto& [other, other_sequence] : operation.after) {
           runUntil(*other, other_sequence);
